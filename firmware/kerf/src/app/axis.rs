@@ -1,0 +1,170 @@
+//! One linear-motor axis: Hall decode → velocity observer → PD → DOB → force.
+//!
+//! A sensor fault latches the axis into [`AxisState::Fault`]: the force command is
+//! zero from the faulty period on and stays zero until [`AxisLoop::reset`].
+
+use crate::control::dob::{Dob, DobConfig};
+use crate::control::pd::{Pd, PdConfig, Reference};
+use crate::error::ConfigError;
+use crate::scalar::Real;
+use crate::sensing::hall::{HallConfig, HallDecoder, HallFault};
+use crate::sensing::velocity::{TrackingObserver, TrackingObserverConfig};
+
+/// Everything one axis needs; [`AxisConfig::LM1247_SLAVE`] is the seed's slave motor.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct AxisConfig {
+    /// Hall decoder.
+    pub hall: HallConfig,
+    /// Velocity observer.
+    pub velocity: TrackingObserverConfig,
+    /// PD tracking gains.
+    pub pd: PdConfig,
+    /// Disturbance observer (`ts_s` must equal the velocity observer's).
+    pub dob: DobConfig,
+}
+
+impl AxisConfig {
+    /// LM1247 axis at 10 kHz: PD at 2π·40 rad/s, DOB at 2π·150 rad/s with An = 71 g (the
+    /// bare slider: at or below any payload, as the DOB needs), velocity observer at
+    /// 2π·600 rad/s, force limited to the 3.6 N continuous rating.
+    pub const LM1247_SLAVE: Self = Self {
+        hall: HallConfig::LM1247_16BIT,
+        velocity: TrackingObserverConfig {
+            bandwidth_rad_s: 2.0 * core::f64::consts::PI * 600.0,
+            ts_s: 1e-4,
+        },
+        pd: PdConfig {
+            kp_per_s2: 63_165.468_5,
+            kd_per_s: 502.654_8,
+        },
+        dob: DobConfig {
+            nominal_mass_kg: 0.071,
+            bandwidth_rad_s: 2.0 * core::f64::consts::PI * 150.0,
+            ts_s: 1e-4,
+            force_limit_n: 3.6,
+            compensate: true,
+        },
+    };
+}
+
+/// Supervisory state of the axis.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum AxisState {
+    /// Waiting for the first good Hall sample.
+    Starting,
+    /// Closed loop running.
+    Running,
+    /// Latched fault: zero force until reset.
+    Fault(HallFault),
+}
+
+/// One period's output.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct AxisOutput<T> {
+    /// Force command in N (zero unless running).
+    pub force_n: T,
+    /// Measured position in m (held on a fault).
+    pub position_m: T,
+    /// Velocity estimate in m/s.
+    pub velocity_m_s: T,
+    /// Disturbance estimate in N.
+    pub disturbance_n: T,
+    /// Supervisory state after this period.
+    pub state: AxisState,
+}
+
+/// The closed loop of one axis in the scalar `T`.
+#[derive(Clone, Debug)]
+pub struct AxisLoop<T> {
+    decoder: HallDecoder,
+    pitch_m: T,
+    observer: TrackingObserver<T>,
+    pd: Pd<T>,
+    dob: Dob<T>,
+    state: AxisState,
+    position_m: T,
+    home_m: T,
+    offset_m: T,
+}
+
+impl<T: Real> AxisLoop<T> {
+    /// Validates every part of the configuration.
+    pub fn new(config: &AxisConfig) -> Result<Self, ConfigError> {
+        if config.velocity.ts_s != config.dob.ts_s {
+            return Err(ConfigError::OutOfRange("ts_s"));
+        }
+        Ok(Self {
+            decoder: HallDecoder::new(&config.hall)?,
+            pitch_m: T::from_f64(config.hall.pitch_m),
+            observer: TrackingObserver::new(&config.velocity)?,
+            pd: Pd::new(&config.pd)?,
+            dob: Dob::new(&config.dob)?,
+            state: AxisState::Starting,
+            position_m: T::ZERO,
+            home_m: T::ZERO,
+            offset_m: T::ZERO,
+        })
+    }
+
+    /// Declares the position of the axis at the first good sample after start or
+    /// reset, in the reference's frame (homing; zero by default).
+    pub fn set_home(&mut self, home_m: T) {
+        self.home_m = home_m;
+    }
+
+    /// Leaves a latched fault: the next good sample restarts the loop from rest and is
+    /// taken as the home position again (the pitch count is not trusted across a fault).
+    pub fn reset(&mut self) {
+        self.decoder.reset();
+        self.state = AxisState::Starting;
+    }
+
+    /// Present supervisory state.
+    pub fn state(&self) -> AxisState {
+        self.state
+    }
+
+    /// One control period: raw Hall counts and the reference in, force command out.
+    pub fn step(&mut self, hall_counts: [u16; 3], reference: &Reference<T>) -> AxisOutput<T> {
+        if let AxisState::Fault(_) = self.state {
+            return self.safe_output();
+        }
+        let accumulator = match self.decoder.update(hall_counts) {
+            Ok(acc) => acc,
+            Err(fault) => {
+                self.state = AxisState::Fault(fault);
+                return self.safe_output();
+            }
+        };
+        let position_m = HallDecoder::position_m(accumulator, self.pitch_m);
+        if self.state == AxisState::Starting {
+            // Absolute position = home + travel since the first sample.
+            self.offset_m = self.home_m - position_m;
+            self.observer.reset(position_m);
+            self.dob.reset(T::ZERO);
+            self.state = AxisState::Running;
+        }
+        self.position_m = self.offset_m + position_m;
+        let velocity = self.observer.update(position_m);
+        let acceleration = self.pd.acceleration(reference, self.position_m, velocity);
+        let out = self.dob.update(acceleration, velocity);
+        AxisOutput {
+            force_n: out.force_n,
+            position_m: self.position_m,
+            velocity_m_s: velocity,
+            disturbance_n: out.disturbance_n,
+            state: self.state,
+        }
+    }
+
+    fn safe_output(&self) -> AxisOutput<T> {
+        AxisOutput {
+            force_n: T::ZERO,
+            position_m: self.position_m,
+            velocity_m_s: T::ZERO,
+            disturbance_n: T::ZERO,
+            state: self.state,
+        }
+    }
+}

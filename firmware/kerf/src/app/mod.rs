@@ -1,0 +1,3 @@
+//! Modes, supervision and the periodic step that ties sensing, control and the HAL.
+
+pub mod axis;

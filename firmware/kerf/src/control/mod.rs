@@ -1,0 +1,17 @@
+//! What to command: control laws, each a config (immutable) plus state.
+//!
+//! Signal ranges of the single-axis DOB+PD loop, with the [`Q32`](crate::scalar::Q32)
+//! (Q31.32, ±2.1e9, resolution 2.3e-10) headroom they leave:
+//!
+//! | signal | unit | range used | headroom in Q31.32 |
+//! |---|---|---|---|
+//! | position, reference | m | ±0.1 | 2e10 |
+//! | velocity | m/s | ±2 | 1e9 |
+//! | acceleration command | m/s² | ±1e3 | 2e6 |
+//! | force, disturbance estimate | N | ±1e2 | 2e7 |
+//! | gains kp, kd, g·An | s⁻², s⁻¹, N·s/m | ≤ 1e5 | 2e4 |
+//!
+//! The scenario tests record every signal's peak and check these ranges.
+
+pub mod dob;
+pub mod pd;

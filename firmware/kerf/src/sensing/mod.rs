@@ -1,0 +1,4 @@
+//! Raw samples to physical quantities.
+
+pub mod hall;
+pub mod velocity;

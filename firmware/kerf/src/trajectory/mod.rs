@@ -1,0 +1,3 @@
+//! What to follow: references evaluated once per control period.
+
+pub mod quintic;

@@ -1,0 +1,13 @@
+//! Simulated hardware for kerf: the same plants run in host tests and inside the QEMU
+//! image, so this crate is `no_std` (libm) and deterministic (seeded noise).
+#![no_std]
+#![forbid(unsafe_code)]
+
+#[cfg(feature = "std")]
+extern crate std;
+
+pub mod axis;
+pub mod hall_sensor;
+pub mod linear_motor;
+pub mod noise;
+pub mod scenario;
