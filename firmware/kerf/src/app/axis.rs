@@ -84,6 +84,7 @@ pub struct AxisLoop<T> {
     dob: Dob<T>,
     state: AxisState,
     position_m: T,
+    applied_acceleration: T,
     home_m: T,
     offset_m: T,
 }
@@ -102,6 +103,7 @@ impl<T: Real> AxisLoop<T> {
             dob: Dob::new(&config.dob)?,
             state: AxisState::Starting,
             position_m: T::ZERO,
+            applied_acceleration: T::ZERO,
             home_m: T::ZERO,
             offset_m: T::ZERO,
         })
@@ -143,12 +145,16 @@ impl<T: Real> AxisLoop<T> {
             self.offset_m = self.home_m - position_m;
             self.observer.reset(position_m);
             self.dob.reset(T::ZERO);
+            self.applied_acceleration = T::ZERO;
             self.state = AxisState::Running;
         }
         self.position_m = self.offset_m + position_m;
-        let velocity = self.observer.update(position_m);
+        let velocity = self.observer.update(position_m, self.applied_acceleration);
         let acceleration = self.pd.acceleration(reference, self.position_m, velocity);
         let out = self.dob.update(acceleration, velocity);
+        // With the DOB active the axis follows An·q̈ = F − F̂dis, so this is the
+        // acceleration the observer should predict with (zero when saturated away).
+        self.applied_acceleration = self.dob.applied_acceleration(&out);
         AxisOutput {
             force_n: out.force_n,
             position_m: self.position_m,

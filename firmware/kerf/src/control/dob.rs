@@ -37,6 +37,7 @@ pub struct DobConfig {
 #[derive(Copy, Clone, Debug)]
 pub struct Dob<T> {
     mass: T,
+    inv_mass: T,
     g_mass: T,
     filter_gain: T,
     force_limit: T,
@@ -66,6 +67,7 @@ impl<T: Real> Dob<T> {
         }
         Ok(Self {
             mass: T::from_f64(mass),
+            inv_mass: T::from_f64(1.0 / mass),
             g_mass: T::from_f64(g * mass),
             filter_gain: T::from_f64(1.0 - libm::exp(-g * ts)),
             force_limit: T::from_f64(limit),
@@ -100,6 +102,14 @@ impl<T: Real> Dob<T> {
             force_n,
             disturbance_n,
         }
+    }
+}
+
+impl<T: Real> Dob<T> {
+    /// Acceleration the nominal plant gets from `out`: (F − F̂dis)/An.
+    #[inline]
+    pub fn applied_acceleration(&self, out: &DobOutput<T>) -> T {
+        (out.force_n - out.disturbance_n) * self.inv_mass
     }
 }
 
