@@ -1,0 +1,15 @@
+//! Links with cortex-m-rt's `link.x` and the workspace root's `memory.x` (STM32G474RE).
+//! With the `qemu` feature the flash region moves to 0x0 for QEMU's mps2-an386; see the
+//! comment in `memory.x` for why this is a symbol rather than a second layout file.
+use std::env;
+
+fn main() {
+    println!("cargo:rerun-if-changed=../../memory.x");
+    println!("cargo:rerun-if-changed=build.rs");
+    if env::var("TARGET").is_ok_and(|t| t.starts_with("thumb")) {
+        if env::var_os("CARGO_FEATURE_QEMU").is_some() {
+            println!("cargo:rustc-link-arg-bins=--defsym=_kerf_flash_origin=0");
+        }
+        println!("cargo:rustc-link-arg-bins=-Tlink.x");
+    }
+}
