@@ -6,8 +6,8 @@ use crate::hall_sensor::{ChannelFault, HallSensorParams};
 use crate::linear_motor::LinearMotorParams;
 use kerf::app::axis::{AxisConfig, AxisLoop, AxisState};
 use kerf::control::pd::Reference;
-use kerf::trajectory::quintic::Quintic;
 use kerf::hal::HallInput;
+use kerf::trajectory::quintic::Quintic;
 use kerf::{ConfigError, Real};
 
 /// Control period of the single-axis scenarios (10 kHz).
@@ -117,8 +117,19 @@ impl<T: Real> Simulation<T> {
     pub fn new(scenario: &Scenario) -> Result<Self, ConfigError> {
         let mut control = AxisLoop::<T>::new(&scenario.axis)?;
         control.set_home(T::from_f64(START_M));
-        let plant = SimulatedAxis::new(scenario.motor, scenario.sensor, TS_S, scenario.seed, START_M);
-        Ok(Self { scenario: *scenario, control, plant, period: 0 })
+        let plant = SimulatedAxis::new(
+            scenario.motor,
+            scenario.sensor,
+            TS_S,
+            scenario.seed,
+            START_M,
+        );
+        Ok(Self {
+            scenario: *scenario,
+            control,
+            plant,
+            period: 0,
+        })
     }
 
     /// Runs one period; `None` once the scenario's periods are done.
@@ -134,8 +145,20 @@ impl<T: Real> Simulation<T> {
         if matches!(self.scenario.open_wire_at_s, Some(at) if t >= at) {
             self.plant.sensor.fault = Some(ChannelFault::OpenWire(0));
         }
-        let r = if self.scenario.track_profile { profile(t) } else { Reference { position: START_M, velocity: 0.0, acceleration: 0.0 } };
-        let r_t = Reference { position: T::from_f64(r.position), velocity: T::from_f64(r.velocity), acceleration: T::from_f64(r.acceleration) };
+        let r = if self.scenario.track_profile {
+            profile(t)
+        } else {
+            Reference {
+                position: START_M,
+                velocity: 0.0,
+                acceleration: 0.0,
+            }
+        };
+        let r_t = Reference {
+            position: T::from_f64(r.position),
+            velocity: T::from_f64(r.velocity),
+            acceleration: T::from_f64(r.acceleration),
+        };
         let counts = self.plant.hall_counts(0);
         let out = self.control.step(counts, &r_t);
         let error_m = r.position - self.plant.motor.position_m;
@@ -189,7 +212,12 @@ impl Outcome {
     /// Statistics that also track settling: the max error from `window_from_s` on and
     /// the last time the error exceeded `settle_bound_m`.
     pub fn with_window(window_from_s: f64, settle_bound_m: f64) -> Self {
-        Self { window_from_s, settle_bound_m, last_violation_s: -1.0, ..Self::default() }
+        Self {
+            window_from_s,
+            settle_bound_m,
+            last_violation_s: -1.0,
+            ..Self::default()
+        }
     }
 
     /// Adds one period.
@@ -217,7 +245,10 @@ impl Outcome {
 }
 
 /// Runs `scenario` with the controller in scalar `T`, collecting into `outcome`.
-pub fn run_into<T: Real>(scenario: &Scenario, mut outcome: Outcome) -> Result<Outcome, ConfigError> {
+pub fn run_into<T: Real>(
+    scenario: &Scenario,
+    mut outcome: Outcome,
+) -> Result<Outcome, ConfigError> {
     let mut sim = Simulation::<T>::new(scenario)?;
     while let Some(p) = sim.step() {
         outcome.add(&p);

@@ -60,8 +60,14 @@ fn load_step_is_rejected_with_dob_and_not_without() {
         with.last_violation_s,
         without.max_error_after_m * 1e6
     );
-    assert!(with.last_violation_s < STEP_AT_S + SETTLE_TIME_S, "{with:?}");
-    assert!(with.last_violation_s >= STEP_AT_S, "the step must disturb the axis: {with:?}");
+    assert!(
+        with.last_violation_s < STEP_AT_S + SETTLE_TIME_S,
+        "{with:?}"
+    );
+    assert!(
+        with.last_violation_s >= STEP_AT_S,
+        "the step must disturb the axis: {with:?}"
+    );
     assert!(with.max_error_after_m < SETTLE_BOUND_M);
     // Without the DOB the error stays near the PD's static deflection.
     assert!(without.max_error_after_m > 150e-6, "{without:?}");
@@ -74,7 +80,11 @@ fn load_step_is_rejected_with_dob_and_not_without() {
 fn open_wire_latches_zero_force() {
     let mut s = Scenario::TRACKING;
     s.open_wire_at_s = Some(0.3);
-    for o in [run::<f32>(&s).unwrap(), run::<f64>(&s).unwrap(), run::<Q32>(&s).unwrap()] {
+    for o in [
+        run::<f32>(&s).unwrap(),
+        run::<f64>(&s).unwrap(),
+        run::<Q32>(&s).unwrap(),
+    ] {
         assert_eq!(o.fault_period, Some(3000), "{o:?}");
         assert_eq!(o.force_after_fault_n, 0.0);
     }
@@ -92,5 +102,10 @@ fn q32_signals_stay_in_documented_ranges() {
     assert!(q.peak_force_n < 100.0 && q.peak_disturbance_n < 100.0);
     // Q31.32 quantizes at 2.3e-10; products of the 6e4 s⁻² gain by that step give
     // 1.5e-5 m/s² per period, far below the noise: RMS errors agree to 1 %.
-    assert!((q.rms_error_m / f.rms_error_m - 1.0).abs() < 0.01, "{} vs {}", q.rms_error_m, f.rms_error_m);
+    assert!(
+        (q.rms_error_m / f.rms_error_m - 1.0).abs() < 0.01,
+        "{} vs {}",
+        q.rms_error_m,
+        f.rms_error_m
+    );
 }

@@ -2,11 +2,17 @@
 //! exception handlers that make a crash a failed run rather than a hang.
 #![no_std]
 
+pub mod bench;
+
 use cortex_m_semihosting::debug;
 
 /// Ends the emulator run with success (`true`) or failure.
 pub fn exit(success: bool) -> ! {
-    debug::exit(if success { debug::EXIT_SUCCESS } else { debug::EXIT_FAILURE });
+    debug::exit(if success {
+        debug::EXIT_SUCCESS
+    } else {
+        debug::EXIT_FAILURE
+    });
     // Only reached when no debugger/emulator honours semihosting exit (a bare board).
     loop {
         cortex_m::asm::wfi();

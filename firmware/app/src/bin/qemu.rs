@@ -12,7 +12,9 @@ use cortex_m_semihosting::hprintln;
 use embassy_executor::Spawner;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
-use hal_mock::scenario::{Outcome, Period, Scenario, Simulation, MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M};
+use hal_mock::scenario::{
+    Outcome, Period, Scenario, Simulation, MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M,
+};
 use kerf_app::exit;
 
 static PERIODS: Channel<CriticalSectionRawMutex, Period, 16> = Channel::new();

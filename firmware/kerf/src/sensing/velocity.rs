@@ -111,7 +111,11 @@ mod tests {
         }
         let v_true = a * 4999.0 * ts;
         // The discrete lag differs from 2a/ω by O(ω Ts) = 20 %.
-        assert!(((v_true - v_plain) / (2.0 * a / w) - 1.0).abs() < 0.25, "{}", v_true - v_plain);
+        assert!(
+            ((v_true - v_plain) / (2.0 * a / w) - 1.0).abs() < 0.25,
+            "{}",
+            v_true - v_plain
+        );
         // Sampled x at t_k and the estimate at t_k: exact up to rounding.
         assert!((v_true - v_fed).abs() < 1e-9, "{}", v_true - v_fed);
     }
