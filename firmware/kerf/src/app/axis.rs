@@ -92,15 +92,19 @@ pub struct AxisLoop<T> {
 impl<T: Real> AxisLoop<T> {
     /// Validates every part of the configuration.
     pub fn new(config: &AxisConfig) -> Result<Self, ConfigError> {
+        let decoder = HallDecoder::new(&config.hall)?;
+        let observer = TrackingObserver::new(&config.velocity)?;
+        let pd = Pd::new(&config.pd)?;
+        let dob = Dob::new(&config.dob)?;
         if config.velocity.ts_s != config.dob.ts_s {
             return Err(ConfigError::OutOfRange("ts_s"));
         }
         Ok(Self {
-            decoder: HallDecoder::new(&config.hall)?,
+            decoder,
             pitch_m: T::from_f64(config.hall.pitch_m),
-            observer: TrackingObserver::new(&config.velocity)?,
-            pd: Pd::new(&config.pd)?,
-            dob: Dob::new(&config.dob)?,
+            observer,
+            pd,
+            dob,
             state: AxisState::Starting,
             position_m: T::ZERO,
             applied_acceleration: T::ZERO,
@@ -172,5 +176,89 @@ impl<T: Real> AxisLoop<T> {
             disturbance_n: T::ZERO,
             state: self.state,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use core::f64::consts::PI;
+
+    fn counts(phi: f64) -> [u16; 3] {
+        let c = HallConfig::LM1247_16BIT;
+        let ch = |k: usize, s: f64| {
+            (f64::from(c.offset_counts[k]) + c.amplitude_counts * (phi + s).sin()).round() as u16
+        };
+        [ch(0, 0.0), ch(1, 2.0 * PI / 3.0), ch(2, -2.0 * PI / 3.0)]
+    }
+
+    #[test]
+    fn rejects_bad_gains_pitch_and_period() {
+        let with = |f: fn(&mut AxisConfig)| {
+            let mut c = AxisConfig::LM1247_SLAVE;
+            f(&mut c);
+            AxisLoop::<f32>::new(&c).err()
+        };
+        assert_eq!(
+            with(|c| c.pd.kp_per_s2 = f64::NAN),
+            Some(ConfigError::NotFinite("kp_per_s2"))
+        );
+        assert_eq!(
+            with(|c| c.pd.kd_per_s = -1.0),
+            Some(ConfigError::NotPositive("kd_per_s"))
+        );
+        assert_eq!(
+            with(|c| c.dob.bandwidth_rad_s = 0.0),
+            Some(ConfigError::NotPositive("bandwidth_rad_s"))
+        );
+        assert_eq!(
+            with(|c| c.hall.pitch_m = -0.018),
+            Some(ConfigError::NotPositive("pitch_m"))
+        );
+        assert_eq!(
+            with(|c| c.velocity.ts_s = f64::NAN),
+            Some(ConfigError::NotFinite("ts_s"))
+        );
+        assert_eq!(
+            with(|c| c.velocity.ts_s = 2e-4),
+            Some(ConfigError::OutOfRange("ts_s"))
+        );
+        assert_eq!(
+            with(|c| {
+                c.velocity.ts_s = 0.0;
+                c.dob.ts_s = 0.0
+            }),
+            Some(ConfigError::NotPositive("ts_s"))
+        );
+        assert!(AxisLoop::<f32>::new(&AxisConfig::LM1247_SLAVE).is_ok());
+    }
+
+    #[test]
+    fn fault_latches_zero_force_until_reset() {
+        let mut axis = AxisLoop::<f64>::new(&AxisConfig::LM1247_SLAVE).unwrap();
+        // Reference 1 mm away: a large force while running.
+        let r = Reference {
+            position: 0.001,
+            velocity: 0.0,
+            acceleration: 0.0,
+        };
+        let out = axis.step(counts(0.2), &r);
+        assert_eq!(out.state, AxisState::Running);
+        assert!(out.force_n.abs() > 1.0);
+        let mut railed = counts(0.2);
+        railed[1] = 65535;
+        assert_eq!(
+            axis.step(railed, &r).state,
+            AxisState::Fault(HallFault::AdcRail(1))
+        );
+        // Healthy samples again: still latched, still zero.
+        for _ in 0..10 {
+            let out = axis.step(counts(0.2), &r);
+            assert_eq!(out.force_n, 0.0);
+            assert_eq!(out.state, AxisState::Fault(HallFault::AdcRail(1)));
+        }
+        axis.reset();
+        assert_eq!(axis.state(), AxisState::Starting);
+        assert_eq!(axis.step(counts(0.2), &r).state, AxisState::Running);
     }
 }
