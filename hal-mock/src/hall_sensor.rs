@@ -18,6 +18,9 @@ pub struct HallSensorParams {
     pub amplitude_counts: [f64; 3],
     /// Phase of each channel in rad (0, +2π/3, −2π/3 for an ideal sensor).
     pub phase_rad: [f64; 3],
+    /// Third-harmonic amplitude of each channel relative to its fundamental
+    /// (uᵢ ∝ sin aᵢ + hᵢ sin 3aᵢ, aᵢ the channel's own phase).
+    pub harmonic3: [f64; 3],
     /// Standard deviation of the additive noise in LSB.
     pub noise_lsb: f64,
 }
@@ -31,8 +34,36 @@ impl HallSensorParams {
         offset_counts: [32768.0; 3],
         amplitude_counts: [26214.0; 3],
         phase_rad: [0.0, 2.0 * PI / 3.0, -2.0 * PI / 3.0],
+        harmonic3: [0.0; 3],
         noise_lsb: 2.0,
     };
+
+    /// Real-world LM1247 sensors on an ADC of `adc_bits`: offsets up to ±3 % of full
+    /// scale, gains ±5 %, channel phase errors up to 1.5°, a 2 % third harmonic that
+    /// differs slightly per channel (1.8–2.2 %), and `noise_lsb` RMS noise.
+    pub fn lm1247_imperfect(adc_bits: u8, noise_lsb: f64) -> Self {
+        let full_scale = f64::from(1u32 << adc_bits);
+        let mid = 0.5 * full_scale;
+        let amplitude = 0.4 * full_scale;
+        let degree = PI / 180.0;
+        Self {
+            pitch_m: 0.018,
+            adc_bits,
+            offset_counts: [
+                mid + 0.03 * full_scale,
+                mid - 0.02 * full_scale,
+                mid + 0.015 * full_scale,
+            ],
+            amplitude_counts: [1.05 * amplitude, 0.96 * amplitude, 1.02 * amplitude],
+            phase_rad: [
+                0.0,
+                2.0 * PI / 3.0 + 1.0 * degree,
+                -2.0 * PI / 3.0 - 1.5 * degree,
+            ],
+            harmonic3: [0.020, 0.022, 0.018],
+            noise_lsb,
+        }
+    }
 }
 
 /// A fault injected into one channel.
@@ -75,8 +106,9 @@ impl HallSensor {
         let phi = 2.0 * PI * position_m / p.pitch_m;
         let mut out = [0u16; 3];
         for (k, count) in out.iter_mut().enumerate() {
+            let a = phi + p.phase_rad[k];
             let u = p.offset_counts[k]
-                + p.amplitude_counts[k] * libm::sin(phi + p.phase_rad[k])
+                + p.amplitude_counts[k] * (libm::sin(a) + p.harmonic3[k] * libm::sin(3.0 * a))
                 + p.noise_lsb * self.noise.normal();
             *count = libm::round(u).clamp(0.0, full_scale) as u16;
         }

@@ -28,6 +28,8 @@ pub trait Real:
     /// `bits / 2^32`: the exact form of a wrapping phase accumulator
     /// (one magnetic pitch = 2^32).
     fn from_q32(bits: i64) -> Self;
+    /// `round(self · 2^32)`, saturating (NaN → 0): the inverse of [`Real::from_q32`].
+    fn to_q32(self) -> i64;
 
     /// Clamps to `[-limit, limit]` (`limit >= 0`).
     #[inline]
@@ -57,6 +59,10 @@ impl Real for f32 {
         // One rounding (i64 → f32), then an exact power-of-two scale.
         bits as f32 * (1.0 / 4_294_967_296.0)
     }
+    #[inline]
+    fn to_q32(self) -> i64 {
+        (self * 4_294_967_296.0) as i64
+    }
 }
 
 impl Real for f64 {
@@ -72,6 +78,10 @@ impl Real for f64 {
     #[inline]
     fn from_q32(bits: i64) -> Self {
         bits as f64 * (1.0 / 4_294_967_296.0)
+    }
+    #[inline]
+    fn to_q32(self) -> i64 {
+        (self * 4_294_967_296.0) as i64
     }
 }
 
@@ -135,6 +145,10 @@ impl Real for Q32 {
     fn from_q32(bits: i64) -> Self {
         Q32(I32F32::from_bits(bits))
     }
+    #[inline]
+    fn to_q32(self) -> i64 {
+        self.0.to_bits()
+    }
 }
 
 #[cfg(test)]
@@ -157,6 +171,10 @@ mod tests {
             let exact = bits as f64 / 4_294_967_296.0;
             assert_eq!(f64::from_q32(bits), exact);
             assert_eq!(Q32::from_q32(bits).to_f64(), exact);
+            assert_eq!(Q32::from_q32(bits).to_q32(), bits);
+            if bits.unsigned_abs() < 1 << 52 {
+                assert_eq!(f64::from_q32(bits).to_q32(), bits);
+            }
             let e32 = (f32::from_q32(bits) as f64 - exact).abs();
             assert!(e32 <= exact.abs() * 1.2e-7 + 1e-12, "{bits}: {e32}");
         }

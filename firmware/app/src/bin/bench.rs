@@ -40,7 +40,7 @@ fn hall_inputs() -> [[u16; 3]; INPUTS] {
             .into_iter()
             .enumerate()
         {
-            s[ch] = (cfg.offset_counts[ch] as f32
+            s[ch] = (cfg.calibration.offset_counts[ch]
                 + cfg.amplitude_counts as f32 * libm::sinf(phi + shift)) as u16;
         }
     }
@@ -144,7 +144,7 @@ fn main() -> ! {
         &mut counter,
         "sensing::hall::HallDecoder::update (integer path, per axis)",
         |i| {
-            black_box(decoder.update(black_box(hall[(i & mask) as usize])).ok());
+            black_box(decoder.update(black_box(hall[(i & mask) as usize]), 0).ok());
         },
         "f32 Clarke + libm::atan2f + unwrap",
         |i| {

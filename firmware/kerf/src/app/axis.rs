@@ -79,6 +79,7 @@ pub struct AxisOutput<T> {
 pub struct AxisLoop<T> {
     decoder: HallDecoder,
     pitch_m: T,
+    pitches_per_m: T,
     observer: TrackingObserver<T>,
     pd: Pd<T>,
     dob: Dob<T>,
@@ -102,6 +103,7 @@ impl<T: Real> AxisLoop<T> {
         Ok(Self {
             decoder,
             pitch_m: T::from_f64(config.hall.pitch_m),
+            pitches_per_m: T::from_f64(1.0 / config.hall.pitch_m),
             observer,
             pd,
             dob,
@@ -136,14 +138,17 @@ impl<T: Real> AxisLoop<T> {
         if let AxisState::Fault(_) = self.state {
             return self.safe_output();
         }
-        let accumulator = match self.decoder.update(hall_counts) {
-            Ok(acc) => acc,
+        // Unwrap against the observer's prediction, so that any reachable speed decodes.
+        let predicted_step =
+            (self.observer.predicted_step(self.applied_acceleration) * self.pitches_per_m).to_q32();
+        let sample = match self.decoder.update(hall_counts, predicted_step) {
+            Ok(sample) => sample,
             Err(fault) => {
                 self.state = AxisState::Fault(fault);
                 return self.safe_output();
             }
         };
-        let position_m = HallDecoder::position_m(accumulator, self.pitch_m);
+        let position_m = sample.position_m(self.pitch_m);
         if self.state == AxisState::Starting {
             // Absolute position = home + travel since the first sample.
             self.offset_m = self.home_m - position_m;
@@ -187,7 +192,8 @@ mod tests {
     fn counts(phi: f64) -> [u16; 3] {
         let c = HallConfig::LM1247_16BIT;
         let ch = |k: usize, s: f64| {
-            (f64::from(c.offset_counts[k]) + c.amplitude_counts * (phi + s).sin()).round() as u16
+            (f64::from(c.calibration.offset_counts[k]) + c.amplitude_counts * (phi + s).sin())
+                .round() as u16
         };
         [ch(0, 0.0), ch(1, 2.0 * PI / 3.0), ch(2, -2.0 * PI / 3.0)]
     }

@@ -62,11 +62,18 @@ impl<T: Real> TrackingObserver<T> {
     /// (`T::ZERO` when unknown); returns the velocity estimate.
     #[inline]
     pub fn update(&mut self, measured: T, acceleration: T) -> T {
-        let predicted = self.position + self.ts * self.velocity + self.half_ts_sq * acceleration;
+        let predicted = self.position + self.predicted_step(acceleration);
         let innovation = measured - predicted;
         self.position = predicted + self.alpha * innovation;
         self.velocity = self.velocity + self.ts * acceleration + self.beta_over_ts * innovation;
         self.velocity
+    }
+
+    /// Position change expected over the next period, `Ts v̂ + Ts²/2 a` (used to
+    /// unwrap the next Hall sample).
+    #[inline]
+    pub fn predicted_step(&self, acceleration: T) -> T {
+        self.ts * self.velocity + self.half_ts_sq * acceleration
     }
 
     /// Filtered position estimate.

@@ -1,0 +1,367 @@
+//! Analog Hall position decoding (SPEC `sensing::hall`, T 7.2.1).
+//!
+//! Three linear Hall sensors 120° apart over one magnetic pitch τm give, ideally,
+//! u1 = A sin φ, u2 = A sin(φ + 2π/3), u3 = A sin(φ − 2π/3) around an ADC offset.
+//! Real sensors add per-channel offset, gain and phase errors and a third harmonic
+//! (which is common-mode across 120° channels: sin 3(φ ± 2π/3) = sin 3φ). The pipeline,
+//! integer from ADC counts to the unwrapped phase accumulator:
+//!
+//! 1. rail check on the raw counts (open wire, short, clipped front end);
+//! 2. offset removal per channel (counts, Q4);
+//! 3. a calibrated 2×3 demodulation matrix (the generalized Clarke transform, rows of
+//!    the 3×3 inverse of the channel model — see [`calibration`]) giving
+//!    s = R sin φ, c = R cos φ with R = 2^22 (sub-count resolution for the atan2);
+//! 4. health checks: the three-channel sum (zero when healthy), the vector magnitude
+//!    √(s² + c²) against its band, a channel that stopped changing;
+//! 5. φ = atan2(s, c) by [`atan::atan2_turns`] into a `u32` phase word (one pitch =
+//!    2^32: wrapping arithmetic *is* the modulo), optionally corrected by a learnt
+//!    table ([`calibration::HallCorrection`]);
+//! 6. unwrapping against a predicted phase: the caller passes the expected step
+//!    (from its velocity estimate), so any speed unwraps as long as the prediction is
+//!    within a quarter pitch; a larger innovation is an implausible jump.
+//!
+//! The pitch count is the upper half of an `i64` accumulator in units of 2^-32 pitch.
+//! On any fault the accumulator holds. A floating-point path ([`HallArithmetic::F32`])
+//! replaces steps 2–5 by f32 arithmetic and `atan2f`, for comparison and for parts
+//! where the FPU is cheaper than the integer path.
+
+pub mod atan;
+pub mod calibration;
+
+pub use atan::atan2_turns;
+pub use calibration::{
+    CalibrationError, ChannelModel, CorrectionLearner, HallCalibration, HallCalibrator,
+    HallCorrection, SelfCalibration, SensorModel,
+};
+
+use crate::error::{in_range, positive, ConfigError};
+use crate::scalar::Real;
+
+/// Radius of the demodulated vector (s, c) in the integer path.
+pub const DEMODULATED_RADIUS: i32 = 1 << 22;
+/// Fraction bits of offset-free counts in the integer path.
+const COUNT_FRACTION_BITS: u32 = 4;
+/// Right shift after the integer demodulation sum: coefficients are row × R × 2^16,
+/// so 16-bit rows (≈ 1/26214) keep 23 significant bits and 12-bit rows 27.
+const COEFFICIENT_SHIFT: u32 = 20;
+
+/// Which arithmetic decodes the angle.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum HallArithmetic {
+    /// Integer demodulation and table atan2 (no FPU needed, exact and repeatable).
+    Integer,
+    /// f32 demodulation and `libm::atan2f`.
+    F32,
+}
+
+/// Decoder configuration: plain data a user can edit.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct HallConfig {
+    /// Magnetic pitch τm in metres (18 mm for the Faulhaber LM1247 / LM2070).
+    pub pitch_m: f64,
+    /// ADC resolution in bits (8..=16); samples are offset-binary counts.
+    pub adc_bits: u8,
+    /// Nominal peak amplitude A of each channel in counts (sets the fault thresholds).
+    pub amplitude_counts: f64,
+    /// Offsets and demodulation matrix.
+    pub calibration: HallCalibration,
+    /// Accepted band of the demodulated magnitude as a fraction of nominal, e.g. (0.7, 1.3).
+    pub magnitude_band: (f64, f64),
+    /// Largest accepted |u1 + u2 + u3| (offsets removed) as a fraction of A. Healthy
+    /// sensors sum to the common-mode third harmonic plus gain mismatch, a few % of A.
+    pub sum_limit: f64,
+    /// Integer or f32 angle computation.
+    pub arithmetic: HallArithmetic,
+}
+
+impl HallConfig {
+    /// Faulhaber LM1247 Hall outputs on an ADC of `adc_bits`: mid-scale offsets,
+    /// amplitude 40 % of full scale, ideal demodulation (calibrate for better),
+    /// magnitude band 0.7–1.3, sum limit 0.5 A, integer arithmetic.
+    pub const fn lm1247(adc_bits: u8) -> Self {
+        let full_scale = (1u32 << adc_bits) as f64;
+        let amplitude = 0.4 * full_scale;
+        Self {
+            pitch_m: 0.018,
+            adc_bits,
+            amplitude_counts: amplitude,
+            calibration: HallCalibration::ideal(0.5 * full_scale, amplitude),
+            magnitude_band: (0.7, 1.3),
+            sum_limit: 0.5,
+            arithmetic: HallArithmetic::Integer,
+        }
+    }
+
+    /// [`HallConfig::lm1247`] on a 16-bit ADC.
+    pub const LM1247_16BIT: Self = Self::lm1247(16);
+    /// [`HallConfig::lm1247`] on a 12-bit ADC.
+    pub const LM1247_12BIT: Self = Self::lm1247(12);
+}
+
+/// Why a sample was rejected. The accumulator does not move on a fault.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum HallFault {
+    /// Channel `0..3` reads 0 or full scale (open wire, short or clipped front end).
+    AdcRail(u8),
+    /// Channel `0..3` has not changed while the others moved and the channels no
+    /// longer agree (frozen ADC input, broken multiplexer).
+    StuckChannel(u8),
+    /// |u1 + u2 + u3| beyond its limit: the three signals no longer sum to zero.
+    SumOutOfBand,
+    /// √(s² + c²) left the configured band (lost magnet, dead channel, gain fault).
+    MagnitudeOutOfBand,
+    /// The phase moved more than a quarter pitch away from its prediction.
+    ImplausibleJump,
+}
+
+/// One decoded sample.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct HallPosition {
+    /// Unwrapped position in units of 2^-32 pitch: upper 32 bits = pitch count,
+    /// lower 32 bits = phase word.
+    pub accumulator: i64,
+}
+
+impl HallPosition {
+    /// Whole pitches since the origin (floor).
+    pub fn pitch_count(self) -> i32 {
+        (self.accumulator >> 32) as i32
+    }
+
+    /// Phase within the pitch, full pitch = 2^32.
+    pub fn phase(self) -> u32 {
+        self.accumulator as u32
+    }
+
+    /// Position in metres: `accumulator / 2^32 · pitch_m`.
+    #[inline]
+    pub fn position_m<T: Real>(self, pitch_m: T) -> T {
+        T::from_q32(self.accumulator) * pitch_m
+    }
+}
+
+/// Decoder state for one axis.
+#[derive(Clone, Debug)]
+pub struct HallDecoder {
+    arithmetic: HallArithmetic,
+    rail_high: u16,
+    offset_q4: [i32; 3],
+    sin_row_q: [i32; 3],
+    cos_row_q: [i32; 3],
+    offset_f32: [f32; 3],
+    sin_row_f32: [f32; 3],
+    cos_row_f32: [f32; 3],
+    sum_limit_q4: i32,
+    magnitude_sq_min: i64,
+    magnitude_sq_max: i64,
+    magnitude_sq_min_f32: f32,
+    magnitude_sq_max_f32: f32,
+    correction: Option<HallCorrection>,
+    last_raw: [u16; 3],
+    unchanged: [u8; 3],
+    accumulator: Option<i64>,
+}
+
+/// Scale of the demodulated vector in the f32 path (kept equal to the integer one so
+/// the same magnitude thresholds apply).
+const RADIUS_F32: f32 = DEMODULATED_RADIUS as f32;
+
+impl HallDecoder {
+    /// Validates `config`; the first good sample defines pitch count zero.
+    pub fn new(config: &HallConfig) -> Result<Self, ConfigError> {
+        positive("pitch_m", config.pitch_m)?;
+        in_range("adc_bits", f64::from(config.adc_bits), 8.0, 16.0)?;
+        let full_scale = f64::from((1u32 << config.adc_bits) - 1);
+        let amplitude = positive("amplitude_counts", config.amplitude_counts)?;
+        in_range("amplitude_counts", amplitude, 1.0, full_scale / 2.0)?;
+        let (lo, hi) = config.magnitude_band;
+        positive("magnitude_band", lo)?;
+        // hi ≤ 3.9 keeps the accepted vector below 2^24, the atan2's full-precision range.
+        in_range("magnitude_band", hi, lo, 3.9)?;
+        let sum_limit = positive("sum_limit", config.sum_limit)?;
+        in_range("sum_limit", sum_limit, 0.0, 3.0)?;
+        let cal = &config.calibration;
+        let mut offset_q4 = [0i32; 3];
+        let mut sin_row_q = [0i32; 3];
+        let mut cos_row_q = [0i32; 3];
+        let unit = f64::from(DEMODULATED_RADIUS)
+            * f64::from(1u32 << (COEFFICIENT_SHIFT - COUNT_FRACTION_BITS));
+        for k in 0..3 {
+            let offset = in_range(
+                "calibration.offset_counts",
+                f64::from(cal.offset_counts[k]),
+                0.0,
+                full_scale,
+            )?;
+            offset_q4[k] = libm::round(offset * f64::from(1u32 << COUNT_FRACTION_BITS)) as i32;
+            // |coefficient| < 2^30 keeps 3 products of (2^21 counts·Q4) × 2^30 inside i64;
+            // it requires amplitudes above ~256 counts (a 10-bit ADC or better).
+            let limit = f64::from(1u32 << 30) / unit;
+            let s = in_range(
+                "calibration.sin_row",
+                f64::from(cal.sin_row[k]),
+                -limit,
+                limit,
+            )?;
+            let c = in_range(
+                "calibration.cos_row",
+                f64::from(cal.cos_row[k]),
+                -limit,
+                limit,
+            )?;
+            sin_row_q[k] = libm::round(s * unit) as i32;
+            cos_row_q[k] = libm::round(c * unit) as i32;
+        }
+        let nominal = f64::from(DEMODULATED_RADIUS);
+        Ok(Self {
+            arithmetic: config.arithmetic,
+            rail_high: full_scale as u16,
+            offset_q4,
+            sin_row_q,
+            cos_row_q,
+            offset_f32: cal.offset_counts,
+            sin_row_f32: cal.sin_row.map(|v| v * RADIUS_F32),
+            cos_row_f32: cal.cos_row.map(|v| v * RADIUS_F32),
+            sum_limit_q4: libm::round(
+                sum_limit * amplitude * f64::from(1u32 << COUNT_FRACTION_BITS),
+            ) as i32,
+            magnitude_sq_min: ((lo * nominal) * (lo * nominal)) as i64,
+            magnitude_sq_max: ((hi * nominal) * (hi * nominal)) as i64,
+            magnitude_sq_min_f32: ((lo * nominal) * (lo * nominal)) as f32,
+            magnitude_sq_max_f32: ((hi * nominal) * (hi * nominal)) as f32,
+            correction: None,
+            last_raw: [0; 3],
+            unchanged: [0; 3],
+            accumulator: None,
+        })
+    }
+
+    /// Installs (or removes) a learnt phase-error correction table.
+    pub fn set_correction(&mut self, correction: Option<HallCorrection>) {
+        self.correction = correction;
+    }
+
+    /// Decodes one sample of raw ADC counts `[u1, u2, u3]`.
+    ///
+    /// `predicted_step` is the expected phase change since the last sample in units of
+    /// 2^-32 pitch (velocity × period / pitch; 0 if unknown, which unwraps correctly up
+    /// to a quarter pitch per sample).
+    pub fn update(
+        &mut self,
+        raw: [u16; 3],
+        predicted_step: i64,
+    ) -> Result<HallPosition, HallFault> {
+        let phase = self.phase(raw)?;
+        let phase = match &self.correction {
+            Some(table) => table.apply(phase),
+            None => phase,
+        };
+        let accumulator = match self.accumulator {
+            Some(last) => {
+                let predicted = last.wrapping_add(predicted_step);
+                let innovation = phase.wrapping_sub(predicted as u32) as i32;
+                if innovation.unsigned_abs() > 1 << 30 {
+                    return Err(HallFault::ImplausibleJump);
+                }
+                predicted.wrapping_add(i64::from(innovation))
+            }
+            None => i64::from(phase),
+        };
+        self.accumulator = Some(accumulator);
+        Ok(HallPosition { accumulator })
+    }
+
+    /// Forgets the pitch count: the next good sample restarts at pitch zero.
+    pub fn reset(&mut self) {
+        self.accumulator = None;
+        self.unchanged = [0; 3];
+    }
+
+    /// Checks the sample and returns its phase word (no unwrapping).
+    fn phase(&mut self, raw: [u16; 3]) -> Result<u32, HallFault> {
+        for (channel, &count) in raw.iter().enumerate() {
+            if count == 0 || count >= self.rail_high {
+                return Err(HallFault::AdcRail(channel as u8));
+            }
+        }
+        let u = [0, 1, 2].map(|k| (i32::from(raw[k]) << COUNT_FRACTION_BITS) - self.offset_q4[k]);
+        let stuck = self.track_changes(raw);
+        if (u[0] + u[1] + u[2]).abs() > self.sum_limit_q4 {
+            return Err(stuck.unwrap_or(HallFault::SumOutOfBand));
+        }
+        let magnitude_fault = Err(stuck.unwrap_or(HallFault::MagnitudeOutOfBand));
+        match self.arithmetic {
+            HallArithmetic::Integer => {
+                let (s, c) = (dot_q(&self.sin_row_q, &u), dot_q(&self.cos_row_q, &u));
+                let magnitude_sq = i64::from(s) * i64::from(s) + i64::from(c) * i64::from(c);
+                if magnitude_sq < self.magnitude_sq_min || magnitude_sq > self.magnitude_sq_max {
+                    return magnitude_fault;
+                }
+                Ok(atan2_turns(s, c))
+            }
+            HallArithmetic::F32 => {
+                let uf = [0, 1, 2].map(|k| f32::from(raw[k]) - self.offset_f32[k]);
+                let s = self.sin_row_f32[0] * uf[0]
+                    + self.sin_row_f32[1] * uf[1]
+                    + self.sin_row_f32[2] * uf[2];
+                let c = self.cos_row_f32[0] * uf[0]
+                    + self.cos_row_f32[1] * uf[1]
+                    + self.cos_row_f32[2] * uf[2];
+                let magnitude_sq = s * s + c * c;
+                if !(magnitude_sq >= self.magnitude_sq_min_f32
+                    && magnitude_sq <= self.magnitude_sq_max_f32)
+                {
+                    return magnitude_fault;
+                }
+                Ok(turns_from_rad(libm::atan2f(s, c)))
+            }
+        }
+    }
+
+    /// Counts, per channel, the samples since its value last changed; a channel that
+    /// has been frozen for at least two samples while another changed is the suspect
+    /// when the consistency checks fail.
+    fn track_changes(&mut self, raw: [u16; 3]) -> Option<HallFault> {
+        let mut suspect = None;
+        let mut any_moved = false;
+        for ((count, last), unchanged) in raw
+            .iter()
+            .zip(&self.last_raw)
+            .zip(self.unchanged.iter_mut())
+        {
+            if count == last {
+                *unchanged = unchanged.saturating_add(1);
+            } else {
+                *unchanged = 0;
+                any_moved = true;
+            }
+        }
+        for k in 0..3 {
+            if self.unchanged[k] >= 2 && any_moved {
+                suspect = Some(HallFault::StuckChannel(k as u8));
+            }
+        }
+        self.last_raw = raw;
+        suspect
+    }
+}
+
+/// Σ row·u in the integer path, back to the demodulated radius scale.
+#[inline]
+fn dot_q(row: &[i32; 3], u: &[i32; 3]) -> i32 {
+    let acc = i64::from(row[0]) * i64::from(u[0])
+        + i64::from(row[1]) * i64::from(u[1])
+        + i64::from(row[2]) * i64::from(u[2]);
+    (acc >> COEFFICIENT_SHIFT) as i32
+}
+
+/// Radians (−π, π] to a phase word.
+#[inline]
+fn turns_from_rad(angle_rad: f32) -> u32 {
+    // f32 → i64 keeps the sign; the wrap to u32 is the modulo one turn.
+    (angle_rad * (4_294_967_296.0 / core::f32::consts::TAU)) as i64 as u32
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,360 @@
+use super::calibration::CORRECTION_ENTRIES;
+use super::*;
+use core::f64::consts::PI;
+use std::vec::Vec;
+
+/// Imperfect channels: offset, amplitude, phase error and third harmonic per channel.
+#[derive(Copy, Clone)]
+struct Channels {
+    offset: [f64; 3],
+    amplitude: [f64; 3],
+    phase_error: [f64; 3],
+    harmonic3: [f64; 3],
+}
+
+impl Channels {
+    fn ideal(cfg: &HallConfig) -> Self {
+        Self {
+            offset: [f64::from(cfg.calibration.offset_counts[0]); 3],
+            amplitude: [cfg.amplitude_counts; 3],
+            phase_error: [0.0; 3],
+            harmonic3: [0.0; 3],
+        }
+    }
+
+    fn sample(&self, phi: f64) -> [u16; 3] {
+        let shift = [0.0, 2.0 * PI / 3.0, -2.0 * PI / 3.0];
+        core::array::from_fn(|k| {
+            let a = phi + shift[k] + self.phase_error[k];
+            (self.offset[k] + self.amplitude[k] * (a.sin() + self.harmonic3[k] * (3.0 * a).sin()))
+                .round() as u16
+        })
+    }
+}
+
+/// Phase error in turns, wrapped to (−0.5, 0.5].
+fn wrapped_turns(phase: u32, phi: f64) -> f64 {
+    let got = f64::from(phase) / 4_294_967_296.0;
+    let mut d = got - phi / (2.0 * PI);
+    d -= d.round();
+    d
+}
+
+#[test]
+fn integer_and_f32_paths_match_the_f64_angle_at_12_and_16_bits() {
+    for cfg in [HallConfig::LM1247_16BIT, HallConfig::LM1247_12BIT] {
+        let ch = Channels::ideal(&cfg);
+        let mut f32_cfg = cfg;
+        f32_cfg.arithmetic = HallArithmetic::F32;
+        let mut int = HallDecoder::new(&cfg).unwrap();
+        let mut flt = HallDecoder::new(&f32_cfg).unwrap();
+        let (mut worst_int, mut worst_f32) = (0.0f64, 0.0f64);
+        for k in 0..20_000 {
+            let phi = 2.0 * PI * (k as f64 + 0.5) / 20_000.0;
+            let raw = ch.sample(phi);
+            // f64 reference of the same rounded counts: Clarke and atan2 in f64.
+            let u: [f64; 3] = core::array::from_fn(|i| f64::from(raw[i]) - ch.offset[i]);
+            let exact = (2.0 * u[0] - u[1] - u[2]).atan2(3f64.sqrt() * (u[1] - u[2]));
+            worst_int = worst_int.max(wrapped_turns(int.raw_phase(raw).unwrap(), exact).abs());
+            worst_f32 = worst_f32.max(wrapped_turns(flt.raw_phase(raw).unwrap(), exact).abs());
+        }
+        // Integer: atan2 budget 6e-8 turn plus coefficient rounding (2^-20 relative).
+        assert!(
+            worst_int < 2e-7,
+            "{} bit integer: {worst_int} turn",
+            cfg.adc_bits
+        );
+        // f32: atan2f and the sums round at ~1e-7 relative.
+        assert!(
+            worst_f32 < 1e-6,
+            "{} bit f32: {worst_f32} turn",
+            cfg.adc_bits
+        );
+    }
+}
+
+#[test]
+fn position_unwraps_across_pitches_in_both_directions() {
+    let cfg = HallConfig::LM1247_16BIT;
+    let ch = Channels::ideal(&cfg);
+    let mut dec = HallDecoder::new(&cfg).unwrap();
+    let start = 0.3;
+    let mut path = heapless::Vec::<f64, 4096>::new();
+    for k in 0..2000 {
+        path.push(start + 5.0 * (k as f64) / 1999.0).unwrap();
+    }
+    for k in 0..40 {
+        path.push(start + 5.0 - 0.124 * k as f64).unwrap();
+    }
+    for &turns in &path {
+        let pos = dec.update(ch.sample(2.0 * PI * turns), 0).unwrap();
+        // ADC rounding of the ideal channels: 0.5 LSB / A rad = 3e-6 turn.
+        assert!((pos.position_m(1.0f64) - turns).abs() < 1e-5, "{turns}");
+        assert_eq!(pos.pitch_count(), turns.floor() as i32);
+    }
+}
+
+#[test]
+fn prediction_unwraps_at_20_m_per_s_sampled_at_2_4_khz() {
+    // 20 m/s at 2.4 kHz is 8.33 mm = 0.463 pitch per sample: beyond the quarter pitch
+    // that a plain difference accepts, fine with the velocity prediction.
+    let cfg = HallConfig::LM1247_16BIT;
+    let ch = Channels::ideal(&cfg);
+    let step_turns = 20.0 / 2400.0 / 0.018;
+    for direction in [1.0, -1.0] {
+        let mut dec = HallDecoder::new(&cfg).unwrap();
+        let predicted = (direction * step_turns * 4_294_967_296.0) as i64;
+        let mut first = 0.0;
+        for k in 0..500 {
+            let turns = 0.1 + direction * step_turns * k as f64;
+            let pos = dec
+                .update(
+                    ch.sample(2.0 * PI * turns),
+                    if k == 0 { 0 } else { predicted },
+                )
+                .unwrap();
+            if k == 0 {
+                first = pos.position_m(1.0f64) - turns;
+            }
+            assert!((pos.position_m(1.0f64) - turns - first).abs() < 1e-5, "{k}");
+        }
+        // Without the prediction the same samples are an implausible jump.
+        let mut plain = HallDecoder::new(&cfg).unwrap();
+        plain.update(ch.sample(0.0), 0).unwrap();
+        assert_eq!(
+            plain.update(ch.sample(2.0 * PI * direction * step_turns), 0),
+            Err(HallFault::ImplausibleJump)
+        );
+    }
+}
+
+#[test]
+fn faults_are_named_and_hold_the_position() {
+    let cfg = HallConfig::LM1247_16BIT;
+    let ch = Channels::ideal(&cfg);
+    let mut dec = HallDecoder::new(&cfg).unwrap();
+    // At φ = −30° channel 1 is at its peak, so freezing it at mid-scale is a large error.
+    let phi = -PI / 6.0;
+    let good = ch.sample(phi);
+    let held = dec.update(good, 0).unwrap();
+    assert_eq!(
+        dec.update([0, good[1], good[2]], 0),
+        Err(HallFault::AdcRail(0))
+    );
+    assert_eq!(
+        dec.update([good[0], good[1], 65535], 0),
+        Err(HallFault::AdcRail(2))
+    );
+    // A channel far off with no history of being frozen: the sum no longer vanishes.
+    assert_eq!(
+        dec.update([good[0], 32768, good[2]], 0),
+        Err(HallFault::SumOutOfBand)
+    );
+    // All channels scaled down by half: sum fine, magnitude out of band.
+    let half = good.map(|c| ((i32::from(c) + 32768) / 2) as u16);
+    assert_eq!(dec.update(half, 0), Err(HallFault::MagnitudeOutOfBand));
+    // Back to good data: the position did not move.
+    assert_eq!(dec.update(good, 0), Ok(held));
+
+    // Stuck channel: frozen at its value while the axis moves on.
+    let mut dec = HallDecoder::new(&cfg).unwrap();
+    let frozen = ch.sample(0.0)[1];
+    let mut first_fault = None;
+    for k in 0..200 {
+        let mut raw = ch.sample(2.0 * PI * k as f64 / 400.0);
+        raw[1] = frozen;
+        if let Err(fault) = dec.update(raw, 0) {
+            first_fault = Some((k, fault));
+            break;
+        }
+    }
+    let (k, fault) = first_fault.unwrap();
+    assert_eq!(fault, HallFault::StuckChannel(1));
+    // Detected once the true signal is half an amplitude away (sum limit 0.5 A):
+    // sin(φ + 120°) falls from 0.866 to 0.366 at φ = 38.5°, i.e. k = 42.8.
+    assert!((42..=44).contains(&k), "{k}");
+}
+
+#[test]
+fn bad_configs_are_rejected_by_name() {
+    let ok = HallConfig::LM1247_16BIT;
+    let with = |f: fn(&mut HallConfig)| {
+        let mut c = ok;
+        f(&mut c);
+        HallDecoder::new(&c).err()
+    };
+    assert_eq!(
+        with(|c| c.pitch_m = f64::NAN),
+        Some(ConfigError::NotFinite("pitch_m"))
+    );
+    assert_eq!(
+        with(|c| c.pitch_m = 0.0),
+        Some(ConfigError::NotPositive("pitch_m"))
+    );
+    assert_eq!(
+        with(|c| c.pitch_m = -0.018),
+        Some(ConfigError::NotPositive("pitch_m"))
+    );
+    assert_eq!(
+        with(|c| c.adc_bits = 24),
+        Some(ConfigError::OutOfRange("adc_bits"))
+    );
+    assert_eq!(
+        with(|c| c.amplitude_counts = 40000.0),
+        Some(ConfigError::OutOfRange("amplitude_counts"))
+    );
+    assert_eq!(
+        with(|c| c.magnitude_band = (1.3, 0.7)),
+        Some(ConfigError::OutOfRange("magnitude_band"))
+    );
+    assert_eq!(
+        with(|c| c.sum_limit = -1.0),
+        Some(ConfigError::NotPositive("sum_limit"))
+    );
+    assert_eq!(
+        with(|c| c.calibration.sin_row[1] = f32::NAN),
+        Some(ConfigError::NotFinite("calibration.sin_row"))
+    );
+    assert_eq!(
+        with(|c| c.calibration.cos_row[0] = 1.0),
+        Some(ConfigError::OutOfRange("calibration.cos_row"))
+    );
+    assert_eq!(
+        with(|c| c.calibration.offset_counts[2] = 70000.0),
+        Some(ConfigError::OutOfRange("calibration.offset_counts"))
+    );
+    assert!(HallDecoder::new(&ok).is_ok());
+    assert!(HallDecoder::new(&HallConfig::LM1247_12BIT).is_ok());
+}
+
+/// Noise-free channels that follow the model exactly (offset, gain, mounting phase
+/// error, and a third harmonic that differs per channel in amplitude and turns with
+/// the channel's mounting): after calibration with its model-derived table the decoded
+/// phase is exact up to ADC rounding, at both resolutions.
+#[test]
+fn calibration_recovers_offset_gain_phase_and_harmonic() {
+    for (cfg, limit_turns) in [
+        (HallConfig::LM1247_16BIT, 2e-5),
+        (HallConfig::LM1247_12BIT, 3e-4),
+    ] {
+        let a = cfg.amplitude_counts;
+        let o = f64::from(cfg.calibration.offset_counts[0]);
+        let ch = Channels {
+            offset: [o + 0.03 * a, o - 0.02 * a, o + 0.01 * a],
+            amplitude: [1.05 * a, 0.96 * a, 1.0 * a],
+            phase_error: [0.0, 0.01, -0.015],
+            harmonic3: [0.020, 0.022, 0.018],
+        };
+        let sample = |phi: f64| ch.sample(phi);
+        let mut cal = HallCalibrator::<512>::new();
+        for k in 0..512 {
+            cal.push(sample(2.0 * PI * 1.3 * k as f64 / 512.0)).unwrap();
+        }
+        let fit = cal.solve(&cfg.calibration).unwrap();
+        let models = fit.model.channels;
+        assert!(
+            (models[0].offset_counts - ch.offset[0]).abs() < 0.01 * a,
+            "{models:?}"
+        );
+        assert!(
+            (models[1].amplitude_counts / ch.amplitude[1] - 1.0).abs() < 0.01,
+            "{models:?}"
+        );
+        let mut c2 = cfg;
+        c2.calibration = fit.calibration;
+        let mut before = HallDecoder::new(&cfg).unwrap();
+        let mut after = HallDecoder::new(&c2).unwrap();
+        after.set_correction(Some(fit.correction));
+        let (mut e_before, mut e_after) = (Vec::new(), Vec::new());
+        for k in 0..4000 {
+            let phi = 2.0 * PI * k as f64 / 4000.0;
+            let raw = sample(phi);
+            e_before.push(wrapped_turns(before.raw_phase(raw).unwrap(), phi));
+            e_after.push(wrapped_turns(
+                fit.correction.apply(after.raw_phase(raw).unwrap()),
+                phi,
+            ));
+        }
+        let spread = |e: &[f64]| {
+            let mean = e.iter().sum::<f64>() / e.len() as f64;
+            e.iter().map(|x| (x - mean).abs()).fold(0.0, f64::max)
+        };
+        let (b, f) = (spread(&e_before), spread(&e_after));
+        // ADC rounding alone: 0.5 LSB/A rad, 1.9e-5 rad at 16 bit (3e-6 turn),
+        // 3e-4 rad at 12 bit (5e-5 turn); limits allow a few times that.
+        assert!(
+            f < limit_turns,
+            "{} bit: after {f} turn, before {b}",
+            cfg.adc_bits
+        );
+        assert!(
+            b > 20.0 * f,
+            "{} bit: calibration did not help: {b} vs {f}",
+            cfg.adc_bits
+        );
+    }
+}
+
+#[test]
+fn calibration_needs_a_whole_pitch_and_enough_samples() {
+    let cfg = HallConfig::LM1247_16BIT;
+    let ch = Channels::ideal(&cfg);
+    let mut short = HallCalibrator::<512>::new();
+    for k in 0..300 {
+        short
+            .push(ch.sample(2.0 * PI * 0.5 * k as f64 / 300.0))
+            .unwrap();
+    }
+    assert_eq!(
+        short.solve(&cfg.calibration).err(),
+        Some(CalibrationError::NotEnoughMotion)
+    );
+    let mut few = HallCalibrator::<512>::new();
+    for k in 0..10 {
+        few.push(ch.sample(k as f64)).unwrap();
+    }
+    assert_eq!(
+        few.solve(&cfg.calibration).err(),
+        Some(CalibrationError::TooFewSamples)
+    );
+    let mut full = HallCalibrator::<4>::new();
+    for _ in 0..4 {
+        full.push(ch.sample(0.0)).unwrap();
+    }
+    assert_eq!(full.push(ch.sample(0.0)), Err(CalibrationError::Full));
+}
+
+#[test]
+fn correction_table_removes_a_periodic_phase_error() {
+    // A decoder error of 1e-4 turn · sin(2φ) + 5e-5 · cos(5φ), learnt against the
+    // exact phase, is removed to the table's interpolation error.
+    let error = |phi: f64| 1e-4 * (2.0 * phi).sin() + 5e-5 * (5.0 * phi).cos();
+    let to_word = |turns: f64| (turns.rem_euclid(1.0) * 4_294_967_296.0) as u64 as u32;
+    let mut learner = CorrectionLearner::default();
+    for k in 0..20_000 {
+        let phi = 2.0 * PI * k as f64 / 20_000.0;
+        let truth = phi / (2.0 * PI);
+        learner.add(to_word(truth + error(phi) + 0.37), to_word(truth));
+    }
+    let table = learner.finish().unwrap();
+    let mut worst = 0.0f64;
+    let mut worst_raw = 0.0f64;
+    for k in 0..7919 {
+        let phi = 2.0 * PI * k as f64 / 7919.0;
+        let truth = phi / (2.0 * PI);
+        let decoded = to_word(truth + error(phi) + 0.37);
+        let corrected = table.apply(decoded);
+        worst = worst.max(wrapped_turns(corrected, 2.0 * PI * (truth + 0.37)).abs());
+        worst_raw = worst_raw.max(wrapped_turns(decoded, 2.0 * PI * (truth + 0.37)).abs());
+    }
+    // Interpolation error of 5e-5·cos 5φ on 256 entries: (2π·5/256)²/8 · 5e-5 = 2.4e-7
+    // turn, plus the table indexed by the decoded rather than the true phase (error
+    // slope × error, ~1e-7): below 1e-6 turn against 1.5e-4 before.
+    assert!(worst < 1e-6, "{worst} (uncorrected {worst_raw})");
+    assert!(worst_raw > 1e-4);
+    assert_eq!(table.error_q32.len(), CORRECTION_ENTRIES);
+    assert_eq!(
+        CorrectionLearner::default().finish().err(),
+        Some(CalibrationError::NotEnoughMotion)
+    );
+}
