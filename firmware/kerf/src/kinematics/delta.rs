@@ -153,6 +153,11 @@ impl DeltaConfig {
     /// encoders). Dimensions are not printed; chosen for the LM2070 force scale:
     /// arms 150 mm, rb = 200 mm, re = 40 mm, travel 30–110 mm (80 mm stroke), seed
     /// frame (effector on +z, FK `Plus`, IK `Minus`).
+    ///
+    /// Workspace sampled on a 16³ grid of the travel box (cell centres, FK; test
+    /// `workspace_extent_of_the_presets`): x −50.3…+50.3 mm, y −58.1…+43.9 mm,
+    /// z 79.0…140.5 mm, 100 % of the grid assembles in the working mode.
+    /// f32 vs f64 over that grid: FK ≤ 0.023 µm, IK ≤ 0.041 µm.
     pub const MASTER_HORIZONTAL: Self = symmetric(
         0.0,
         0.150,
@@ -166,6 +171,9 @@ impl DeltaConfig {
     /// Keops slave (T 7.1.2: α = 30°, LM1247 motors, Hall position). Dimensions chosen
     /// for a miniature robot: arms 70 mm, rb = 86 mm, re = 20 mm, travel 0–40 mm,
     /// seed frame (FK `Plus`, IK `Minus`).
+    ///
+    /// Workspace (same sampling): x −29.4…+29.4 mm, y −33.7…+31.5 mm, z 26.8…81.4 mm,
+    /// 100 % of the grid assembles. f32 vs f64: FK ≤ 0.015 µm, IK ≤ 0.016 µm.
     pub const SLAVE_KEOPS: Self = symmetric(
         30.0 * DEG,
         0.070,
@@ -179,6 +187,11 @@ impl DeltaConfig {
     /// Vertical delta (T fig. 6.3 C: α = 90°) in the printer frame: z up, effector
     /// below the carriages, di = carriage height (FK `Minus`, IK `Plus`). Arms 150 mm,
     /// rb − re = 80 mm (rb = 110 mm, re = 30 mm), carriage travel 100–300 mm.
+    ///
+    /// Workspace (same sampling; a bounding box, the usable cylinder is smaller):
+    /// x −80.2…+80.2 mm, y −69.9…+92.5 mm, z −20.6…+166.9 mm, 80 % of the grid
+    /// assembles. f32 vs f64: FK ≤ 0.055 µm; IK ≤ 0.04 µm where |Jx⁻¹| ≤ 3 and up to
+    /// 0.9 µm with nearly horizontal arms (the map's own gain on f32 rounding).
     pub const VERTICAL: Self = symmetric(
         90.0 * DEG,
         0.150,
@@ -276,6 +289,9 @@ impl<T: RealField + Copy> Actuator<T> {
         }
     }
 }
+
+/// J2's rows, J1's diagonal and J2⁻¹.
+type VelocityTerms<T> = ([Vector3<T>; 3], Vector3<T>, Matrix3<T>);
 
 /// A validated delta geometry with precomputed constants, for scalar `T`.
 #[derive(Copy, Clone, Debug)]
@@ -507,7 +523,7 @@ impl<T: RealField + Copy> DeltaGeometry<T> {
         &self,
         q: &Vector3<T>,
         p: &Vector3<T>,
-    ) -> Result<([Vector3<T>; 3], Vector3<T>, Matrix3<T>), KinematicsError> {
+    ) -> Result<VelocityTerms<T>, KinematicsError> {
         finite3(q)?;
         finite3(p)?;
         let [act1, act2, act3] = &self.actuators;
