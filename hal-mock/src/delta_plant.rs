@@ -87,7 +87,8 @@ type Rate = (Vector3<f64>, Vector3<f64>);
 
 impl DeltaPlant {
     /// A plant at rest at `q_m`, stepped every `ts_s` with `substeps` RK4 steps.
-    /// Fails when the geometry is invalid or `q_m` does not assemble.
+    /// Fails when `q_m` does not assemble; an invalid geometry (see
+    /// `DeltaGeometry::new`) is reported as `KinematicsError::NotFinite`.
     pub fn new(
         config: &DeltaConfig,
         params: DeltaPlantParams,
