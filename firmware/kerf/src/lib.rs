@@ -2,7 +2,7 @@
 //!
 //! Sans-IO and allocation-free: every algorithm is a config struct validated by
 //! `new()` plus a state struct stepped once per control period. Modules follow the data
-//! flow of a period: [`sensing`] → `kinematics` → [`trajectory`] → [`control`] →
+//! flow of a period: [`sensing`] → [`kinematics`] → [`trajectory`] → [`control`] →
 //! `codec`, with [`hal`] the board boundary and [`app`] the periodic step and
 //! supervision. Laws are generic over [`scalar::Real`] (f32, f64, fixed point).
 #![no_std]
@@ -15,6 +15,7 @@ pub mod app;
 pub mod control;
 pub mod error;
 pub mod hal;
+pub mod kinematics;
 pub mod scalar;
 pub mod sensing;
 pub mod trajectory;
