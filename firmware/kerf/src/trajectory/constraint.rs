@@ -145,7 +145,7 @@ pub fn fit_taubin<T: Float>(points: &[Vector2<T>]) -> Option<(Vector2<T>, [T; 4]
             |b, (i, &v)| if v < b.1 { (i, v) } else { b },
         );
     let u = eig.eigenvectors.column(i);
-    let (a, b, c) = (u[0] * scale, u[1], u[2]);
+    let (a, b, c) = (u.x * scale, u.y, u.z);
     let d = -a * zbar;
     (b * b + c * c - lit::<T>(4.0) * a * d > T::ZERO).then_some((mean, [a, b, c, d]))
 }
@@ -174,8 +174,8 @@ pub fn fit_geometric<T: Float>(
             jte += j * (dist - r);
         }
         let step = jtj.cholesky()?.solve(&jte);
-        c -= Vector2::new(step[0], step[1]);
-        r -= step[2];
+        c -= Vector2::new(step.x, step.y);
+        r -= step.z;
         if step.norm() <= r.abs() * T::default_epsilon() * lit(16.0) {
             break;
         }

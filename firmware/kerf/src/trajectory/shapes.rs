@@ -169,7 +169,7 @@ mod tests {
     fn gear_and_octagon_points_lie_on_their_outlines() {
         for p in gear() {
             let r = libm::hypot(p[0], p[1]);
-            assert!(r >= GEAR_ROOT_RADIUS_M - 1e-12 && r <= GEAR_TIP_RADIUS_M + 1e-12);
+            assert!((GEAR_ROOT_RADIUS_M - 1e-12..=GEAR_TIP_RADIUS_M + 1e-12).contains(&r));
         }
         // Every octagon point is on a side: distance from centre between the apothem
         // R cos(π/8) and R.

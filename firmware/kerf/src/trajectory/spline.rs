@@ -239,9 +239,8 @@ mod tests {
         let dcubic = |t: f64| Vector3::new(0.2 - t + 2.7 * t * t, -0.02, 0.9 * t * t);
         let h = 0.01;
         let samples: StdVec<_> = (0..40).map(|i| cubic(i as f64 * h)).collect();
-        let s =
-            JointSpline::<f64, 64>::fit(&samples, h, dcubic(0.0), dcubic(0.39), |p| Ok::<_, ()>(p))
-                .unwrap();
+        let s = JointSpline::<f64, 64>::fit(&samples, h, dcubic(0.0), dcubic(0.39), Ok::<_, ()>)
+            .unwrap();
         for k in 0..=390 {
             let t = k as f64 * 1e-3 + 3e-4 * (k % 3) as f64;
             let t = t.min(0.39);
