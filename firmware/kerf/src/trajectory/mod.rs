@@ -1,3 +1,100 @@
 //! What to follow: references evaluated once per control period.
+//!
+//! Contour references follow T ch. 3 as restated in SPEC § trajectory:
+//! [`efd`] (closed contours as elliptic Fourier descriptors), [`tangential`]
+//! (constant tangential speed along an EFD curve, with a jerk-limited start and stop),
+//! [`resample`] (open contours: quadratic densification and arc-length resampling),
+//! [`spline`] (joint references: IK of the samples and a C² cubic spline in time),
+//! [`constraint`] (circle/line motion constraints for manual machining) and [`shapes`]
+//! (the test contours of T fig. 8.1, 8.2 and 8.4).
 
+pub mod constraint;
+pub mod efd;
 pub mod quintic;
+pub mod resample;
+pub mod shapes;
+pub mod spline;
+pub mod tangential;
+
+use crate::error::ConfigError;
+use crate::scalar::Real;
+use nalgebra::RealField;
+
+/// Floating-point scalar of the contour references: `f32` on the MCU, `f64` as the host
+/// reference. Contours need `sqrt`, `sin` and `cos` (from nalgebra's [`RealField`]), so
+/// the fixed-point [`crate::Q32`] is not one of them.
+pub trait Float: RealField + Copy + Real {}
+impl<T: RealField + Copy + Real> Float for T {}
+
+/// Converts a configuration constant to `T` (setup time, or a literal in a formula).
+#[inline]
+pub(crate) fn lit<T: Float>(v: f64) -> T {
+    <T as Real>::from_f64(v)
+}
+
+/// Converts `T` to `f64` (for setup-time checks and reports).
+#[inline]
+pub(crate) fn to_f64<T: Float>(v: T) -> f64 {
+    <T as Real>::to_f64(v)
+}
+
+/// Why a contour, a speed or a joint map was rejected.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ContourError {
+    /// A configuration value is bad (names the field).
+    Config(ConfigError),
+    /// A point coordinate is NaN or infinite (index of the point).
+    NotFinitePoint(usize),
+    /// Fewer than 3 distinct points (a contour needs at least a triangle or a bend).
+    TooFewPoints,
+    /// Point `index` repeats point `index − 1` (open contours and constraint data need
+    /// a direction on every segment).
+    RepeatedPoint(usize),
+    /// All points coincide: the contour has no length.
+    ZeroLength,
+    /// More harmonics than the capacity, or than the points determine:
+    /// 4n + 2 coefficients need 2n + 1 ≤ M points (T 3.2.2).
+    TooManyHarmonics,
+    /// The result does not fit the fixed capacity.
+    Capacity,
+    /// One period's step V·Ts is longer than the contour.
+    StepLongerThanContour,
+    /// V²·κmax exceeds the acceleration limit; the highest allowed speed is given (m/s).
+    SpeedAboveCurvatureLimit {
+        /// Highest constant tangential speed the limit allows, m/s.
+        max_speed_m_s: f64,
+    },
+}
+
+impl From<ConfigError> for ContourError {
+    fn from(e: ConfigError) -> Self {
+        ContourError::Config(e)
+    }
+}
+
+/// Checks a list of 2-D points for NaN/infinity.
+pub(crate) fn check_finite(points: &[[f64; 2]]) -> Result<(), ContourError> {
+    match points
+        .iter()
+        .position(|&[x, y]| !(x.is_finite() && y.is_finite()))
+    {
+        Some(i) => Err(ContourError::NotFinitePoint(i)),
+        None => Ok(()),
+    }
+}
+
+/// Rejects open-contour data with fewer than 3 points or a repeated consecutive point.
+pub(crate) fn check_open(points: &[[f64; 2]]) -> Result<(), ContourError> {
+    check_finite(points)?;
+    if points.len() < 3 {
+        return Err(ContourError::TooFewPoints);
+    }
+    match points
+        .windows(2)
+        .position(|w| matches!(w, [a, b] if a == b))
+    {
+        Some(i) => Err(ContourError::RepeatedPoint(i + 1)),
+        None => Ok(()),
+    }
+}
