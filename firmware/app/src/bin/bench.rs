@@ -10,7 +10,11 @@ use cortex_m_semihosting::hprintln;
 use kerf::app::axis::{AxisConfig, AxisLoop};
 use kerf::control::dob::Dob;
 use kerf::control::pd::{Pd, Reference};
+use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
+use kerf::kinematics::Vector3;
 use kerf::sensing::hall::{HallConfig, HallDecoder};
+use kerf::trajectory::efd::Efd;
+use kerf::trajectory::shapes;
 use kerf::{Real, Q32};
 use kerf_app::bench::Counter;
 use kerf_app::exit;
@@ -199,5 +203,137 @@ fn main() -> ! {
             black_box(loop64.step(black_box(hall[k]), &refs64[k]));
         },
     );
+    kinematics_rows(&mut counter);
+    efd_rows(&mut counter);
     exit(true)
+}
+
+/// Delta kinematics of the Keops slave in f32, against the same code in f64 (software
+/// double): FK, IK, Jx, J̇x and the FK + IK + Jx set a period needs.
+fn kinematics_rows(counter: &mut Counter) {
+    let config = DeltaConfig::SLAVE_KEOPS;
+    let (Ok(g32), Ok(g64)) = (
+        DeltaGeometry::<f32>::new(&config),
+        DeltaGeometry::<f64>::new(&config),
+    ) else {
+        exit(false)
+    };
+    let mask = INPUTS as u32 - 1;
+    // Joint positions spread over the middle of the 0–40 mm travel.
+    let q64: [Vector3<f64>; INPUTS] = core::array::from_fn(|k| {
+        let t = k as f64 / INPUTS as f64 * 6.283;
+        Vector3::new(
+            0.020 + 0.008 * libm::sin(t),
+            0.020 + 0.008 * libm::sin(t + 2.1),
+            0.020 + 0.008 * libm::cos(3.0 * t),
+        )
+    });
+    let p64: [Vector3<f64>; INPUTS] =
+        core::array::from_fn(|k| g64.forward(&q64[k]).unwrap_or_else(|_| exit(false)));
+    let q32: [Vector3<f32>; INPUTS] = core::array::from_fn(|k| q64[k].map(|v| v as f32));
+    let p32: [Vector3<f32>; INPUTS] = core::array::from_fn(|k| p64[k].map(|v| v as f32));
+    let qd32 = Vector3::new(0.01f32, -0.02, 0.015);
+    let qd64 = qd32.map(f64::from);
+    macro_rules! pair {
+        ($name:expr, |$k:ident| $f32:expr, |$k2:ident| $f64:expr) => {
+            row(
+                counter,
+                $name,
+                |i| {
+                    let $k = (i & mask) as usize;
+                    black_box($f32.ok());
+                },
+                "same <f64> (software double)",
+                |i| {
+                    let $k2 = (i & mask) as usize;
+                    black_box($f64.ok());
+                },
+            )
+        };
+    }
+    pair!(
+        "kinematics::delta::forward <f32>",
+        |k| g32.forward(black_box(&q32[k])),
+        |k| g64.forward(black_box(&q64[k]))
+    );
+    pair!(
+        "kinematics::delta::inverse <f32>",
+        |k| g32.inverse(black_box(&p32[k])),
+        |k| g64.inverse(black_box(&p64[k]))
+    );
+    pair!(
+        "kinematics::delta::jacobian <f32>",
+        |k| g32.jacobian(black_box(&q32[k]), &p32[k]),
+        |k| g64.jacobian(black_box(&q64[k]), &p64[k])
+    );
+    pair!(
+        "kinematics::delta::jacobian_derivative <f32>",
+        |k| g32.jacobian_derivative(black_box(&q32[k]), &p32[k], &qd32),
+        |k| g64.jacobian_derivative(black_box(&q64[k]), &p64[k], &qd64)
+    );
+    pair!(
+        "kinematics::delta forward + inverse + jacobian <f32>",
+        |k| g32
+            .forward(black_box(&q32[k]))
+            .and_then(|p| g32.inverse(&p).and_then(|q| g32.jacobian(&q, &p))),
+        |k| g64
+            .forward(black_box(&q64[k]))
+            .and_then(|p| g64.inverse(&p).and_then(|q| g64.jacobian(&q, &p)))
+    );
+}
+
+/// EFD position with three derivatives (sin/cos recurrence) against the direct sum
+/// that calls `sinf`/`cosf` for every harmonic, on the gear contour.
+fn efd_rows(counter: &mut Counter) {
+    fn pair<const N: usize>(counter: &mut Counter, name: &str, reference_name: &str) {
+        let Ok(efd) = Efd::<f32, N>::from_polygon(&shapes::gear(), N) else {
+            exit(false)
+        };
+        let mask = INPUTS as u32 - 1;
+        let thetas: [f32; INPUTS] = core::array::from_fn(|k| 0.1 + 6.2 * k as f32 / INPUTS as f32);
+        row(
+            counter,
+            name,
+            |i| {
+                black_box(efd.evaluate(black_box(thetas[(i & mask) as usize])));
+            },
+            reference_name,
+            |i| {
+                black_box(efd_direct(
+                    efd.coefficients(),
+                    black_box(thetas[(i & mask) as usize]),
+                ));
+            },
+        );
+    }
+    pair::<10>(
+        counter,
+        "trajectory::efd::Efd::evaluate n=10 <f32>",
+        "direct sum, sinf/cosf per harmonic",
+    );
+    pair::<30>(
+        counter,
+        "trajectory::efd::Efd::evaluate n=30 <f32>",
+        "direct sum, sinf/cosf per harmonic",
+    );
+}
+
+/// Reference: x, y and three derivatives with `sinf`/`cosf` of kθ for every harmonic.
+fn efd_direct(coefficients: &[[f32; 4]], theta: f32) -> [f32; 8] {
+    let mut out = [0.0f32; 8];
+    for (n, [a, b, c, d]) in coefficients.iter().copied().enumerate() {
+        let k = (n + 1) as f32;
+        let (s, co) = (libm::sinf(k * theta), libm::cosf(k * theta));
+        let (u, v) = (
+            [a * co + b * s, c * co + d * s],
+            [b * co - a * s, d * co - c * s],
+        );
+        for axis in 0..2 {
+            out[axis] += u[axis];
+            out[2 + axis] += k * v[axis];
+            out[4 + axis] -= k * k * u[axis];
+            out[6 + axis] -= k * k * k * v[axis];
+        }
+    }
+    out
 }

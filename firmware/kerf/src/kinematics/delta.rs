@@ -31,7 +31,8 @@
 //! divisions, `inverse` three square roots, `jacobian` one division.
 
 use crate::error::{in_range, positive, ConfigError};
-use nalgebra::{Matrix3, RealField, Vector3};
+use crate::scalar::Float;
+use nalgebra::{Matrix3, Vector3};
 
 /// Which root of a quadratic is taken (SPEC: the `±` of the closed-form solutions).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -261,7 +262,7 @@ struct Actuator<T> {
     ik_sign: T,
 }
 
-impl<T: RealField + Copy> Actuator<T> {
+impl<T: Float> Actuator<T> {
     /// Half coefficients ai = (σ1i, σ2i, σ3i)/2 (SPEC FK, T eqs. 107–109).
     #[inline]
     fn half_sigma(&self, d_m: T) -> Vector3<T> {
@@ -303,11 +304,11 @@ pub struct DeltaGeometry<T> {
     singular_sine: T,
 }
 
-fn convert<T: RealField + Copy>(v: f64) -> T {
+fn convert<T: Float>(v: f64) -> T {
     nalgebra::convert::<f64, T>(v)
 }
 
-fn finite3<T: RealField + Copy>(v: &Vector3<T>) -> Result<(), KinematicsError> {
+fn finite3<T: Float>(v: &Vector3<T>) -> Result<(), KinematicsError> {
     if v.iter().all(|c| c.is_finite()) {
         Ok(())
     } else {
@@ -315,7 +316,7 @@ fn finite3<T: RealField + Copy>(v: &Vector3<T>) -> Result<(), KinematicsError> {
     }
 }
 
-impl<T: RealField + Copy> DeltaGeometry<T> {
+impl<T: Float> DeltaGeometry<T> {
     /// Validates `config`: angles finite, αi in [0, π/2], arms positive, radii finite
     /// and non-negative, travel finite with min < max.
     pub fn new(config: &DeltaConfig) -> Result<Self, ConfigError> {
@@ -427,7 +428,7 @@ impl<T: RealField + Copy> DeltaGeometry<T> {
         if disc < T::zero() {
             return Err(KinematicsError::OutOfReach(0));
         }
-        let sqrt_disc = disc.sqrt();
+        let sqrt_disc = disc.fsqrt();
         let p = self.line_point(&e, &g, beta, gamma, eta, self.fk_sign * sqrt_disc);
         match self.check_branches(q, &p) {
             // Where the line is (nearly) horizontal both roots have (nearly) the same z,
@@ -503,7 +504,7 @@ impl<T: RealField + Copy> DeltaGeometry<T> {
             if disc < T::zero() {
                 return Err(KinematicsError::OutOfReach(i as u8));
             }
-            *d = act.ik_sign * disc.sqrt() - half_mu1;
+            *d = act.ik_sign * disc.fsqrt() - half_mu1;
             act.check_travel(*d, i as u8)?;
         }
         Ok(q)
@@ -664,7 +665,7 @@ mod tests {
         ]
     }
 
-    fn geometry<T: RealField + Copy>(c: &DeltaConfig) -> DeltaGeometry<T> {
+    fn geometry<T: Float>(c: &DeltaConfig) -> DeltaGeometry<T> {
         DeltaGeometry::new(c).unwrap()
     }
 

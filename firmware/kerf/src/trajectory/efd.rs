@@ -169,7 +169,7 @@ impl<T: Float, const N: usize> Efd<T, N> {
 
     /// Position relative to the centre and its first three θ-derivatives.
     pub fn evaluate(&self, theta: T) -> EfdSample<T> {
-        let (s1, c1) = (theta.sin(), theta.cos());
+        let (s1, c1) = theta.fsin_cos();
         let (mut ck, mut sk) = (c1, s1);
         let mut k = T::ZERO;
         let zero = Vector2::new(T::ZERO, T::ZERO);
@@ -196,7 +196,7 @@ impl<T: Float, const N: usize> Efd<T, N> {
 
     /// dC/dθ only (cheaper than [`Efd::evaluate`]; used for arc length).
     pub fn tangent(&self, theta: T) -> Vector2<T> {
-        let (s1, c1) = (theta.sin(), theta.cos());
+        let (s1, c1) = theta.fsin_cos();
         let (mut ck, mut sk) = (c1, s1);
         let mut k = T::ZERO;
         let mut d1 = Vector2::new(T::ZERO, T::ZERO);

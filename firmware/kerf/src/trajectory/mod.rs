@@ -18,13 +18,8 @@ pub mod tangential;
 
 use crate::error::ConfigError;
 use crate::scalar::Real;
-use nalgebra::RealField;
 
-/// Floating-point scalar of the contour references: `f32` on the MCU, `f64` as the host
-/// reference. Contours need `sqrt`, `sin` and `cos` (from nalgebra's [`RealField`]), so
-/// the fixed-point [`crate::Q32`] is not one of them.
-pub trait Float: RealField + Copy + Real {}
-impl<T: RealField + Copy + Real> Float for T {}
+pub use crate::scalar::Float;
 
 /// Converts a configuration constant to `T` (setup time, or a literal in a formula).
 #[inline]
