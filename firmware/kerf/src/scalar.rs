@@ -216,7 +216,7 @@ pub fn sqrt_f32(x: f32) -> f32 {
 /// (coefficients of the Cephes single-precision library). Beyond |x| = 2^15 it falls
 /// back to libm. Absolute error below 2e-7 (tested against f64).
 pub fn sin_cos_f32(x: f32) -> (f32, f32) {
-    if !(x.abs() < 51_471.85) {
+    if x.is_nan() || x.abs() >= 51_471.85 {
         return (libm::sinf(x), libm::cosf(x));
     }
     const FRAC_2_PI: f32 = core::f32::consts::FRAC_2_PI;
