@@ -221,7 +221,7 @@ fn kinematics_rows(counter: &mut Counter) {
     let mask = INPUTS as u32 - 1;
     // Joint positions spread over the middle of the 0–40 mm travel.
     let q64: [Vector3<f64>; INPUTS] = core::array::from_fn(|k| {
-        let t = k as f64 / INPUTS as f64 * 6.283;
+        let t = k as f64 / INPUTS as f64 * core::f64::consts::TAU;
         Vector3::new(
             0.020 + 0.008 * libm::sin(t),
             0.020 + 0.008 * libm::sin(t + 2.1),
