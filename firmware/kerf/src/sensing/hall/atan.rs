@@ -8,39 +8,36 @@ use tables::{ATAN_INTERVALS, ATAN_TURN_Q32};
 /// atan2(y, x) as a phase word (full turn = 2^32), integer only.
 ///
 /// Octant reduction to a ratio r = min(|x|,|y|) / max(|x|,|y|) in [0, 1], computed as
-/// an exact Q28 floor by long division in four 7-bit steps (32-bit hardware
-/// divisions; inputs are scaled below 2^24 first, so 24-bit vectors keep every bit),
-/// then linear interpolation in a 512-interval atan table made by `build.rs`.
-/// Error budget: interpolation h²/8·max|atan″| = 3.1e-7 rad, ratio floor 2^-28 rad,
-/// table rounding 2^-33 turn: below 6e-8 turn in all (1.1 nm at an 18 mm pitch),
-/// checked against `f64::atan2` in the tests.
+/// an exact Q22 floor by long division in two 11-bit steps (32-bit hardware divisions;
+/// inputs are scaled below 2^20 first, so 20-bit vectors keep every bit), then linear
+/// interpolation in a 512-interval atan table made by `build.rs`.
+/// Error budget: interpolation h²/8·max|atan″| = 3.1e-7 rad, ratio floor 2^-22 rad,
+/// table rounding 2^-33 turn: below 1e-7 turn in all (1.8 nm at an 18 mm pitch),
+/// checked against `f64::atan2` in the tests. Inputs beyond 2^20 lose their low bits
+/// to the scaling (relative 2^-20, i.e. 2.4e-7 turn more at worst).
 #[inline]
 pub fn atan2_turns(y: i32, x: i32) -> u32 {
-    const FRACTION_BITS: u32 = 28 - ATAN_INTERVALS.trailing_zeros();
-    let (mut ax, mut ay) = (x.unsigned_abs(), y.unsigned_abs());
-    let largest = ax.max(ay);
-    if largest == 0 {
-        return 0;
-    }
-    // Keep the larger magnitude below 2^24 so that (remainder << 7) fits in 32 bits.
-    let excess = (32 - largest.leading_zeros()).saturating_sub(24);
-    ax >>= excess;
-    ay >>= excess;
+    let (ax, ay) = (x.unsigned_abs(), y.unsigned_abs());
+    // Keep the larger magnitude below 2^20 so that (remainder << 11) fits in 32 bits.
+    let excess = (32 - ax.max(ay).leading_zeros()).saturating_sub(20);
+    atan2_turns_below_2_20(y < 0, x < 0, ay >> excess, ax >> excess)
+}
+
+/// [`atan2_turns`] for magnitudes `ay`, `ax` already below 2^20 (callers that bound
+/// their inputs skip the scaling), with the signs of y and x given separately.
+#[inline]
+pub(crate) fn atan2_turns_below_2_20(y_negative: bool, x_negative: bool, ay: u32, ax: u32) -> u32 {
+    const FRACTION_BITS: u32 = 22 - ATAN_INTERVALS.trailing_zeros();
     let (num, den) = if ay <= ax { (ay, ax) } else { (ax, ay) };
     if den == 0 {
         return 0;
     }
-    // r = num/den ≤ 1 to 28 fraction bits, 7 bits per step (remainder < den < 2^24).
-    let mut ratio_q28 = 0u32;
-    let mut remainder = num;
-    for _ in 0..4 {
-        let shifted = remainder << 7;
-        let digit = shifted / den;
-        remainder = shifted - digit * den;
-        ratio_q28 = (ratio_q28 << 7) | digit;
-    }
-    let index = (ratio_q28 >> FRACTION_BITS) as usize;
-    let fraction = ratio_q28 & ((1 << FRACTION_BITS) - 1);
+    // r = num/den ≤ 1 to 22 fraction bits, 11 bits per step (remainder < den < 2^20).
+    let high = (num << 11) / den;
+    let low = (((num << 11) - high * den) << 11) / den;
+    let ratio_q22 = (high << 11) | low;
+    let index = (ratio_q22 >> FRACTION_BITS) as usize;
+    let fraction = ratio_q22 & ((1 << FRACTION_BITS) - 1);
     let (lo, hi) = match (ATAN_TURN_Q32.get(index), ATAN_TURN_Q32.get(index + 1)) {
         (Some(&lo), Some(&hi)) => (lo, hi),
         (Some(&lo), None) => (lo, lo),
@@ -50,12 +47,12 @@ pub fn atan2_turns(y: i32, x: i32) -> u32 {
     const QUARTER: u32 = 1 << 30;
     const HALF: u32 = 1 << 31;
     let first_quadrant = if ay <= ax { octant } else { QUARTER - octant };
-    let half_plane = if x < 0 {
+    let half_plane = if x_negative {
         HALF - first_quadrant
     } else {
         first_quadrant
     };
-    if y < 0 {
+    if y_negative {
         half_plane.wrapping_neg()
     } else {
         half_plane
@@ -88,8 +85,8 @@ mod tests {
                 );
                 worst = worst.max(turns_error(atan2_turns(y as i32, x as i32), y, x));
             }
-            // Error budget in the function's docs: 6e-8 turn.
-            assert!(worst < 6.0e-8, "amplitude {amplitude}: {worst} turn");
+            // Error budget in the function's docs: 1e-7 turn.
+            assert!(worst < 1e-7, "amplitude {amplitude}: {worst} turn");
         }
     }
 
@@ -113,9 +110,9 @@ mod tests {
 
     proptest::proptest! {
         #[test]
-        fn atan2_matches_f64_for_any_vector_below_2_pow_24(y in -(1i32 << 24)..(1 << 24), x in -(1i32 << 24)..(1 << 24)) {
+        fn atan2_matches_f64_for_any_vector_below_2_pow_20(y in -(1i32 << 20)..(1 << 20), x in -(1i32 << 20)..(1 << 20)) {
             proptest::prop_assume!(x != 0 || y != 0);
-            proptest::prop_assert!(turns_error(atan2_turns(y, x), f64::from(y), f64::from(x)) < 6.0e-8);
+            proptest::prop_assert!(turns_error(atan2_turns(y, x), f64::from(y), f64::from(x)) < 1e-7);
         }
     }
 }

@@ -10,7 +10,7 @@
 //! 2. offset removal per channel (counts, Q4);
 //! 3. a calibrated 2×3 demodulation matrix (the generalized Clarke transform, rows of
 //!    the 3×3 inverse of the channel model — see [`calibration`]) giving
-//!    s = R sin φ, c = R cos φ with R = 2^22 (sub-count resolution for the atan2);
+//!    s = R sin φ, c = R cos φ with R = 2^19 (sub-count resolution for the atan2);
 //! 4. health checks: the three-channel sum (zero when healthy), the vector magnitude
 //!    √(s² + c²) against its band, a channel that stopped changing;
 //! 5. φ = atan2(s, c) by [`atan::atan2_turns`] into a `u32` phase word (one pitch =
@@ -38,12 +38,12 @@ use crate::error::{in_range, positive, ConfigError};
 use crate::scalar::Real;
 
 /// Radius of the demodulated vector (s, c) in the integer path.
-pub const DEMODULATED_RADIUS: i32 = 1 << 22;
+pub const DEMODULATED_RADIUS: i32 = 1 << 19;
 /// Fraction bits of offset-free counts in the integer path.
 const COUNT_FRACTION_BITS: u32 = 4;
-/// Right shift after the integer demodulation sum: coefficients are row × R × 2^16,
+/// Right shift after the integer demodulation sum: coefficients are row × R × 2^20
 /// so 16-bit rows (≈ 1/26214) keep 23 significant bits and 12-bit rows 27.
-const COEFFICIENT_SHIFT: u32 = 20;
+const COEFFICIENT_SHIFT: u32 = 24;
 
 /// Which arithmetic decodes the angle.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -158,8 +158,8 @@ pub struct HallDecoder {
     magnitude_sq_min_f32: f32,
     magnitude_sq_max_f32: f32,
     correction: Option<HallCorrection>,
-    last_raw: [u16; 3],
-    unchanged: [u8; 3],
+    /// The two samples before the present one, newest first (stuck-channel diagnosis).
+    history: [[u16; 3]; 2],
     accumulator: Option<i64>,
 }
 
@@ -177,8 +177,8 @@ impl HallDecoder {
         in_range("amplitude_counts", amplitude, 1.0, full_scale / 2.0)?;
         let (lo, hi) = config.magnitude_band;
         positive("magnitude_band", lo)?;
-        // hi ≤ 3.9 keeps the accepted vector below 2^24, the atan2's full-precision range.
-        in_range("magnitude_band", hi, lo, 3.9)?;
+        // hi < 2 keeps every accepted vector below 2^20, the atan2's direct range.
+        in_range("magnitude_band", hi, lo, 1.99)?;
         let sum_limit = positive("sum_limit", config.sum_limit)?;
         in_range("sum_limit", sum_limit, 0.0, 3.0)?;
         let cal = &config.calibration;
@@ -231,8 +231,7 @@ impl HallDecoder {
             magnitude_sq_min_f32: ((lo * nominal) * (lo * nominal)) as f32,
             magnitude_sq_max_f32: ((hi * nominal) * (hi * nominal)) as f32,
             correction: None,
-            last_raw: [0; 3],
-            unchanged: [0; 3],
+            history: [[0; 3]; 2],
             accumulator: None,
         })
     }
@@ -275,30 +274,39 @@ impl HallDecoder {
     /// Forgets the pitch count: the next good sample restarts at pitch zero.
     pub fn reset(&mut self) {
         self.accumulator = None;
-        self.unchanged = [0; 3];
+        self.history = [[0; 3]; 2];
     }
 
     /// Checks the sample and returns its phase word (no unwrapping).
     fn phase(&mut self, raw: [u16; 3]) -> Result<u32, HallFault> {
         for (channel, &count) in raw.iter().enumerate() {
-            if count == 0 || count >= self.rail_high {
+            // 0 wraps to u16::MAX: one comparison catches both rails.
+            if count.wrapping_sub(1) >= self.rail_high - 1 {
                 return Err(HallFault::AdcRail(channel as u8));
             }
         }
         let u = [0, 1, 2].map(|k| (i32::from(raw[k]) << COUNT_FRACTION_BITS) - self.offset_q4[k]);
-        let stuck = self.track_changes(raw);
+        let history = self.history;
+        self.history = [raw, history[0]];
+        let stuck = || stuck_channel(raw, &history);
         if (u[0] + u[1] + u[2]).abs() > self.sum_limit_q4 {
-            return Err(stuck.unwrap_or(HallFault::SumOutOfBand));
+            return Err(stuck().unwrap_or(HallFault::SumOutOfBand));
         }
-        let magnitude_fault = Err(stuck.unwrap_or(HallFault::MagnitudeOutOfBand));
+        let magnitude_fault = || Err(stuck().unwrap_or(HallFault::MagnitudeOutOfBand));
         match self.arithmetic {
             HallArithmetic::Integer => {
                 let (s, c) = (dot_q(&self.sin_row_q, &u), dot_q(&self.cos_row_q, &u));
                 let magnitude_sq = i64::from(s) * i64::from(s) + i64::from(c) * i64::from(c);
                 if magnitude_sq < self.magnitude_sq_min || magnitude_sq > self.magnitude_sq_max {
-                    return magnitude_fault;
+                    return magnitude_fault();
                 }
-                Ok(atan2_turns(s, c))
+                // The band check bounds |s|, |c| below 1.99·R < 2^20.
+                Ok(atan::atan2_turns_below_2_20(
+                    s < 0,
+                    c < 0,
+                    s.unsigned_abs(),
+                    c.unsigned_abs(),
+                ))
             }
             HallArithmetic::F32 => {
                 let uf = [0, 1, 2].map(|k| f32::from(raw[k]) - self.offset_f32[k]);
@@ -312,39 +320,22 @@ impl HallDecoder {
                 if !(magnitude_sq >= self.magnitude_sq_min_f32
                     && magnitude_sq <= self.magnitude_sq_max_f32)
                 {
-                    return magnitude_fault;
+                    return magnitude_fault();
                 }
                 Ok(turns_from_rad(libm::atan2f(s, c)))
             }
         }
     }
+}
 
-    /// Counts, per channel, the samples since its value last changed; a channel that
-    /// has been frozen for at least two samples while another changed is the suspect
-    /// when the consistency checks fail.
-    fn track_changes(&mut self, raw: [u16; 3]) -> Option<HallFault> {
-        let mut suspect = None;
-        let mut any_moved = false;
-        for ((count, last), unchanged) in raw
-            .iter()
-            .zip(&self.last_raw)
-            .zip(self.unchanged.iter_mut())
-        {
-            if count == last {
-                *unchanged = unchanged.saturating_add(1);
-            } else {
-                *unchanged = 0;
-                any_moved = true;
-            }
-        }
-        for k in 0..3 {
-            if self.unchanged[k] >= 2 && any_moved {
-                suspect = Some(HallFault::StuckChannel(k as u8));
-            }
-        }
-        self.last_raw = raw;
-        suspect
-    }
+/// The channel that read the same value in this and the two previous samples while
+/// another channel changed: the suspect once the consistency checks fail.
+fn stuck_channel(raw: [u16; 3], history: &[[u16; 3]; 2]) -> Option<HallFault> {
+    let repeated = |k: usize| raw[k] == history[0][k] && raw[k] == history[1][k];
+    let moved = (0..3).any(|k| raw[k] != history[0][k]);
+    (0..3)
+        .find(|&k| moved && repeated(k))
+        .map(|k| HallFault::StuckChannel(k as u8))
 }
 
 /// Σ row·u in the integer path, back to the demodulated radius scale.
@@ -353,7 +344,8 @@ fn dot_q(row: &[i32; 3], u: &[i32; 3]) -> i32 {
     let acc = i64::from(row[0]) * i64::from(u[0])
         + i64::from(row[1]) * i64::from(u[1])
         + i64::from(row[2]) * i64::from(u[2]);
-    (acc >> COEFFICIENT_SHIFT) as i32
+    // Round to nearest: halves the demodulation's quantization (0.5/R per component).
+    ((acc + (1 << (COEFFICIENT_SHIFT - 1))) >> COEFFICIENT_SHIFT) as i32
 }
 
 /// Radians (−π, π] to a phase word.
