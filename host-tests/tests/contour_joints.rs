@@ -66,11 +66,11 @@ fn cam_contour_joint_spline_matches_ik_and_inverse_jacobian() {
         .fold(0.0f64, f64::max);
     let (mut worst_q, mut worst_qd, mut peak_qd) = (0.0f64, 0.0f64, 0.0f64);
     let last_knot = (knots.len() - 1) * KNOT_EVERY;
-    for k in 0..=last_knot {
+    for (k, r) in references.iter().enumerate().take(last_knot + 1) {
         let reference = spline.evaluate(k as f64 * TS_S);
         let p = task(k);
         let q = delta.inverse(&p).unwrap();
-        let p_dot = Vector3::new(references[k].velocity.x, references[k].velocity.y, 0.0);
+        let p_dot = Vector3::new(r.velocity.x, r.velocity.y, 0.0);
         let qd = delta.jacobian_inverse(&q, &p).unwrap() * p_dot;
         worst_q = worst_q.max((reference.q - q).amax());
         worst_qd = worst_qd.max((reference.qd - qd).amax());
