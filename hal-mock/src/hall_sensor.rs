@@ -73,6 +73,8 @@ pub enum ChannelFault {
     OpenWire(usize),
     /// Channel frozen at a count.
     Stuck(usize, u16),
+    /// Channel frozen at whatever it read last (a hung ADC conversion).
+    Frozen(usize),
 }
 
 /// Sensor instance with its noise source and optional fault.
@@ -82,6 +84,7 @@ pub struct HallSensor {
     noise: Noise,
     /// Injected fault, if any.
     pub fault: Option<ChannelFault>,
+    last: [u16; 3],
 }
 
 impl HallSensor {
@@ -91,6 +94,7 @@ impl HallSensor {
             params,
             noise: Noise::new(seed),
             fault: None,
+            last: [0; 3],
         }
     }
 
@@ -115,8 +119,10 @@ impl HallSensor {
         match self.fault {
             Some(ChannelFault::OpenWire(ch)) if ch < 3 => out[ch] = 0,
             Some(ChannelFault::Stuck(ch, value)) if ch < 3 => out[ch] = value,
+            Some(ChannelFault::Frozen(ch)) if ch < 3 => out[ch] = self.last[ch],
             _ => {}
         }
+        self.last = out;
         out
     }
 }

@@ -7,6 +7,7 @@ use crate::linear_motor::LinearMotorParams;
 use kerf::app::axis::{AxisConfig, AxisLoop, AxisState};
 use kerf::control::pd::Reference;
 use kerf::hal::HallInput;
+use kerf::sensing::hall::HallFault;
 use kerf::trajectory::quintic::Quintic;
 use kerf::{ConfigError, Real};
 
@@ -66,8 +67,8 @@ pub struct Scenario {
     pub track_profile: bool,
     /// External load step: (time in s, force in N).
     pub load_step: Option<(f64, f64)>,
-    /// Break channel 0 (open wire) at this time in s.
-    pub open_wire_at_s: Option<f64>,
+    /// Inject a sensor fault from this time in s on.
+    pub sensor_fault: Option<(f64, ChannelFault)>,
 }
 
 impl Scenario {
@@ -80,7 +81,7 @@ impl Scenario {
         periods: 10_000,
         track_profile: true,
         load_step: None,
-        open_wire_at_s: None,
+        sensor_fault: None,
     };
 }
 
@@ -99,8 +100,8 @@ pub struct Period {
     pub velocity_m_s: f64,
     /// Measured position, m.
     pub position_m: f64,
-    /// The axis is latched in a fault.
-    pub faulted: bool,
+    /// The latched fault, if any.
+    pub fault: Option<HallFault>,
 }
 
 /// The controller in scalar `T` closed around the simulated axis, one period a step.
@@ -142,8 +143,10 @@ impl<T: Real> Simulation<T> {
         if let Some((at, force)) = self.scenario.load_step {
             self.plant.motor.load_force_n = if t >= at { force } else { 0.0 };
         }
-        if matches!(self.scenario.open_wire_at_s, Some(at) if t >= at) {
-            self.plant.sensor.fault = Some(ChannelFault::OpenWire(0));
+        if let Some((at, fault)) = self.scenario.sensor_fault {
+            if t >= at {
+                self.plant.sensor.fault = Some(fault);
+            }
         }
         let r = if self.scenario.track_profile {
             profile(t)
@@ -171,7 +174,10 @@ impl<T: Real> Simulation<T> {
             disturbance_n: out.disturbance_n.to_f64(),
             velocity_m_s: out.velocity_m_s.to_f64(),
             position_m: out.position_m.to_f64(),
-            faulted: matches!(out.state, AxisState::Fault(_)),
+            fault: match out.state {
+                AxisState::Fault(fault) => Some(fault),
+                _ => None,
+            },
         })
     }
 }
@@ -201,8 +207,10 @@ pub struct Outcome {
     pub peak_velocity_m_s: f64,
     /// Peak |measured position|, m.
     pub peak_position_m: f64,
-    /// First period in fault, if any.
+    /// First period in fault and the fault, if any.
     pub fault_period: Option<u32>,
+    /// The fault reported.
+    pub fault: Option<HallFault>,
     /// Largest |force command| from the fault on, N (must be 0).
     pub force_after_fault_n: f64,
     sum_sq_error: f64,
@@ -237,8 +245,9 @@ impl Outcome {
         self.peak_disturbance_n = self.peak_disturbance_n.max(libm::fabs(p.disturbance_n));
         self.peak_velocity_m_s = self.peak_velocity_m_s.max(libm::fabs(p.velocity_m_s));
         self.peak_position_m = self.peak_position_m.max(libm::fabs(p.position_m));
-        if p.faulted {
+        if let Some(fault) = p.fault {
             self.fault_period.get_or_insert(self.periods - 1);
+            self.fault.get_or_insert(fault);
             self.force_after_fault_n = self.force_after_fault_n.max(libm::fabs(p.force_n));
         }
     }

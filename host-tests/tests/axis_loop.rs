@@ -1,6 +1,8 @@
 //! Closed-loop scenarios of one LM1247 axis: Hall decode → DOB + PD → simulated plant.
 
+use hal_mock::hall_sensor::ChannelFault;
 use hal_mock::scenario::{run, run_into, Outcome, Scenario, MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M};
+use kerf::sensing::hall::HallFault;
 use kerf::Q32;
 
 fn report(name: &str, o: &hal_mock::scenario::Outcome) {
@@ -74,20 +76,44 @@ fn load_step_is_rejected_with_dob_and_not_without() {
     assert!(without.last_violation_s > 0.49, "{without:?}");
 }
 
-/// Open wire on channel 0 mid-move: the decoder reports it in the same period and the
-/// loop commands exactly zero force from then on.
+/// Sensor faults mid-move: the decoder names the fault in the period it becomes
+/// detectable and the loop commands exactly zero force from then on.
 #[test]
-fn open_wire_latches_zero_force() {
+fn sensor_faults_latch_zero_force() {
     let mut s = Scenario::TRACKING;
-    s.open_wire_at_s = Some(0.3);
+    // Open wire on channel 0 at 0.3 s: a rail reading, caught in that very period.
+    s.sensor_fault = Some((0.3, ChannelFault::OpenWire(0)));
     for o in [
         run::<f32>(&s).unwrap(),
         run::<f64>(&s).unwrap(),
         run::<Q32>(&s).unwrap(),
     ] {
         assert_eq!(o.fault_period, Some(3000), "{o:?}");
+        assert_eq!(o.fault, Some(HallFault::AdcRail(0)));
         assert_eq!(o.force_after_fault_n, 0.0);
     }
+    // Channel 1 jumps to mid-scale: the channels no longer sum to zero, same period.
+    s.sensor_fault = Some((0.3, ChannelFault::Stuck(1, 32768)));
+    let o = run::<f32>(&s).unwrap();
+    assert_eq!(
+        (o.fault_period, o.fault),
+        (Some(3000), Some(HallFault::SumOutOfBand)),
+        "{o:?}"
+    );
+    // Channel 1 freezes at its last value at 0.3 s while the axis moves at ~0.14 m/s
+    // (2.8° of phase per ms): caught once the true signal has moved 0.5 A (the sum
+    // limit) away from the frozen value, which takes at most 60° of travel (21 ms),
+    // and named as the stuck channel because it stopped changing.
+    s.sensor_fault = Some((0.3, ChannelFault::Frozen(1)));
+    let o = run::<f32>(&s).unwrap();
+    let period = o.fault_period.expect("the stuck channel must be detected");
+    assert!((3000..3210).contains(&period), "{o:?}");
+    assert_eq!(o.fault, Some(HallFault::StuckChannel(1)), "{o:?}");
+    assert_eq!(o.force_after_fault_n, 0.0);
+    println!(
+        "stuck channel detected {} periods after it froze",
+        period - 3000
+    );
 }
 
 /// The fixed-point loop stays within the signal ranges documented in `kerf::control`
