@@ -158,7 +158,7 @@ impl DeltaConfig {
     /// Workspace sampled on a 16³ grid of the travel box (cell centres, FK; test
     /// `workspace_extent_of_the_presets`): x −50.3…+50.3 mm, y −58.1…+43.9 mm,
     /// z 79.0…140.5 mm, 100 % of the grid assembles in the working mode.
-    /// f32 vs f64 over that grid: FK ≤ 0.023 µm, IK ≤ 0.041 µm.
+    /// f32 vs f64 over that grid: FK ≤ 0.026 µm, IK ≤ 0.028 µm.
     pub const MASTER_HORIZONTAL: Self = symmetric(
         0.0,
         0.150,
@@ -191,8 +191,8 @@ impl DeltaConfig {
     ///
     /// Workspace (same sampling; a bounding box, the usable cylinder is smaller):
     /// x −80.2…+80.2 mm, y −69.9…+92.5 mm, z −20.6…+166.9 mm, 80 % of the grid
-    /// assembles. f32 vs f64: FK ≤ 0.055 µm; IK ≤ 0.04 µm where |Jx⁻¹| ≤ 3 and up to
-    /// 0.9 µm with nearly horizontal arms (the map's own gain on f32 rounding).
+    /// assembles. f32 vs f64: FK ≤ 0.084 µm; IK ≤ 0.051 µm where |Jx⁻¹| ≤ 3 and up to
+    /// 1.1 µm with nearly horizontal arms (the map's own gain on f32 rounding).
     pub const VERTICAL: Self = symmetric(
         90.0 * DEG,
         0.150,
@@ -245,7 +245,7 @@ const SINGULAR_SINE: f64 = 1e-3;
 /// the error of x = g z + e grows like 1 / sine, so the vector form takes over.
 const ELIMINATION_SINE: f64 = 0.1;
 
-/// Precomputed per-actuator constants.
+/// Precomputed per-actuator constants (evaluated in `f64` by [`DeltaGeometry::new`]).
 #[derive(Copy, Clone, Debug)]
 struct Actuator<T> {
     c_theta: T,
@@ -254,65 +254,160 @@ struct Actuator<T> {
     s_alpha: T,
     /// re − rb.
     offset_m: T,
-    arm_m: T,
+    /// Rail direction wi = (cθi cαi, sθi cαi, −sαi), a unit vector: ai = bi + di wi.
+    rail: Vector3<T>,
+    /// x of bi = (re − rb)(cθi, sθi, 0), the half coefficients at di = 0.
+    base_x_m: T,
+    /// y of bi.
+    base_y_m: T,
+    /// wi · bi = (re − rb) cαi.
+    rail_offset_m: T,
+    /// λ0i = li² − (re − rb)², see [`Actuator::lambda`].
+    lambda0_m2: T,
+    /// λ1i = 2 (re − rb) cαi, see [`Actuator::lambda`].
+    lambda1_m: T,
     arm_sq_m2: T,
+    /// SINGULAR_SINE · li: the smallest |fdi| that is not singular.
+    singular_fd_m: T,
     travel_min_m: T,
     travel_max_m: T,
     /// ±1, the IK branch.
     ik_sign: T,
 }
 
+/// a ≥ b; `false` when either is NaN, so that a NaN fails the check it is used in.
+#[inline(always)]
+fn at_least<T: Float>(a: T, b: T) -> bool {
+    a >= b
+}
+
+/// a > b; `false` when either is NaN.
+#[inline(always)]
+fn exceeds<T: Float>(a: T, b: T) -> bool {
+    a > b
+}
+
+/// 0 for finite x, NaN for NaN and ±∞ (0 · ∞ is NaN), so that one comparison of a
+/// sum of these tests several values.
+#[inline(always)]
+fn zero_if_finite<T: Float>(x: T) -> T {
+    x * T::zero()
+}
+
+fn dot3<T: Float>(a: &Vector3<T>, b: &Vector3<T>) -> T {
+    a.x * b.x + a.y * b.y + a.z * b.z
+}
+
+fn cross3<T: Float>(a: &Vector3<T>, b: &Vector3<T>) -> Vector3<T> {
+    Vector3::new(
+        a.y * b.z - a.z * b.y,
+        a.z * b.x - a.x * b.z,
+        a.x * b.y - a.y * b.x,
+    )
+}
+
 impl<T: Float> Actuator<T> {
-    /// Half coefficients ai = (σ1i, σ2i, σ3i)/2 (SPEC FK, T eqs. 107–109).
+    /// Half coefficients ai = (σ1i, σ2i, σ3i)/2 = bi + di wi (SPEC FK, T eqs. 107–109:
+    /// ζi (cθi, sθi) = bi + di cαi (cθi, sθi) and −di sαi).
     #[inline]
     fn half_sigma(&self, d_m: T) -> Vector3<T> {
-        let zeta = self.offset_m + d_m * self.c_alpha;
         Vector3::new(
-            self.c_theta * zeta,
-            self.s_theta * zeta,
-            -d_m * self.s_alpha,
+            self.base_x_m + d_m * self.rail.x,
+            self.base_y_m + d_m * self.rail.y,
+            d_m * self.rail.z,
         )
     }
 
-    /// fdi = cαi (re − rb + cθi x + sθi y) − sαi z + di (SPEC velocity, T eq. 142).
+    /// λi = li² − |ai|² (SPEC's corrected λ; T eq. 110 is garbled). As |wi| = 1,
+    /// |ai|² = |bi|² + 2 di wi · bi + di², so λi = λ0i − di (λ1i + di): no squares of
+    /// the components at run time.
     #[inline]
-    fn fd(&self, d_m: T, p: &Vector3<T>) -> T {
-        self.c_alpha * (self.offset_m + self.c_theta * p.x + self.s_theta * p.y)
-            - self.s_alpha * p.z
-            + d_m
+    fn lambda(&self, d_m: T) -> T {
+        self.lambda0_m2 - d_m * (self.lambda1_m + d_m)
     }
 
-    fn check_travel(&self, d_m: T, index: u8) -> Result<(), KinematicsError> {
-        if d_m < self.travel_min_m || d_m > self.travel_max_m {
-            Err(KinematicsError::OutsideTravel(index))
-        } else {
-            Ok(())
+    /// fdi = cαi (re − rb + cθi x + sθi y) − sαi z + di = wi · p + wi · bi + di (SPEC
+    /// velocity, T eq. 142), which is wi · (p + ai) since |wi| = 1.
+    #[inline]
+    fn fd(&self, d_m: T, p: &Vector3<T>) -> T {
+        dot3(&self.rail, p) + (self.rail_offset_m + d_m)
+    }
+
+    /// `false` also for NaN and ±∞ (the limits are finite).
+    #[inline]
+    fn in_travel(&self, d_m: T) -> bool {
+        d_m >= self.travel_min_m && d_m <= self.travel_max_m
+    }
+
+    /// di = si √(μ1i²/4 − μ2i) − μ1i/2 for actuator `index` (SPEC IK, T eqs. 132–137),
+    /// see [`DeltaGeometry::inverse`].
+    #[inline]
+    fn displacement(&self, p: &Vector3<T>, index: u8) -> Result<T, KinematicsError> {
+        // vi = p + bi in the actuator's frame (radial cθi, sθi; tangential −sθi, cθi; z).
+        let radial = self.c_theta * p.x + self.s_theta * p.y + self.offset_m;
+        let tangential = self.c_theta * p.y - self.s_theta * p.x;
+        // There wi = (cαi, 0, −sαi): vi · wi, and the two components of vi across the rail.
+        let along = self.c_alpha * radial - self.s_alpha * p.z;
+        let across = self.s_alpha * radial + self.c_alpha * p.z;
+        let disc = self.arm_sq_m2 - tangential * tangential - across * across;
+        if !at_least(disc, T::zero()) {
+            return Err(KinematicsError::OutOfReach(index));
         }
+        let d_m = self.ik_sign * disc.fsqrt() - along;
+        if !self.in_travel(d_m) {
+            return Err(KinematicsError::OutsideTravel(index));
+        }
+        Ok(d_m)
     }
 }
 
-/// J2's rows, J1's diagonal and J2⁻¹.
-type VelocityTerms<T> = ([Vector3<T>; 3], Vector3<T>, Matrix3<T>);
+/// What the velocity maps share at (q, p) (SPEC velocity, T eqs. 138–145).
+struct VelocityTerms<T> {
+    /// Arm vectors gi = p + ai; J2's rows are fi = −gi, so J2 = −G.
+    g: [Vector3<T>; 3],
+    /// J1's diagonal fdi = wi · gi.
+    fd: Vector3<T>,
+    /// Columns g2 × g3, g3 × g1, g1 × g2 of adj G = adj J2 (3 × 3: adj(−G) = adj G).
+    adj: [Vector3<T>; 3],
+    /// 1 / det J2 = −1 / det G, so that J2⁻¹ = adj G / det J2.
+    inv_det_j2: T,
+}
+
+impl<T: Float> VelocityTerms<T> {
+    /// Jx = J2⁻¹ J1: the diagonal J1 scales column j of adj G / det J2 by fdj.
+    #[inline]
+    fn jacobian(&self) -> Matrix3<T> {
+        let s = self.fd * self.inv_det_j2;
+        Matrix3::from_columns(&[self.adj[0] * s.x, self.adj[1] * s.y, self.adj[2] * s.z])
+    }
+}
 
 /// A validated delta geometry with precomputed constants, for scalar `T`.
 #[derive(Copy, Clone, Debug)]
 pub struct DeltaGeometry<T> {
     actuators: [Actuator<T>; 3],
     fk_sign: T,
-    arm_product_m3: T,
+    /// SINGULAR_SINE · l1 l2 l3: the smallest |det J2| that is not singular.
+    singular_det_m3: T,
     elimination_sine_sq: T,
-    singular_sine: T,
+    singular_sine_sq: T,
 }
 
 fn convert<T: Float>(v: f64) -> T {
     nalgebra::convert::<f64, T>(v)
 }
 
-fn finite3<T: Float>(v: &Vector3<T>) -> Result<(), KinematicsError> {
-    if v.iter().all(|c| c.is_finite()) {
-        Ok(())
+/// The error to report once a check has failed: [`KinematicsError::NotFinite`] when an
+/// input is NaN or ±∞, otherwise `err`. The hot paths do not test their inputs: NaN
+/// and ±∞ propagate through the arithmetic into a value that fails one of the checks
+/// (each map notes which), so only a failed call pays for the test here.
+#[cold]
+#[inline(never)]
+fn or_not_finite<T: Float>(inputs: &[&Vector3<T>], err: KinematicsError) -> KinematicsError {
+    if inputs.iter().all(|v| v.iter().all(|c| c.is_finite())) {
+        err
     } else {
-        Err(KinematicsError::NotFinite)
+        KinematicsError::NotFinite
     }
 }
 
@@ -320,16 +415,23 @@ impl<T: Float> DeltaGeometry<T> {
     /// Validates `config`: angles finite, αi in [0, π/2], arms positive, radii finite
     /// and non-negative, travel finite with min < max.
     pub fn new(config: &DeltaConfig) -> Result<Self, ConfigError> {
+        let zero = T::zero();
         let mut actuators = [Actuator {
-            c_theta: T::zero(),
-            s_theta: T::zero(),
-            c_alpha: T::zero(),
-            s_alpha: T::zero(),
-            offset_m: T::zero(),
-            arm_m: T::zero(),
-            arm_sq_m2: T::zero(),
-            travel_min_m: T::zero(),
-            travel_max_m: T::zero(),
+            c_theta: zero,
+            s_theta: zero,
+            c_alpha: zero,
+            s_alpha: zero,
+            offset_m: zero,
+            rail: Vector3::zeros(),
+            base_x_m: zero,
+            base_y_m: zero,
+            rail_offset_m: zero,
+            lambda0_m2: zero,
+            lambda1_m: zero,
+            arm_sq_m2: zero,
+            singular_fd_m: zero,
+            travel_min_m: zero,
+            travel_max_m: zero,
             ik_sign: T::one(),
         }; 3];
         let mut arm_product = 1.0;
@@ -345,14 +447,27 @@ impl<T: Float> DeltaGeometry<T> {
                 return Err(ConfigError::OutOfRange("travel_max_m"));
             }
             arm_product *= arm;
+            let (c_theta, s_theta) = (libm::cos(theta), libm::sin(theta));
+            let (c_alpha, s_alpha) = (libm::cos(alpha), libm::sin(alpha));
+            let offset = re - rb;
             *out = Actuator {
-                c_theta: convert(libm::cos(theta)),
-                s_theta: convert(libm::sin(theta)),
-                c_alpha: convert(libm::cos(alpha)),
-                s_alpha: convert(libm::sin(alpha)),
-                offset_m: convert(re - rb),
-                arm_m: convert(arm),
+                c_theta: convert(c_theta),
+                s_theta: convert(s_theta),
+                c_alpha: convert(c_alpha),
+                s_alpha: convert(s_alpha),
+                offset_m: convert(offset),
+                rail: Vector3::new(
+                    convert(c_theta * c_alpha),
+                    convert(s_theta * c_alpha),
+                    convert(-s_alpha),
+                ),
+                base_x_m: convert(offset * c_theta),
+                base_y_m: convert(offset * s_theta),
+                rail_offset_m: convert(offset * c_alpha),
+                lambda0_m2: convert(arm * arm - offset * offset),
+                lambda1_m: convert(2.0 * offset * c_alpha),
                 arm_sq_m2: convert(arm * arm),
+                singular_fd_m: convert(SINGULAR_SINE * arm),
                 travel_min_m: convert(lo),
                 travel_max_m: convert(hi),
                 ik_sign: convert(a.ik_root.sign()),
@@ -361,9 +476,9 @@ impl<T: Float> DeltaGeometry<T> {
         Ok(Self {
             actuators,
             fk_sign: convert(config.fk_root.sign()),
-            arm_product_m3: convert(arm_product),
+            singular_det_m3: convert(SINGULAR_SINE * arm_product),
             elimination_sine_sq: convert(ELIMINATION_SINE * ELIMINATION_SINE),
-            singular_sine: convert(SINGULAR_SINE),
+            singular_sine_sq: convert(SINGULAR_SINE * SINGULAR_SINE),
         })
     }
 
@@ -375,102 +490,122 @@ impl<T: Float> DeltaGeometry<T> {
     /// eliminated as functions of z (the print's A [x y]ᵀ = Γ z + Λ, with det A ∝ nz);
     /// where A is singular or nearly so the line is parameterized along n instead. The
     /// line is then intersected with sphere 1 using the cancellation-free root formula.
+    ///
+    /// NaN or ±∞ in q fails the travel check.
     pub fn forward(&self, q: &Vector3<T>) -> Result<Vector3<T>, KinematicsError> {
-        finite3(q)?;
         let [act1, act2, act3] = &self.actuators;
-        act1.check_travel(q.x, 0)?;
-        act2.check_travel(q.y, 1)?;
-        act3.check_travel(q.z, 2)?;
-        let a1 = act1.half_sigma(q.x);
-        let a2 = act2.half_sigma(q.y);
-        let a3 = act3.half_sigma(q.z);
-        // λi = li² − |ai|² (SPEC's corrected λ; T eq. 110 is garbled).
-        let lambda1 = act1.arm_sq_m2 - a1.norm_squared();
-        let lambda3 = act3.arm_sq_m2 - a3.norm_squared();
-        let lambda2 = act2.arm_sq_m2 - a2.norm_squared();
+        let (d1, d2, d3) = (q.x, q.y, q.z);
+        if !(act1.in_travel(d1) && act2.in_travel(d2) && act3.in_travel(d3)) {
+            return Err(self.travel_error(q));
+        }
+        let a1 = act1.half_sigma(d1);
+        let a2 = act2.half_sigma(d2);
+        let a3 = act3.half_sigma(d3);
         // Sphere i minus sphere 3: 2 (ai − a3) · p = λi − λ3 (T eqs. 111–112, halved).
+        let lambda3 = act3.lambda(d3);
+        let half: T = convert(0.5);
+        let h1 = (act1.lambda(d1) - lambda3) * half;
+        let h2 = (act2.lambda(d2) - lambda3) * half;
         let m1 = a1 - a3;
         let m2 = a2 - a3;
-        let half: T = convert(0.5);
-        let h1 = (lambda1 - lambda3) * half;
-        let h2 = (lambda2 - lambda3) * half;
-        let n = m1.cross(&m2);
-        let scale_sq = m1.norm_squared() * m2.norm_squared();
-        // Line p = e + t g.
-        let (e, g, fallback) = if n.z * n.z >= self.elimination_sine_sq * scale_sq {
-            // Elimination: det A = 4 nz; g = (g1, g2, 1), e = (e1, e2, 0) (T eqs. 118–124).
-            let inv = T::one() / n.z;
-            let e = Vector3::new(
-                (m2.y * h1 - m1.y * h2) * inv,
-                (m1.x * h2 - m2.x * h1) * inv,
-                T::zero(),
-            );
-            (e, n * inv, false)
-        } else {
-            // Fallback (vector trilateration): the point of the line in the plane of the
-            // centres is e = (h1 (m2 × n) − h2 (m1 × n)) / |n|², since m1·(m2 × n) =
-            // |n|² and m1·(m1 × n) = 0 (likewise for m2). Orient n upwards so that the
-            // `Plus` root is still the larger z.
-            let n_sq = n.norm_squared();
-            if n_sq <= self.singular_sine * self.singular_sine * scale_sq {
-                return Err(KinematicsError::SingularCentres);
-            }
-            let e = (m2.cross(&n) * h1 - m1.cross(&n) * h2) / n_sq;
-            let g = if n.z < T::zero() { -n } else { n };
-            (e, g, true)
-        };
+        let n = cross3(&m1, &m2);
+        let scale_sq = dot3(&m1, &m1) * dot3(&m2, &m2);
+        // Strict, so that nz = 0 never divides below (not even with the test hook
+        // `elimination_sine_sq = 0`).
+        if !exceeds(n.z * n.z, self.elimination_sine_sq * scale_sq) {
+            return self.forward_along_normal(q);
+        }
+        // Elimination: det A = 4 nz; x = e1 + g1 z, y = e2 + g2 z (T eqs. 118–124), so
+        // the line is p = e + t g with g = (g1, g2, 1), e = (e1, e2, 0) and t = z.
+        let inv = T::one() / n.z;
+        let (g1, g2) = (n.x * inv, n.y * inv);
+        let e1 = (m2.y * h1 - m1.y * h2) * inv;
+        let e2 = (m1.x * h2 - m2.x * h1) * inv;
         // |e + t g + a1|² = l1²  ⇒  η t² + 2 β t + γ = 0 (T eqs. 125–129, halved υ).
-        let w = e + a1;
-        let eta = g.norm_squared();
-        let beta = g.dot(&w);
-        let gamma = w.norm_squared() - act1.arm_sq_m2;
+        let (wx, wy, wz) = (e1 + a1.x, e2 + a1.y, a1.z);
+        let eta = g1 * g1 + g2 * g2 + T::one();
+        let beta = g1 * wx + g2 * wy + wz;
+        let gamma = wx * wx + wy * wy + wz * wz - act1.arm_sq_m2;
         let disc = beta * beta - eta * gamma;
-        if disc < T::zero() {
+        if !at_least(disc, T::zero()) {
             return Err(KinematicsError::OutOfReach(0));
         }
-        let sqrt_disc = disc.fsqrt();
-        let p = self.line_point(&e, &g, beta, gamma, eta, self.fk_sign * sqrt_disc);
+        let t = line_parameter(beta, gamma, eta, self.fk_sign * disc.fsqrt());
+        let p = Vector3::new(e1 + g1 * t, e2 + g2 * t, t);
+        self.check_branches(q, &p)?;
+        Ok(p)
+    }
+
+    /// The error for a q that failed the travel check.
+    #[cold]
+    #[inline(never)]
+    fn travel_error(&self, q: &Vector3<T>) -> KinematicsError {
+        let outside = (self.actuators.iter().zip(q.iter()))
+            .position(|(act, d)| !act.in_travel(*d))
+            .unwrap_or(0);
+        or_not_finite(&[q], KinematicsError::OutsideTravel(outside as u8))
+    }
+
+    /// Forward kinematics where the radical line is (nearly) horizontal (vector
+    /// trilateration): the point of the line in the plane of the centres is
+    /// e = (h1 (m2 × n) − h2 (m1 × n)) / |n|², since m1·(m2 × n) = |n|² and
+    /// m1·(m1 × n) = 0 (likewise for m2). n is oriented upwards so that the `Plus` root
+    /// is still the larger z. Out of line and starting over from q, so that the common
+    /// path keeps its intermediate values in registers.
+    #[inline(never)]
+    fn forward_along_normal(&self, q: &Vector3<T>) -> Result<Vector3<T>, KinematicsError> {
+        let [act1, act2, act3] = &self.actuators;
+        let a1 = act1.half_sigma(q.x);
+        let a3 = act3.half_sigma(q.z);
+        let lambda3 = act3.lambda(q.z);
+        let half: T = convert(0.5);
+        let h1 = (act1.lambda(q.x) - lambda3) * half;
+        let h2 = (act2.lambda(q.y) - lambda3) * half;
+        let m1 = a1 - a3;
+        let m2 = act2.half_sigma(q.y) - a3;
+        let n = cross3(&m1, &m2);
+        let scale_sq = dot3(&m1, &m1) * dot3(&m2, &m2);
+        let n_sq = dot3(&n, &n);
+        if !exceeds(n_sq, self.singular_sine_sq * scale_sq) {
+            return Err(KinematicsError::SingularCentres);
+        }
+        let e = (cross3(&m2, &n) * h1 - cross3(&m1, &n) * h2) / n_sq;
+        let g = if n.z < T::zero() { -n } else { n };
+        let w = e + a1;
+        let eta = n_sq;
+        let beta = dot3(&g, &w);
+        let gamma = dot3(&w, &w) - self.actuators[0].arm_sq_m2;
+        let disc = beta * beta - eta * gamma;
+        if !at_least(disc, T::zero()) {
+            return Err(KinematicsError::OutOfReach(0));
+        }
+        let root = self.fk_sign * disc.fsqrt();
+        let p = e + g * line_parameter(beta, gamma, eta, root);
         match self.check_branches(q, &p) {
             // Where the line is (nearly) horizontal both roots have (nearly) the same z,
             // so "larger z" no longer tells the assembly modes apart: take the other
             // root when only it is in the working mode.
-            Err(err) if fallback => {
-                let other = self.line_point(&e, &g, beta, gamma, eta, -self.fk_sign * sqrt_disc);
+            Err(err) => {
+                let other = e + g * line_parameter(beta, gamma, eta, -root);
                 self.check_branches(q, &other).map_err(|_| err)?;
                 Ok(other)
             }
-            checked => checked.map(|()| p),
+            Ok(()) => Ok(p),
         }
-    }
-
-    /// The point e + t g with t = (−β + root)/η, root = ±√disc. When root and −β have
-    /// opposite signs that sum cancels, so the equivalent t = γ / (−β − root) is used
-    /// (T eq. 131 in its cancellation-free form).
-    #[inline]
-    fn line_point(
-        &self,
-        e: &Vector3<T>,
-        g: &Vector3<T>,
-        beta: T,
-        gamma: T,
-        eta: T,
-        root: T,
-    ) -> Vector3<T> {
-        let t = if root * beta <= T::zero() {
-            (root - beta) / eta
-        } else {
-            gamma / (-beta - root)
-        };
-        e + g * t
     }
 
     /// Working mode: each arm must be on its configured IK branch, sign(fdi) = si (SPEC).
     #[inline]
     fn check_branches(&self, q: &Vector3<T>, p: &Vector3<T>) -> Result<(), KinematicsError> {
-        for (i, (act, d)) in self.actuators.iter().zip(q.iter()).enumerate() {
-            if act.fd(*d, p) * act.ik_sign < T::zero() {
-                return Err(KinematicsError::WrongBranch(i as u8));
-            }
+        let [act1, act2, act3] = &self.actuators;
+        if act1.fd(q.x, p) * act1.ik_sign < T::zero() {
+            return Err(KinematicsError::WrongBranch(0));
+        }
+        if act2.fd(q.y, p) * act2.ik_sign < T::zero() {
+            return Err(KinematicsError::WrongBranch(1));
+        }
+        if act3.fd(q.z, p) * act3.ik_sign < T::zero() {
+            return Err(KinematicsError::WrongBranch(2));
         }
         Ok(())
     }
@@ -484,30 +619,21 @@ impl<T: Float> DeltaGeometry<T> {
     /// |vi + di wi|² = li², so μ1i/2 = vi · wi and μ1i²/4 − μ2i = li² − |vi × wi|²
     /// (li² minus the squared distance of the joint from the rail). Expanding μ2i
     /// instead subtracts two nearly equal ~0.05 m² terms, which cost 1 µm in f32 on
-    /// the vertical preset; this form keeps it below 0.1 µm.
+    /// the vertical preset; this form keeps it below 0.1 µm. Both products are taken
+    /// in the actuator's vertical plane, where wi has two non-zero components.
+    ///
+    /// NaN or ±∞ in p makes μ1i or |vi × wi|² NaN or ±∞ (|vi|² is their sum), which
+    /// fails the discriminant or the travel check.
     pub fn inverse(&self, p: &Vector3<T>) -> Result<Vector3<T>, KinematicsError> {
-        finite3(p)?;
-        let mut q = Vector3::zeros();
-        for (i, (act, d)) in self.actuators.iter().zip(q.iter_mut()).enumerate() {
-            let v = Vector3::new(
-                p.x + act.offset_m * act.c_theta,
-                p.y + act.offset_m * act.s_theta,
-                p.z,
-            );
-            let w = Vector3::new(
-                act.c_theta * act.c_alpha,
-                act.s_theta * act.c_alpha,
-                -act.s_alpha,
-            );
-            let half_mu1 = v.dot(&w);
-            let disc = act.arm_sq_m2 - v.cross(&w).norm_squared();
-            if disc < T::zero() {
-                return Err(KinematicsError::OutOfReach(i as u8));
-            }
-            *d = act.ik_sign * disc.fsqrt() - half_mu1;
-            act.check_travel(*d, i as u8)?;
-        }
-        Ok(q)
+        let [act1, act2, act3] = &self.actuators;
+        let q = (|| {
+            Ok(Vector3::new(
+                act1.displacement(p, 0)?,
+                act2.displacement(p, 1)?,
+                act3.displacement(p, 2)?,
+            ))
+        })();
+        q.map_err(|err| or_not_finite(&[p], err))
     }
 
     /// `true` when the pose p is reachable in the working mode within travel and away
@@ -517,95 +643,122 @@ impl<T: Float> DeltaGeometry<T> {
         self.inverse(p).and_then(|q| self.jacobian(&q, p)).is_ok()
     }
 
-    /// J2 rows fi = (fxi, fyi, fzi) = −(p + ai), J1 = diag(fdi) and J2⁻¹ (SPEC velocity,
-    /// T eqs. 138–145). J2⁻¹ is the adjugate over the determinant: its columns are
-    /// f2 × f3, f3 × f1, f1 × f2 divided by f1 · (f2 × f3).
+    /// J2 = −G, J1 = diag(fdi) and J2⁻¹ = adj G / det J2 (SPEC velocity,
+    /// T eqs. 138–145), with the singularity checks. Inlined so that each map keeps
+    /// only what it uses in registers.
+    ///
+    /// NaN or ±∞ in q or p makes a row gi non-finite and with it det G (every entry
+    /// of G enters a product of det G = g1 · (g2 × g3)), which fails the J2 check.
+    #[inline(always)]
     fn velocity_terms(
         &self,
         q: &Vector3<T>,
         p: &Vector3<T>,
     ) -> Result<VelocityTerms<T>, KinematicsError> {
-        finite3(q)?;
-        finite3(p)?;
         let [act1, act2, act3] = &self.actuators;
-        let f = [
-            -(p + act1.half_sigma(q.x)),
-            -(p + act2.half_sigma(q.y)),
-            -(p + act3.half_sigma(q.z)),
+        let g = [
+            p + act1.half_sigma(q.x),
+            p + act2.half_sigma(q.y),
+            p + act3.half_sigma(q.z),
         ];
-        let fd = Vector3::new(act1.fd(q.x, p), act2.fd(q.y, p), act3.fd(q.z, p));
-        for (i, (act, fdi)) in self.actuators.iter().zip(fd.iter()).enumerate() {
-            if fdi.abs() < self.singular_sine * act.arm_m {
-                return Err(KinematicsError::SingularJ1(i as u8));
+        let fd = Vector3::new(
+            dot3(&act1.rail, &g[0]),
+            dot3(&act2.rail, &g[1]),
+            dot3(&act3.rail, &g[2]),
+        );
+        let err = if fd.x.abs() < act1.singular_fd_m {
+            KinematicsError::SingularJ1(0)
+        } else if fd.y.abs() < act2.singular_fd_m {
+            KinematicsError::SingularJ1(1)
+        } else if fd.z.abs() < act3.singular_fd_m {
+            KinematicsError::SingularJ1(2)
+        } else {
+            let [g1, g2, g3] = &g;
+            let adj = [cross3(g2, g3), cross3(g3, g1), cross3(g1, g2)];
+            let det_g = dot3(g1, &adj[0]);
+            if det_g.abs() >= self.singular_det_m3 && zero_if_finite(det_g) == T::zero() {
+                return Ok(VelocityTerms {
+                    g,
+                    fd,
+                    adj,
+                    inv_det_j2: -T::one() / det_g,
+                });
             }
-        }
-        let [f1, f2, f3] = &f;
-        let c1 = f2.cross(f3);
-        let det = f1.dot(&c1);
-        if det.abs() < self.singular_sine * self.arm_product_m3 {
-            return Err(KinematicsError::SingularJ2);
-        }
-        let inv_det = T::one() / det;
-        let j2_inv =
-            Matrix3::from_columns(&[c1 * inv_det, f3.cross(f1) * inv_det, f1.cross(f2) * inv_det]);
-        Ok((f, fd, j2_inv))
+            KinematicsError::SingularJ2
+        };
+        Err(or_not_finite(&[q, p], err))
     }
 
     /// Jx = J2⁻¹ J1 at the consistent pair (q, p), so that ṗ = Jx q̇ (T eq. 146).
     pub fn jacobian(&self, q: &Vector3<T>, p: &Vector3<T>) -> Result<Matrix3<T>, KinematicsError> {
-        let (_, fd, j2_inv) = self.velocity_terms(q, p)?;
-        // Multiplying by the diagonal J1 scales column j by fdj.
-        Ok(j2_inv * Matrix3::from_diagonal(&fd))
+        Ok(self.velocity_terms(q, p)?.jacobian())
     }
 
-    /// Jx⁻¹ = J1⁻¹ J2 at (q, p), so that q̇ = Jx⁻¹ ṗ: row i is fi / fdi.
+    /// Jx⁻¹ = J1⁻¹ J2 at (q, p), so that q̇ = Jx⁻¹ ṗ: row i is fi / fdi = −gi / fdi.
     pub fn jacobian_inverse(
         &self,
         q: &Vector3<T>,
         p: &Vector3<T>,
     ) -> Result<Matrix3<T>, KinematicsError> {
-        let (f, fd, _) = self.velocity_terms(q, p)?;
-        let [f1, f2, f3] = f;
+        let VelocityTerms { g, fd, .. } = self.velocity_terms(q, p)?;
+        let [g1, g2, g3] = g;
         Ok(Matrix3::from_rows(&[
-            (f1 / fd.x).transpose(),
-            (f2 / fd.y).transpose(),
-            (f3 / fd.z).transpose(),
+            (-g1 / fd.x).transpose(),
+            (-g2 / fd.y).transpose(),
+            (-g3 / fd.z).transpose(),
         ]))
     }
 
     /// J̇x at (q, p) moving with joint velocity q̇ (m/s): from J2 Jx = J1,
     /// J̇x = J2⁻¹ (J̇1 − J̇2 Jx) with ṗ = Jx q̇, ḟi = −(ṗ + ȧi) and
     /// ḟdi = cαi (cθi ẋ + sθi ẏ) − sαi ż + ḋi (time derivatives of T eqs. 139–142).
+    /// With ġi = ṗ + ḋi wi = −ḟi (ȧi = ḋi wi) that is ḟdi = wi · ġi and
+    /// J̇x = adj G (J̇1 + Ġ Jx) / det J2.
     pub fn jacobian_derivative(
         &self,
         q: &Vector3<T>,
         p: &Vector3<T>,
         q_dot: &Vector3<T>,
     ) -> Result<Matrix3<T>, KinematicsError> {
-        finite3(q_dot)?;
-        let (_, fd, j2_inv) = self.velocity_terms(q, p)?;
-        let jx = j2_inv * Matrix3::from_diagonal(&fd);
-        let p_dot = jx * q_dot;
+        let zero = T::zero();
+        if zero_if_finite(q_dot.x) + zero_if_finite(q_dot.y) + zero_if_finite(q_dot.z) != zero {
+            return Err(KinematicsError::NotFinite);
+        }
+        let terms = self.velocity_terms(q, p)?;
+        let jx = terms.jacobian();
+        let p_dot = Vector3::new(
+            dot3(&jx.row(0).transpose(), q_dot),
+            dot3(&jx.row(1).transpose(), q_dot),
+            dot3(&jx.row(2).transpose(), q_dot),
+        );
         let [act1, act2, act3] = &self.actuators;
-        // ȧi = ḋi (cθi cαi, sθi cαi, −sαi).
-        let rate = |act: &Actuator<T>, d_dot: T| {
-            let a_dot = Vector3::new(
-                act.c_theta * act.c_alpha * d_dot,
-                act.s_theta * act.c_alpha * d_dot,
-                -act.s_alpha * d_dot,
-            );
-            let fd_dot = act.c_alpha * (act.c_theta * p_dot.x + act.s_theta * p_dot.y)
-                - act.s_alpha * p_dot.z
-                + d_dot;
-            (-(p_dot + a_dot), fd_dot)
-        };
-        let (f1_dot, fd1_dot) = rate(act1, q_dot.x);
-        let (f2_dot, fd2_dot) = rate(act2, q_dot.y);
-        let (f3_dot, fd3_dot) = rate(act3, q_dot.z);
-        let j2_dot =
-            Matrix3::from_rows(&[f1_dot.transpose(), f2_dot.transpose(), f3_dot.transpose()]);
-        let j1_dot = Matrix3::from_diagonal(&Vector3::new(fd1_dot, fd2_dot, fd3_dot));
-        Ok(j2_inv * (j1_dot - j2_dot * jx))
+        let g_dot = [
+            p_dot + act1.rail * q_dot.x,
+            p_dot + act2.rail * q_dot.y,
+            p_dot + act3.rail * q_dot.z,
+        ];
+        // M = J̇1 + Ġ Jx: row i is ġiᵀ Jx plus ḟdi on the diagonal.
+        let mut m = Matrix3::from_fn(|i, j| dot3(&g_dot[i], &jx.column(j).into_owned()));
+        m[(0, 0)] += dot3(&act1.rail, &g_dot[0]);
+        m[(1, 1)] += dot3(&act2.rail, &g_dot[1]);
+        m[(2, 2)] += dot3(&act3.rail, &g_dot[2]);
+        let [c1, c2, c3] = &terms.adj;
+        Ok(Matrix3::from_fn(|k, j| {
+            (c1[k] * m[(0, j)] + c2[k] * m[(1, j)] + c3[k] * m[(2, j)]) * terms.inv_det_j2
+        }))
+    }
+}
+
+/// The parameter t of the root of η t² + 2 β t + γ = 0 on the line, t = (−β + root)/η
+/// with root = ±√(β² − ηγ). When root and −β have opposite signs that sum cancels, so
+/// the equivalent t = γ / (−β − root) is used (T eq. 131 in its cancellation-free
+/// form).
+#[inline]
+fn line_parameter<T: Float>(beta: T, gamma: T, eta: T, root: T) -> T {
+    if root * beta <= T::zero() {
+        (root - beta) / eta
+    } else {
+        gamma / (-beta - root)
     }
 }
 
@@ -703,10 +856,8 @@ mod tests {
     /// Residual of the loop closure |p + ai| − li of every arm (m).
     fn loop_residual(c: &DeltaConfig, q: &V, p: &V) -> f64 {
         let g = geometry::<f64>(c);
-        g.actuators
-            .iter()
-            .zip(q.iter())
-            .map(|(a, d)| ((p + a.half_sigma(*d)).norm() - a.arm_m).abs())
+        (g.actuators.iter().zip(c.actuators.iter()).zip(q.iter()))
+            .map(|((a, config), d)| ((p + a.half_sigma(*d)).norm() - config.arm_m).abs())
             .fold(0.0, f64::max)
     }
 
