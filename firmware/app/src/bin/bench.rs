@@ -12,7 +12,7 @@ use kerf::control::dob::Dob;
 use kerf::control::pd::{Pd, Reference};
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
-use kerf::sensing::hall::{HallConfig, HallDecoder};
+use kerf::sensing::hall::{HallArithmetic, HallConfig, HallDecoder};
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::shapes;
 use kerf::{Real, Q32};
@@ -49,31 +49,6 @@ fn hall_inputs() -> [[u16; 3]; INPUTS] {
         }
     }
     out
-}
-
-/// The comparison decoder: float Clarke and libm's `atan2f`, unwrapped in f32 turns.
-struct Atan2fDecoder {
-    offset: [f32; 3],
-    last_turn: f32,
-    turns: f32,
-}
-
-impl Atan2fDecoder {
-    fn update(&mut self, raw: [u16; 3]) -> f32 {
-        let u = [
-            raw[0] as f32 - self.offset[0],
-            raw[1] as f32 - self.offset[1],
-            raw[2] as f32 - self.offset[2],
-        ];
-        let alpha = (2.0 * u[0] - u[1] - u[2]) * (1.0 / 3.0);
-        let beta = (u[1] - u[2]) * (1.0 / 1.732_050_8);
-        let turn = libm::atan2f(alpha, beta) * (0.5 / PI);
-        let mut step = turn - self.last_turn;
-        step -= libm::roundf(step);
-        self.last_turn = turn;
-        self.turns += step;
-        self.turns
-    }
 }
 
 /// References along a slow ramp, one per input.
@@ -118,10 +93,10 @@ fn main() -> ! {
     else {
         exit(false)
     };
-    let mut atan2f = Atan2fDecoder {
-        offset: [32768.0; 3],
-        last_turn: 0.0,
-        turns: 0.0,
+    let mut f32_hall = axis.hall;
+    f32_hall.arithmetic = HallArithmetic::F32;
+    let Ok(mut decoder_f32) = HallDecoder::new(&f32_hall) else {
+        exit(false)
     };
     let mask = INPUTS as u32 - 1;
     let vectors: [(i32, i32); INPUTS] = core::array::from_fn(|k| {
@@ -150,9 +125,13 @@ fn main() -> ! {
         |i| {
             black_box(decoder.update(black_box(hall[(i & mask) as usize]), 0).ok());
         },
-        "f32 Clarke + libm::atan2f + unwrap",
+        "same decoder, HallArithmetic::F32 (f32 + libm::atan2f)",
         |i| {
-            black_box(atan2f.update(black_box(hall[(i & mask) as usize])));
+            black_box(
+                decoder_f32
+                    .update(black_box(hall[(i & mask) as usize]), 0)
+                    .ok(),
+            );
         },
     );
 

@@ -153,13 +153,14 @@ pub struct HallDecoder {
     sin_row_f32: [f32; 3],
     cos_row_f32: [f32; 3],
     sum_limit_q4: i32,
-    magnitude_sq_min: i64,
-    magnitude_sq_max: i64,
+    magnitude_sq_min: u32,
+    magnitude_sq_max: u32,
     magnitude_sq_min_f32: f32,
     magnitude_sq_max_f32: f32,
     correction: Option<HallCorrection>,
-    /// The two samples before the present one, newest first (stuck-channel diagnosis).
-    history: [[u16; 3]; 2],
+    /// The two samples before the present one, newest first, packed 16 bits a channel
+    /// (stuck-channel diagnosis).
+    history: [u64; 2],
     accumulator: Option<i64>,
 }
 
@@ -226,12 +227,13 @@ impl HallDecoder {
             sum_limit_q4: libm::round(
                 sum_limit * amplitude * f64::from(1u32 << COUNT_FRACTION_BITS),
             ) as i32,
-            magnitude_sq_min: ((lo * nominal) * (lo * nominal)) as i64,
-            magnitude_sq_max: ((hi * nominal) * (hi * nominal)) as i64,
+            // In the integer path's 2^-5 scale (see `phase`).
+            magnitude_sq_min: ((lo * nominal / 32.0) * (lo * nominal / 32.0)) as u32,
+            magnitude_sq_max: ((hi * nominal / 32.0) * (hi * nominal / 32.0)) as u32,
             magnitude_sq_min_f32: ((lo * nominal) * (lo * nominal)) as f32,
             magnitude_sq_max_f32: ((hi * nominal) * (hi * nominal)) as f32,
             correction: None,
-            history: [[0; 3]; 2],
+            history: [0; 2],
             accumulator: None,
         })
     }
@@ -274,7 +276,7 @@ impl HallDecoder {
     /// Forgets the pitch count: the next good sample restarts at pitch zero.
     pub fn reset(&mut self) {
         self.accumulator = None;
-        self.history = [[0; 3]; 2];
+        self.history = [0; 2];
     }
 
     /// Checks the sample and returns its phase word (no unwrapping).
@@ -287,8 +289,9 @@ impl HallDecoder {
         }
         let u = [0, 1, 2].map(|k| (i32::from(raw[k]) << COUNT_FRACTION_BITS) - self.offset_q4[k]);
         let history = self.history;
-        self.history = [raw, history[0]];
-        let stuck = || stuck_channel(raw, &history);
+        let packed = pack(raw);
+        self.history = [packed, history[0]];
+        let stuck = || stuck_channel(packed, &history);
         if (u[0] + u[1] + u[2]).abs() > self.sum_limit_q4 {
             return Err(stuck().unwrap_or(HallFault::SumOutOfBand));
         }
@@ -296,43 +299,54 @@ impl HallDecoder {
         match self.arithmetic {
             HallArithmetic::Integer => {
                 let (s, c) = (dot_q(&self.sin_row_q, &u), dot_q(&self.cos_row_q, &u));
-                let magnitude_sq = i64::from(s) * i64::from(s) + i64::from(c) * i64::from(c);
+                // Only |s|, |c| < 2^20 can pass the band (hi < 2); below that the squares
+                // in a 2^-5 scale fit a u32 sum.
+                let (s_abs, c_abs) = (s.unsigned_abs(), c.unsigned_abs());
+                if (s_abs | c_abs) >= 1 << 20 {
+                    return magnitude_fault();
+                }
+                let magnitude_sq = (s_abs >> 5) * (s_abs >> 5) + (c_abs >> 5) * (c_abs >> 5);
                 if magnitude_sq < self.magnitude_sq_min || magnitude_sq > self.magnitude_sq_max {
                     return magnitude_fault();
                 }
-                // The band check bounds |s|, |c| below 1.99·R < 2^20.
-                Ok(atan::atan2_turns_below_2_20(
-                    s < 0,
-                    c < 0,
-                    s.unsigned_abs(),
-                    c.unsigned_abs(),
-                ))
+                Ok(atan::atan2_turns_below_2_20(s < 0, c < 0, s_abs, c_abs))
             }
-            HallArithmetic::F32 => {
-                let uf = [0, 1, 2].map(|k| f32::from(raw[k]) - self.offset_f32[k]);
-                let s = self.sin_row_f32[0] * uf[0]
-                    + self.sin_row_f32[1] * uf[1]
-                    + self.sin_row_f32[2] * uf[2];
-                let c = self.cos_row_f32[0] * uf[0]
-                    + self.cos_row_f32[1] * uf[1]
-                    + self.cos_row_f32[2] * uf[2];
-                let magnitude_sq = s * s + c * c;
-                if !(magnitude_sq >= self.magnitude_sq_min_f32
-                    && magnitude_sq <= self.magnitude_sq_max_f32)
-                {
-                    return magnitude_fault();
-                }
-                Ok(turns_from_rad(libm::atan2f(s, c)))
-            }
+            HallArithmetic::F32 => match self.phase_f32(raw) {
+                Some(phase) => Ok(phase),
+                None => magnitude_fault(),
+            },
         }
     }
+
+    /// The f32 path of steps 2–5 (kept out of line so the integer path does not carry
+    /// its floating-point register saves); `None` when the magnitude is out of band.
+    #[inline(never)]
+    fn phase_f32(&self, raw: [u16; 3]) -> Option<u32> {
+        let uf = [0, 1, 2].map(|k| f32::from(raw[k]) - self.offset_f32[k]);
+        let s =
+            self.sin_row_f32[0] * uf[0] + self.sin_row_f32[1] * uf[1] + self.sin_row_f32[2] * uf[2];
+        let c =
+            self.cos_row_f32[0] * uf[0] + self.cos_row_f32[1] * uf[1] + self.cos_row_f32[2] * uf[2];
+        let magnitude_sq = s * s + c * c;
+        (magnitude_sq >= self.magnitude_sq_min_f32 && magnitude_sq <= self.magnitude_sq_max_f32)
+            .then(|| turns_from_rad(libm::atan2f(s, c)))
+    }
+}
+
+/// Three 16-bit channels in one word.
+#[inline]
+fn pack(raw: [u16; 3]) -> u64 {
+    u64::from(raw[0]) | u64::from(raw[1]) << 16 | u64::from(raw[2]) << 32
 }
 
 /// The channel that read the same value in this and the two previous samples while
 /// another channel changed: the suspect once the consistency checks fail.
-fn stuck_channel(raw: [u16; 3], history: &[[u16; 3]; 2]) -> Option<HallFault> {
-    let repeated = |k: usize| raw[k] == history[0][k] && raw[k] == history[1][k];
-    let moved = (0..3).any(|k| raw[k] != history[0][k]);
+fn stuck_channel(raw: u64, history: &[u64; 2]) -> Option<HallFault> {
+    let channel = |word: u64, k: usize| (word >> (16 * k)) & 0xFFFF;
+    let repeated = |k: usize| {
+        channel(raw, k) == channel(history[0], k) && channel(raw, k) == channel(history[1], k)
+    };
+    let moved = raw != history[0];
     (0..3)
         .find(|&k| moved && repeated(k))
         .map(|k| HallFault::StuckChannel(k as u8))
@@ -351,8 +365,10 @@ fn dot_q(row: &[i32; 3], u: &[i32; 3]) -> i32 {
 /// Radians (−π, π] to a phase word.
 #[inline]
 fn turns_from_rad(angle_rad: f32) -> u32 {
-    // f32 → i64 keeps the sign; the wrap to u32 is the modulo one turn.
-    (angle_rad * (4_294_967_296.0 / core::f32::consts::TAU)) as i64 as u32
+    // (−π, π] maps to (−2^31, 2^31]; the saturating f32 → i32 conversion (one VCVT)
+    // turns +π into 2^31 − 1, one unit of 2^-32 turn short. The wrap to u32 is the
+    // modulo one turn.
+    (angle_rad * (2_147_483_648.0 / core::f32::consts::PI)) as i32 as u32
 }
 
 #[cfg(test)]
