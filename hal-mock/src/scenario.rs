@@ -7,7 +7,9 @@ use crate::linear_motor::LinearMotorParams;
 use kerf::app::axis::{AxisConfig, AxisLoop, AxisState};
 use kerf::control::pd::Reference;
 use kerf::hal::HallInput;
-use kerf::sensing::hall::HallFault;
+use kerf::sensing::hall::{
+    CalibrationError, HallCalibrator, HallCorrection, HallFault, SelfCalibration,
+};
 use kerf::trajectory::quintic::Quintic;
 use kerf::{ConfigError, Real};
 
@@ -50,6 +52,41 @@ pub fn profile(t_s: f64) -> Reference<f64> {
     }
 }
 
+/// The reference of `motion` at `t_s`.
+pub fn reference(motion: Motion, t_s: f64) -> Reference<f64> {
+    let hold = Reference {
+        position: START_M,
+        velocity: 0.0,
+        acceleration: 0.0,
+    };
+    match motion {
+        Motion::Profile => profile(t_s),
+        Motion::Hold => hold,
+        Motion::CalibrationSweep => match Quintic::<f64>::new(START_M, 1.5 * 0.018, 0.6) {
+            Ok(sweep) => sweep.sample(t_s - 0.02),
+            Err(_) => hold,
+        },
+    }
+}
+
+/// What the axis is asked to do.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Motion {
+    /// The 1 s [`profile`].
+    Profile,
+    /// Hold the start position.
+    Hold,
+    /// The calibration sweep: 1.5 pitches (27 mm) out in 0.6 s, from rest to rest.
+    CalibrationSweep,
+}
+
+/// Periods of the calibration sweep (0.65 s: the 0.6 s move and settling).
+pub const CALIBRATION_PERIODS: u32 = 6500;
+/// Samples the calibration can keep.
+pub const CALIBRATION_SAMPLES: usize = 512;
+/// One sample kept every this many periods of the sweep (500 samples).
+pub const CALIBRATION_DECIMATION: u32 = 13;
+
 /// Scenario knobs.
 #[derive(Copy, Clone, Debug)]
 pub struct Scenario {
@@ -63,8 +100,10 @@ pub struct Scenario {
     pub seed: u64,
     /// Number of control periods.
     pub periods: u32,
-    /// Follow [`profile`] (`true`) or hold the start position (`false`).
-    pub track_profile: bool,
+    /// The motion to follow.
+    pub motion: Motion,
+    /// Learnt phase correction for the decoder, if any.
+    pub correction: Option<HallCorrection>,
     /// External load step: (time in s, force in N).
     pub load_step: Option<(f64, f64)>,
     /// Inject a sensor fault from this time in s on.
@@ -79,7 +118,8 @@ impl Scenario {
         sensor: HallSensorParams::LM1247_16BIT,
         seed: 0x6b65_7266,
         periods: 10_000,
-        track_profile: true,
+        motion: Motion::Profile,
+        correction: None,
         load_step: None,
         sensor_fault: None,
     };
@@ -102,6 +142,8 @@ pub struct Period {
     pub position_m: f64,
     /// The latched fault, if any.
     pub fault: Option<HallFault>,
+    /// Raw Hall counts the controller read this period.
+    pub hall_counts: [u16; 3],
 }
 
 /// The controller in scalar `T` closed around the simulated axis, one period a step.
@@ -118,6 +160,7 @@ impl<T: Real> Simulation<T> {
     pub fn new(scenario: &Scenario) -> Result<Self, ConfigError> {
         let mut control = AxisLoop::<T>::new(&scenario.axis)?;
         control.set_home(T::from_f64(START_M));
+        control.set_hall_correction(scenario.correction);
         let plant = SimulatedAxis::new(
             scenario.motor,
             scenario.sensor,
@@ -148,22 +191,14 @@ impl<T: Real> Simulation<T> {
                 self.plant.sensor.fault = Some(fault);
             }
         }
-        let r = if self.scenario.track_profile {
-            profile(t)
-        } else {
-            Reference {
-                position: START_M,
-                velocity: 0.0,
-                acceleration: 0.0,
-            }
-        };
+        let r = reference(self.scenario.motion, t);
         let r_t = Reference {
             position: T::from_f64(r.position),
             velocity: T::from_f64(r.velocity),
             acceleration: T::from_f64(r.acceleration),
         };
-        let counts = self.plant.hall_counts(0);
-        let out = self.control.step(counts, &r_t);
+        let hall_counts = self.plant.hall_counts(0);
+        let out = self.control.step(hall_counts, &r_t);
         let error_m = r.position - self.plant.motor.position_m;
         let force_n = out.force_n.to_f64();
         self.plant.apply_force(force_n);
@@ -174,6 +209,7 @@ impl<T: Real> Simulation<T> {
             disturbance_n: out.disturbance_n.to_f64(),
             velocity_m_s: out.velocity_m_s.to_f64(),
             position_m: out.position_m.to_f64(),
+            hall_counts,
             fault: match out.state {
                 AxisState::Fault(fault) => Some(fault),
                 _ => None,
@@ -268,4 +304,49 @@ pub fn run_into<T: Real>(
 /// Runs `scenario` with the controller in scalar `T`.
 pub fn run<T: Real>(scenario: &Scenario) -> Result<Outcome, ConfigError> {
     run_into::<T>(scenario, Outcome::with_window(f64::INFINITY, f64::INFINITY))
+}
+
+/// Why [`self_calibrate`] failed.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum CalibrationRunError {
+    /// The controller configuration was rejected.
+    Config(ConfigError),
+    /// The fit failed.
+    Calibration(CalibrationError),
+    /// The axis faulted during the sweep.
+    Fault(HallFault),
+}
+
+/// Calibration mode: runs [`Motion::CalibrationSweep`] in closed loop with the decoder
+/// as configured in `scenario` (nominal, uncalibrated), keeps every 13th raw sample and
+/// fits the sensor model. Returns the fit and `scenario` with the calibrated decoder
+/// and its model-derived correction installed.
+pub fn self_calibrate<T: Real>(
+    scenario: &Scenario,
+) -> Result<(SelfCalibration, Scenario), CalibrationRunError> {
+    let mut sweep = *scenario;
+    sweep.motion = Motion::CalibrationSweep;
+    sweep.periods = CALIBRATION_PERIODS;
+    sweep.correction = None;
+    let mut simulation = Simulation::<T>::new(&sweep).map_err(CalibrationRunError::Config)?;
+    let mut calibrator = HallCalibrator::<CALIBRATION_SAMPLES>::new();
+    let mut k = 0u32;
+    while let Some(period) = simulation.step() {
+        if let Some(fault) = period.fault {
+            return Err(CalibrationRunError::Fault(fault));
+        }
+        if k % CALIBRATION_DECIMATION == 0 {
+            calibrator
+                .push(period.hall_counts)
+                .map_err(CalibrationRunError::Calibration)?;
+        }
+        k += 1;
+    }
+    let fit = calibrator
+        .solve(&scenario.axis.hall.calibration)
+        .map_err(CalibrationRunError::Calibration)?;
+    let mut calibrated = *scenario;
+    calibrated.axis.hall.calibration = fit.calibration;
+    calibrated.correction = Some(fit.correction);
+    Ok((fit, calibrated))
 }

@@ -7,7 +7,7 @@ use crate::control::dob::{Dob, DobConfig};
 use crate::control::pd::{Pd, PdConfig, Reference};
 use crate::error::ConfigError;
 use crate::scalar::Real;
-use crate::sensing::hall::{HallConfig, HallDecoder, HallFault};
+use crate::sensing::hall::{HallConfig, HallCorrection, HallDecoder, HallFault};
 use crate::sensing::velocity::{TrackingObserver, TrackingObserverConfig};
 
 /// Everything one axis needs; [`AxisConfig::LM1247_SLAVE`] is the seed's slave motor.
@@ -119,6 +119,11 @@ impl<T: Real> AxisLoop<T> {
     /// reset, in the reference's frame (homing; zero by default).
     pub fn set_home(&mut self, home_m: T) {
         self.home_m = home_m;
+    }
+
+    /// Installs (or removes) the Hall decoder's phase correction table.
+    pub fn set_hall_correction(&mut self, correction: Option<HallCorrection>) {
+        self.decoder.set_correction(correction);
     }
 
     /// Leaves a latched fault: the next good sample restarts the loop from rest and is
