@@ -480,3 +480,182 @@ impl PacketDecoder {
         Ok(Received { packet, gap })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn block64(mask: u64) -> Block<64> {
+        Block::from_parts(mask, core::array::from_fn(|k| (k as f32 - 20.0) * 0.37))
+    }
+
+    fn encoded(mask: u64, sequence: u16) -> ([u8; MAX_PACKET_LEN], usize) {
+        let mut buf = [0u8; MAX_PACKET_LEN];
+        let len = encode(&block64(mask), sequence, 1234, &mut buf).unwrap();
+        (buf, len)
+    }
+
+    /// Rewrites the CRC after a deliberate edit, so the check under test is reached.
+    fn fix_crc(bytes: &mut [u8]) {
+        let n = bytes.len() - CRC_LEN;
+        let crc = CRC16.checksum(&bytes[..n]);
+        bytes[n..].copy_from_slice(&crc.to_le_bytes());
+    }
+
+    #[test]
+    fn index_form_is_the_smallest() {
+        // N = 64: list of 6-bit indices beats the 8-byte mask up to m = 10.
+        let sparse = 1 << 3 | 1 << 40 | 1 << 63;
+        let (buf, len) = encoded(sparse, 0);
+        assert_eq!(buf[3], IndexForm::List as u8);
+        assert_eq!(len, HEADER_LEN + 3 + 2 * 3 + CRC_LEN); // 18 bits → 3 bytes
+        let dense = 0x5555_5555_5555_5555;
+        let (buf, len) = encoded(dense, 0);
+        assert_eq!(buf[3], IndexForm::Bitmask as u8);
+        assert_eq!(len, HEADER_LEN + 8 + 2 * 32 + CRC_LEN);
+        let (buf, len) = encoded(0xFF, 0);
+        assert_eq!(buf[3], IndexForm::Prefix as u8);
+        assert_eq!(len, HEADER_LEN + 2 * 8 + CRC_LEN);
+        assert_eq!(encoded(u64::MAX, 0).1, MAX_PACKET_LEN - 8); // full prefix
+    }
+
+    #[test]
+    fn every_malformation_has_its_error() {
+        let (buf, len) = encoded(1 << 3 | 1 << 40 | 1 << 63, 7);
+        let good = &buf[..len];
+        assert!(parse(good).is_ok());
+        assert_eq!(parse(&good[..5]), Err(PacketError::Truncated));
+        assert_eq!(parse(&good[..len - 1]), Err(PacketError::Truncated));
+        let mut long = [0u8; MAX_PACKET_LEN];
+        long[..len].copy_from_slice(good);
+        assert_eq!(parse(&long[..len + 1]), Err(PacketError::LengthMismatch));
+
+        let mut bad = buf;
+        bad[HEADER_LEN + 4] ^= 0x10;
+        assert_eq!(parse(&bad[..len]), Err(PacketError::BadCrc));
+
+        let edit = |offset: usize, value: u8| {
+            let mut b = buf;
+            b[offset] = value;
+            fix_crc(&mut b[..len]);
+            parse(&b[..len])
+        };
+        assert_eq!(edit(0, 2), Err(PacketError::UnknownVersion(2)));
+        assert_eq!(edit(1, 48), Err(PacketError::UnsupportedN(48)));
+        assert_eq!(edit(2, 65), Err(PacketError::TooManyCoefficients));
+        assert_eq!(edit(3, 9), Err(PacketError::UnknownIndexForm(9)));
+        // Same length with a 4th index would not fit: m = 4 needs 3 bytes of list and
+        // 8 bytes of values, so the length check fires.
+        assert_eq!(edit(2, 4), Err(PacketError::Truncated));
+
+        // Duplicate: indices 3, 40, 63 → 3, 3, 63 (first 6-bit field copied over the
+        // second one: bits 6..12 of the list).
+        let mut dup = buf;
+        let list = u32::from_le_bytes([dup[11], dup[12], dup[13], 0]);
+        let list = (list & !(0x3F << 6)) | 3 << 6;
+        dup[11..14].copy_from_slice(&list.to_le_bytes()[..3]);
+        fix_crc(&mut dup[..len]);
+        assert_eq!(parse(&dup[..len]), Err(PacketError::DuplicateIndex(3)));
+
+        // Padding: 3 × 6 bits leave 6 zero bits in the last list byte.
+        let mut pad = buf;
+        pad[13] |= 0x80;
+        fix_crc(&mut pad[..len]);
+        assert_eq!(parse(&pad[..len]), Err(PacketError::BadPadding));
+
+        // Bit mask whose popcount disagrees with m.
+        let (mbuf, mlen) = encoded(0x5555_5555_5555_5555, 0);
+        let mut cnt = mbuf;
+        cnt[HEADER_LEN] |= 0x02;
+        fix_crc(&mut cnt[..mlen]);
+        assert_eq!(parse(&cnt[..mlen]), Err(PacketError::IndexCountMismatch));
+
+        // Encoder-side errors.
+        let mut small = [0u8; 10];
+        assert_eq!(
+            encode(&block64(1), 0, 0, &mut small),
+            Err(PacketError::BufferTooSmall)
+        );
+        let mut big = [0u8; MAX_PACKET_LEN];
+        assert_eq!(
+            encode_parts(1 << 9, &[1.0; 8], 0, 0, &mut big),
+            Err(PacketError::IndexOutOfRange(9))
+        );
+        assert_eq!(
+            encode_parts(1, &[1.0; 12], 0, 0, &mut big),
+            Err(PacketError::UnsupportedN(12))
+        );
+        assert_eq!(
+            encode_parts(1, &[f32::NAN; 8], 0, 0, &mut big),
+            Err(PacketError::NotFinite)
+        );
+    }
+
+    #[test]
+    fn sequence_must_move_forward_and_gaps_are_reported() {
+        let mut dec = PacketDecoder::new();
+        let mut feed = |seq: u16| {
+            let (buf, len) = encoded(0b1011, seq);
+            dec.decode(&buf[..len]).map(|r| r.gap)
+        };
+        assert_eq!(feed(65530), Ok(0));
+        assert_eq!(feed(65531), Ok(0));
+        assert_eq!(feed(2), Ok(6)); // wraps forward past 65535, 6 numbers skipped
+        assert_eq!(
+            feed(2),
+            Err(PacketError::SequenceBackwards { last: 2, got: 2 })
+        );
+        assert_eq!(
+            feed(65535),
+            Err(PacketError::SequenceBackwards {
+                last: 2,
+                got: 65535
+            })
+        );
+        assert_eq!(feed(3), Ok(0)); // rejected packets left the state alone
+    }
+
+    #[test]
+    fn packet_for_another_n_is_not_a_block() {
+        let (buf, len) = encoded(0b11, 0);
+        let packet = parse(&buf[..len]).unwrap();
+        assert_eq!(packet.to_block::<32>(), Err(PacketError::UnsupportedN(64)));
+        assert!(packet.to_block::<64>().is_ok());
+    }
+
+    proptest! {
+        #[test]
+        fn encode_then_decode_round_trips(
+            values in proptest::array::uniform32(-1.0e4f32..1.0e4),
+            mask in any::<u32>(),
+            sequence in any::<u16>(),
+            timestamp in any::<u32>(),
+            scale_exp in -40i32..40,
+        ) {
+            let coeffs = values.map(|v| libm::ldexpf(v, scale_exp));
+            let block = Block::<32>::from_parts(u64::from(mask), coeffs);
+            let mut buf = [0u8; MAX_PACKET_LEN];
+            let len = encode(&block, sequence, timestamp, &mut buf).unwrap();
+            let m = mask.count_ones() as usize;
+            let form = choose_form(32, m, u64::from(mask));
+            prop_assert_eq!(len, HEADER_LEN + form.len(32, m) + 2 * m + CRC_LEN);
+            let received = PacketDecoder::new().decode(&buf[..len]).unwrap();
+            let p = &received.packet;
+            prop_assert_eq!((p.n, usize::from(p.m)), (32, m));
+            prop_assert_eq!((p.sequence, p.timestamp, p.mask), (sequence, timestamp, u64::from(mask)));
+            let decoded = p.to_block::<32>().unwrap();
+            // Half a mantissa step 2^(e−16), a full step when rounding saturates.
+            let step = libm::ldexpf(1.0, i32::from(p.exponent) - 15);
+            let max_abs = coeffs.iter().enumerate()
+                .filter(|&(k, _)| mask >> k & 1 == 1)
+                .fold(0.0f32, |a, (_, c)| a.max(c.abs()));
+            // The exponent uses the mantissa range: 2^(e−1) ≤ max |c| < 2^e.
+            let top = libm::ldexpf(1.0, i32::from(p.exponent));
+            prop_assert!(m == 0 || (max_abs < top && max_abs >= 0.5 * top));
+            for (k, (&a, &b)) in block.coefficients().iter().zip(decoded.coefficients()).enumerate() {
+                prop_assert!((a - b).abs() <= step, "k {} {} vs {}", k, a, b);
+            }
+        }
+    }
+}
