@@ -9,5 +9,6 @@ extern crate std;
 pub mod axis;
 pub mod hall_sensor;
 pub mod linear_motor;
+pub mod link;
 pub mod noise;
 pub mod scenario;
