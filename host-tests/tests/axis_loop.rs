@@ -1,6 +1,6 @@
 //! Closed-loop scenarios of one LM1247 axis: Hall decode → DOB + PD → simulated plant.
 
-use hal_mock::scenario::{run, run_with_window, Scenario, MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M};
+use hal_mock::scenario::{run, Scenario, MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M};
 use kerf::Q32;
 
 fn report(name: &str, o: &hal_mock::scenario::Outcome) {
