@@ -73,17 +73,8 @@ fn report<const N: usize>(signals: &[Signal], ms: &[usize]) {
     );
     println!("raw block = {} bytes (N 16-bit samples)", 2 * N);
     println!(
-        "{:<9} {:>3} | {:>6} {:>5} {:>7} | {:>7} | {:>3} {:>6} {:>7} | {}",
-        "signal",
-        "m",
-        "B/pkt",
-        "ratio",
-        "SDCT",
-        "base@m",
-        "m'",
-        "B/pkt",
-        "base@B",
-        "at equal bytes"
+        "{:<9} {:>3} | {:>6} {:>5} {:>7} | {:>7} | {:>3} {:>6} {:>7} | at equal bytes",
+        "signal", "m", "B/pkt", "ratio", "SDCT", "base@m", "m'", "B/pkt", "base@B",
     );
     for s in signals {
         let x = &s.samples;

@@ -519,7 +519,7 @@ mod tests {
         core::array::from_fn(|k| {
             let mut acc = 0i32;
             for (n, &v) in x.iter().enumerate() {
-                let p = i32::from(v) * cos_q15((2 * n + 1) * k * stride(N)) as i32 >> shift;
+                let p = (i32::from(v) * cos_q15((2 * n + 1) * k * stride(N)) as i32) >> shift;
                 acc = acc.wrapping_add(p);
             }
             let scale = if k == 0 { s0 } else { s };
