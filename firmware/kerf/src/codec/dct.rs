@@ -32,7 +32,6 @@
 //! f32 fast forward max error ≤ 2e-6 · √N, f32 round trip ≤ 2e-6 · √N; Q15 forward and
 //! inverse within 3 LSB, Q15 round trip within 3 LSB.
 
-use core::iter::once;
 use core::mem::swap;
 
 use crate::error::ConfigError;
@@ -120,14 +119,20 @@ impl<const N: usize> Dct<N> {
         self.twiddle.get(len / 2..len).unwrap_or(&[])
     }
 
+    /// Twiddles of the 8-point base kernel: L = 8 (4), L = 4 (2), L = 2 (1).
+    fn base_twiddles(&self) -> ([f32; 4], [f32; 2], f32) {
+        let t = |i: usize| self.twiddle.get(i).copied().unwrap_or(0.0);
+        ([t(4), t(5), t(6), t(7)], [t(2), t(3)], t(1))
+    }
+
     /// In-place orthonormal DCT-II: `x` holds the samples on entry and c[0..N) on return.
     pub fn forward(&self, x: &mut [f32; N]) {
         let mut scratch = [0.0f32; N];
         let (mut src, mut dst): (&mut [f32], &mut [f32]) = (x, &mut scratch);
-        // Split stages, L = N, N/2, …, 2: [a | b] with a[i] = x[i] + x[L−1−i] and
+        // Split stages, L = N, N/2, …, 16: [a | b] with a[i] = x[i] + x[L−1−i] and
         // b[i] = (x[i] − x[L−1−i]) / (2 cos((2i+1)π/2L)).
         let mut len = N;
-        while len >= 2 {
+        while len > 8 {
             let tw = self.stage_twiddles(len);
             for (s, d) in src.chunks_exact(len).zip(dst.chunks_exact_mut(len)) {
                 let (Some((s_lo, s_hi)), Some((d_lo, d_hi))) =
@@ -144,29 +149,35 @@ impl<const N: usize> Dct<N> {
             swap(&mut src, &mut dst);
             len /= 2;
         }
-        // Merge stages, L = 2, 4, …, N: from A = DCT(a), B = DCT(b),
+        // The last three levels (L = 8, 4, 2) in registers, in place.
+        let (t8, t4, t2) = self.base_twiddles();
+        for chunk in src.chunks_exact_mut(8) {
+            if let Ok(block) = <&mut [f32; 8]>::try_from(chunk) {
+                *block = dct8(*block, t8, t4, t2);
+            }
+        }
+        // Merge stages, L = 16, 32, …, N: from A = DCT(a), B = DCT(b),
         // X[2k] = A[k], X[2k+1] = B[k] + B[k+1] with B[L/2] = 0.
-        let mut len = 2;
+        let mut len = 16;
         while len <= N {
             for (s, d) in src.chunks_exact(len).zip(dst.chunks_exact_mut(len)) {
                 let Some((even, odd)) = s.split_at_checked(len / 2) else {
                     continue;
                 };
-                let odd_next = odd.iter().skip(1).chain(once(&0.0));
-                for (pair, ((&a, &b), &b1)) in d
-                    .chunks_exact_mut(2)
-                    .zip(even.iter().zip(odd).zip(odd_next))
-                {
+                // Walk backwards so B[k+1] is the previous iteration's B[k].
+                let mut odd_next = 0.0;
+                for (pair, (&a, &b)) in d.chunks_exact_mut(2).zip(even.iter().zip(odd)).rev() {
                     if let [x0, x1] = pair {
                         *x0 = a;
-                        *x1 = b + b1;
+                        *x1 = b + odd_next;
+                        odd_next = b;
                     }
                 }
             }
             swap(&mut src, &mut dst);
             len *= 2;
         }
-        // 2 log2 N swaps: the result is back in the caller's buffer.
+        // 2 (log2 N − 3) swaps: the result is back in the caller's buffer.
         for (k, c) in src.iter_mut().enumerate() {
             *c *= if k == 0 { self.scale0 } else { self.scale };
         }
@@ -182,28 +193,34 @@ impl<const N: usize> Dct<N> {
         }
         let mut scratch = [0.0f32; N];
         let (mut src, mut dst): (&mut [f32], &mut [f32]) = (c, &mut scratch);
-        // Transpose of the merge stages, L = N, …, 2: even coefficients to the first
+        // Transpose of the merge stages, L = N, …, 16: even coefficients to the first
         // half, odd ones summed with their predecessor to the second half.
         let mut len = N;
-        while len >= 2 {
+        while len > 8 {
             for (s, d) in src.chunks_exact(len).zip(dst.chunks_exact_mut(len)) {
                 let Some((d_lo, d_hi)) = d.split_at_mut_checked(len / 2) else {
                     continue;
                 };
-                let odd = s.iter().skip(1).step_by(2);
-                let odd_prev = once(&0.0).chain(s.iter().skip(1).step_by(2));
-                for (lo, &e) in d_lo.iter_mut().zip(s.iter().step_by(2)) {
-                    *lo = e;
-                }
-                for (hi, (&o, &o_prev)) in d_hi.iter_mut().zip(odd.zip(odd_prev)) {
-                    *hi = o + o_prev;
+                let mut odd_prev = 0.0;
+                for ((pair, lo), hi) in s.chunks_exact(2).zip(d_lo).zip(d_hi) {
+                    if let [even, odd] = pair {
+                        *lo = *even;
+                        *hi = odd + odd_prev;
+                        odd_prev = *odd;
+                    }
                 }
             }
             swap(&mut src, &mut dst);
             len /= 2;
         }
-        // Transpose of the split stages, L = 2, …, N: x[i] = u + v·t, x[L−1−i] = u − v·t.
-        let mut len = 2;
+        let (t8, t4, t2) = self.base_twiddles();
+        for chunk in src.chunks_exact_mut(8) {
+            if let Ok(block) = <&mut [f32; 8]>::try_from(chunk) {
+                *block = idct8(*block, t8, t4, t2);
+            }
+        }
+        // Transpose of the split stages, L = 16, …, N: x[i] = u + v·t, x[L−1−i] = u − v·t.
+        let mut len = 16;
         while len <= N {
             let tw = self.stage_twiddles(len);
             for (s, d) in src.chunks_exact(len).zip(dst.chunks_exact_mut(len)) {
@@ -272,6 +289,74 @@ impl<const N: usize> Dct<N> {
             *o = round_shift(acc, 30).clamp(i16::MIN.into(), i16::MAX.into()) as i16;
         }
     }
+}
+
+/// Unnormalized 2-point DCT-II (Lee's split with L = 2; the merge is the identity).
+#[inline(always)]
+fn dct2([p, q]: [f32; 2], t2: f32) -> [f32; 2] {
+    [p + q, (p - q) * t2]
+}
+
+/// Unnormalized 4-point DCT-II: one split and merge around two [`dct2`].
+#[inline(always)]
+fn dct4([y0, y1, y2, y3]: [f32; 4], [ta, tb]: [f32; 2], t2: f32) -> [f32; 4] {
+    let [a0, a1] = dct2([y0 + y3, y1 + y2], t2);
+    let [b0, b1] = dct2([(y0 - y3) * ta, (y1 - y2) * tb], t2);
+    [a0, b0 + b1, a1, b1]
+}
+
+/// Unnormalized 8-point DCT-II, Σn x[n] cos((2n+1)kπ/16): the last three levels of
+/// Lee's recursion unrolled so they run in registers.
+#[inline(always)]
+fn dct8(x: [f32; 8], t8: [f32; 4], t4: [f32; 2], t2: f32) -> [f32; 8] {
+    let [x0, x1, x2, x3, x4, x5, x6, x7] = x;
+    let [ta, tb, tc, td] = t8;
+    let a = [x0 + x7, x1 + x6, x2 + x5, x3 + x4];
+    let b = [
+        (x0 - x7) * ta,
+        (x1 - x6) * tb,
+        (x2 - x5) * tc,
+        (x3 - x4) * td,
+    ];
+    let [a0, a1, a2, a3] = dct4(a, t4, t2);
+    let [b0, b1, b2, b3] = dct4(b, t4, t2);
+    [a0, b0 + b1, a1, b1 + b2, a2, b2 + b3, a3, b3]
+}
+
+/// Transpose of [`dct2`]: Σk X[k] cos((2n+1)kπ/4).
+#[inline(always)]
+fn idct2([u, v]: [f32; 2], t2: f32) -> [f32; 2] {
+    let y = v * t2;
+    [u + y, u - y]
+}
+
+/// Transpose of [`dct4`].
+#[inline(always)]
+fn idct4([y0, y1, y2, y3]: [f32; 4], [ta, tb]: [f32; 2], t2: f32) -> [f32; 4] {
+    let [u0, u1] = idct2([y0, y2], t2);
+    let [v0, v1] = idct2([y1, y1 + y3], t2);
+    let (v0, v1) = (v0 * ta, v1 * tb);
+    [u0 + v0, u1 + v1, u1 - v1, u0 - v0]
+}
+
+/// Transpose of [`dct8`]: Σk X[k] cos((2n+1)kπ/16).
+#[inline(always)]
+fn idct8(c: [f32; 8], t8: [f32; 4], t4: [f32; 2], t2: f32) -> [f32; 8] {
+    let [c0, c1, c2, c3, c4, c5, c6, c7] = c;
+    let [ta, tb, tc, td] = t8;
+    let [u0, u1, u2, u3] = idct4([c0, c2, c4, c6], t4, t2);
+    let [v0, v1, v2, v3] = idct4([c1, c1 + c3, c3 + c5, c5 + c7], t4, t2);
+    let (w0, w1, w2, w3) = (v0 * ta, v1 * tb, v2 * tc, v3 * td);
+    [
+        u0 + w0,
+        u1 + w1,
+        u2 + w2,
+        u3 + w3,
+        u3 - w3,
+        u2 - w2,
+        u1 - w1,
+        u0 - w0,
+    ]
 }
 
 /// Reference kernel: the orthonormal DCT as a matrix-vector product with the N × N

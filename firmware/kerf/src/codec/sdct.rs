@@ -79,20 +79,39 @@ impl<const N: usize> Block<N> {
     }
 }
 
-/// Mask of the `m` largest |c[k]|, ties to the lower index. O(N log N): one sort of
-/// N keys, no allocation.
+/// Mask of the `m` largest |c[k]|, ties to the lower index. O(N) on average and no
+/// allocation: a quickselect finds the m-th largest magnitude T, then every |c| > T is
+/// kept and the remaining slots go to the lowest indices with |c| = T.
 pub fn select_largest<const N: usize>(c: &[f32; N], m: usize) -> u64 {
-    // For non-negative floats the IEEE bit pattern orders like the value, so
-    // (|c| bits, 255 − k) sorted descending ranks by magnitude, then by lower index.
-    // NaN (rejected before the transform) would sort first; it cannot reach here.
-    let mut keys = [0u64; N];
-    for (k, (key, v)) in keys.iter_mut().zip(c).enumerate() {
-        *key = u64::from(v.abs().to_bits()) << 8 | (255 - k as u64);
+    if m == 0 {
+        return 0;
     }
-    keys.sort_unstable_by(|a, b| b.cmp(a));
-    keys.iter()
-        .take(m)
-        .fold(0, |mask, key| mask | 1 << (255 - (key & 0xFF)))
+    if m >= N {
+        return prefix_mask(N);
+    }
+    // For non-negative floats the IEEE bit pattern orders like the value, so the
+    // selection runs on integers. NaN is rejected before the transform.
+    let bits = c.map(|v| v.abs().to_bits());
+    let mut sorted = bits;
+    // 0 < m < N, so index m − 1 is in the slice.
+    let (_, &mut threshold, _) = sorted.select_nth_unstable_by(m - 1, |a, b| b.cmp(a));
+    let mut mask = 0u64;
+    // At most m − 1 magnitudes are strictly above the m-th largest, so `left` stays ≥ 1
+    // through the first pass.
+    let mut left = m;
+    for (k, &b) in bits.iter().enumerate() {
+        if b > threshold {
+            mask |= 1 << k;
+            left -= 1;
+        }
+    }
+    for (k, &b) in bits.iter().enumerate() {
+        if left > 0 && b == threshold {
+            mask |= 1 << k;
+            left -= 1;
+        }
+    }
+    mask
 }
 
 /// Mask of the coefficients `selection` keeps out of `c`.
