@@ -285,7 +285,39 @@ mod tests {
         2.0 * e.sqrt() * d + d * d
     }
 
+    /// Reference selection written differently: coefficient k is kept when fewer than m
+    /// others outrank it (larger magnitude, or equal magnitude and lower index).
+    fn select_by_rank<const N: usize>(c: &[f32; N], m: usize) -> u64 {
+        let mut mask = 0;
+        for (k, ck) in c.iter().enumerate() {
+            let outranked_by = c
+                .iter()
+                .enumerate()
+                .filter(|&(j, cj)| cj.abs() > ck.abs() || (cj.abs() == ck.abs() && j < k))
+                .count();
+            if outranked_by < m {
+                mask |= 1 << k;
+            }
+        }
+        mask
+    }
+
     proptest! {
+        #[test]
+        fn selection_matches_the_rank_reference_with_many_ties(
+            ints in proptest::array::uniform16(-3i8..=3),
+            m in 0usize..=20,
+        ) {
+            // Few distinct magnitudes: ties (and ±equal pairs) on almost every draw.
+            let c = ints.map(|v| f32::from(v) * 0.5);
+            prop_assert_eq!(select_largest(&c, m), select_by_rank(&c, m));
+        }
+
+        #[test]
+        fn selection_matches_the_rank_reference(c in proptest::array::uniform32(-1e3f32..1e3), m in 0usize..=32) {
+            prop_assert_eq!(select_largest(&c, m), select_by_rank(&c, m));
+        }
+
         #[test]
         fn sdct_never_loses_to_the_baseline_and_obeys_parseval(
             x in proptest::array::uniform32(-100.0f32..100.0),
