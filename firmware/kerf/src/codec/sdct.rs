@@ -4,7 +4,7 @@
 //! The encoder transforms N samples with the orthonormal DCT-II and keeps m of the N
 //! coefficients; the decoder zero-fills the others and applies the DCT-III. Because the
 //! basis is orthonormal, the reconstruction error energy equals the energy of the
-//! dropped coefficients (Parseval), so keeping the m largest |c[k]| is the best m-term
+//! dropped coefficients (Parseval), so keeping the m largest |c\[k\]| is the best m-term
 //! approximation in L2 — SPEC's **CORRECTION**: the print sorts by signed value, which
 //! would drop large negative coefficients. [`Selection::First`] is the conventional DCT
 //! codec (c[0..m)), the baseline SDCT is compared against; it needs no indices on the
@@ -21,7 +21,7 @@ use crate::error::ConfigError;
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Selection {
-    /// SDCT: the m largest |c[k]|, ties to the lower index.
+    /// SDCT: the m largest |c\[k\]|, ties to the lower index.
     Largest,
     /// Conventional DCT codec: c[0..m).
     First,
@@ -79,7 +79,7 @@ impl<const N: usize> Block<N> {
     }
 }
 
-/// Mask of the `m` largest |c[k]|, ties to the lower index. O(N) on average and no
+/// Mask of the `m` largest |c\[k\]|, ties to the lower index. O(N) on average and no
 /// allocation: a quickselect finds the m-th largest magnitude T, then every |c| > T is
 /// kept and the remaining slots go to the lowest indices with |c| = T.
 pub fn select_largest<const N: usize>(c: &[f32; N], m: usize) -> u64 {
