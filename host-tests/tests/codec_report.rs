@@ -127,3 +127,39 @@ fn sdct_against_first_m_at_equal_m_and_equal_bytes() {
     report::<32>(&signals, &[2, 4, 8, 16]);
     report::<64>(&signals, &[4, 8, 16, 32]);
 }
+
+/// Bytes of one real packet carrying `mask` out of N coefficients.
+fn packet_len<const N: usize>(mask: u64) -> usize {
+    let block = Block::<N>::from_parts(mask, [0.5; N]);
+    let mut buf = [0u8; MAX_PACKET_LEN];
+    packet::encode(&block, 0, 0, &mut buf).unwrap()
+}
+
+fn sizes<const N: usize>(ms: &[usize]) {
+    for &m in ms {
+        // SDCT with a non-prefix index set (the top m indices), baseline with 0..m.
+        let top = kerf::codec::prefix_mask(m) << (N - m);
+        // (m = N is the prefix set either way.)
+        let sdct = packet_len::<N>(top);
+        let base = packet_len::<N>(kerf::codec::prefix_mask(m));
+        assert_eq!(base, baseline_bytes(m));
+        let raw = 2 * N;
+        println!(
+            "{N:>3} {m:>3} | {sdct:>5} {:>6.2} | {base:>5} {:>6.2} | {raw:>4}",
+            raw as f64 / sdct as f64,
+            raw as f64 / base as f64
+        );
+    }
+}
+
+#[test]
+fn bytes_per_packet_and_compression_ratio() {
+    println!(
+        "\nbytes per packet (header {HEADER_LEN}, CRC {CRC_LEN}) against N raw 16-bit samples"
+    );
+    println!("  N   m |  SDCT  ratio | first-m ratio |  raw");
+    sizes::<8>(&[1, 2, 4, 8]);
+    sizes::<16>(&[2, 4, 8, 16]);
+    sizes::<32>(&[2, 4, 8, 16, 32]);
+    sizes::<64>(&[4, 8, 16, 32, 64]);
+}

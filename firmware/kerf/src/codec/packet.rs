@@ -485,6 +485,7 @@ impl PacketDecoder {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+    extern crate std;
 
     fn block64(mask: u64) -> Block<64> {
         Block::from_parts(mask, core::array::from_fn(|k| (k as f32 - 20.0) * 0.37))
@@ -625,6 +626,43 @@ mod tests {
     }
 
     proptest! {
+        /// Stable-toolchain companion of the cargo-fuzz target: arbitrary bytes give
+        /// `Ok` or a typed error.
+        #[test]
+        fn arbitrary_bytes_never_panic(
+            bytes in proptest::collection::vec(any::<u8>(), 0..200),
+            last in any::<u16>(),
+        ) {
+            let mut dec = PacketDecoder { last_sequence: Some(last) };
+            let _ = dec.decode(&bytes);
+        }
+
+        /// Well-formed headers with random index and value bytes of about the right
+        /// length and a correct CRC, so the index-set checks are reached often.
+        #[test]
+        fn random_bodies_behind_valid_headers_never_panic(
+            n in proptest::sample::select(&[8u8, 16, 32, 64][..]),
+            m_extra in 0u8..=66,
+            form in 0u8..4,
+            body in proptest::collection::vec(any::<u8>(), 140),
+            len_delta in -1i32..=1,
+        ) {
+            let m = m_extra.min(n + 1);
+            let index_len = IndexForm::from_byte(form).map_or(0, |f| f.len(n.into(), m.into()));
+            let exact = HEADER_LEN + index_len + 2 * usize::from(m) + CRC_LEN;
+            let len = (exact as i32 + len_delta) as usize;
+            let mut bytes = std::vec::Vec::from(header_bytes(n, m, IndexForm::Prefix, 0, 9, 0));
+            bytes[3] = form;
+            bytes.extend(body.iter().cycle().take(len - HEADER_LEN));
+            let packet = &mut bytes[..];
+            fix_crc(packet);
+            if let Ok(p) = parse(packet) {
+                prop_assert_eq!(p.mask.count_ones(), u32::from(p.m));
+                prop_assert!(p.mask & !prefix_mask(usize::from(p.n)) == 0);
+                prop_assert_eq!(len, exact);
+            }
+        }
+
         #[test]
         fn encode_then_decode_round_trips(
             values in proptest::array::uniform32(-1.0e4f32..1.0e4),
