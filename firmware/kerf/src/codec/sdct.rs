@@ -11,7 +11,9 @@
 //! wire, SDCT does (see [`packet`](super::packet)).
 //!
 //! Ties in magnitude go to the lower index, so the selection is a pure function of the
-//! coefficients (exact ties are common: an impulse at n = 0 or a constant block).
+//! coefficients. Exact ties do occur: an impulse at n = 0 has |c\[0\]| = |c\[N/2\]| =
+//! 1/√N, a constant block has N − 1 zero coefficients. The rule applies to the computed
+//! f32 magnitudes, where rounding can split a mathematical tie by one ulp.
 
 use super::dct::Dct;
 use super::prefix_mask;
@@ -227,9 +229,10 @@ mod tests {
     }
 
     #[test]
-    fn impulse_ties_resolve_to_lower_indices() {
+    fn impulse_keeps_the_largest_not_the_first() {
         // An impulse at n = 0 of a 16-block has c[k] = s_k cos(kπ/32): decreasing for
-        // k ≥ 1 and c[0] = 1/4 < c[1..=7], so the 4 largest are 1..=4, not 0..4.
+        // k ≥ 1 and c[0] = 1/4 < c[1..=7], so the 4 largest are 1..=4, not 0..4 (the
+        // conventional codec's choice).
         let dct = NaiveDct::<16>::new().unwrap();
         let mut x = [0.0f32; 16];
         x[0] = 1.0;
@@ -238,6 +241,30 @@ mod tests {
         let mask = select_largest(&c, 4);
         assert_eq!(mask.count_ones(), 4);
         assert_eq!(mask, 0b1111 << 1, "{c:?}");
+    }
+
+    #[test]
+    fn impulse_at_zero_ties_c0_with_c_half_and_keeps_c0() {
+        // Impulse at n = 0: c[k] = s_k cos(kπ/2N), decreasing in k ≥ 1, and
+        // |c[0]| = 1/√N = √(2/N) cos(π/4) = |c[N/2]| exactly. Cutting m through that
+        // tie keeps index 0. In f32 the two come out bit-equal at N = 8 and 32 (at 16
+        // and 64 they differ by one ulp, and the larger one wins, as it should).
+        fn check<const N: usize>() {
+            let enc = SdctEncoder::<N>::new(&SdctConfig {
+                m: N / 2,
+                selection: Selection::Largest,
+            })
+            .unwrap();
+            let mut x = [0.0f32; N];
+            x[0] = 1.0;
+            let block = enc.encode(&x).unwrap();
+            let mut c = x;
+            Dct::<N>::new().unwrap().forward(&mut c);
+            assert_eq!(c[0].abs(), c[N / 2].abs(), "N={N}: not an exact tie here");
+            assert_eq!(block.mask(), prefix_mask(N / 2), "N={N}");
+        }
+        check::<8>();
+        check::<32>();
     }
 
     #[test]
