@@ -5,6 +5,9 @@
 //! first, so that random mutations get past the CRC and reach the header and index-set
 //! checks. An accepted packet is also turned into blocks of every supported N and
 //! decoded.
+//!
+//! Run (nightly, `cargo install cargo-fuzz`):
+//! `cd fuzz && cargo +nightly fuzz run packet_decode -- -max_total_time=660`
 #![no_main]
 
 use kerf::codec::packet::{parse, PacketDecoder};
