@@ -10,5 +10,6 @@ pub mod axis;
 pub mod delta_plant;
 pub mod hall_sensor;
 pub mod linear_motor;
+pub mod link;
 pub mod noise;
 pub mod scenario;

@@ -1,1 +1,3 @@
 //! Shared helpers for the host scenario tests.
+
+pub mod signals;

@@ -3,7 +3,7 @@
 //! Sans-IO and allocation-free: every algorithm is a config struct validated by
 //! `new()` plus a state struct stepped once per control period. Modules follow the data
 //! flow of a period: [`sensing`] → [`kinematics`] → [`trajectory`] → [`control`] →
-//! `codec`, with [`hal`] the board boundary and [`app`] the periodic step and
+//! [`codec`], with [`hal`] the board boundary and [`app`] the periodic step and
 //! supervision. Laws are generic over [`scalar::Real`] (f32, f64, fixed point).
 #![no_std]
 #![forbid(unsafe_code)]
@@ -12,6 +12,7 @@
 extern crate std;
 
 pub mod app;
+pub mod codec;
 pub mod control;
 pub mod error;
 pub mod hal;

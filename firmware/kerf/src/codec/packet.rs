@@ -1,0 +1,699 @@
+//! Framed SDCT packets for the master/slave link (SPEC `codec::sdct`, T 7.2.3).
+//!
+//! Wire format, version 1 (all multi-byte fields little-endian):
+//!
+//! | offset | bytes | field |
+//! |---|---|---|
+//! | 0 | 1 | version (= [`VERSION`]) |
+//! | 1 | 1 | N, block length (8, 16, 32 or 64) |
+//! | 2 | 1 | m, number of coefficients sent (0..=N) |
+//! | 3 | 1 | index form: 0 = prefix, 1 = bit mask, 2 = packed list ([`IndexForm`]) |
+//! | 4 | 1 | e, block-floating-point exponent (i8) |
+//! | 5 | 2 | sequence number (u16, wraps) |
+//! | 7 | 4 | timestamp of the block's first sample, in sample periods (u32, wraps) |
+//! | 11 | I | index set (I = 0, N/8 or ⌈m·log2 N / 8⌉ bytes, see [`IndexForm`]) |
+//! | 11 + I | 2m | coefficients, Q15 mantissas (i16), in index-set order |
+//! | 11 + I + 2m | 2 | CRC-16/IBM-3740 (CCITT-FALSE) of every byte before it |
+//!
+//! A coefficient is q · 2^(e − 15): block floating point with one exponent per packet,
+//! chosen so that the largest kept |c| uses the full Q15 range. Orthonormal coefficients
+//! of full-scale samples reach √N · full scale, so a fixed Q15 scale would clip them.
+//!
+//! The encoder picks the smallest index form: the prefix form (nothing sent, indices
+//! 0..m) when the index set is the conventional DCT codec's, else whichever of the
+//! N-bit mask and the list of m indices of log2 N bits each is shorter (mask on a tie).
+//! A packed index of log2 N bits cannot name an index ≥ N and a mask has exactly N bits,
+//! so out-of-range indices are unrepresentable on the wire; the encoder still rejects
+//! an index set with bits at or above N.
+//!
+//! The decoder checks, in this order: minimum length, version, N, m ≤ N, index form,
+//! exact length, CRC, index set (duplicates, count, zero padding), and last the
+//! sequence number against the previous accepted packet.
+
+use crc::{Crc, CRC_16_IBM_3740};
+
+use super::sdct::Block;
+use super::{is_supported_n, prefix_mask, MAX_N};
+
+/// The wire-format version this module writes and reads.
+pub const VERSION: u8 = 1;
+/// Bytes before the index set.
+pub const HEADER_LEN: usize = 11;
+/// Bytes of the trailing CRC.
+pub const CRC_LEN: usize = 2;
+/// Largest packet: N = 64, m = 64 sent with a bit mask.
+pub const MAX_PACKET_LEN: usize = HEADER_LEN + MAX_N / 8 + 2 * MAX_N + CRC_LEN;
+
+/// CRC-16/IBM-3740: the 16-bit CCITT polynomial 0x1021, detects every burst of up to
+/// 16 bits and all 1- to 3-bit errors in packets of this size.
+const CRC16: Crc<u16> = Crc::<u16>::new(&CRC_16_IBM_3740);
+
+/// How the index set of the kept coefficients is written.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum IndexForm {
+    /// Indices 0..m (conventional DCT codec); nothing is sent.
+    Prefix = 0,
+    /// N-bit mask, bit k set when coefficient k is sent; N/8 bytes.
+    Bitmask = 1,
+    /// m indices of log2 N bits each, LSB first, zero-padded to whole bytes.
+    List = 2,
+}
+
+impl IndexForm {
+    fn from_byte(byte: u8) -> Option<Self> {
+        match byte {
+            0 => Some(Self::Prefix),
+            1 => Some(Self::Bitmask),
+            2 => Some(Self::List),
+            _ => None,
+        }
+    }
+
+    /// Bytes this form takes for `m` of `n` indices.
+    pub const fn len(self, n: usize, m: usize) -> usize {
+        match self {
+            Self::Prefix => 0,
+            Self::Bitmask => n / 8,
+            Self::List => (m * index_bits(n) as usize).div_ceil(8),
+        }
+    }
+}
+
+/// Bits per packed index: log2 N.
+const fn index_bits(n: usize) -> u32 {
+    n.trailing_zeros()
+}
+
+/// Why a packet could not be written or was rejected.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PacketError {
+    /// Fewer bytes than the header announces (or than a header).
+    Truncated,
+    /// More bytes than the header announces.
+    LengthMismatch,
+    /// The CRC does not match the bytes.
+    BadCrc,
+    /// The version byte is not [`VERSION`].
+    UnknownVersion(u8),
+    /// N is not one of [`SUPPORTED_N`](super::SUPPORTED_N), or not the N the caller expects.
+    UnsupportedN(u8),
+    /// m > N.
+    TooManyCoefficients,
+    /// The index-form byte is not an [`IndexForm`].
+    UnknownIndexForm(u8),
+    /// An index ≥ N (encoder side; unrepresentable on the wire, see the module docs).
+    IndexOutOfRange(u8),
+    /// The packed list names this index twice.
+    DuplicateIndex(u8),
+    /// The bit mask has a different number of bits set than m.
+    IndexCountMismatch,
+    /// Padding bits after the packed list are not zero.
+    BadPadding,
+    /// The sequence number is not after the last accepted one (a reordered or repeated
+    /// packet); serial-number arithmetic, so wrapping from 65535 to 0 is forward.
+    SequenceBackwards {
+        /// Sequence number of the last accepted packet.
+        last: u16,
+        /// Sequence number of the rejected packet.
+        got: u16,
+    },
+    /// The caller's buffer cannot hold the packet.
+    BufferTooSmall,
+    /// A coefficient to send is NaN or infinite.
+    NotFinite,
+}
+
+/// A validated packet: header fields and the coefficient mantissas at their indices.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Packet {
+    /// Block length N.
+    pub n: u8,
+    /// Number of coefficients sent.
+    pub m: u8,
+    /// Block-floating-point exponent: coefficient = q · 2^(exponent − 15).
+    pub exponent: i8,
+    /// Sequence number.
+    pub sequence: u16,
+    /// Timestamp of the block's first sample, in sample periods.
+    pub timestamp: u32,
+    /// Index set: bit k set when coefficient k was sent.
+    pub mask: u64,
+    /// Q15 mantissas at their indices, zero where nothing was sent (entries ≥ N unused).
+    pub mantissas: [i16; MAX_N],
+}
+
+impl Packet {
+    /// Coefficient `k` in the units of the encoded samples (0.0 when not sent or k ≥ N).
+    pub fn coefficient(&self, k: usize) -> f32 {
+        let q = self.mantissas.get(k).copied().unwrap_or(0);
+        libm::ldexpf(f32::from(q), i32::from(self.exponent) - 15)
+    }
+
+    /// The zero-filled coefficient block for an N-sample decoder; `UnsupportedN` when
+    /// the packet was made for another block length.
+    pub fn to_block<const N: usize>(&self) -> Result<Block<N>, PacketError> {
+        if usize::from(self.n) != N {
+            return Err(PacketError::UnsupportedN(self.n));
+        }
+        let mut coeffs = [0.0f32; N];
+        for (k, c) in coeffs.iter_mut().enumerate() {
+            *c = self.coefficient(k);
+        }
+        Ok(Block::from_parts(self.mask, coeffs))
+    }
+}
+
+/// Writes `block` as one packet into `buf` and returns the number of bytes written.
+///
+/// The kept coefficients are quantized to Q15 mantissas with one exponent e such that
+/// the largest |c| < 2^e; the error per coefficient is at most 2^(e − 16) (half a
+/// mantissa step; a full step when rounding reaches +32768 and saturates).
+pub fn encode<const N: usize>(
+    block: &Block<N>,
+    sequence: u16,
+    timestamp: u32,
+    buf: &mut [u8],
+) -> Result<usize, PacketError> {
+    encode_parts(block.mask(), block.coefficients(), sequence, timestamp, buf)
+}
+
+/// [`encode`] from an index mask and the N coefficients in natural order (entries
+/// outside the mask are ignored). N = `coeffs.len()`.
+pub fn encode_parts(
+    mask: u64,
+    coeffs: &[f32],
+    sequence: u16,
+    timestamp: u32,
+    buf: &mut [u8],
+) -> Result<usize, PacketError> {
+    let n = coeffs.len();
+    let n_byte = u8::try_from(n).unwrap_or(u8::MAX);
+    if !is_supported_n(n) {
+        return Err(PacketError::UnsupportedN(n_byte));
+    }
+    if mask & !prefix_mask(n) != 0 {
+        return Err(PacketError::IndexOutOfRange(
+            63 - mask.leading_zeros() as u8,
+        ));
+    }
+    let kept = || {
+        coeffs
+            .iter()
+            .enumerate()
+            .filter(move |&(k, _)| mask >> k & 1 == 1)
+    };
+    let mut max_abs = 0.0f32;
+    for (_, c) in kept() {
+        if !c.is_finite() {
+            return Err(PacketError::NotFinite);
+        }
+        max_abs = max_abs.max(c.abs());
+    }
+    let m = mask.count_ones() as usize;
+    let form = choose_form(n, m, mask);
+    let index_len = form.len(n, m);
+    let total = HEADER_LEN + index_len + 2 * m + CRC_LEN;
+    let out = buf.get_mut(..total).ok_or(PacketError::BufferTooSmall)?;
+
+    // frexp: max_abs = f · 2^p with f in [0.5, 1), so max_abs < 2^p and the largest
+    // mantissa lands in [16384, 32768). Zero blocks use e = 0.
+    let exponent = if max_abs > 0.0 {
+        libm::frexpf(max_abs).1.clamp(-128, 127)
+    } else {
+        0
+    };
+    let (body, crc_bytes) = out.split_at_mut(total - CRC_LEN);
+    let (header, rest) = body.split_at_mut(HEADER_LEN);
+    header.copy_from_slice(&header_bytes(
+        n_byte,
+        m as u8,
+        form,
+        exponent as i8,
+        sequence,
+        timestamp,
+    ));
+    let (index_bytes, values) = rest.split_at_mut(index_len);
+    write_index_set(form, n, mask, index_bytes);
+    for ((_, &c), dst) in kept().zip(values.chunks_exact_mut(2)) {
+        let q = libm::roundf(libm::ldexpf(c, 15 - exponent)).clamp(-32768.0, 32767.0) as i16;
+        dst.copy_from_slice(&q.to_le_bytes());
+    }
+    crc_bytes.copy_from_slice(&CRC16.checksum(body).to_le_bytes());
+    Ok(total)
+}
+
+fn header_bytes(
+    n: u8,
+    m: u8,
+    form: IndexForm,
+    exponent: i8,
+    sequence: u16,
+    timestamp: u32,
+) -> [u8; HEADER_LEN] {
+    let s = sequence.to_le_bytes();
+    let t = timestamp.to_le_bytes();
+    [
+        VERSION,
+        n,
+        m,
+        form as u8,
+        exponent.to_le_bytes()[0],
+        s[0],
+        s[1],
+        t[0],
+        t[1],
+        t[2],
+        t[3],
+    ]
+}
+
+/// The shortest form for this index set (see the module docs).
+fn choose_form(n: usize, m: usize, mask: u64) -> IndexForm {
+    if mask == prefix_mask(m) {
+        IndexForm::Prefix
+    } else if IndexForm::List.len(n, m) < IndexForm::Bitmask.len(n, m) {
+        IndexForm::List
+    } else {
+        IndexForm::Bitmask
+    }
+}
+
+fn write_index_set(form: IndexForm, n: usize, mask: u64, out: &mut [u8]) {
+    match form {
+        IndexForm::Prefix => {}
+        IndexForm::Bitmask => out
+            .iter_mut()
+            .zip(mask.to_le_bytes())
+            .for_each(|(dst, b)| *dst = b),
+        IndexForm::List => {
+            let width = index_bits(n);
+            let mut bytes = out.iter_mut();
+            let (mut acc, mut filled) = (0u32, 0u32);
+            for k in (0..n).filter(|&k| mask >> k & 1 == 1) {
+                acc |= (k as u32) << filled;
+                filled += width;
+                while filled >= 8 {
+                    if let Some(dst) = bytes.next() {
+                        *dst = acc as u8;
+                    }
+                    acc >>= 8;
+                    filled -= 8;
+                }
+            }
+            if let (true, Some(dst)) = (filled > 0, bytes.next()) {
+                *dst = acc as u8;
+            }
+        }
+    }
+}
+
+/// Reads a packed index list; returns the mask or the first bad index.
+fn read_index_list(n: usize, m: usize, bytes: &[u8]) -> Result<(u64, [u8; MAX_N]), PacketError> {
+    let width = index_bits(n);
+    let mut order = [0u8; MAX_N];
+    let mut slots = order.iter_mut().take(m);
+    let mut mask = 0u64;
+    let (mut acc, mut filled, mut read) = (0u32, 0u32, 0usize);
+    let mut input = bytes.iter();
+    while read < m {
+        while filled < width {
+            let Some(&b) = input.next() else {
+                return Err(PacketError::Truncated);
+            };
+            acc |= u32::from(b) << filled;
+            filled += 8;
+        }
+        let k = (acc & ((1 << width) - 1)) as u8;
+        acc >>= width;
+        filled -= width;
+        read += 1;
+        // A `width`-bit index is always < N; the check documents the invariant.
+        if usize::from(k) >= n {
+            return Err(PacketError::IndexOutOfRange(k));
+        }
+        if mask >> k & 1 == 1 {
+            return Err(PacketError::DuplicateIndex(k));
+        }
+        mask |= 1 << k;
+        if let Some(slot) = slots.next() {
+            *slot = k;
+        }
+    }
+    if acc != 0 || input.any(|&b| b != 0) {
+        return Err(PacketError::BadPadding);
+    }
+    Ok((mask, order))
+}
+
+/// Validates everything except the sequence number (see [`PacketDecoder`] for that).
+pub fn parse(bytes: &[u8]) -> Result<Packet, PacketError> {
+    let header: &[u8; HEADER_LEN] = bytes
+        .get(..HEADER_LEN)
+        .and_then(|h| h.try_into().ok())
+        .ok_or(PacketError::Truncated)?;
+    let [version, n_byte, m_byte, form_byte, e, s0, s1, t0, t1, t2, t3] = *header;
+    if version != VERSION {
+        return Err(PacketError::UnknownVersion(version));
+    }
+    let n = usize::from(n_byte);
+    if !is_supported_n(n) {
+        return Err(PacketError::UnsupportedN(n_byte));
+    }
+    let m = usize::from(m_byte);
+    if m > n {
+        return Err(PacketError::TooManyCoefficients);
+    }
+    let form = IndexForm::from_byte(form_byte).ok_or(PacketError::UnknownIndexForm(form_byte))?;
+    let index_len = form.len(n, m);
+    let total = HEADER_LEN + index_len + 2 * m + CRC_LEN;
+    if bytes.len() < total {
+        return Err(PacketError::Truncated);
+    }
+    if bytes.len() > total {
+        return Err(PacketError::LengthMismatch);
+    }
+    let (body, crc_bytes) = bytes.split_at(total - CRC_LEN);
+    let crc = crc_bytes
+        .iter()
+        .rev()
+        .fold(0u16, |acc, &b| acc << 8 | u16::from(b));
+    if CRC16.checksum(body) != crc {
+        return Err(PacketError::BadCrc);
+    }
+    let rest = body.get(HEADER_LEN..).unwrap_or(&[]);
+    let (index_bytes, values) = rest
+        .split_at_checked(index_len)
+        .ok_or(PacketError::Truncated)?;
+
+    // Indices in the order their values follow.
+    let mut order = [0u8; MAX_N];
+    let mask = match form {
+        IndexForm::Prefix => {
+            order.iter_mut().zip(0u8..).for_each(|(o, k)| *o = k);
+            prefix_mask(m)
+        }
+        IndexForm::Bitmask => {
+            let mut raw = [0u8; 8];
+            raw.iter_mut().zip(index_bytes).for_each(|(d, &s)| *d = s);
+            let mask = u64::from_le_bytes(raw);
+            if mask.count_ones() as usize != m {
+                return Err(PacketError::IndexCountMismatch);
+            }
+            let set = (0u8..64).filter(|&k| mask >> k & 1 == 1);
+            order.iter_mut().zip(set).for_each(|(o, k)| *o = k);
+            mask
+        }
+        IndexForm::List => {
+            let (mask, list) = read_index_list(n, m, index_bytes)?;
+            order = list;
+            mask
+        }
+    };
+    let mut mantissas = [0i16; MAX_N];
+    for (&k, v) in order.iter().zip(values.chunks_exact(2)) {
+        if let (Some(dst), [lo, hi]) = (mantissas.get_mut(usize::from(k)), v) {
+            *dst = i16::from_le_bytes([*lo, *hi]);
+        }
+    }
+    Ok(Packet {
+        n: n_byte,
+        m: m_byte,
+        exponent: i8::from_le_bytes([e]),
+        sequence: u16::from_le_bytes([s0, s1]),
+        timestamp: u32::from_le_bytes([t0, t1, t2, t3]),
+        mask,
+        mantissas,
+    })
+}
+
+/// A packet accepted by [`PacketDecoder::decode`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Received {
+    /// The validated packet.
+    pub packet: Packet,
+    /// Sequence numbers skipped since the previous accepted packet (lost or still in
+    /// flight); 0 for the first packet and for consecutive ones.
+    pub gap: u16,
+}
+
+/// Receiver state: validates packets and their order on the link.
+#[derive(Clone, Debug, Default)]
+pub struct PacketDecoder {
+    last_sequence: Option<u16>,
+}
+
+impl PacketDecoder {
+    /// A decoder that accepts any sequence number for its first packet.
+    pub const fn new() -> Self {
+        Self {
+            last_sequence: None,
+        }
+    }
+
+    /// Sequence number of the last accepted packet.
+    pub const fn last_sequence(&self) -> Option<u16> {
+        self.last_sequence
+    }
+
+    /// Validates `bytes` (see [`parse`]) and its sequence number. A packet whose
+    /// sequence number is not after the last accepted one is rejected with
+    /// [`PacketError::SequenceBackwards`]; a jump forward is accepted and reported as
+    /// [`Received::gap`]. Rejected packets leave the state unchanged.
+    pub fn decode(&mut self, bytes: &[u8]) -> Result<Received, PacketError> {
+        let packet = parse(bytes)?;
+        let got = packet.sequence;
+        let gap = match self.last_sequence {
+            None => 0,
+            Some(last) => {
+                // Serial-number arithmetic (RFC 1982): forward when the wrapping
+                // difference is in 1..=32767.
+                let step = got.wrapping_sub(last) as i16;
+                if step <= 0 {
+                    return Err(PacketError::SequenceBackwards { last, got });
+                }
+                (step - 1) as u16
+            }
+        };
+        self.last_sequence = Some(got);
+        Ok(Received { packet, gap })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    extern crate std;
+
+    fn block64(mask: u64) -> Block<64> {
+        Block::from_parts(mask, core::array::from_fn(|k| (k as f32 - 20.0) * 0.37))
+    }
+
+    fn encoded(mask: u64, sequence: u16) -> ([u8; MAX_PACKET_LEN], usize) {
+        let mut buf = [0u8; MAX_PACKET_LEN];
+        let len = encode(&block64(mask), sequence, 1234, &mut buf).unwrap();
+        (buf, len)
+    }
+
+    /// Rewrites the CRC after a deliberate edit, so the check under test is reached.
+    fn fix_crc(bytes: &mut [u8]) {
+        let n = bytes.len() - CRC_LEN;
+        let crc = CRC16.checksum(&bytes[..n]);
+        bytes[n..].copy_from_slice(&crc.to_le_bytes());
+    }
+
+    #[test]
+    fn index_form_is_the_smallest() {
+        // N = 64: list of 6-bit indices beats the 8-byte mask up to m = 10.
+        let sparse = 1 << 3 | 1 << 40 | 1 << 63;
+        let (buf, len) = encoded(sparse, 0);
+        assert_eq!(buf[3], IndexForm::List as u8);
+        assert_eq!(len, HEADER_LEN + 3 + 2 * 3 + CRC_LEN); // 18 bits → 3 bytes
+        let dense = 0x5555_5555_5555_5555;
+        let (buf, len) = encoded(dense, 0);
+        assert_eq!(buf[3], IndexForm::Bitmask as u8);
+        assert_eq!(len, HEADER_LEN + 8 + 2 * 32 + CRC_LEN);
+        let (buf, len) = encoded(0xFF, 0);
+        assert_eq!(buf[3], IndexForm::Prefix as u8);
+        assert_eq!(len, HEADER_LEN + 2 * 8 + CRC_LEN);
+        assert_eq!(encoded(u64::MAX, 0).1, MAX_PACKET_LEN - 8); // full prefix
+    }
+
+    #[test]
+    fn every_malformation_has_its_error() {
+        let (buf, len) = encoded(1 << 3 | 1 << 40 | 1 << 63, 7);
+        let good = &buf[..len];
+        assert!(parse(good).is_ok());
+        assert_eq!(parse(&good[..5]), Err(PacketError::Truncated));
+        assert_eq!(parse(&good[..len - 1]), Err(PacketError::Truncated));
+        let mut long = [0u8; MAX_PACKET_LEN];
+        long[..len].copy_from_slice(good);
+        assert_eq!(parse(&long[..len + 1]), Err(PacketError::LengthMismatch));
+
+        let mut bad = buf;
+        bad[HEADER_LEN + 4] ^= 0x10;
+        assert_eq!(parse(&bad[..len]), Err(PacketError::BadCrc));
+
+        let edit = |offset: usize, value: u8| {
+            let mut b = buf;
+            b[offset] = value;
+            fix_crc(&mut b[..len]);
+            parse(&b[..len])
+        };
+        assert_eq!(edit(0, 2), Err(PacketError::UnknownVersion(2)));
+        assert_eq!(edit(1, 48), Err(PacketError::UnsupportedN(48)));
+        assert_eq!(edit(2, 65), Err(PacketError::TooManyCoefficients));
+        assert_eq!(edit(3, 9), Err(PacketError::UnknownIndexForm(9)));
+        // Same length with a 4th index would not fit: m = 4 needs 3 bytes of list and
+        // 8 bytes of values, so the length check fires.
+        assert_eq!(edit(2, 4), Err(PacketError::Truncated));
+
+        // Duplicate: indices 3, 40, 63 → 3, 3, 63 (first 6-bit field copied over the
+        // second one: bits 6..12 of the list).
+        let mut dup = buf;
+        let list = u32::from_le_bytes([dup[11], dup[12], dup[13], 0]);
+        let list = (list & !(0x3F << 6)) | 3 << 6;
+        dup[11..14].copy_from_slice(&list.to_le_bytes()[..3]);
+        fix_crc(&mut dup[..len]);
+        assert_eq!(parse(&dup[..len]), Err(PacketError::DuplicateIndex(3)));
+
+        // Padding: 3 × 6 bits leave 6 zero bits in the last list byte.
+        let mut pad = buf;
+        pad[13] |= 0x80;
+        fix_crc(&mut pad[..len]);
+        assert_eq!(parse(&pad[..len]), Err(PacketError::BadPadding));
+
+        // Bit mask whose popcount disagrees with m.
+        let (mbuf, mlen) = encoded(0x5555_5555_5555_5555, 0);
+        let mut cnt = mbuf;
+        cnt[HEADER_LEN] |= 0x02;
+        fix_crc(&mut cnt[..mlen]);
+        assert_eq!(parse(&cnt[..mlen]), Err(PacketError::IndexCountMismatch));
+
+        // Encoder-side errors.
+        let mut small = [0u8; 10];
+        assert_eq!(
+            encode(&block64(1), 0, 0, &mut small),
+            Err(PacketError::BufferTooSmall)
+        );
+        let mut big = [0u8; MAX_PACKET_LEN];
+        assert_eq!(
+            encode_parts(1 << 9, &[1.0; 8], 0, 0, &mut big),
+            Err(PacketError::IndexOutOfRange(9))
+        );
+        assert_eq!(
+            encode_parts(1, &[1.0; 12], 0, 0, &mut big),
+            Err(PacketError::UnsupportedN(12))
+        );
+        assert_eq!(
+            encode_parts(1, &[f32::NAN; 8], 0, 0, &mut big),
+            Err(PacketError::NotFinite)
+        );
+    }
+
+    #[test]
+    fn sequence_must_move_forward_and_gaps_are_reported() {
+        let mut dec = PacketDecoder::new();
+        let mut feed = |seq: u16| {
+            let (buf, len) = encoded(0b1011, seq);
+            dec.decode(&buf[..len]).map(|r| r.gap)
+        };
+        assert_eq!(feed(65530), Ok(0));
+        assert_eq!(feed(65531), Ok(0));
+        assert_eq!(feed(2), Ok(6)); // wraps forward past 65535, 6 numbers skipped
+        assert_eq!(
+            feed(2),
+            Err(PacketError::SequenceBackwards { last: 2, got: 2 })
+        );
+        assert_eq!(
+            feed(65535),
+            Err(PacketError::SequenceBackwards {
+                last: 2,
+                got: 65535
+            })
+        );
+        assert_eq!(feed(3), Ok(0)); // rejected packets left the state alone
+    }
+
+    #[test]
+    fn packet_for_another_n_is_not_a_block() {
+        let (buf, len) = encoded(0b11, 0);
+        let packet = parse(&buf[..len]).unwrap();
+        assert_eq!(packet.to_block::<32>(), Err(PacketError::UnsupportedN(64)));
+        assert!(packet.to_block::<64>().is_ok());
+    }
+
+    proptest! {
+        /// Stable-toolchain companion of the cargo-fuzz target: arbitrary bytes give
+        /// `Ok` or a typed error.
+        #[test]
+        fn arbitrary_bytes_never_panic(
+            bytes in proptest::collection::vec(any::<u8>(), 0..200),
+            last in any::<u16>(),
+        ) {
+            let mut dec = PacketDecoder { last_sequence: Some(last) };
+            let _ = dec.decode(&bytes);
+        }
+
+        /// Well-formed headers with random index and value bytes of about the right
+        /// length and a correct CRC, so the index-set checks are reached often.
+        #[test]
+        fn random_bodies_behind_valid_headers_never_panic(
+            n in proptest::sample::select(&[8u8, 16, 32, 64][..]),
+            m_extra in 0u8..=66,
+            form in 0u8..4,
+            body in proptest::collection::vec(any::<u8>(), 140),
+            len_delta in -1i32..=1,
+        ) {
+            let m = m_extra.min(n + 1);
+            let index_len = IndexForm::from_byte(form).map_or(0, |f| f.len(n.into(), m.into()));
+            let exact = HEADER_LEN + index_len + 2 * usize::from(m) + CRC_LEN;
+            let len = (exact as i32 + len_delta) as usize;
+            let mut bytes = std::vec::Vec::from(header_bytes(n, m, IndexForm::Prefix, 0, 9, 0));
+            bytes[3] = form;
+            bytes.extend(body.iter().cycle().take(len - HEADER_LEN));
+            let packet = &mut bytes[..];
+            fix_crc(packet);
+            if let Ok(p) = parse(packet) {
+                prop_assert_eq!(p.mask.count_ones(), u32::from(p.m));
+                prop_assert!(p.mask & !prefix_mask(usize::from(p.n)) == 0);
+                prop_assert_eq!(len, exact);
+            }
+        }
+
+        #[test]
+        fn encode_then_decode_round_trips(
+            values in proptest::array::uniform32(-1.0e4f32..1.0e4),
+            mask in any::<u32>(),
+            sequence in any::<u16>(),
+            timestamp in any::<u32>(),
+            scale_exp in -40i32..40,
+        ) {
+            let coeffs = values.map(|v| libm::ldexpf(v, scale_exp));
+            let block = Block::<32>::from_parts(u64::from(mask), coeffs);
+            let mut buf = [0u8; MAX_PACKET_LEN];
+            let len = encode(&block, sequence, timestamp, &mut buf).unwrap();
+            let m = mask.count_ones() as usize;
+            let form = choose_form(32, m, u64::from(mask));
+            prop_assert_eq!(len, HEADER_LEN + form.len(32, m) + 2 * m + CRC_LEN);
+            let received = PacketDecoder::new().decode(&buf[..len]).unwrap();
+            let p = &received.packet;
+            prop_assert_eq!((p.n, usize::from(p.m)), (32, m));
+            prop_assert_eq!((p.sequence, p.timestamp, p.mask), (sequence, timestamp, u64::from(mask)));
+            let decoded = p.to_block::<32>().unwrap();
+            // Half a mantissa step 2^(e−16), a full step when rounding saturates.
+            let step = libm::ldexpf(1.0, i32::from(p.exponent) - 15);
+            let max_abs = coeffs.iter().enumerate()
+                .filter(|&(k, _)| mask >> k & 1 == 1)
+                .fold(0.0f32, |a, (_, c)| a.max(c.abs()));
+            // The exponent uses the mantissa range: 2^(e−1) ≤ max |c| < 2^e.
+            let top = libm::ldexpf(1.0, i32::from(p.exponent));
+            prop_assert!(m == 0 || (max_abs < top && max_abs >= 0.5 * top));
+            for (k, (&a, &b)) in block.coefficients().iter().zip(decoded.coefficients()).enumerate() {
+                prop_assert!((a - b).abs() <= step, "k {} {} vs {}", k, a, b);
+            }
+        }
+    }
+}
