@@ -8,6 +8,8 @@ use core::f32::consts::PI;
 use core::hint::black_box;
 use cortex_m_semihosting::hprintln;
 use kerf::app::axis::{AxisConfig, AxisLoop};
+use kerf::codec::dct::{Dct, NaiveDct};
+use kerf::codec::sdct::{SdctConfig, SdctDecoder, SdctEncoder, Selection};
 use kerf::control::dob::Dob;
 use kerf::control::pd::{Pd, Reference};
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
@@ -184,7 +186,107 @@ fn main() -> ! {
     );
     kinematics_rows(&mut counter);
     efd_rows(&mut counter);
+    codec_rows::<32>(&mut counter, 8);
+    codec_rows::<64>(&mut counter, 16);
     exit(true)
+}
+
+/// SDCT block codec (f32): the fast transforms, encode (transform + selection of m)
+/// and decode (zero-fill + inverse), each against the naive matrix-vector DCT with a
+/// precomputed cosine table; and the Q15 integer transform.
+fn codec_rows<const N: usize>(counter: &mut Counter, m: usize) {
+    let config = SdctConfig {
+        m,
+        selection: Selection::Largest,
+    };
+    let (Ok(dct), Ok(naive), Ok(encoder), Ok(decoder)) = (
+        Dct::<N>::new(),
+        NaiveDct::<N>::new(),
+        SdctEncoder::<N>::new(&config),
+        SdctDecoder::<N>::new(),
+    ) else {
+        exit(false)
+    };
+    // A block of a two-tone force signal.
+    let x: [f32; N] = core::array::from_fn(|n| {
+        let t = n as f32 * 1e-4;
+        0.6 * libm::sinf(2.0 * PI * 230.0 * t) + 0.25 * libm::sinf(2.0 * PI * 1700.0 * t + 0.4)
+    });
+    let x_q15: [i16; N] = x.map(|v| (v * 32767.0) as i16);
+    let Ok(block) = encoder.encode(&x) else {
+        exit(false)
+    };
+    let mut out = [0.0f32; N];
+    let mut out_q15 = [0i32; N];
+    let naive_forward = |_: u32| {
+        let mut c = [0.0f32; N];
+        naive.forward(black_box(&x), &mut c);
+        black_box(c);
+    };
+    let naive_inverse = |_: u32| {
+        let mut y = [0.0f32; N];
+        naive.inverse(black_box(block.coefficients()), &mut y);
+        black_box(y);
+    };
+    let mut name = heapless::String::<64>::new();
+    let mut named = |text: core::fmt::Arguments| -> heapless::String<64> {
+        name.clear();
+        let _ = core::fmt::write(&mut name, text);
+        name.clone()
+    };
+    row(
+        counter,
+        &named(format_args!("codec::dct::Dct::forward N={N} <f32>")),
+        |_| {
+            let mut c = black_box(x);
+            dct.forward(&mut c);
+            black_box(c);
+        },
+        "naive matrix-vector DCT-II (cosine table)",
+        naive_forward,
+    );
+    row(
+        counter,
+        &named(format_args!("codec::dct::Dct::inverse N={N} <f32>")),
+        |_| {
+            let mut y = black_box(*block.coefficients());
+            dct.inverse(&mut y);
+            black_box(y);
+        },
+        "naive matrix-vector DCT-III (cosine table)",
+        naive_inverse,
+    );
+    row(
+        counter,
+        &named(format_args!("codec::sdct::SdctEncoder::encode N={N} m={m}")),
+        |_| {
+            black_box(encoder.encode(black_box(&x)).ok());
+        },
+        "naive matrix-vector DCT-II (cosine table)",
+        naive_forward,
+    );
+    row(
+        counter,
+        &named(format_args!("codec::sdct::SdctDecoder::decode N={N}")),
+        |_| {
+            decoder.decode(black_box(&block), &mut out);
+            black_box(&out);
+        },
+        "naive matrix-vector DCT-III (cosine table)",
+        naive_inverse,
+    );
+    row(
+        counter,
+        &named(format_args!(
+            "codec::dct::Dct::forward_q15 N={N} <Q15, i64 sum>"
+        )),
+        |_| {
+            dct.forward_q15(black_box(&x_q15), &mut out_q15);
+            black_box(&out_q15);
+        },
+        "naive matrix-vector DCT-II (cosine table)",
+        naive_forward,
+    );
 }
 
 /// Delta kinematics of the Keops slave in f32, against the same code in f64 (software
