@@ -5,11 +5,10 @@ use crate::axis::SimulatedAxis;
 use crate::hall_sensor::{ChannelFault, HallSensorParams};
 use crate::linear_motor::LinearMotorParams;
 use kerf::app::axis::{AxisConfig, AxisLoop, AxisState};
+use kerf::app::calibrate::{CalibrationProgress, HallCalibrationMode};
 use kerf::control::pd::Reference;
 use kerf::hal::HallInput;
-use kerf::sensing::hall::{
-    CalibrationError, HallCalibrator, HallCorrection, HallFault, SelfCalibration,
-};
+use kerf::sensing::hall::{CalibrationError, HallCorrection, HallFault, SelfCalibration};
 use kerf::trajectory::quintic::Quintic;
 use kerf::{ConfigError, Real};
 
@@ -62,10 +61,6 @@ pub fn reference(motion: Motion, t_s: f64) -> Reference<f64> {
     match motion {
         Motion::Profile => profile(t_s),
         Motion::Hold => hold,
-        Motion::CalibrationSweep => match Quintic::<f64>::new(START_M, 1.5 * 0.018, 0.6) {
-            Ok(sweep) => sweep.sample(t_s - 0.02),
-            Err(_) => hold,
-        },
     }
 }
 
@@ -76,16 +71,7 @@ pub enum Motion {
     Profile,
     /// Hold the start position.
     Hold,
-    /// The calibration sweep: 1.5 pitches (27 mm) out in 0.6 s, from rest to rest.
-    CalibrationSweep,
 }
-
-/// Periods of the calibration sweep (0.65 s: the 0.6 s move and settling).
-pub const CALIBRATION_PERIODS: u32 = 6500;
-/// Samples the calibration can keep.
-pub const CALIBRATION_SAMPLES: usize = 512;
-/// One sample kept every this many periods of the sweep (500 samples).
-pub const CALIBRATION_DECIMATION: u32 = 13;
 
 /// Scenario knobs.
 #[derive(Copy, Clone, Debug)]
@@ -317,33 +303,38 @@ pub enum CalibrationRunError {
     Fault(HallFault),
 }
 
-/// Calibration mode: runs [`Motion::CalibrationSweep`] in closed loop with the decoder
-/// as configured in `scenario` (nominal, uncalibrated), keeps every 13th raw sample and
-/// fits the sensor model. Returns the fit and `scenario` with the calibrated decoder
-/// and its model-derived correction installed.
+/// Calibration mode ([`HallCalibrationMode`]) in closed loop with the decoder as
+/// configured in `scenario` (nominal, uncalibrated), then the fit. Returns the fit and
+/// `scenario` with the calibrated decoder and its model-derived correction installed.
 pub fn self_calibrate<T: Real>(
     scenario: &Scenario,
 ) -> Result<(SelfCalibration, Scenario), CalibrationRunError> {
+    let mut mode = HallCalibrationMode::<T>::new(START_M, scenario.axis.hall.pitch_m, TS_S)
+        .map_err(CalibrationRunError::Config)?;
     let mut sweep = *scenario;
-    sweep.motion = Motion::CalibrationSweep;
-    sweep.periods = CALIBRATION_PERIODS;
+    sweep.motion = Motion::Hold;
+    sweep.periods = mode.periods();
     sweep.correction = None;
-    let mut simulation = Simulation::<T>::new(&sweep).map_err(CalibrationRunError::Config)?;
-    let mut calibrator = HallCalibrator::<CALIBRATION_SAMPLES>::new();
-    let mut k = 0u32;
-    while let Some(period) = simulation.step() {
-        if let Some(fault) = period.fault {
+    let mut control = AxisLoop::<T>::new(&sweep.axis).map_err(CalibrationRunError::Config)?;
+    control.set_home(T::from_f64(START_M));
+    let mut plant = SimulatedAxis::new(sweep.motor, sweep.sensor, TS_S, sweep.seed, START_M);
+    loop {
+        let hall_counts = plant.hall_counts(0);
+        let out = control.step(hall_counts, &mode.reference());
+        if let AxisState::Fault(fault) = out.state {
             return Err(CalibrationRunError::Fault(fault));
         }
-        if k % CALIBRATION_DECIMATION == 0 {
-            calibrator
-                .push(period.hall_counts)
-                .map_err(CalibrationRunError::Calibration)?;
+        plant.apply_force(out.force_n.to_f64());
+        if mode
+            .record(hall_counts)
+            .map_err(CalibrationRunError::Calibration)?
+            == CalibrationProgress::Done
+        {
+            break;
         }
-        k += 1;
     }
-    let fit = calibrator
-        .solve(&scenario.axis.hall.calibration)
+    let fit = mode
+        .finish(&scenario.axis.hall.calibration)
         .map_err(CalibrationRunError::Calibration)?;
     let mut calibrated = *scenario;
     calibrated.axis.hall.calibration = fit.calibration;
