@@ -1,3 +1,6 @@
+//! Unit tests of the Hall decoder and its calibration, compiled only under
+//! `#[cfg(test)]` (see `mod tests` in `mod.rs`).
+
 use super::calibration::CORRECTION_ENTRIES;
 use super::*;
 use core::f64::consts::PI;
