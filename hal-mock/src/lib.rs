@@ -13,3 +13,5 @@ pub mod linear_motor;
 pub mod link;
 pub mod noise;
 pub mod scenario;
+#[cfg(feature = "std")]
+pub mod trace;

@@ -161,3 +161,33 @@ fn self_calibration_then_tracking_on_imperfect_sensors() {
     assert!(tracked.rms_error_m < RMS_ERROR_BOUND_M, "{tracked:?}");
     assert!(tracked.max_error_m < MAX_ERROR_BOUND_M, "{tracked:?}");
 }
+
+/// The host-only trace writes one CSV line per period that parses back to the run.
+#[test]
+fn trace_writes_the_run_as_csv() {
+    let mut s = Scenario::TRACKING;
+    s.periods = 500;
+    s.sensor_fault = Some((0.04, ChannelFault::OpenWire(2)));
+    let mut simulation = hal_mock::scenario::Simulation::<f32>::new(&s).unwrap();
+    let mut recorder = hal_mock::trace::Recorder::new();
+    while let Some(p) = simulation.step() {
+        recorder.push(p);
+    }
+    let mut csv = Vec::new();
+    recorder.write_csv(&mut csv).unwrap();
+    let text = String::from_utf8(csv).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 501);
+    assert!(lines[0].starts_with("t_s,error_m"));
+    let row = |k: usize| lines[k + 1].split(',').collect::<Vec<_>>();
+    assert_eq!(
+        row(100)[0].parse::<f64>().unwrap(),
+        recorder.periods()[100].t_s
+    );
+    assert_eq!(
+        row(100)[6].parse::<u16>().unwrap(),
+        recorder.periods()[100].hall_counts[0]
+    );
+    assert_eq!(row(399)[9], "");
+    assert_eq!(row(400)[9], "AdcRail(2)");
+}
