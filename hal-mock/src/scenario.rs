@@ -337,7 +337,7 @@ pub fn self_calibrate<T: Real>(
         .finish(&scenario.axis.hall.calibration)
         .map_err(CalibrationRunError::Calibration)?;
     let mut calibrated = *scenario;
-    calibrated.axis.hall.calibration = fit.calibration;
+    calibrated.axis.hall = scenario.axis.hall.with_self_calibration(&fit);
     calibrated.correction = Some(fit.correction);
     Ok((fit, calibrated))
 }

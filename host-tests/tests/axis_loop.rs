@@ -160,6 +160,28 @@ fn self_calibration_then_tracking_on_imperfect_sensors() {
     assert!(tracked.fault_period.is_none());
     assert!(tracked.rms_error_m < RMS_ERROR_BOUND_M, "{tracked:?}");
     assert!(tracked.max_error_m < MAX_ERROR_BOUND_M, "{tracked:?}");
+
+    // With the calibrated health row the channel-sum check is tight: the learnt limit is
+    // twice the healthy residual, which is the common-mode harmonic (Σ hk Ak ≈ 0.06 A),
+    // so 0.12 A. A channel that freezes mid-move is caught once it is 0.06–0.18 A off,
+    // about half the travel the nominal 0.5 A limit needs (157 periods above).
+    let limit = calibrated.axis.hall.sum_limit;
+    println!(
+        "learnt sum limit {:.3} A (peak healthy residual {:.1} counts)",
+        limit, fit.peak_sum_residual_counts
+    );
+    assert!(limit < 0.2, "{limit}");
+    let mut frozen = calibrated;
+    frozen.sensor_fault = Some((0.3, ChannelFault::Frozen(1)));
+    let o = run::<f32>(&frozen).unwrap();
+    let period = o.fault_period.expect("the frozen channel must be detected");
+    println!(
+        "calibrated axis: frozen channel detected {} periods after it froze",
+        period - 3000
+    );
+    assert_eq!(o.fault, Some(HallFault::StuckChannel(1)), "{o:?}");
+    assert!((3000..3100).contains(&period), "{o:?}");
+    assert_eq!(o.force_after_fault_n, 0.0);
 }
 
 /// The host-only trace writes one CSV line per period that parses back to the run.

@@ -49,6 +49,11 @@ pub struct HallCalibration {
     pub sin_row: [f32; 3],
     /// Demodulation row giving cos φ from offset-free counts (1/counts).
     pub cos_row: [f32; 3],
+    /// Health row: its product with offset-free counts is the part of the channel sum
+    /// that the fitted fundamentals do not explain (counts/counts). Healthy sensors leave
+    /// only the common-mode harmonic and noise there; `[1, 1, 1]` (the plain sum) for
+    /// ideal sensors.
+    pub sum_row: [f32; 3],
 }
 
 impl HallCalibration {
@@ -65,6 +70,7 @@ impl HallCalibration {
                 (-1.0 / 3.0 * inv) as f32,
             ],
             cos_row: [0.0, inv_sqrt3 as f32, -inv_sqrt3 as f32],
+            sum_row: [1.0; 3],
         }
     }
 
@@ -147,10 +153,14 @@ impl SensorModel {
             r0[0], r0[1], r0[2], r1[0], r1[1], r1[2], r2[0], r2[1], r2[2],
         );
         let inv = m.try_inverse().ok_or(CalibrationError::Singular)?;
+        // Σk uk = (Σ ak) sin φ + (Σ bk) cos φ + harmonic: remove the fundamental part.
+        let (sum_a, sum_b) = (r0[0] + r1[0] + r2[0], r0[1] + r1[1] + r2[1]);
+        let sum_row = [0, 1, 2].map(|k| (1.0 - sum_a * inv[(0, k)] - sum_b * inv[(1, k)]) as f32);
         Ok(HallCalibration {
             offset_counts: c.map(|ch| ch.offset_counts as f32),
             sin_row: [inv[(0, 0)] as f32, inv[(0, 1)] as f32, inv[(0, 2)] as f32],
             cos_row: [inv[(1, 0)] as f32, inv[(1, 1)] as f32, inv[(1, 2)] as f32],
+            sum_row,
         })
     }
 
@@ -190,6 +200,9 @@ pub struct SelfCalibration {
     pub correction: HallCorrection,
     /// The fitted model, for diagnosis.
     pub model: SensorModel,
+    /// Largest |health row · (u − o)| over the calibration samples, counts: the healthy
+    /// band of the channel-sum check for this sensor.
+    pub peak_sum_residual_counts: f64,
 }
 
 /// Collects raw samples during a calibration move and fits the channel model.
@@ -331,10 +344,24 @@ impl<const N: usize> HallCalibrator<N> {
         }
         let calibration = model.linear_calibration()?;
         let correction = model.correction(&calibration);
+        let residual = |raw: &[u16; 3]| -> f64 {
+            (0..3)
+                .map(|k| {
+                    f64::from(calibration.sum_row[k])
+                        * (f64::from(raw[k]) - f64::from(calibration.offset_counts[k]))
+                })
+                .sum()
+        };
+        let peak_sum_residual_counts = self
+            .samples
+            .iter()
+            .map(|raw| libm::fabs(residual(raw)))
+            .fold(0.0, f64::max);
         Ok(SelfCalibration {
             calibration,
             correction,
             model,
+            peak_sum_residual_counts,
         })
     }
 

@@ -67,8 +67,10 @@ pub struct HallConfig {
     pub calibration: HallCalibration,
     /// Accepted band of the demodulated magnitude as a fraction of nominal, e.g. (0.7, 1.3).
     pub magnitude_band: (f64, f64),
-    /// Largest accepted |u1 + u2 + u3| (offsets removed) as a fraction of A. Healthy
-    /// sensors sum to the common-mode third harmonic plus gain mismatch, a few % of A.
+    /// Largest accepted channel-sum residual (`calibration.sum_row` applied to the
+    /// offset-free counts; the plain sum u1 + u2 + u3 for nominal sensors) as a fraction
+    /// of A. Uncalibrated sensors need room for offsets and gain mismatch (0.5);
+    /// [`HallConfig::with_self_calibration`] sets it from the calibration data.
     pub sum_limit: f64,
     /// Integer or f32 angle computation.
     pub arithmetic: HallArithmetic,
@@ -89,6 +91,17 @@ impl HallConfig {
             magnitude_band: (0.7, 1.3),
             sum_limit: 0.5,
             arithmetic: HallArithmetic::Integer,
+        }
+    }
+
+    /// This configuration with a self-calibration installed: its demodulation, and a sum
+    /// limit of twice the largest healthy residual seen during calibration (at least
+    /// 5 % of A), so that a stuck or drifting channel is caught early.
+    pub fn with_self_calibration(&self, fit: &SelfCalibration) -> Self {
+        Self {
+            calibration: fit.calibration,
+            sum_limit: (2.0 * fit.peak_sum_residual_counts / self.amplitude_counts).max(0.05),
+            ..*self
         }
     }
 
@@ -152,6 +165,7 @@ pub struct HallDecoder {
     offset_f32: [f32; 3],
     sin_row_f32: [f32; 3],
     cos_row_f32: [f32; 3],
+    sum_row_q16: [i32; 3],
     sum_limit_q4: i32,
     magnitude_sq_min: u32,
     magnitude_sq_max: u32,
@@ -186,6 +200,7 @@ impl HallDecoder {
         let mut offset_q4 = [0i32; 3];
         let mut sin_row_q = [0i32; 3];
         let mut cos_row_q = [0i32; 3];
+        let mut sum_row_q16 = [0i32; 3];
         let unit = f64::from(DEMODULATED_RADIUS)
             * f64::from(1u32 << (COEFFICIENT_SHIFT - COUNT_FRACTION_BITS));
         for k in 0..3 {
@@ -213,6 +228,8 @@ impl HallDecoder {
             )?;
             sin_row_q[k] = libm::round(s * unit) as i32;
             cos_row_q[k] = libm::round(c * unit) as i32;
+            let w = in_range("calibration.sum_row", f64::from(cal.sum_row[k]), -4.0, 4.0)?;
+            sum_row_q16[k] = libm::round(w * 65536.0) as i32;
         }
         let nominal = f64::from(DEMODULATED_RADIUS);
         Ok(Self {
@@ -224,6 +241,7 @@ impl HallDecoder {
             offset_f32: cal.offset_counts,
             sin_row_f32: cal.sin_row.map(|v| v * RADIUS_F32),
             cos_row_f32: cal.cos_row.map(|v| v * RADIUS_F32),
+            sum_row_q16,
             sum_limit_q4: libm::round(
                 sum_limit * amplitude * f64::from(1u32 << COUNT_FRACTION_BITS),
             ) as i32,
@@ -292,7 +310,11 @@ impl HallDecoder {
         let packed = pack(raw);
         self.history = [packed, history[0]];
         let stuck = || stuck_channel(packed, &history);
-        if (u[0] + u[1] + u[2]).abs() > self.sum_limit_q4 {
+        let residual = (i64::from(self.sum_row_q16[0]) * i64::from(u[0])
+            + i64::from(self.sum_row_q16[1]) * i64::from(u[1])
+            + i64::from(self.sum_row_q16[2]) * i64::from(u[2]))
+            >> 16;
+        if residual.abs() > i64::from(self.sum_limit_q4) {
             return Err(stuck().unwrap_or(HallFault::SumOutOfBand));
         }
         let magnitude_fault = || Err(stuck().unwrap_or(HallFault::MagnitudeOutOfBand));
