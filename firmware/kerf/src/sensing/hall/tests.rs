@@ -265,8 +265,17 @@ fn calibration_recovers_offset_gain_phase_and_harmonic() {
             (models[1].amplitude_counts / ch.amplitude[1] - 1.0).abs() < 0.01,
             "{models:?}"
         );
-        let mut c2 = cfg;
-        c2.calibration = fit.calibration;
+        // The health row leaves the harmonic: peak Σk hk Ak (phases within 3° of each
+        // other, so the peaks nearly coincide), give or take ADC rounding.
+        let harmonic_sum: f64 = (0..3).map(|k| ch.harmonic3[k] * ch.amplitude[k]).sum();
+        let ratio = fit.peak_sum_residual_counts / harmonic_sum;
+        assert!(
+            (0.97..1.02).contains(&ratio),
+            "{} bit: residual {ratio} of the harmonic",
+            cfg.adc_bits
+        );
+        let c2 = cfg.with_self_calibration(&fit);
+        assert!((c2.sum_limit - 2.0 * fit.peak_sum_residual_counts / a).abs() < 1e-12);
         let mut before = HallDecoder::new(&cfg).unwrap();
         let mut after = HallDecoder::new(&c2).unwrap();
         after.set_correction(Some(fit.correction));
