@@ -11,8 +11,10 @@
 //! 3. a calibrated 2×3 demodulation matrix (the generalized Clarke transform, rows of
 //!    the 3×3 inverse of the channel model — see [`calibration`]) giving
 //!    s = R sin φ, c = R cos φ with R = 2^19 (sub-count resolution for the atan2);
-//! 4. health checks: the three-channel sum (zero when healthy), the vector magnitude
-//!    √(s² + c²) against its band, a channel that stopped changing;
+//! 4. health checks: the channel-sum residual (the plain sum u1 + u2 + u3 for nominal
+//!    sensors; after calibration the sum minus its fitted fundamental part, the health
+//!    row), the vector magnitude √(s² + c²) against its band, and on a failed check
+//!    the channel that stopped changing, named as stuck;
 //! 5. φ = atan2(s, c) by [`atan::atan2_turns`] into a `u32` phase word (one pitch =
 //!    2^32: wrapping arithmetic *is* the modulo), optionally corrected by a learnt
 //!    table ([`calibration::HallCorrection`]);
@@ -22,8 +24,9 @@
 //!
 //! The pitch count is the upper half of an `i64` accumulator in units of 2^-32 pitch.
 //! On any fault the accumulator holds. A floating-point path ([`HallArithmetic::F32`])
-//! replaces steps 2–5 by f32 arithmetic and `atan2f`, for comparison and for parts
-//! where the FPU is cheaper than the integer path.
+//! does the demodulation, magnitude check and angle in f32 with `atan2f` instead; on
+//! the Cortex-M4F it costs more instructions than the integer path (BENCHMARKS.md)
+//! and serves as a cross-check.
 
 pub mod atan;
 pub mod calibration;
