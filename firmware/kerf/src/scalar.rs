@@ -193,7 +193,7 @@ impl Float for f32 {
 /// exact power-of-4 scaling covers all others).
 ///
 /// Inputs in [2^-125, 2^127), which include everything the geometry produces, cost one
-/// integer range check; the rest go to [`sqrt_f32_special`], which scales the smallest
+/// integer range check; the rest go to `sqrt_f32_special`, which scales the smallest
 /// and largest binades into that range (there x/2 would round, or r² overflow).
 #[inline]
 pub fn sqrt_f32(x: f32) -> f32 {
