@@ -4,11 +4,11 @@
 use crate::axis::SimulatedAxis;
 use crate::hall_sensor::{ChannelFault, HallSensorParams};
 use crate::linear_motor::LinearMotorParams;
-use kerf::app::axis::{AxisConfig, AxisLoop, AxisState};
+use kerf::app::axis::{AxisConfig, AxisFault, AxisLoop, AxisState};
 use kerf::app::calibrate::{CalibrationProgress, HallCalibrationMode};
 use kerf::control::pd::Reference;
 use kerf::hal::HallInput;
-use kerf::sensing::hall::{CalibrationError, HallCorrection, HallFault, SelfCalibration};
+use kerf::sensing::hall::{CalibrationError, HallCorrection, SelfCalibration};
 use kerf::trajectory::quintic::Quintic;
 use kerf::{ConfigError, Real};
 
@@ -127,7 +127,7 @@ pub struct Period {
     /// Measured position, m.
     pub position_m: f64,
     /// The latched fault, if any.
-    pub fault: Option<HallFault>,
+    pub fault: Option<AxisFault>,
     /// Raw Hall counts the controller read this period.
     pub hall_counts: [u16; 3],
 }
@@ -232,7 +232,7 @@ pub struct Outcome {
     /// First period in fault and the fault, if any.
     pub fault_period: Option<u32>,
     /// The fault reported.
-    pub fault: Option<HallFault>,
+    pub fault: Option<AxisFault>,
     /// Largest |force command| from the fault on, N (must be 0).
     pub force_after_fault_n: f64,
     sum_sq_error: f64,
@@ -300,7 +300,7 @@ pub enum CalibrationRunError {
     /// The fit failed.
     Calibration(CalibrationError),
     /// The axis faulted during the sweep.
-    Fault(HallFault),
+    Fault(AxisFault),
 }
 
 /// Calibration mode ([`HallCalibrationMode`]) in closed loop with the decoder as

@@ -4,6 +4,7 @@ use hal_mock::hall_sensor::{ChannelFault, HallSensorParams};
 use hal_mock::scenario::{
     run, run_into, self_calibrate, Motion, Outcome, Scenario, MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M,
 };
+use kerf::app::axis::AxisFault;
 use kerf::sensing::hall::HallFault;
 use kerf::Q32;
 
@@ -91,7 +92,7 @@ fn sensor_faults_latch_zero_force() {
         run::<Q32>(&s).unwrap(),
     ] {
         assert_eq!(o.fault_period, Some(3000), "{o:?}");
-        assert_eq!(o.fault, Some(HallFault::AdcRail(0)));
+        assert_eq!(o.fault, Some(AxisFault::Sensor(HallFault::AdcRail(0))));
         assert_eq!(o.force_after_fault_n, 0.0);
     }
     // Channel 1 jumps to mid-scale: the channels no longer sum to zero, same period.
@@ -99,7 +100,7 @@ fn sensor_faults_latch_zero_force() {
     let o = run::<f32>(&s).unwrap();
     assert_eq!(
         (o.fault_period, o.fault),
-        (Some(3000), Some(HallFault::SumOutOfBand)),
+        (Some(3000), Some(AxisFault::Sensor(HallFault::SumOutOfBand))),
         "{o:?}"
     );
     // Channel 1 freezes at its last value at 0.3 s while the axis moves at ~0.14 m/s
@@ -110,7 +111,11 @@ fn sensor_faults_latch_zero_force() {
     let o = run::<f32>(&s).unwrap();
     let period = o.fault_period.expect("the stuck channel must be detected");
     assert!((3000..3210).contains(&period), "{o:?}");
-    assert_eq!(o.fault, Some(HallFault::StuckChannel(1)), "{o:?}");
+    assert_eq!(
+        o.fault,
+        Some(AxisFault::Sensor(HallFault::StuckChannel(1))),
+        "{o:?}"
+    );
     assert_eq!(o.force_after_fault_n, 0.0);
     println!(
         "stuck channel detected {} periods after it froze",
@@ -179,7 +184,11 @@ fn self_calibration_then_tracking_on_imperfect_sensors() {
         "calibrated axis: frozen channel detected {} periods after it froze",
         period - 3000
     );
-    assert_eq!(o.fault, Some(HallFault::StuckChannel(1)), "{o:?}");
+    assert_eq!(
+        o.fault,
+        Some(AxisFault::Sensor(HallFault::StuckChannel(1))),
+        "{o:?}"
+    );
     assert!((3000..3100).contains(&period), "{o:?}");
     assert_eq!(o.force_after_fault_n, 0.0);
 }
@@ -211,5 +220,5 @@ fn trace_writes_the_run_as_csv() {
         recorder.periods()[100].hall_counts[0]
     );
     assert_eq!(row(399)[9], "");
-    assert_eq!(row(400)[9], "AdcRail(2)");
+    assert_eq!(row(400)[9], "Sensor(AdcRail(2))");
 }

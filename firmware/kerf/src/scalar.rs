@@ -30,6 +30,8 @@ pub trait Real:
     fn from_q32(bits: i64) -> Self;
     /// `round(self · 2^32)`, saturating (NaN → 0): the inverse of [`Real::from_q32`].
     fn to_q32(self) -> i64;
+    /// `false` for NaN and ±∞ (always `true` for fixed point).
+    fn is_finite(self) -> bool;
 
     /// Clamps to `[-limit, limit]` (`limit >= 0`).
     #[inline]
@@ -63,6 +65,10 @@ impl Real for f32 {
     fn to_q32(self) -> i64 {
         (self * 4_294_967_296.0) as i64
     }
+    #[inline]
+    fn is_finite(self) -> bool {
+        self.abs() < Self::INFINITY
+    }
 }
 
 impl Real for f64 {
@@ -82,6 +88,10 @@ impl Real for f64 {
     #[inline]
     fn to_q32(self) -> i64 {
         (self * 4_294_967_296.0) as i64
+    }
+    #[inline]
+    fn is_finite(self) -> bool {
+        self.abs() < Self::INFINITY
     }
 }
 
@@ -148,6 +158,10 @@ impl Real for Q32 {
     #[inline]
     fn to_q32(self) -> i64 {
         self.0.to_bits()
+    }
+    #[inline]
+    fn is_finite(self) -> bool {
+        true
     }
 }
 

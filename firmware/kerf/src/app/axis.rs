@@ -47,6 +47,16 @@ impl AxisConfig {
     };
 }
 
+/// Why the axis stopped.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum AxisFault {
+    /// The Hall sensors failed a check.
+    Sensor(HallFault),
+    /// The reference was NaN or infinite: nothing sensible can be commanded.
+    ReferenceNotFinite,
+}
+
 /// Supervisory state of the axis.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -56,7 +66,7 @@ pub enum AxisState {
     /// Closed loop running.
     Running,
     /// Latched fault: zero force until reset.
-    Fault(HallFault),
+    Fault(AxisFault),
 }
 
 /// One period's output.
@@ -143,13 +153,20 @@ impl<T: Real> AxisLoop<T> {
         if let AxisState::Fault(_) = self.state {
             return self.safe_output();
         }
+        if !(reference.position.is_finite()
+            && reference.velocity.is_finite()
+            && reference.acceleration.is_finite())
+        {
+            self.state = AxisState::Fault(AxisFault::ReferenceNotFinite);
+            return self.safe_output();
+        }
         // Unwrap against the observer's prediction, so that any reachable speed decodes.
         let predicted_step =
             (self.observer.predicted_step(self.applied_acceleration) * self.pitches_per_m).to_q32();
         let sample = match self.decoder.update(hall_counts, predicted_step) {
             Ok(sample) => sample,
             Err(fault) => {
-                self.state = AxisState::Fault(fault);
+                self.state = AxisState::Fault(AxisFault::Sensor(fault));
                 return self.safe_output();
             }
         };
@@ -245,6 +262,29 @@ mod tests {
     }
 
     #[test]
+    fn non_finite_reference_latches_zero_force() {
+        for bad in [f64::NAN, f64::INFINITY] {
+            let mut axis = AxisLoop::<f64>::new(&AxisConfig::LM1247_SLAVE).unwrap();
+            let good = Reference {
+                position: 0.0,
+                velocity: 0.0,
+                acceleration: 0.0,
+            };
+            axis.step(counts(0.2), &good);
+            let out = axis.step(
+                counts(0.2),
+                &Reference {
+                    velocity: bad,
+                    ..good
+                },
+            );
+            assert_eq!(out.force_n, 0.0);
+            assert_eq!(out.state, AxisState::Fault(AxisFault::ReferenceNotFinite));
+            assert_eq!(axis.step(counts(0.2), &good).force_n, 0.0);
+        }
+    }
+
+    #[test]
     fn fault_latches_zero_force_until_reset() {
         let mut axis = AxisLoop::<f64>::new(&AxisConfig::LM1247_SLAVE).unwrap();
         // Reference 1 mm away: a large force while running.
@@ -260,13 +300,16 @@ mod tests {
         railed[1] = 65535;
         assert_eq!(
             axis.step(railed, &r).state,
-            AxisState::Fault(HallFault::AdcRail(1))
+            AxisState::Fault(AxisFault::Sensor(HallFault::AdcRail(1)))
         );
         // Healthy samples again: still latched, still zero.
         for _ in 0..10 {
             let out = axis.step(counts(0.2), &r);
             assert_eq!(out.force_n, 0.0);
-            assert_eq!(out.state, AxisState::Fault(HallFault::AdcRail(1)));
+            assert_eq!(
+                out.state,
+                AxisState::Fault(AxisFault::Sensor(HallFault::AdcRail(1)))
+            );
         }
         axis.reset();
         assert_eq!(axis.state(), AxisState::Starting);
