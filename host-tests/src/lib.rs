@@ -1,3 +1,4 @@
 //! Shared helpers for the host scenario tests.
 
+pub mod contours;
 pub mod signals;

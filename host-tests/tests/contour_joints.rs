@@ -3,45 +3,20 @@
 //! checked against the IK of every period's task reference (position) and against the
 //! inverse Jacobian applied to the task velocity (q̇ = Jx⁻¹ ṗ, computed independently).
 
+use host_tests::contours::{cam_at_10_mm_s, CUT_Z_M};
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
-use kerf::trajectory::efd::Efd;
-use kerf::trajectory::shapes;
 use kerf::trajectory::spline::JointSpline;
-use kerf::trajectory::tangential::{ContourFollower, FollowerConfig, SpeedRampConfig};
 
 #[test]
 fn cam_contour_joint_spline_matches_ik_and_inverse_jacobian() {
     const TS_S: f64 = 1e-3;
     const KNOT_EVERY: usize = 10;
-    // Cutting plane 55 mm above the base, inside the slave's 26.8–81.4 mm z range.
-    const Z_M: f64 = 0.055;
     let delta = DeltaGeometry::<f64>::new(&DeltaConfig::SLAVE_KEOPS).unwrap();
-    let efd = Efd::<f64, 30>::from_polygon(&shapes::cam(), 30).unwrap();
-    let ramp = SpeedRampConfig {
-        speed_m_s: 0.010,
-        accel_m_s2: 0.2,
-        jerk_m_s3: 20.0,
-        ts_s: TS_S,
-    };
-    let mut follower = ContourFollower::new(
-        efd,
-        &FollowerConfig {
-            ramp,
-            accel_limit_m_s2: 1.0,
-        },
-        0.0,
-    )
-    .unwrap();
     // From rest, 3 s along the contour, then a stop back to rest (the spline is clamped
     // to zero joint velocity at both ends).
-    follower.start();
-    let mut references: Vec<_> = (0..3000).map(|_| follower.step()).collect();
-    follower.stop();
-    while references.len() % KNOT_EVERY != 1 || references.last().is_some_and(|r| r.speed > 0.0) {
-        references.push(follower.step());
-    }
-    let task = |k: usize| Vector3::new(references[k].position.x, references[k].position.y, Z_M);
+    let references = cam_at_10_mm_s(TS_S, 3.0, KNOT_EVERY);
+    let task = |k: usize| Vector3::new(references[k].position.x, references[k].position.y, CUT_Z_M);
     let knots: Vec<Vector3<f64>> = (0..references.len())
         .step_by(KNOT_EVERY)
         .map(task)

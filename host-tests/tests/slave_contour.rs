@@ -7,52 +7,25 @@
 use hal_mock::delta_plant::{DeltaPlant, DeltaPlantParams};
 use hal_mock::hall_sensor::{HallSensor, HallSensorParams};
 use hal_mock::scenario::{MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M};
+use host_tests::contours::{cam_at_10_mm_s, CUT_Z_M};
 use kerf::app::axis::{AxisConfig, AxisLoop, AxisState};
 use kerf::control::pd::Reference;
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
-use kerf::trajectory::efd::Efd;
-use kerf::trajectory::shapes;
 use kerf::trajectory::spline::JointSpline;
-use kerf::trajectory::tangential::{ContourFollower, FollowerConfig, SpeedRampConfig};
 
 #[test]
 fn keops_slave_follows_the_cam_contour_through_hall_sensors() {
     const TS_S: f64 = 1e-4;
     const KNOT_S: f64 = 1e-3;
-    const Z_M: f64 = 0.055;
     let config = DeltaConfig::SLAVE_KEOPS;
     let delta = DeltaGeometry::<f64>::new(&config).unwrap();
 
     // Task reference: cam at 10 mm/s from rest to rest, sampled every millisecond.
-    let efd = Efd::<f64, 30>::from_polygon(&shapes::cam(), 30).unwrap();
-    let ramp = SpeedRampConfig {
-        speed_m_s: 0.010,
-        accel_m_s2: 0.2,
-        jerk_m_s3: 20.0,
-        ts_s: KNOT_S,
-    };
-    let mut follower = ContourFollower::new(
-        efd,
-        &FollowerConfig {
-            ramp,
-            accel_limit_m_s2: 1.0,
-        },
-        0.0,
-    )
-    .unwrap();
-    follower.start();
-    let mut task: Vec<Vector3<f64>> = Vec::new();
-    for k in 0.. {
-        if k == 2000 {
-            follower.stop();
-        }
-        let r = follower.step();
-        task.push(Vector3::new(r.position.x, r.position.y, Z_M));
-        if k > 2000 && r.speed == 0.0 {
-            break;
-        }
-    }
+    let task: Vec<Vector3<f64>> = cam_at_10_mm_s(KNOT_S, 2.0, 1)
+        .iter()
+        .map(|r| Vector3::new(r.position.x, r.position.y, CUT_Z_M))
+        .collect();
     let spline =
         JointSpline::<f64, 4096>::fit(&task, KNOT_S, Vector3::zeros(), Vector3::zeros(), |p| {
             delta.inverse(&p)
