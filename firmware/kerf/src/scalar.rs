@@ -46,54 +46,37 @@ pub trait Real:
     }
 }
 
-impl Real for f32 {
-    const ZERO: Self = 0.0;
-    #[inline]
-    fn from_f64(v: f64) -> Self {
-        v as f32
-    }
-    #[inline]
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
-    #[inline]
-    fn from_q32(bits: i64) -> Self {
-        // One rounding (i64 → f32), then an exact power-of-two scale.
-        bits as f32 * (1.0 / 4_294_967_296.0)
-    }
-    #[inline]
-    fn to_q32(self) -> i64 {
-        (self * 4_294_967_296.0) as i64
-    }
-    #[inline]
-    fn is_finite(self) -> bool {
-        self.abs() < Self::INFINITY
-    }
+/// [`Real`] for the primitive floats: conversions are `as` casts (round to nearest,
+/// saturating to integers), and the Q32 scale is an exact power of two, so
+/// `from_q32` rounds once (i64 → float).
+macro_rules! impl_real_for_float {
+    ($($float:ty),*) => {$(
+        impl Real for $float {
+            const ZERO: Self = 0.0;
+            #[inline]
+            fn from_f64(v: f64) -> Self {
+                v as $float
+            }
+            #[inline]
+            fn to_f64(self) -> f64 {
+                f64::from(self)
+            }
+            #[inline]
+            fn from_q32(bits: i64) -> Self {
+                bits as $float * (1.0 / 4_294_967_296.0)
+            }
+            #[inline]
+            fn to_q32(self) -> i64 {
+                (self * 4_294_967_296.0) as i64
+            }
+            #[inline]
+            fn is_finite(self) -> bool {
+                self.abs() < <$float>::INFINITY
+            }
+        }
+    )*};
 }
-
-impl Real for f64 {
-    const ZERO: Self = 0.0;
-    #[inline]
-    fn from_f64(v: f64) -> Self {
-        v
-    }
-    #[inline]
-    fn to_f64(self) -> f64 {
-        self
-    }
-    #[inline]
-    fn from_q32(bits: i64) -> Self {
-        bits as f64 * (1.0 / 4_294_967_296.0)
-    }
-    #[inline]
-    fn to_q32(self) -> i64 {
-        (self * 4_294_967_296.0) as i64
-    }
-    #[inline]
-    fn is_finite(self) -> bool {
-        self.abs() < Self::INFINITY
-    }
-}
+impl_real_for_float!(f32, f64);
 
 /// Saturating signed Q31.32 fixed point (64-bit word).
 ///
