@@ -424,7 +424,7 @@ mod tests {
 
     const TS: f64 = 1e-3;
 
-    fn config(speed: f64) -> FollowerConfig {
+    fn config(speed: f64, limit: f64) -> FollowerConfig {
         FollowerConfig {
             ramp: SpeedRampConfig {
                 speed_m_s: speed,
@@ -432,7 +432,7 @@ mod tests {
                 jerk_m_s3: 50.0,
                 ts_s: TS,
             },
-            accel_limit_m_s2: 10.0,
+            accel_limit_m_s2: limit,
         }
     }
 
@@ -474,8 +474,8 @@ mod tests {
             efd.coefficients().iter().map(|r| r.map(to_f64)).collect();
         let sigma = |th: f64| speed_direct(&coefficients, th);
         let lap = simpson(0.0, 2.0 * PI, 20_000, sigma);
-        let mut f = ContourFollower::new(efd, &config(speed), 0.3).unwrap();
-        let mut ramp = SpeedRamp::<f64>::new(&config(speed).ramp).unwrap();
+        let mut f = ContourFollower::new(efd, &config(speed, 10.0), 0.3).unwrap();
+        let mut ramp = SpeedRamp::<f64>::new(&config(speed, 10.0).ramp).unwrap();
         f.start();
         ramp.start();
         let steps = (laps * lap / (speed * TS)) as usize + ramp.ramp_periods() as usize;
@@ -548,28 +548,6 @@ mod tests {
             // step; the carried rounding keeps the drift from accumulating.
             assert!(r.max_step_error_m < 5e-8, "{name}: {}", r.max_step_error_m);
             assert!(r.drift_per_lap < 1e-6, "{name}: {}", r.drift_per_lap);
-        }
-    }
-}
-
-#[cfg(test)]
-mod more_tests {
-    use super::*;
-    use crate::trajectory::shapes;
-    extern crate std;
-    use std::println;
-
-    const TS: f64 = 1e-3;
-
-    fn config(speed: f64, limit: f64) -> FollowerConfig {
-        FollowerConfig {
-            ramp: SpeedRampConfig {
-                speed_m_s: speed,
-                accel_m_s2: 0.5,
-                jerk_m_s3: 50.0,
-                ts_s: TS,
-            },
-            accel_limit_m_s2: limit,
         }
     }
 
