@@ -139,6 +139,28 @@ impl<const N: usize> Dct<N> {
         self.twiddle.get(len / 2..len).unwrap_or(&[])
     }
 
+    /// Applies the orthonormal scales C(k)·√(2/N) in place.
+    fn orthonormal_scale(&self, v: &mut [f32]) {
+        for (k, x) in v.iter_mut().enumerate() {
+            *x *= if k == 0 { self.scale0 } else { self.scale };
+        }
+    }
+
+    /// Runs the 8-point base `kernel` (the last three levels, in registers) on every
+    /// block of 8 of `v`, in place.
+    #[inline(always)]
+    fn base_blocks<K>(&self, v: &mut [f32], kernel: K)
+    where
+        K: Fn([f32; 8], [f32; 4], [f32; 2], f32) -> [f32; 8],
+    {
+        let (t8, t4, t2) = self.base_twiddles();
+        for chunk in v.chunks_exact_mut(8) {
+            if let Ok(block) = <&mut [f32; 8]>::try_from(chunk) {
+                *block = kernel(*block, t8, t4, t2);
+            }
+        }
+    }
+
     /// Twiddles of the 8-point base kernel: L = 8 (4), L = 4 (2), L = 2 (1).
     fn base_twiddles(&self) -> ([f32; 4], [f32; 2], f32) {
         let t = |i: usize| self.twiddle.get(i).copied().unwrap_or(0.0);
@@ -154,12 +176,7 @@ impl<const N: usize> Dct<N> {
         let mut len = N;
         while len > 8 {
             let tw = self.stage_twiddles(len);
-            for (s, d) in src.chunks_exact(len).zip(dst.chunks_exact_mut(len)) {
-                let (Some((s_lo, s_hi)), Some((d_lo, d_hi))) =
-                    (s.split_at_checked(len / 2), d.split_at_mut_checked(len / 2))
-                else {
-                    continue;
-                };
+            for ((s_lo, s_hi), (d_lo, d_hi)) in halved_blocks(src, dst, len) {
                 let pairs = s_lo.iter().zip(s_hi.iter().rev());
                 for (((&p, &q), (lo, hi)), &t) in pairs.zip(d_lo.iter_mut().zip(d_hi)).zip(tw) {
                     *lo = p + q;
@@ -170,12 +187,7 @@ impl<const N: usize> Dct<N> {
             len /= 2;
         }
         // The last three levels (L = 8, 4, 2) in registers, in place.
-        let (t8, t4, t2) = self.base_twiddles();
-        for chunk in src.chunks_exact_mut(8) {
-            if let Ok(block) = <&mut [f32; 8]>::try_from(chunk) {
-                *block = dct8(*block, t8, t4, t2);
-            }
-        }
+        self.base_blocks(src, dct8);
         // Merge stages, L = 16, 32, …, N: from A = DCT(a), B = DCT(b),
         // X[2k] = A[k], X[2k+1] = B[k] + B[k+1] with B[L/2] = 0.
         let mut len = 16;
@@ -198,9 +210,7 @@ impl<const N: usize> Dct<N> {
             len *= 2;
         }
         // 2 (log2 N − 3) swaps: the result is back in the caller's buffer.
-        for (k, c) in src.iter_mut().enumerate() {
-            *c *= if k == 0 { self.scale0 } else { self.scale };
-        }
+        self.orthonormal_scale(src);
     }
 
     /// In-place orthonormal DCT-III (inverse of [`forward`](Self::forward)): `c` holds
@@ -208,9 +218,7 @@ impl<const N: usize> Dct<N> {
     pub fn inverse(&self, c: &mut [f32; N]) {
         // The stages below compute the plain sum Σk X[k] cos(…); fold the orthonormal
         // scales into X first.
-        for (k, v) in c.iter_mut().enumerate() {
-            *v *= if k == 0 { self.scale0 } else { self.scale };
-        }
+        self.orthonormal_scale(c);
         let mut scratch = [0.0f32; N];
         let (mut src, mut dst): (&mut [f32], &mut [f32]) = (c, &mut scratch);
         // Transpose of the merge stages, L = N, …, 16: even coefficients to the first
@@ -233,22 +241,12 @@ impl<const N: usize> Dct<N> {
             swap(&mut src, &mut dst);
             len /= 2;
         }
-        let (t8, t4, t2) = self.base_twiddles();
-        for chunk in src.chunks_exact_mut(8) {
-            if let Ok(block) = <&mut [f32; 8]>::try_from(chunk) {
-                *block = idct8(*block, t8, t4, t2);
-            }
-        }
+        self.base_blocks(src, idct8);
         // Transpose of the split stages, L = 16, …, N: x[i] = u + v·t, x[L−1−i] = u − v·t.
         let mut len = 16;
         while len <= N {
             let tw = self.stage_twiddles(len);
-            for (s, d) in src.chunks_exact(len).zip(dst.chunks_exact_mut(len)) {
-                let (Some((s_lo, s_hi)), Some((d_lo, d_hi))) =
-                    (s.split_at_checked(len / 2), d.split_at_mut_checked(len / 2))
-                else {
-                    continue;
-                };
+            for ((s_lo, s_hi), (d_lo, d_hi)) in halved_blocks(src, dst, len) {
                 let outs = d_lo.iter_mut().zip(d_hi.iter_mut().rev());
                 for (((&u, &v), &t), (lo, hi)) in s_lo.iter().zip(s_hi).zip(tw).zip(outs) {
                     let y = v * t;
@@ -309,6 +307,26 @@ impl<const N: usize> Dct<N> {
             *o = round_shift(acc, 30).clamp(i16::MIN.into(), i16::MAX.into()) as i16;
         }
     }
+}
+
+/// A block of the source and of the destination, each as (first half, second half).
+type HalvedBlock<'a> = ((&'a [f32], &'a [f32]), (&'a mut [f32], &'a mut [f32]));
+
+/// The blocks of length `len` of `src` and `dst`, each split into its two halves.
+#[inline(always)]
+fn halved_blocks<'a>(
+    src: &'a [f32],
+    dst: &'a mut [f32],
+    len: usize,
+) -> impl Iterator<Item = HalvedBlock<'a>> {
+    src.chunks_exact(len)
+        .zip(dst.chunks_exact_mut(len))
+        .filter_map(move |(s, d)| {
+            Some((
+                s.split_at_checked(len / 2)?,
+                d.split_at_mut_checked(len / 2)?,
+            ))
+        })
 }
 
 /// Unnormalized 2-point DCT-II (Lee's split with L = 2; the merge is the identity).
