@@ -162,11 +162,22 @@ impl<T: Real> Simulation<T> {
         })
     }
 
-    /// Runs one period; `None` once the scenario's periods are done.
+    /// Runs one period of the scenario's motion; `None` once its periods are done.
     pub fn step(&mut self) -> Option<Period> {
         if self.period >= self.scenario.periods {
             return None;
         }
+        let r = reference(self.scenario.motion, f64::from(self.period) * TS_S);
+        Some(self.step_with(&Reference {
+            position: T::from_f64(r.position),
+            velocity: T::from_f64(r.velocity),
+            acceleration: T::from_f64(r.acceleration),
+        }))
+    }
+
+    /// Runs one period following `reference` (a mode that makes its own reference,
+    /// such as calibration, drives the axis through this).
+    pub fn step_with(&mut self, reference: &Reference<T>) -> Period {
         let t = f64::from(self.period) * TS_S;
         self.period += 1;
         if let Some((at, force)) = self.scenario.load_step {
@@ -177,18 +188,12 @@ impl<T: Real> Simulation<T> {
                 self.plant.sensor.fault = Some(fault);
             }
         }
-        let r = reference(self.scenario.motion, t);
-        let r_t = Reference {
-            position: T::from_f64(r.position),
-            velocity: T::from_f64(r.velocity),
-            acceleration: T::from_f64(r.acceleration),
-        };
         let hall_counts = self.plant.hall_counts(0);
-        let out = self.control.step(hall_counts, &r_t);
-        let error_m = r.position - self.plant.motor.position_m;
+        let out = self.control.step(hall_counts, reference);
+        let error_m = reference.position.to_f64() - self.plant.motor.position_m;
         let force_n = out.force_n.to_f64();
         self.plant.apply_force(force_n);
-        Some(Period {
+        Period {
             t_s: t,
             error_m,
             force_n,
@@ -200,7 +205,7 @@ impl<T: Real> Simulation<T> {
                 AxisState::Fault(fault) => Some(fault),
                 _ => None,
             },
-        })
+        }
     }
 }
 
@@ -312,24 +317,17 @@ pub fn self_calibrate<T: Real>(
     let mut mode = HallCalibrationMode::<T>::new(START_M, scenario.axis.hall.pitch_m, TS_S)
         .map_err(CalibrationRunError::Config)?;
     let mut sweep = *scenario;
-    sweep.motion = Motion::Hold;
-    sweep.periods = mode.periods();
     sweep.correction = None;
-    let mut control = AxisLoop::<T>::new(&sweep.axis).map_err(CalibrationRunError::Config)?;
-    control.set_home(T::from_f64(START_M));
-    let mut plant = SimulatedAxis::new(sweep.motor, sweep.sensor, TS_S, sweep.seed, START_M);
+    let mut simulation = Simulation::<T>::new(&sweep).map_err(CalibrationRunError::Config)?;
     loop {
-        let hall_counts = plant.hall_counts(0);
-        let out = control.step(hall_counts, &mode.reference());
-        if let AxisState::Fault(fault) = out.state {
+        let period = simulation.step_with(&mode.reference());
+        if let Some(fault) = period.fault {
             return Err(CalibrationRunError::Fault(fault));
         }
-        plant.apply_force(out.force_n.to_f64());
-        if mode
-            .record(hall_counts)
-            .map_err(CalibrationRunError::Calibration)?
-            == CalibrationProgress::Done
-        {
+        let progress = mode
+            .record(period.hall_counts)
+            .map_err(CalibrationRunError::Calibration)?;
+        if progress == CalibrationProgress::Done {
             break;
         }
     }
