@@ -182,6 +182,19 @@ impl Float for f32 {
     }
 }
 
+/// A configuration constant or formula literal in `T` (`Real::from_f64`, named so
+/// that it does not clash with nalgebra's conversions on the same types).
+#[inline]
+pub(crate) fn lit<T: Float>(v: f64) -> T {
+    <T as Real>::from_f64(v)
+}
+
+/// `v` as `f64` for reporting and comparisons at set-up time.
+#[inline]
+pub(crate) fn to_f64<T: Float>(v: T) -> f64 {
+    <T as Real>::to_f64(v)
+}
+
 /// Single-precision square root with FPU multiply/add only: a bit-level estimate of
 /// 1/√x (relative error ≤ 3.4e-2) refined by two Newton steps y ← y (3 − x y²)/2 (to
 /// 1.8e-3, then 4.7e-6), then one Newton correction of √x = x·y, which squares that

@@ -32,7 +32,7 @@
 //! divisions, `inverse` three square roots, `jacobian` one division.
 
 use crate::error::{in_range, positive, ConfigError};
-use crate::scalar::Float;
+use crate::scalar::{lit, Float};
 use nalgebra::{Matrix3, Vector3};
 
 /// Which root of a quadratic is taken (SPEC: the `±` of the closed-form solutions).
@@ -394,10 +394,6 @@ pub struct DeltaGeometry<T> {
     singular_sine_sq: T,
 }
 
-fn convert<T: Float>(v: f64) -> T {
-    nalgebra::convert::<f64, T>(v)
-}
-
 /// The error to report once a check has failed: [`KinematicsError::NotFinite`] when an
 /// input is NaN or ±∞, otherwise `err`. The hot paths do not test their inputs: NaN
 /// and ±∞ propagate through the arithmetic into a value that fails one of the checks
@@ -452,34 +448,34 @@ impl<T: Float> DeltaGeometry<T> {
             let (c_alpha, s_alpha) = (libm::cos(alpha), libm::sin(alpha));
             let offset = re - rb;
             *out = Actuator {
-                c_theta: convert(c_theta),
-                s_theta: convert(s_theta),
-                c_alpha: convert(c_alpha),
-                s_alpha: convert(s_alpha),
-                offset_m: convert(offset),
+                c_theta: lit(c_theta),
+                s_theta: lit(s_theta),
+                c_alpha: lit(c_alpha),
+                s_alpha: lit(s_alpha),
+                offset_m: lit(offset),
                 rail: Vector3::new(
-                    convert(c_theta * c_alpha),
-                    convert(s_theta * c_alpha),
-                    convert(-s_alpha),
+                    lit(c_theta * c_alpha),
+                    lit(s_theta * c_alpha),
+                    lit(-s_alpha),
                 ),
-                base_x_m: convert(offset * c_theta),
-                base_y_m: convert(offset * s_theta),
-                rail_offset_m: convert(offset * c_alpha),
-                lambda0_m2: convert(arm * arm - offset * offset),
-                lambda1_m: convert(2.0 * offset * c_alpha),
-                arm_sq_m2: convert(arm * arm),
-                singular_fd_m: convert(SINGULAR_SINE * arm),
-                travel_min_m: convert(lo),
-                travel_max_m: convert(hi),
-                ik_sign: convert(a.ik_root.sign()),
+                base_x_m: lit(offset * c_theta),
+                base_y_m: lit(offset * s_theta),
+                rail_offset_m: lit(offset * c_alpha),
+                lambda0_m2: lit(arm * arm - offset * offset),
+                lambda1_m: lit(2.0 * offset * c_alpha),
+                arm_sq_m2: lit(arm * arm),
+                singular_fd_m: lit(SINGULAR_SINE * arm),
+                travel_min_m: lit(lo),
+                travel_max_m: lit(hi),
+                ik_sign: lit(a.ik_root.sign()),
             };
         }
         Ok(Self {
             actuators,
-            fk_sign: convert(config.fk_root.sign()),
-            singular_det_m3: convert(SINGULAR_SINE * arm_product),
-            elimination_sine_sq: convert(ELIMINATION_SINE * ELIMINATION_SINE),
-            singular_sine_sq: convert(SINGULAR_SINE * SINGULAR_SINE),
+            fk_sign: lit(config.fk_root.sign()),
+            singular_det_m3: lit(SINGULAR_SINE * arm_product),
+            elimination_sine_sq: lit(ELIMINATION_SINE * ELIMINATION_SINE),
+            singular_sine_sq: lit(SINGULAR_SINE * SINGULAR_SINE),
         })
     }
 
@@ -504,7 +500,7 @@ impl<T: Float> DeltaGeometry<T> {
         let a3 = act3.half_sigma(d3);
         // Sphere i minus sphere 3: 2 (ai − a3) · p = λi − λ3 (T eqs. 111–112, halved).
         let lambda3 = act3.lambda(d3);
-        let half: T = convert(0.5);
+        let half: T = lit(0.5);
         let h1 = (act1.lambda(d1) - lambda3) * half;
         let h2 = (act2.lambda(d2) - lambda3) * half;
         let m1 = a1 - a3;
@@ -559,7 +555,7 @@ impl<T: Float> DeltaGeometry<T> {
         let a1 = act1.half_sigma(q.x);
         let a3 = act3.half_sigma(q.z);
         let lambda3 = act3.lambda(q.z);
-        let half: T = convert(0.5);
+        let half: T = lit(0.5);
         let h1 = (act1.lambda(q.x) - lambda3) * half;
         let h2 = (act2.lambda(q.y) - lambda3) * half;
         let m1 = a1 - a3;

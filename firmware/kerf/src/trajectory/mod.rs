@@ -17,21 +17,9 @@ pub mod spline;
 pub mod tangential;
 
 use crate::error::ConfigError;
-use crate::scalar::Real;
 
 pub use crate::scalar::Float;
-
-/// Converts a configuration constant to `T` (setup time, or a literal in a formula).
-#[inline]
-pub(crate) fn lit<T: Float>(v: f64) -> T {
-    <T as Real>::from_f64(v)
-}
-
-/// Converts `T` to `f64` (for setup-time checks and reports).
-#[inline]
-pub(crate) fn to_f64<T: Float>(v: T) -> f64 {
-    <T as Real>::to_f64(v)
-}
+pub(crate) use crate::scalar::{lit, to_f64};
 
 /// Why a contour, a speed or a joint map was rejected.
 #[derive(Copy, Clone, Debug, PartialEq)]
