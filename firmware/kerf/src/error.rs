@@ -1,24 +1,213 @@
 //! Configuration errors shared by every `new(config)` in the crate.
+//!
+//! A [`ConfigError`] says what is wrong ([`ConfigErrorKind`]) and where: the whole
+//! path of the field from the machine's config down, indices included, for example
+//! `slave.axes[2].dob.bandwidth_rad_s`. Leaf checks name the field; each level above
+//! adds its own part with [`ConfigContext::within`] and [`ConfigContext::at`], so a
+//! part validated on its own reports a short path and the same part inside a machine
+//! reports the full one.
 
-/// Why a configuration was rejected. The `&'static str` names the offending field
-/// (for example `"pitch_m"`), so a log line says exactly what to fix.
+use crate::scalar::Real;
+use core::fmt;
+
+/// What is wrong with a configuration value.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ConfigError {
+pub enum ConfigErrorKind {
     /// The value is NaN or infinite.
-    NotFinite(&'static str),
+    NotFinite,
     /// The value must be strictly positive.
-    NotPositive(&'static str),
+    NotPositive,
     /// The value is finite and positive but outside the range the algorithm supports.
-    OutOfRange(&'static str),
+    OutOfRange,
+    /// The value is valid in `f64`, but a coefficient derived from it is infinite, NaN,
+    /// zero or saturated in the target scalar (tiny periods, huge gains, tiny
+    /// bandwidths in `f32` or fixed point).
+    NotRepresentable,
+}
+
+impl ConfigErrorKind {
+    fn describe(self) -> &'static str {
+        match self {
+            Self::NotFinite => "not finite",
+            Self::NotPositive => "not strictly positive",
+            Self::OutOfRange => "out of the supported range",
+            Self::NotRepresentable => "not representable in the target scalar",
+        }
+    }
+}
+
+/// One step of a path into a configuration.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PathSegment {
+    /// A named field (`dob`, `bandwidth_rad_s`).
+    Field(&'static str),
+    /// An element of an array (`[2]`).
+    Index(u16),
+}
+
+/// Deepest path a [`ConfigError`] keeps; outer parts beyond it are dropped and the
+/// path is shown with a leading `…`.
+pub const MAX_PATH_DEPTH: usize = 8;
+
+/// Where in a configuration the bad value is: innermost segment last.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ConfigPath {
+    segments: [PathSegment; MAX_PATH_DEPTH],
+    len: u8,
+    truncated: bool,
+}
+
+impl ConfigPath {
+    const fn leaf(field: &'static str) -> Self {
+        let mut segments = [PathSegment::Index(0); MAX_PATH_DEPTH];
+        segments[0] = PathSegment::Field(field);
+        Self {
+            segments,
+            len: 1,
+            truncated: false,
+        }
+    }
+
+    /// The segments, outermost first.
+    pub fn segments(&self) -> &[PathSegment] {
+        self.segments.get(..usize::from(self.len)).unwrap_or(&[])
+    }
+
+    /// The innermost field name (the value itself).
+    pub fn field(&self) -> &'static str {
+        self.segments()
+            .iter()
+            .rev()
+            .find_map(|s| match s {
+                PathSegment::Field(name) => Some(*name),
+                PathSegment::Index(_) => None,
+            })
+            .unwrap_or("")
+    }
+
+    fn prepend(mut self, segment: PathSegment) -> Self {
+        let len = usize::from(self.len);
+        if len >= MAX_PATH_DEPTH {
+            self.truncated = true;
+            return self;
+        }
+        self.segments.copy_within(0..len, 1);
+        self.segments[0] = segment;
+        self.len += 1;
+        self
+    }
+}
+
+impl fmt::Display for ConfigPath {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.truncated {
+            f.write_str("…")?;
+        }
+        for (k, segment) in self.segments().iter().enumerate() {
+            match segment {
+                PathSegment::Field(name) if k == 0 && !self.truncated => f.write_str(name)?,
+                PathSegment::Field(name) => write!(f, ".{name}")?,
+                PathSegment::Index(i) => write!(f, "[{i}]")?,
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Why a configuration was rejected, and the full path of the offending field, so a
+/// log line says exactly what to fix (`slave.axes[2].dob.bandwidth_rad_s: not
+/// strictly positive`).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ConfigError {
+    /// What is wrong.
+    pub kind: ConfigErrorKind,
+    /// Where.
+    pub path: ConfigPath,
+}
+
+impl ConfigError {
+    /// `field` is NaN or infinite.
+    pub const fn not_finite(field: &'static str) -> Self {
+        Self::new(ConfigErrorKind::NotFinite, field)
+    }
+    /// `field` must be strictly positive.
+    pub const fn not_positive(field: &'static str) -> Self {
+        Self::new(ConfigErrorKind::NotPositive, field)
+    }
+    /// `field` is outside the supported range.
+    pub const fn out_of_range(field: &'static str) -> Self {
+        Self::new(ConfigErrorKind::OutOfRange, field)
+    }
+    /// A coefficient derived from `field` does not survive the target scalar.
+    pub const fn not_representable(field: &'static str) -> Self {
+        Self::new(ConfigErrorKind::NotRepresentable, field)
+    }
+
+    const fn new(kind: ConfigErrorKind, field: &'static str) -> Self {
+        Self {
+            kind,
+            path: ConfigPath::leaf(field),
+        }
+    }
+
+    /// The error as seen from the struct that holds the failing part in `field`.
+    #[must_use]
+    pub fn within(mut self, field: &'static str) -> Self {
+        self.path = self.path.prepend(PathSegment::Field(field));
+        self
+    }
+
+    /// The error as seen from the array that holds the failing part at `index`.
+    #[must_use]
+    pub fn at(mut self, index: usize) -> Self {
+        let index = u16::try_from(index).unwrap_or(u16::MAX);
+        self.path = self.path.prepend(PathSegment::Index(index));
+        self
+    }
+
+    /// The innermost field name.
+    pub fn field(&self) -> &'static str {
+        self.path.field()
+    }
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.path, self.kind.describe())
+    }
+}
+
+impl core::error::Error for ConfigError {}
+
+/// Adds path context to a `Result<_, ConfigError>` on the way up.
+pub trait ConfigContext: Sized {
+    /// See [`ConfigError::within`].
+    #[must_use]
+    fn within(self, field: &'static str) -> Self;
+    /// See [`ConfigError::at`].
+    #[must_use]
+    fn at(self, index: usize) -> Self;
+}
+
+impl<T> ConfigContext for Result<T, ConfigError> {
+    fn within(self, field: &'static str) -> Self {
+        self.map_err(|e| e.within(field))
+    }
+    fn at(self, index: usize) -> Self {
+        self.map_err(|e| e.at(index))
+    }
 }
 
 /// Checks that `value` is finite and strictly positive.
 pub(crate) fn positive(name: &'static str, value: f64) -> Result<f64, ConfigError> {
     if !value.is_finite() {
-        Err(ConfigError::NotFinite(name))
+        Err(ConfigError::not_finite(name))
     } else if value <= 0.0 {
-        Err(ConfigError::NotPositive(name))
+        Err(ConfigError::not_positive(name))
     } else {
         Ok(value)
     }
@@ -32,37 +221,120 @@ pub(crate) fn in_range(
     hi: f64,
 ) -> Result<f64, ConfigError> {
     if !value.is_finite() {
-        Err(ConfigError::NotFinite(name))
+        Err(ConfigError::not_finite(name))
     } else if value < lo || value > hi {
-        Err(ConfigError::OutOfRange(name))
+        Err(ConfigError::out_of_range(name))
     } else {
         Ok(value)
+    }
+}
+
+/// Converts a derived, necessarily non-zero coefficient to the target scalar, or
+/// names `name` (the config field it comes from) as not representable.
+///
+/// Accepted when the value is finite and non-zero in `f64` and its rounded form in `T`
+/// is within 1/16 of it (four significant bits): that rejects overflow to ∞, underflow
+/// to zero or a subnormal, and fixed-point saturation, while leaving room for the
+/// quantization a fixed-point coefficient legitimately has (Ts²/2 at 10 kHz is 21.5
+/// LSB in Q31.32, 2.3 % off).
+pub(crate) fn coefficient<T: Real>(name: &'static str, value: f64) -> Result<T, ConfigError> {
+    let converted = T::from_f64(value);
+    let back = converted.to_f64();
+    let exact_enough =
+        value.is_finite() && value != 0.0 && libm::fabs(back - value) <= libm::fabs(value) / 16.0;
+    if exact_enough && converted.is_finite() {
+        Ok(converted)
+    } else {
+        Err(ConfigError::not_representable(name))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scalar::Q32;
+    use std::string::ToString;
 
     #[test]
     fn checks_name_the_field() {
         assert_eq!(
             positive("ts_s", f64::NAN),
-            Err(ConfigError::NotFinite("ts_s"))
+            Err(ConfigError::not_finite("ts_s"))
         );
-        assert_eq!(positive("ts_s", 0.0), Err(ConfigError::NotPositive("ts_s")));
+        assert_eq!(positive("ts_s", 0.0), Err(ConfigError::not_positive("ts_s")));
         assert_eq!(
             positive("ts_s", -1.0),
-            Err(ConfigError::NotPositive("ts_s"))
+            Err(ConfigError::not_positive("ts_s"))
         );
         assert_eq!(positive("ts_s", 1e-4), Ok(1e-4));
         assert_eq!(
             in_range("x", 2.0, 0.0, 1.0),
-            Err(ConfigError::OutOfRange("x"))
+            Err(ConfigError::out_of_range("x"))
         );
         assert_eq!(
             in_range("x", f64::INFINITY, 0.0, 1.0),
-            Err(ConfigError::NotFinite("x"))
+            Err(ConfigError::not_finite("x"))
         );
+    }
+
+    #[test]
+    fn path_is_built_outwards_and_displayed_with_indices() {
+        let e = ConfigError::not_positive("bandwidth_rad_s")
+            .within("dob")
+            .at(2)
+            .within("axes")
+            .within("slave");
+        assert_eq!(
+            e.to_string(),
+            "slave.axes[2].dob.bandwidth_rad_s: not strictly positive"
+        );
+        assert_eq!(e.field(), "bandwidth_rad_s");
+        let r: Result<(), _> = Err(ConfigError::out_of_range("theta_rad"));
+        let e = r.at(1).within("actuators").within("delta").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "delta.actuators[1].theta_rad: out of the supported range"
+        );
+        assert_eq!(
+            e.path.segments(),
+            &[
+                PathSegment::Field("delta"),
+                PathSegment::Field("actuators"),
+                PathSegment::Index(1),
+                PathSegment::Field("theta_rad"),
+            ]
+        );
+    }
+
+    #[test]
+    fn too_deep_a_path_keeps_the_inner_part() {
+        let mut e = ConfigError::not_finite("x");
+        for k in 0..MAX_PATH_DEPTH + 3 {
+            e = e.at(k);
+        }
+        let shown = e.to_string();
+        assert!(shown.starts_with('…'), "{shown}");
+        assert!(shown.ends_with("x: not finite"), "{shown}");
+        assert_eq!(e.path.segments().len(), MAX_PATH_DEPTH);
+    }
+
+    #[test]
+    fn derived_coefficients_are_checked_in_the_target_scalar() {
+        // Fine in f64, gone in f32: overflow, underflow to zero, subnormal.
+        assert_eq!(coefficient::<f64>("g", 1e300), Ok(1e300));
+        assert!(coefficient::<f32>("g", 1e300).is_err());
+        assert!(coefficient::<f32>("g", 1e-50).is_err());
+        assert!(coefficient::<f32>("g", 1e-44).is_err());
+        assert_eq!(coefficient::<f32>("g", 1e-30), Ok(1e-30));
+        // Q31.32: saturation above 2^31 and quantization below 16 LSB.
+        assert!(coefficient::<Q32>("g", 3e9).is_err());
+        assert!(coefficient::<Q32>("g", 1e-10).is_err());
+        assert!(coefficient::<Q32>("g", 5e-9).is_ok());
+        for bad in [0.0, f64::NAN, f64::INFINITY] {
+            assert_eq!(
+                coefficient::<f64>("g", bad),
+                Err(ConfigError::not_representable("g"))
+            );
+        }
     }
 }

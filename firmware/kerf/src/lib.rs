@@ -21,5 +21,5 @@ pub mod scalar;
 pub mod sensing;
 pub mod trajectory;
 
-pub use error::ConfigError;
+pub use error::{ConfigContext, ConfigError, ConfigErrorKind};
 pub use scalar::{Real, Q32};

@@ -108,7 +108,7 @@ impl<T: Real> AxisLoop<T> {
         let pd = Pd::new(&config.pd)?;
         let dob = Dob::new(&config.dob)?;
         if config.velocity.ts_s != config.dob.ts_s {
-            return Err(ConfigError::OutOfRange("ts_s"));
+            return Err(ConfigError::out_of_range("ts_s"));
         }
         Ok(Self {
             decoder,
@@ -229,34 +229,34 @@ mod tests {
         };
         assert_eq!(
             with(|c| c.pd.kp_per_s2 = f64::NAN),
-            Some(ConfigError::NotFinite("kp_per_s2"))
+            Some(ConfigError::not_finite("kp_per_s2"))
         );
         assert_eq!(
             with(|c| c.pd.kd_per_s = -1.0),
-            Some(ConfigError::NotPositive("kd_per_s"))
+            Some(ConfigError::not_positive("kd_per_s"))
         );
         assert_eq!(
             with(|c| c.dob.bandwidth_rad_s = 0.0),
-            Some(ConfigError::NotPositive("bandwidth_rad_s"))
+            Some(ConfigError::not_positive("bandwidth_rad_s"))
         );
         assert_eq!(
             with(|c| c.hall.pitch_m = -0.018),
-            Some(ConfigError::NotPositive("pitch_m"))
+            Some(ConfigError::not_positive("pitch_m"))
         );
         assert_eq!(
             with(|c| c.velocity.ts_s = f64::NAN),
-            Some(ConfigError::NotFinite("ts_s"))
+            Some(ConfigError::not_finite("ts_s"))
         );
         assert_eq!(
             with(|c| c.velocity.ts_s = 2e-4),
-            Some(ConfigError::OutOfRange("ts_s"))
+            Some(ConfigError::out_of_range("ts_s"))
         );
         assert_eq!(
             with(|c| {
                 c.velocity.ts_s = 0.0;
                 c.dob.ts_s = 0.0
             }),
-            Some(ConfigError::NotPositive("ts_s"))
+            Some(ConfigError::not_positive("ts_s"))
         );
         assert!(AxisLoop::<f32>::new(&AxisConfig::LM1247_SLAVE).is_ok());
     }

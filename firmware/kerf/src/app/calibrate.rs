@@ -48,7 +48,7 @@ impl<T: Real> HallCalibrationMode<T> {
         let ts = positive("ts_s", ts_s)?;
         let periods = libm::ceil((SWEEP_DURATION_S + 2.0 * REST_S) / ts) as u32;
         if periods < CALIBRATION_SAMPLES as u32 {
-            return Err(ConfigError::OutOfRange("ts_s"));
+            return Err(ConfigError::out_of_range("ts_s"));
         }
         Ok(Self {
             sweep: Quintic::new(start_m, SWEEP_PITCHES * pitch, SWEEP_DURATION_S)?,
@@ -127,16 +127,16 @@ mod tests {
     fn rejects_bad_config() {
         assert_eq!(
             HallCalibrationMode::<f32>::new(0.0, 0.0, 1e-4).err(),
-            Some(ConfigError::NotPositive("pitch_m"))
+            Some(ConfigError::not_positive("pitch_m"))
         );
         assert_eq!(
             HallCalibrationMode::<f32>::new(0.0, 0.018, f64::NAN).err(),
-            Some(ConfigError::NotFinite("ts_s"))
+            Some(ConfigError::not_finite("ts_s"))
         );
         // Too few periods in the sweep for the sample store.
         assert_eq!(
             HallCalibrationMode::<f32>::new(0.0, 0.018, 0.01).err(),
-            Some(ConfigError::OutOfRange("ts_s"))
+            Some(ConfigError::out_of_range("ts_s"))
         );
     }
 }

@@ -83,7 +83,7 @@ fn check_n(n: usize) -> Result<(), ConfigError> {
     if super::is_supported_n(n) {
         Ok(())
     } else {
-        Err(ConfigError::OutOfRange("N"))
+        Err(ConfigError::out_of_range("N"))
     }
 }
 
@@ -569,11 +569,11 @@ mod tests {
 
     #[test]
     fn unsupported_lengths_are_rejected() {
-        assert_eq!(Dct::<4>::new().err(), Some(ConfigError::OutOfRange("N")));
-        assert_eq!(Dct::<128>::new().err(), Some(ConfigError::OutOfRange("N")));
+        assert_eq!(Dct::<4>::new().err(), Some(ConfigError::out_of_range("N")));
+        assert_eq!(Dct::<128>::new().err(), Some(ConfigError::out_of_range("N")));
         assert_eq!(
             NaiveDct::<24>::new().err(),
-            Some(ConfigError::OutOfRange("N"))
+            Some(ConfigError::out_of_range("N"))
         );
     }
 

@@ -138,7 +138,7 @@ impl<const N: usize> SdctEncoder<N> {
     pub fn new(config: &SdctConfig) -> Result<Self, ConfigError> {
         let dct = Dct::new()?;
         if config.m == 0 || config.m > N {
-            return Err(ConfigError::OutOfRange("m"));
+            return Err(ConfigError::out_of_range("m"));
         }
         Ok(Self {
             dct,
@@ -275,7 +275,7 @@ mod tests {
         };
         assert_eq!(
             SdctEncoder::<32>::new(&bad).err(),
-            Some(ConfigError::OutOfRange("m"))
+            Some(ConfigError::out_of_range("m"))
         );
         let bad = SdctConfig {
             m: 33,
@@ -283,7 +283,7 @@ mod tests {
         };
         assert_eq!(
             SdctEncoder::<32>::new(&bad).err(),
-            Some(ConfigError::OutOfRange("m"))
+            Some(ConfigError::out_of_range("m"))
         );
         let ok = SdctConfig {
             m: 9,
@@ -291,7 +291,7 @@ mod tests {
         };
         assert_eq!(
             SdctEncoder::<12>::new(&ok).err(),
-            Some(ConfigError::OutOfRange("N"))
+            Some(ConfigError::out_of_range("N"))
         );
         let enc = SdctEncoder::<8>::new(&SdctConfig {
             m: 2,

@@ -63,7 +63,7 @@ impl<T: Real> Dob<T> {
         let ts = positive("ts_s", config.ts_s)?;
         let limit = positive("force_limit_n", config.force_limit_n)?;
         if g * ts > 2.0 {
-            return Err(ConfigError::OutOfRange("bandwidth_rad_s"));
+            return Err(ConfigError::out_of_range("bandwidth_rad_s"));
         }
         Ok(Self {
             mass: T::from_f64(mass),
@@ -171,23 +171,23 @@ mod tests {
         };
         assert_eq!(
             with(|c| c.nominal_mass_kg = -0.1),
-            Some(ConfigError::NotPositive("nominal_mass_kg"))
+            Some(ConfigError::not_positive("nominal_mass_kg"))
         );
         assert_eq!(
             with(|c| c.bandwidth_rad_s = f64::INFINITY),
-            Some(ConfigError::NotFinite("bandwidth_rad_s"))
+            Some(ConfigError::not_finite("bandwidth_rad_s"))
         );
         assert_eq!(
             with(|c| c.ts_s = 0.0),
-            Some(ConfigError::NotPositive("ts_s"))
+            Some(ConfigError::not_positive("ts_s"))
         );
         assert_eq!(
             with(|c| c.force_limit_n = 0.0),
-            Some(ConfigError::NotPositive("force_limit_n"))
+            Some(ConfigError::not_positive("force_limit_n"))
         );
         assert_eq!(
             with(|c| c.bandwidth_rad_s = 3e4),
-            Some(ConfigError::OutOfRange("bandwidth_rad_s"))
+            Some(ConfigError::out_of_range("bandwidth_rad_s"))
         );
     }
 }

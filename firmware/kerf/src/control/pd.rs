@@ -87,7 +87,7 @@ mod tests {
                 kd_per_s: 1.0
             })
             .err(),
-            Some(ConfigError::NotPositive("kp_per_s2"))
+            Some(ConfigError::not_positive("kp_per_s2"))
         );
         assert_eq!(
             Pd::<f32>::new(&PdConfig {
@@ -95,7 +95,7 @@ mod tests {
                 kd_per_s: f64::NAN
             })
             .err(),
-            Some(ConfigError::NotFinite("kd_per_s"))
+            Some(ConfigError::not_finite("kd_per_s"))
         );
         assert_eq!(
             Pd::<f32>::new(&PdConfig {
@@ -103,7 +103,7 @@ mod tests {
                 kd_per_s: -2.0
             })
             .err(),
-            Some(ConfigError::NotPositive("kd_per_s"))
+            Some(ConfigError::not_positive("kd_per_s"))
         );
     }
 }

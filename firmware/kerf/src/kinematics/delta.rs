@@ -31,7 +31,7 @@
 //! Hot path: no `f64`, no allocation, no panics; `forward` uses one square root and two
 //! divisions, `inverse` three square roots, `jacobian` one division.
 
-use crate::error::{in_range, positive, ConfigError};
+use crate::error::{in_range, positive, ConfigContext, ConfigError};
 use crate::scalar::{lit, Float};
 use nalgebra::{Matrix3, Vector3};
 
@@ -432,17 +432,22 @@ impl<T: Float> DeltaGeometry<T> {
             ik_sign: T::one(),
         }; 3];
         let mut arm_product = 1.0;
-        for (out, a) in actuators.iter_mut().zip(config.actuators.iter()) {
-            let theta = in_range("theta_rad", a.theta_rad, -360.0 * DEG, 360.0 * DEG)?;
-            let alpha = in_range("alpha_rad", a.alpha_rad, 0.0, 90.0 * DEG)?;
-            let arm = positive("arm_m", a.arm_m)?;
-            let rb = in_range("base_radius_m", a.base_radius_m, 0.0, f64::MAX)?;
-            let re = in_range("effector_radius_m", a.effector_radius_m, 0.0, f64::MAX)?;
-            let lo = in_range("travel_min_m", a.travel_min_m, f64::MIN, f64::MAX)?;
-            let hi = in_range("travel_max_m", a.travel_max_m, lo, f64::MAX)?;
-            if hi <= lo {
-                return Err(ConfigError::OutOfRange("travel_max_m"));
-            }
+        for (index, (out, a)) in actuators.iter_mut().zip(config.actuators.iter()).enumerate() {
+            let checked = || {
+                let theta = in_range("theta_rad", a.theta_rad, -360.0 * DEG, 360.0 * DEG)?;
+                let alpha = in_range("alpha_rad", a.alpha_rad, 0.0, 90.0 * DEG)?;
+                let arm = positive("arm_m", a.arm_m)?;
+                let rb = in_range("base_radius_m", a.base_radius_m, 0.0, f64::MAX)?;
+                let re = in_range("effector_radius_m", a.effector_radius_m, 0.0, f64::MAX)?;
+                let lo = in_range("travel_min_m", a.travel_min_m, f64::MIN, f64::MAX)?;
+                let hi = in_range("travel_max_m", a.travel_max_m, lo, f64::MAX)?;
+                if hi <= lo {
+                    return Err(ConfigError::out_of_range("travel_max_m"));
+                }
+                Ok((theta, alpha, arm, rb, re, lo, hi))
+            };
+            let (theta, alpha, arm, rb, re, lo, hi) =
+                checked().at(index).within("actuators")?;
             arm_product *= arm;
             let (c_theta, s_theta) = (libm::cos(theta), libm::sin(theta));
             let (c_alpha, s_alpha) = (libm::cos(alpha), libm::sin(alpha));
@@ -1293,19 +1298,19 @@ mod tests {
         };
         assert_eq!(
             with(|c| c.actuators[1].arm_m = 0.0),
-            Some(ConfigError::NotPositive("arm_m"))
+            Some(ConfigError::not_positive("arm_m"))
         );
         assert_eq!(
             with(|c| c.actuators[2].alpha_rad = f64::NAN),
-            Some(ConfigError::NotFinite("alpha_rad"))
+            Some(ConfigError::not_finite("alpha_rad"))
         );
         assert_eq!(
             with(|c| c.actuators[0].travel_max_m = c.actuators[0].travel_min_m),
-            Some(ConfigError::OutOfRange("travel_max_m"))
+            Some(ConfigError::out_of_range("travel_max_m"))
         );
         assert_eq!(
             with(|c| c.actuators[0].effector_radius_m = -0.01),
-            Some(ConfigError::OutOfRange("effector_radius_m"))
+            Some(ConfigError::out_of_range("effector_radius_m"))
         );
     }
 }

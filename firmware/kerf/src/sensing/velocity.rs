@@ -39,7 +39,7 @@ impl<T: Real> TrackingObserver<T> {
         let w = positive("bandwidth_rad_s", config.bandwidth_rad_s)?;
         let ts = positive("ts_s", config.ts_s)?;
         if w * ts > 2.0 {
-            return Err(ConfigError::OutOfRange("bandwidth_rad_s"));
+            return Err(ConfigError::out_of_range("bandwidth_rad_s"));
         }
         let p = libm::exp(-w * ts);
         Ok(Self {
@@ -160,12 +160,12 @@ mod tests {
         };
         assert_eq!(
             bad(f64::NAN, 1e-4),
-            Some(ConfigError::NotFinite("bandwidth_rad_s"))
+            Some(ConfigError::not_finite("bandwidth_rad_s"))
         );
-        assert_eq!(bad(100.0, 0.0), Some(ConfigError::NotPositive("ts_s")));
+        assert_eq!(bad(100.0, 0.0), Some(ConfigError::not_positive("ts_s")));
         assert_eq!(
             bad(1e5, 1e-4),
-            Some(ConfigError::OutOfRange("bandwidth_rad_s"))
+            Some(ConfigError::out_of_range("bandwidth_rad_s"))
         );
     }
 }

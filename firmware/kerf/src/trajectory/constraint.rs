@@ -246,7 +246,7 @@ impl<T: Float, const N: usize> MotionConstraint<T, N> {
             return Err(ContourError::RepeatedPoint(points.len() - 1));
         }
         if !(1..=MAX_HALF_WINDOW).contains(&config.half_window) {
-            return Err(crate::ConfigError::OutOfRange("half_window").into());
+            return Err(crate::ConfigError::out_of_range("half_window").into());
         }
         if points.len() < 2 * config.half_window + 1 {
             return Err(ContourError::TooFewPoints);

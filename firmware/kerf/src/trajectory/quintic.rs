@@ -21,10 +21,10 @@ impl<T: Real> Quintic<T> {
     pub fn new(start_m: f64, distance_m: f64, duration_s: f64) -> Result<Self, ConfigError> {
         let duration = positive("duration_s", duration_s)?;
         if !start_m.is_finite() {
-            return Err(ConfigError::NotFinite("start_m"));
+            return Err(ConfigError::not_finite("start_m"));
         }
         if !distance_m.is_finite() {
-            return Err(ConfigError::NotFinite("distance_m"));
+            return Err(ConfigError::not_finite("distance_m"));
         }
         Ok(Self {
             start: T::from_f64(start_m),
@@ -84,11 +84,11 @@ mod tests {
     fn rejects_bad_input() {
         assert_eq!(
             Quintic::<f32>::new(0.0, 0.03, 0.0).err(),
-            Some(ConfigError::NotPositive("duration_s"))
+            Some(ConfigError::not_positive("duration_s"))
         );
         assert_eq!(
             Quintic::<f32>::new(f64::NAN, 0.03, 1.0).err(),
-            Some(ConfigError::NotFinite("start_m"))
+            Some(ConfigError::not_finite("start_m"))
         );
     }
 }

@@ -87,7 +87,7 @@ impl<T: Float, const N: usize> JointSpline<T, N> {
             return Err(ContourError::NotFinitePoint(i).into());
         }
         if !finite(&start_velocity) || !finite(&end_velocity) {
-            return Err(ContourError::Config(crate::ConfigError::NotFinite("velocity")).into());
+            return Err(ContourError::Config(crate::ConfigError::not_finite("velocity")).into());
         }
         let mut q: Vec<Vector3<T>, N> = Vec::new();
         for (index, p) in task.iter().enumerate() {

@@ -90,7 +90,7 @@ impl<T: Float> SpeedRamp<T> {
         let n_jerk = libm::ceil(t_jerk / ts).max(1.0);
         let n_flat = libm::ceil(v / a / ts - n_jerk).max(0.0);
         if n_jerk + n_flat > 1e8 {
-            return Err(ConfigError::OutOfRange("speed_m_s"));
+            return Err(ConfigError::out_of_range("speed_m_s"));
         }
         let a_used = v / ((n_jerk + n_flat) * ts);
         let j_used = a_used / (n_jerk * ts);
@@ -279,10 +279,10 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
         let ramp = SpeedRamp::new(&config.ramp)?;
         let limit = positive("accel_limit_m_s2", config.accel_limit_m_s2)?;
         if config.ramp.accel_m_s2 > limit {
-            return Err(ConfigError::OutOfRange("accel_m_s2").into());
+            return Err(ConfigError::out_of_range("accel_m_s2").into());
         }
         if !theta0.is_finite() {
-            return Err(ConfigError::NotFinite("theta0").into());
+            return Err(ConfigError::not_finite("theta0").into());
         }
         let length = to_f64(efd.arc_length(T::ZERO, lit(2.0 * PI), 16 * efd.harmonics()));
         if config.ramp.speed_m_s * config.ramp.ts_s >= length {
@@ -588,7 +588,7 @@ mod tests {
                 ..cfg
             })
             .err(),
-            Some(ConfigError::NotPositive("speed_m_s"))
+            Some(ConfigError::not_positive("speed_m_s"))
         );
     }
 
@@ -694,7 +694,7 @@ mod tests {
         let efd = Efd::<f32, 10>::from_polygon(&shapes::octagon(), 10).unwrap();
         assert_eq!(
             ContourFollower::new(efd.clone(), &config(-0.01, 10.0), 0.0).err(),
-            Some(ContourError::Config(ConfigError::NotPositive("speed_m_s")))
+            Some(ContourError::Config(ConfigError::not_positive("speed_m_s")))
         );
         // Perimeter ≈ 61 mm: 100 m/s × 1 ms = 100 mm.
         assert_eq!(
@@ -703,7 +703,7 @@ mod tests {
         );
         assert_eq!(
             ContourFollower::new(efd.clone(), &config(0.01, 0.1), 0.0).err(),
-            Some(ContourError::Config(ConfigError::OutOfRange("accel_m_s2")))
+            Some(ContourError::Config(ConfigError::out_of_range("accel_m_s2")))
         );
         assert!(ContourFollower::new(efd, &config(0.01, 10.0), f64::NAN).is_err());
     }

@@ -190,43 +190,43 @@ fn bad_configs_are_rejected_by_name() {
     };
     assert_eq!(
         with(|c| c.pitch_m = f64::NAN),
-        Some(ConfigError::NotFinite("pitch_m"))
+        Some(ConfigError::not_finite("pitch_m"))
     );
     assert_eq!(
         with(|c| c.pitch_m = 0.0),
-        Some(ConfigError::NotPositive("pitch_m"))
+        Some(ConfigError::not_positive("pitch_m"))
     );
     assert_eq!(
         with(|c| c.pitch_m = -0.018),
-        Some(ConfigError::NotPositive("pitch_m"))
+        Some(ConfigError::not_positive("pitch_m"))
     );
     assert_eq!(
         with(|c| c.adc_bits = 24),
-        Some(ConfigError::OutOfRange("adc_bits"))
+        Some(ConfigError::out_of_range("adc_bits"))
     );
     assert_eq!(
         with(|c| c.amplitude_counts = 40000.0),
-        Some(ConfigError::OutOfRange("amplitude_counts"))
+        Some(ConfigError::out_of_range("amplitude_counts"))
     );
     assert_eq!(
         with(|c| c.magnitude_band = (1.3, 0.7)),
-        Some(ConfigError::OutOfRange("magnitude_band"))
+        Some(ConfigError::out_of_range("magnitude_band"))
     );
     assert_eq!(
         with(|c| c.sum_limit = -1.0),
-        Some(ConfigError::NotPositive("sum_limit"))
+        Some(ConfigError::not_positive("sum_limit"))
     );
     assert_eq!(
         with(|c| c.calibration.sin_row[1] = f32::NAN),
-        Some(ConfigError::NotFinite("calibration.sin_row"))
+        Some(ConfigError::not_finite("calibration.sin_row"))
     );
     assert_eq!(
         with(|c| c.calibration.cos_row[0] = 1.0),
-        Some(ConfigError::OutOfRange("calibration.cos_row"))
+        Some(ConfigError::out_of_range("calibration.cos_row"))
     );
     assert_eq!(
         with(|c| c.calibration.offset_counts[2] = 70000.0),
-        Some(ConfigError::OutOfRange("calibration.offset_counts"))
+        Some(ConfigError::out_of_range("calibration.offset_counts"))
     );
     assert!(HallDecoder::new(&ok).is_ok());
     assert!(HallDecoder::new(&HallConfig::LM1247_12BIT).is_ok());
