@@ -234,7 +234,7 @@ pub(crate) fn in_range(
 ///
 /// Accepted when the value is finite and non-zero in `f64` and its rounded form in `T`
 /// is within 1/16 of it (four significant bits): that rejects overflow to ∞, underflow
-/// to zero or a subnormal, and fixed-point saturation, while leaving room for the
+/// to zero or to a subnormal that has lost that much, and fixed-point saturation, while leaving room for the
 /// quantization a fixed-point coefficient legitimately has (Ts²/2 at 10 kHz is 21.5
 /// LSB in Q31.32, 2.3 % off).
 pub(crate) fn coefficient<T: Real>(name: &'static str, value: f64) -> Result<T, ConfigError> {
@@ -261,7 +261,10 @@ mod tests {
             positive("ts_s", f64::NAN),
             Err(ConfigError::not_finite("ts_s"))
         );
-        assert_eq!(positive("ts_s", 0.0), Err(ConfigError::not_positive("ts_s")));
+        assert_eq!(
+            positive("ts_s", 0.0),
+            Err(ConfigError::not_positive("ts_s"))
+        );
         assert_eq!(
             positive("ts_s", -1.0),
             Err(ConfigError::not_positive("ts_s"))
@@ -324,7 +327,7 @@ mod tests {
         assert_eq!(coefficient::<f64>("g", 1e300), Ok(1e300));
         assert!(coefficient::<f32>("g", 1e300).is_err());
         assert!(coefficient::<f32>("g", 1e-50).is_err());
-        assert!(coefficient::<f32>("g", 1e-44).is_err());
+        assert!(coefficient::<f32>("g", 3e-45).is_err());
         assert_eq!(coefficient::<f32>("g", 1e-30), Ok(1e-30));
         // Q31.32: saturation above 2^31 and quantization below 16 LSB.
         assert!(coefficient::<Q32>("g", 3e9).is_err());

@@ -570,7 +570,10 @@ mod tests {
     #[test]
     fn unsupported_lengths_are_rejected() {
         assert_eq!(Dct::<4>::new().err(), Some(ConfigError::out_of_range("N")));
-        assert_eq!(Dct::<128>::new().err(), Some(ConfigError::out_of_range("N")));
+        assert_eq!(
+            Dct::<128>::new().err(),
+            Some(ConfigError::out_of_range("N"))
+        );
         assert_eq!(
             NaiveDct::<24>::new().err(),
             Some(ConfigError::out_of_range("N"))

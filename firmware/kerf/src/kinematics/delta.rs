@@ -432,7 +432,11 @@ impl<T: Float> DeltaGeometry<T> {
             ik_sign: T::one(),
         }; 3];
         let mut arm_product = 1.0;
-        for (index, (out, a)) in actuators.iter_mut().zip(config.actuators.iter()).enumerate() {
+        for (index, (out, a)) in actuators
+            .iter_mut()
+            .zip(config.actuators.iter())
+            .enumerate()
+        {
             let checked = || {
                 let theta = in_range("theta_rad", a.theta_rad, -360.0 * DEG, 360.0 * DEG)?;
                 let alpha = in_range("alpha_rad", a.alpha_rad, 0.0, 90.0 * DEG)?;
@@ -446,8 +450,7 @@ impl<T: Float> DeltaGeometry<T> {
                 }
                 Ok((theta, alpha, arm, rb, re, lo, hi))
             };
-            let (theta, alpha, arm, rb, re, lo, hi) =
-                checked().at(index).within("actuators")?;
+            let (theta, alpha, arm, rb, re, lo, hi) = checked().at(index).within("actuators")?;
             arm_product *= arm;
             let (c_theta, s_theta) = (libm::cos(theta), libm::sin(theta));
             let (c_alpha, s_alpha) = (libm::cos(alpha), libm::sin(alpha));
@@ -770,6 +773,7 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
     use std::println;
+    use std::string::{String, ToString};
     use std::vec::Vec;
 
     type V = Vector3<f64>;
@@ -1291,26 +1295,26 @@ mod tests {
 
     #[test]
     fn rejects_bad_config() {
-        let with = |f: fn(&mut DeltaConfig)| {
+        let with = |f: fn(&mut DeltaConfig)| -> Option<String> {
             let mut c = DeltaConfig::SLAVE_KEOPS;
             f(&mut c);
-            DeltaGeometry::<f32>::new(&c).err()
+            DeltaGeometry::<f32>::new(&c).err().map(|e| e.to_string())
         };
         assert_eq!(
             with(|c| c.actuators[1].arm_m = 0.0),
-            Some(ConfigError::not_positive("arm_m"))
+            Some("actuators[1].arm_m: not strictly positive".into())
         );
         assert_eq!(
             with(|c| c.actuators[2].alpha_rad = f64::NAN),
-            Some(ConfigError::not_finite("alpha_rad"))
+            Some("actuators[2].alpha_rad: not finite".into())
         );
         assert_eq!(
             with(|c| c.actuators[0].travel_max_m = c.actuators[0].travel_min_m),
-            Some(ConfigError::out_of_range("travel_max_m"))
+            Some("actuators[0].travel_max_m: out of the supported range".into())
         );
         assert_eq!(
             with(|c| c.actuators[0].effector_radius_m = -0.01),
-            Some(ConfigError::out_of_range("effector_radius_m"))
+            Some("actuators[0].effector_radius_m: out of the supported range".into())
         );
     }
 }

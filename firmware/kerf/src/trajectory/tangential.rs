@@ -703,7 +703,9 @@ mod tests {
         );
         assert_eq!(
             ContourFollower::new(efd.clone(), &config(0.01, 0.1), 0.0).err(),
-            Some(ContourError::Config(ConfigError::out_of_range("accel_m_s2")))
+            Some(ContourError::Config(ConfigError::out_of_range(
+                "accel_m_s2"
+            )))
         );
         assert!(ContourFollower::new(efd, &config(0.01, 10.0), f64::NAN).is_err());
     }
