@@ -4,9 +4,9 @@
 
 use hal_mock::hall_sensor::{HallSensor, HallSensorParams};
 use kerf::sensing::hall::{
-    CorrectionLearner, HallCalibrator, HallConfig, HallCorrection, HallDecoder, SelfCalibration,
+    CorrectionLearner, HallCalibrator, HallConfig, HallCorrection, HallDecoder, HallState, SelfCalibration,
 };
-use kerf::sensing::velocity::{TrackingObserver, TrackingObserverConfig};
+use kerf::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
 
 const PITCH_M: f64 = 0.018;
 
@@ -52,7 +52,7 @@ fn calibrate(config: &HallConfig, sensor: &mut HallSensor) -> SelfCalibration {
 /// Correction learnt against the master's 0.5 µm encoder over 10 pitches of slow
 /// motion (100 samples per table entry average the noise down by 10).
 fn learn_correction(config: &HallConfig, sensor: &mut HallSensor) -> HallCorrection {
-    let mut decoder = HallDecoder::new(config).unwrap();
+    let (decoder, mut decoder_state) = (HallDecoder::new(config).unwrap(), HallState::default());
     let mut learner = CorrectionLearner::default();
     let n = 256_000;
     for k in 0..n {
@@ -132,29 +132,32 @@ fn velocity_estimate_noise_against_finite_difference() {
     let mut config = HallConfig::LM1247_16BIT;
     let fit = calibrate(&config, &mut sensor);
     config.calibration = fit.calibration;
-    let mut decoder = HallDecoder::new(&config).unwrap();
+    let (mut decoder, mut decoder_state) = (HallDecoder::new(&config).unwrap(), HallState::default());
     decoder.set_correction(Some(fit.correction));
     let ts = 1e-4;
     let bandwidth = 2.0 * std::f64::consts::PI * 600.0;
-    let mut observer = TrackingObserver::<f64>::new(&TrackingObserverConfig {
-        bandwidth_rad_s: bandwidth,
-        ts_s: ts,
-    })
+    let observer = TrackingObserver::<f64>::new(
+        &TrackingObserverConfig {
+            bandwidth_rad_s: bandwidth,
+        },
+        ts,
+    )
     .unwrap();
+    let mut observer_state = TrackingObserverState::at_rest(0.0);
     let speed = 0.1;
     let (mut sum_obs, mut sum_fd, mut n) = (0.0, 0.0, 0);
     let mut last = None;
     for k in 0..20_000 {
         let x = 0.001 + speed * ts * k as f64;
-        let step = (observer.predicted_step(0.0) / PITCH_M * 4_294_967_296.0) as i64;
+        let step = (observer.predicted_step(&observer_state, 0.0) / PITCH_M * 4_294_967_296.0) as i64;
         let position = decoder
-            .update(sensor.sample(x), step)
+            .update(&mut decoder_state, sensor.sample(x), step)
             .unwrap()
             .position_m(PITCH_M);
         if k == 0 {
-            observer.reset(position);
+            observer_state = TrackingObserverState::at_rest(position);
         }
-        let v = observer.update(position, 0.0);
+        let v = observer.update(&mut observer_state, position, 0.0);
         if let Some(previous) = last {
             if k > 2000 {
                 let fd = (position - previous) / ts;

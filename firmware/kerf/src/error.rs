@@ -169,6 +169,20 @@ impl ConfigError {
         self
     }
 
+    /// The error of element `index` of the array field it names (`travel_m[1]`).
+    #[must_use]
+    pub fn indexed(mut self, index: usize) -> Self {
+        let index = u16::try_from(index).unwrap_or(u16::MAX);
+        let len = usize::from(self.path.len);
+        if let Some(slot) = self.path.segments.get_mut(len) {
+            *slot = PathSegment::Index(index);
+            self.path.len += 1;
+        } else {
+            self.path.truncated = true;
+        }
+        self
+    }
+
     /// The innermost field name.
     pub fn field(&self) -> &'static str {
         self.path.field()

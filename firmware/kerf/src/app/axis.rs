@@ -1,37 +1,59 @@
-//! One linear-motor axis: Hall decode → velocity observer → PD → DOB → force.
+//! One linear-motor axis: Hall decode → velocity observer → PD → DOB → force, split
+//! as the rest of kerf is: a user config ([`AxisConfig`], SI units) validated into
+//! coefficients ([`AxisLaw`], shared by every axis of a machine; [`HallAxis`], one per
+//! sensor set because each is calibrated on its own) and the running [`AxisState`].
 //!
-//! A sensor fault latches the axis into [`AxisState::Fault`]: the force command is
-//! zero from the faulty period on and stays zero until [`AxisLoop::reset`].
+//! A sensor fault latches the axis into [`AxisStatus::Fault`]: the force command is
+//! zero from the faulty period on and stays zero until [`AxisState::reset`].
+//!
+//! ```
+//! use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, AxisStatus, HallAxis};
+//! use kerf::control::pd::Reference;
+//! use kerf::sensing::hall::HallConfig;
+//!
+//! // The LM1247 law at 10 kHz, one sensor set, an axis homed at 4 mm.
+//! let law = AxisLaw::<f32>::new(&AxisConfig::LM1247_SLAVE, 1e-4).unwrap();
+//! let sensor = HallAxis::<f32>::new(&HallConfig::LM1247_16BIT).unwrap();
+//! let mut axis = AxisState::homed_at(0.004);
+//! // Ideal sensors at phase 0: u1 at mid-scale, u2 and u3 at ±A·sin 120°.
+//! let a = 0.4 * 65536.0 * 0.866_025_4;
+//! let counts = [32768, (32768.0 + a) as u16, (32768.0 - a) as u16];
+//! let hold = Reference { position: 0.004, velocity: 0.0, acceleration: 0.0 };
+//! let out = law.step(&sensor, &mut axis, counts, &hold);
+//! assert_eq!(out.status, AxisStatus::Running);
+//! assert!(out.force_n.abs() < 1e-3);
+//! // A railed channel: zero force, latched.
+//! let out = law.step(&sensor, &mut axis, [0, counts[1], counts[2]], &hold);
+//! assert_eq!(out.force_n, 0.0);
+//! assert!(matches!(out.status, AxisStatus::Fault(_)));
+//! ```
 
-use crate::control::dob::{Dob, DobConfig};
+use crate::control::dob::{Dob, DobConfig, DobState};
 use crate::control::pd::{Pd, PdConfig, Reference};
-use crate::error::ConfigError;
+use crate::error::{coefficient, ConfigContext, ConfigError};
 use crate::scalar::Real;
-use crate::sensing::hall::{HallConfig, HallCorrection, HallDecoder, HallFault};
-use crate::sensing::velocity::{TrackingObserver, TrackingObserverConfig};
+use crate::sensing::hall::{HallConfig, HallCorrection, HallDecoder, HallFault, HallState};
+use crate::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
 
-/// Everything one axis needs; [`AxisConfig::LM1247_SLAVE`] is the seed's slave motor.
+/// The control law of one axis, in SI units; [`AxisConfig::LM1247_SLAVE`] is the seed's
+/// slave motor. The control period is not here: the machine gives it once.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct AxisConfig {
-    /// Hall decoder.
-    pub hall: HallConfig,
     /// Velocity observer.
     pub velocity: TrackingObserverConfig,
     /// PD tracking gains.
     pub pd: PdConfig,
-    /// Disturbance observer (`ts_s` must equal the velocity observer's).
+    /// Disturbance observer.
     pub dob: DobConfig,
 }
 
 impl AxisConfig {
-    /// LM1247 axis at 10 kHz: PD at 2π·40 rad/s, DOB at 2π·150 rad/s with An = 71 g (the
-    /// bare slider: at or below any payload, as the DOB needs), velocity observer at
+    /// LM1247 axis: PD at 2π·40 rad/s, DOB at 2π·150 rad/s with An = 71 g (the bare
+    /// slider: at or below any payload, as the DOB needs), velocity observer at
     /// 2π·600 rad/s, force limited to the 3.6 N continuous rating.
     pub const LM1247_SLAVE: Self = Self {
-        hall: HallConfig::LM1247_16BIT,
         velocity: TrackingObserverConfig {
             bandwidth_rad_s: 2.0 * core::f64::consts::PI * 600.0,
-            ts_s: 1e-4,
         },
         pd: PdConfig {
             kp_per_s2: 63_165.468_5,
@@ -40,14 +62,13 @@ impl AxisConfig {
         dob: DobConfig {
             nominal_mass_kg: 0.071,
             bandwidth_rad_s: 2.0 * core::f64::consts::PI * 150.0,
-            ts_s: 1e-4,
             force_limit_n: 3.6,
             compensate: true,
         },
     };
 }
 
-/// Why the axis stopped.
+/// Why an axis stopped.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum AxisFault {
@@ -57,10 +78,10 @@ pub enum AxisFault {
     ReferenceNotFinite,
 }
 
-/// Supervisory state of the axis.
+/// Where an axis is in its own start-up.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum AxisState {
+pub enum AxisStatus {
     /// Waiting for the first good Hall sample.
     Starting,
     /// Closed loop running.
@@ -80,119 +101,99 @@ pub struct AxisOutput<T> {
     pub velocity_m_s: T,
     /// Disturbance estimate in N.
     pub disturbance_n: T,
-    /// Supervisory state after this period.
-    pub state: AxisState,
+    /// Status after this period.
+    pub status: AxisStatus,
 }
 
-/// The closed loop of one axis in the scalar `T`.
-#[derive(Clone, Debug)]
-pub struct AxisLoop<T> {
-    decoder: HallDecoder,
-    pitch_m: T,
-    pitches_per_m: T,
+/// Coefficients of the axis law in the scalar `T`; one set drives every axis of a
+/// machine, and replacing it keeps each axis' state (bumpless: see [`AxisLaw::step`]).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct AxisLaw<T> {
     observer: TrackingObserver<T>,
     pd: Pd<T>,
     dob: Dob<T>,
-    state: AxisState,
+}
+
+/// One axis' sensor coefficients: the Hall decoder (calibrated per sensor set) and the
+/// pitch that turns its phase into metres.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HallAxis<T> {
+    decoder: HallDecoder,
+    pitch_m: T,
+    pitches_per_m: T,
+}
+
+impl<T: Real> HallAxis<T> {
+    /// Validates the decoder configuration.
+    pub fn new(config: &HallConfig) -> Result<Self, ConfigError> {
+        let decoder = HallDecoder::new(config)?;
+        Ok(Self {
+            decoder,
+            pitch_m: coefficient("pitch_m", config.pitch_m)?,
+            pitches_per_m: coefficient("pitch_m", 1.0 / config.pitch_m)?,
+        })
+    }
+
+    /// Installs (or removes) the decoder's phase correction table.
+    pub fn set_correction(&mut self, correction: Option<HallCorrection>) {
+        self.decoder.set_correction(correction);
+    }
+}
+
+/// The running part of one axis.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct AxisState<T> {
+    hall: HallState,
+    observer: TrackingObserverState<T>,
+    dob: DobState<T>,
+    status: AxisStatus,
     position_m: T,
     applied_acceleration: T,
     home_m: T,
     offset_m: T,
 }
 
-impl<T: Real> AxisLoop<T> {
-    /// Validates every part of the configuration.
-    pub fn new(config: &AxisConfig) -> Result<Self, ConfigError> {
-        let decoder = HallDecoder::new(&config.hall)?;
-        let observer = TrackingObserver::new(&config.velocity)?;
-        let pd = Pd::new(&config.pd)?;
-        let dob = Dob::new(&config.dob)?;
-        if config.velocity.ts_s != config.dob.ts_s {
-            return Err(ConfigError::out_of_range("ts_s"));
-        }
-        Ok(Self {
-            decoder,
-            pitch_m: T::from_f64(config.hall.pitch_m),
-            pitches_per_m: T::from_f64(1.0 / config.hall.pitch_m),
-            observer,
-            pd,
-            dob,
-            state: AxisState::Starting,
-            position_m: T::ZERO,
+impl<T: Real> AxisState<T> {
+    /// An axis whose first good sample is taken as `home_m` in the reference's frame.
+    pub fn homed_at(home_m: T) -> Self {
+        Self {
+            hall: HallState::default(),
+            observer: TrackingObserverState::at_rest(T::ZERO),
+            dob: DobState::at(T::ZERO),
+            status: AxisStatus::Starting,
+            position_m: home_m,
             applied_acceleration: T::ZERO,
-            home_m: T::ZERO,
+            home_m,
             offset_m: T::ZERO,
-        })
-    }
-
-    /// Declares the position of the axis at the first good sample after start or
-    /// reset, in the reference's frame (homing; zero by default).
-    pub fn set_home(&mut self, home_m: T) {
-        self.home_m = home_m;
-    }
-
-    /// Installs (or removes) the Hall decoder's phase correction table.
-    pub fn set_hall_correction(&mut self, correction: Option<HallCorrection>) {
-        self.decoder.set_correction(correction);
+        }
     }
 
     /// Leaves a latched fault: the next good sample restarts the loop from rest and is
     /// taken as the home position again (the pitch count is not trusted across a fault).
     pub fn reset(&mut self) {
-        self.decoder.reset();
-        self.state = AxisState::Starting;
+        *self = Self::homed_at(self.home_m);
     }
 
-    /// Present supervisory state.
-    pub fn state(&self) -> AxisState {
-        self.state
+    /// Present status.
+    pub fn status(&self) -> AxisStatus {
+        self.status
     }
 
-    /// One control period: raw Hall counts and the reference in, force command out.
-    pub fn step(&mut self, hall_counts: [u16; 3], reference: &Reference<T>) -> AxisOutput<T> {
-        if let AxisState::Fault(_) = self.state {
-            return self.safe_output();
-        }
-        if !(reference.position.is_finite()
-            && reference.velocity.is_finite()
-            && reference.acceleration.is_finite())
-        {
-            self.state = AxisState::Fault(AxisFault::ReferenceNotFinite);
-            return self.safe_output();
-        }
-        // Unwrap against the observer's prediction, so that any reachable speed decodes.
-        let predicted_step =
-            (self.observer.predicted_step(self.applied_acceleration) * self.pitches_per_m).to_q32();
-        let sample = match self.decoder.update(hall_counts, predicted_step) {
-            Ok(sample) => sample,
-            Err(fault) => {
-                self.state = AxisState::Fault(AxisFault::Sensor(fault));
-                return self.safe_output();
-            }
-        };
-        let position_m = sample.position_m(self.pitch_m);
-        if self.state == AxisState::Starting {
-            // Absolute position = home + travel since the first sample.
-            self.offset_m = self.home_m - position_m;
-            self.observer.reset(position_m);
-            self.dob.reset(T::ZERO);
-            self.applied_acceleration = T::ZERO;
-            self.state = AxisState::Running;
-        }
-        self.position_m = self.offset_m + position_m;
-        let velocity = self.observer.update(position_m, self.applied_acceleration);
-        let acceleration = self.pd.acceleration(reference, self.position_m, velocity);
-        let out = self.dob.update(acceleration, velocity);
-        // With the DOB active the axis follows An·q̈ = F − F̂dis, so this is the
-        // acceleration the observer should predict with (zero when saturated away).
-        self.applied_acceleration = self.dob.applied_acceleration(&out);
-        AxisOutput {
-            force_n: out.force_n,
-            position_m: self.position_m,
-            velocity_m_s: velocity,
-            disturbance_n: out.disturbance_n,
-            state: self.state,
-        }
+    /// Measured position, m (the last good one on a fault).
+    pub fn position_m(&self) -> T {
+        self.position_m
+    }
+
+    /// Velocity estimate, m/s.
+    pub fn velocity_m_s(&self) -> T {
+        self.observer.velocity
+    }
+
+    /// Hands the axis to the control law from monitoring: the disturbance estimate
+    /// starts at zero at the present velocity, so the first force is the PD's alone.
+    pub fn engage(&mut self) {
+        self.dob = DobState::at(self.observer.velocity);
+        self.applied_acceleration = T::ZERO;
     }
 
     fn safe_output(&self) -> AxisOutput<T> {
@@ -201,8 +202,121 @@ impl<T: Real> AxisLoop<T> {
             position_m: self.position_m,
             velocity_m_s: T::ZERO,
             disturbance_n: T::ZERO,
-            state: self.state,
+            status: self.status,
         }
+    }
+}
+
+impl<T: Real> AxisLaw<T> {
+    /// Validates the law for control period `period_s`; a bad field is reported with
+    /// its path (`dob.bandwidth_rad_s`).
+    pub fn new(config: &AxisConfig, period_s: f64) -> Result<Self, ConfigError> {
+        Ok(Self {
+            observer: TrackingObserver::new(&config.velocity, period_s).within("velocity")?,
+            pd: Pd::new(&config.pd).within("pd")?,
+            dob: Dob::new(&config.dob, period_s).within("dob")?,
+        })
+    }
+
+    /// One control period of one axis: raw Hall counts and the reference in, force
+    /// command out.
+    ///
+    /// The state is kept in physical units (position, velocity, disturbance estimate),
+    /// so stepping with a new law after the old one is bumpless: the force changes only
+    /// by what the new gains make of the present errors, An·(ΔKp e + ΔKd ė) + ΔAn q̈des.
+    pub fn step(
+        &self,
+        sensor: &HallAxis<T>,
+        state: &mut AxisState<T>,
+        hall_counts: [u16; 3],
+        reference: &Reference<T>,
+    ) -> AxisOutput<T> {
+        if let AxisStatus::Fault(_) = state.status {
+            return state.safe_output();
+        }
+        if !(reference.position.is_finite()
+            && reference.velocity.is_finite()
+            && reference.acceleration.is_finite())
+        {
+            state.status = AxisStatus::Fault(AxisFault::ReferenceNotFinite);
+            return state.safe_output();
+        }
+        let velocity = match self.sense(sensor, state, hall_counts) {
+            Ok(velocity) => velocity,
+            Err(fault) => {
+                state.status = AxisStatus::Fault(fault);
+                return state.safe_output();
+            }
+        };
+        let acceleration = self.pd.acceleration(reference, state.position_m, velocity);
+        let out = self.dob.update(&mut state.dob, acceleration, velocity);
+        // With the DOB active the axis follows An·q̈ = F − F̂dis, so this is the
+        // acceleration the observer should predict with (zero when saturated away).
+        state.applied_acceleration = self.dob.applied_acceleration(&out);
+        AxisOutput {
+            force_n: out.force_n,
+            position_m: state.position_m,
+            velocity_m_s: velocity,
+            disturbance_n: out.disturbance_n,
+            status: state.status,
+        }
+    }
+
+    /// One period with the outputs safe (the machine idle): the sensors are decoded and
+    /// checked and the position and velocity tracked, so the axis can be engaged later
+    /// from where it is. A fault latches as in [`AxisLaw::step`].
+    pub fn monitor(
+        &self,
+        sensor: &HallAxis<T>,
+        state: &mut AxisState<T>,
+        hall_counts: [u16; 3],
+    ) -> Result<(), AxisFault> {
+        if let AxisStatus::Fault(fault) = state.status {
+            return Err(fault);
+        }
+        // No force: the nominal plant's acceleration is zero.
+        state.applied_acceleration = T::ZERO;
+        match self.sense(sensor, state, hall_counts) {
+            Ok(_) => Ok(()),
+            Err(fault) => {
+                state.status = AxisStatus::Fault(fault);
+                Err(fault)
+            }
+        }
+    }
+
+    /// Decode, home on the first good sample, track: the measured part of a period.
+    /// Returns the velocity estimate.
+    #[inline]
+    fn sense(
+        &self,
+        sensor: &HallAxis<T>,
+        state: &mut AxisState<T>,
+        hall_counts: [u16; 3],
+    ) -> Result<T, AxisFault> {
+        // Unwrap against the observer's prediction, so that any reachable speed decodes.
+        let predicted_step = (self
+            .observer
+            .predicted_step(&state.observer, state.applied_acceleration)
+            * sensor.pitches_per_m)
+            .to_q32();
+        let sample = sensor
+            .decoder
+            .update(&mut state.hall, hall_counts, predicted_step)
+            .map_err(AxisFault::Sensor)?;
+        let position_m = sample.position_m(sensor.pitch_m);
+        if state.status == AxisStatus::Starting {
+            // Absolute position = home + travel since the first sample.
+            state.offset_m = state.home_m - position_m;
+            state.observer = TrackingObserverState::at_rest(position_m);
+            state.dob = DobState::at(T::ZERO);
+            state.applied_acceleration = T::ZERO;
+            state.status = AxisStatus::Running;
+        }
+        state.position_m = state.offset_m + position_m;
+        Ok(self
+            .observer
+            .update(&mut state.observer, position_m, state.applied_acceleration))
     }
 }
 
@@ -210,6 +324,7 @@ impl<T: Real> AxisLoop<T> {
 mod tests {
     use super::*;
     use core::f64::consts::PI;
+    use std::string::{String, ToString};
 
     fn counts(phi: f64) -> [u16; 3] {
         let c = HallConfig::LM1247_16BIT;
@@ -220,58 +335,82 @@ mod tests {
         [ch(0, 0.0), ch(1, 2.0 * PI / 3.0), ch(2, -2.0 * PI / 3.0)]
     }
 
+    fn parts() -> (AxisLaw<f64>, HallAxis<f64>, AxisState<f64>) {
+        (
+            AxisLaw::new(&AxisConfig::LM1247_SLAVE, 1e-4).unwrap(),
+            HallAxis::new(&HallConfig::LM1247_16BIT).unwrap(),
+            AxisState::homed_at(0.0),
+        )
+    }
+
     #[test]
-    fn rejects_bad_gains_pitch_and_period() {
-        let with = |f: fn(&mut AxisConfig)| {
+    fn rejects_bad_gains_and_period_with_the_path() {
+        let with = |f: fn(&mut AxisConfig), period_s: f64| -> Option<String> {
             let mut c = AxisConfig::LM1247_SLAVE;
             f(&mut c);
-            AxisLoop::<f32>::new(&c).err()
+            AxisLaw::<f32>::new(&c, period_s)
+                .err()
+                .map(|e| e.to_string())
         };
+        let keep = |_: &mut AxisConfig| {};
         assert_eq!(
-            with(|c| c.pd.kp_per_s2 = f64::NAN),
-            Some(ConfigError::not_finite("kp_per_s2"))
+            with(|c| c.pd.kp_per_s2 = f64::NAN, 1e-4).as_deref(),
+            Some("pd.kp_per_s2: not finite")
         );
         assert_eq!(
-            with(|c| c.pd.kd_per_s = -1.0),
-            Some(ConfigError::not_positive("kd_per_s"))
+            with(|c| c.pd.kd_per_s = -1.0, 1e-4).as_deref(),
+            Some("pd.kd_per_s: not strictly positive")
         );
         assert_eq!(
-            with(|c| c.dob.bandwidth_rad_s = 0.0),
-            Some(ConfigError::not_positive("bandwidth_rad_s"))
+            with(|c| c.dob.bandwidth_rad_s = 0.0, 1e-4).as_deref(),
+            Some("dob.bandwidth_rad_s: not strictly positive")
         );
         assert_eq!(
-            with(|c| c.hall.pitch_m = -0.018),
-            Some(ConfigError::not_positive("pitch_m"))
+            with(keep, f64::NAN).as_deref(),
+            Some("velocity.period_s: not finite")
         );
+        // Valid in f64, gone in f32: a gain beyond f32's range.
         assert_eq!(
-            with(|c| c.velocity.ts_s = f64::NAN),
-            Some(ConfigError::not_finite("ts_s"))
+            with(|c| c.pd.kp_per_s2 = 1e39, 1e-4).as_deref(),
+            Some("pd.kp_per_s2: not representable in the target scalar")
         );
+        assert!(AxisLaw::<f64>::new(
+            &AxisConfig {
+                pd: PdConfig {
+                    kp_per_s2: 1e39,
+                    kd_per_s: 1.0
+                },
+                ..AxisConfig::LM1247_SLAVE
+            },
+            1e-4
+        )
+        .is_ok());
         assert_eq!(
-            with(|c| c.velocity.ts_s = 2e-4),
-            Some(ConfigError::out_of_range("ts_s"))
+            HallAxis::<f32>::new(&HallConfig {
+                pitch_m: -0.018,
+                ..HallConfig::LM1247_16BIT
+            })
+            .err()
+            .map(|e| e.to_string())
+            .as_deref(),
+            Some("pitch_m: not strictly positive")
         );
-        assert_eq!(
-            with(|c| {
-                c.velocity.ts_s = 0.0;
-                c.dob.ts_s = 0.0
-            }),
-            Some(ConfigError::not_positive("ts_s"))
-        );
-        assert!(AxisLoop::<f32>::new(&AxisConfig::LM1247_SLAVE).is_ok());
+        assert!(with(keep, 1e-4).is_none());
     }
 
     #[test]
     fn non_finite_reference_latches_zero_force() {
         for bad in [f64::NAN, f64::INFINITY] {
-            let mut axis = AxisLoop::<f64>::new(&AxisConfig::LM1247_SLAVE).unwrap();
+            let (law, sensor, mut axis) = parts();
             let good = Reference {
                 position: 0.0,
                 velocity: 0.0,
                 acceleration: 0.0,
             };
-            axis.step(counts(0.2), &good);
-            let out = axis.step(
+            law.step(&sensor, &mut axis, counts(0.2), &good);
+            let out = law.step(
+                &sensor,
+                &mut axis,
                 counts(0.2),
                 &Reference {
                     velocity: bad,
@@ -279,40 +418,46 @@ mod tests {
                 },
             );
             assert_eq!(out.force_n, 0.0);
-            assert_eq!(out.state, AxisState::Fault(AxisFault::ReferenceNotFinite));
-            assert_eq!(axis.step(counts(0.2), &good).force_n, 0.0);
+            assert_eq!(out.status, AxisStatus::Fault(AxisFault::ReferenceNotFinite));
+            assert_eq!(
+                law.step(&sensor, &mut axis, counts(0.2), &good).force_n,
+                0.0
+            );
         }
     }
 
     #[test]
     fn fault_latches_zero_force_until_reset() {
-        let mut axis = AxisLoop::<f64>::new(&AxisConfig::LM1247_SLAVE).unwrap();
+        let (law, sensor, mut axis) = parts();
         // Reference 1 mm away: a large force while running.
         let r = Reference {
             position: 0.001,
             velocity: 0.0,
             acceleration: 0.0,
         };
-        let out = axis.step(counts(0.2), &r);
-        assert_eq!(out.state, AxisState::Running);
+        let out = law.step(&sensor, &mut axis, counts(0.2), &r);
+        assert_eq!(out.status, AxisStatus::Running);
         assert!(out.force_n.abs() > 1.0);
         let mut railed = counts(0.2);
         railed[1] = 65535;
         assert_eq!(
-            axis.step(railed, &r).state,
-            AxisState::Fault(AxisFault::Sensor(HallFault::AdcRail(1)))
+            law.step(&sensor, &mut axis, railed, &r).status,
+            AxisStatus::Fault(AxisFault::Sensor(HallFault::AdcRail(1)))
         );
         // Healthy samples again: still latched, still zero.
         for _ in 0..10 {
-            let out = axis.step(counts(0.2), &r);
+            let out = law.step(&sensor, &mut axis, counts(0.2), &r);
             assert_eq!(out.force_n, 0.0);
             assert_eq!(
-                out.state,
-                AxisState::Fault(AxisFault::Sensor(HallFault::AdcRail(1)))
+                out.status,
+                AxisStatus::Fault(AxisFault::Sensor(HallFault::AdcRail(1)))
             );
         }
         axis.reset();
-        assert_eq!(axis.state(), AxisState::Starting);
-        assert_eq!(axis.step(counts(0.2), &r).state, AxisState::Running);
+        assert_eq!(axis.status(), AxisStatus::Starting);
+        assert_eq!(
+            law.step(&sensor, &mut axis, counts(0.2), &r).status,
+            AxisStatus::Running
+        );
     }
 }

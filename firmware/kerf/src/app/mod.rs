@@ -1,4 +1,13 @@
-//! Modes, supervision and the periodic step that ties sensing, control and the HAL.
+//! Machines and their supervisor: how a machine runs, one step per control period.
+//!
+//! [`supervisor`] owns the modes (Idle → Calibrating → Ready → Running → Stopping →
+//! Fault) and the command and report queues; a machine implements
+//! [`supervisor::Machine`]. [`axis`] is one Hall-sensed linear-motor axis split into
+//! coefficients and state; [`joints`] is the machine of N such axes that follow
+//! joint-space jobs (the single LM1247 axis is its N = 1 case); [`calibrate`] is the
+//! calibration sweep and the fit the slower context runs on the streamed samples.
 
 pub mod axis;
 pub mod calibrate;
+pub mod joints;
+pub mod supervisor;

@@ -1,7 +1,7 @@
 //! Joint PD tracking law with acceleration feedforward (T 4.2, without preview):
 //! q̈des = q̈ref + Kd (q̇ref − q̇) + Kp (qref − q).
 
-use crate::error::{positive, ConfigError};
+use crate::error::{coefficient, positive, ConfigError};
 use crate::scalar::Real;
 
 /// PD gains, usually designed from a closed-loop bandwidth with [`PdConfig::critically_damped`].
@@ -34,8 +34,8 @@ pub struct Reference<T> {
     pub acceleration: T,
 }
 
-/// PD law with gains in the scalar `T` (stateless).
-#[derive(Copy, Clone, Debug)]
+/// PD law with gains in the scalar `T` (coefficients only: the law has no state).
+#[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Pd<T> {
     kp: T,
     kd: T,
@@ -45,8 +45,8 @@ impl<T: Real> Pd<T> {
     /// Validates the gains (finite, strictly positive).
     pub fn new(config: &PdConfig) -> Result<Self, ConfigError> {
         Ok(Self {
-            kp: T::from_f64(positive("kp_per_s2", config.kp_per_s2)?),
-            kd: T::from_f64(positive("kd_per_s", config.kd_per_s)?),
+            kp: coefficient("kp_per_s2", positive("kp_per_s2", config.kp_per_s2)?)?,
+            kd: coefficient("kd_per_s", positive("kd_per_s", config.kd_per_s)?)?,
         })
     }
 

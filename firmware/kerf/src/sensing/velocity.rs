@@ -9,76 +9,83 @@
 //! α = 1 − p² and β = (1 − p)². Unlike a finite difference, v̂ does not amplify
 //! position noise by 1/Ts, which matters because the DOB multiplies v̂ by its gain.
 
-use crate::error::{positive, ConfigError};
+use crate::error::{coefficient, positive, ConfigError};
 use crate::scalar::Real;
 
-/// Observer configuration.
+/// Observer configuration (the period comes from the machine).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct TrackingObserverConfig {
     /// Observer bandwidth ω in rad/s (both poles at −ω).
     pub bandwidth_rad_s: f64,
-    /// Sample period in seconds.
-    pub ts_s: f64,
 }
 
-/// Tracking observer state and coefficients in the scalar `T`.
-#[derive(Copy, Clone, Debug)]
+/// Tracking observer coefficients in the scalar `T`; one set drives any number of
+/// [`TrackingObserverState`]s.
+#[derive(Copy, Clone, Debug, PartialEq)]
 pub struct TrackingObserver<T> {
     ts: T,
     half_ts_sq: T,
     alpha: T,
     beta_over_ts: T,
-    position: T,
-    velocity: T,
+}
+
+/// State of one tracking observer: the filtered position and the velocity estimate,
+/// in physical units, so replacing the coefficients keeps it meaningful (bumpless).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct TrackingObserverState<T> {
+    /// Filtered position, m.
+    pub position: T,
+    /// Velocity estimate, m/s.
+    pub velocity: T,
+}
+
+impl<T: Real> TrackingObserverState<T> {
+    /// At rest at `position`.
+    pub fn at_rest(position: T) -> Self {
+        Self {
+            position,
+            velocity: T::ZERO,
+        }
+    }
 }
 
 impl<T: Real> TrackingObserver<T> {
-    /// Validates the configuration; `ω Ts` must stay below 2 (beyond that the discrete
-    /// design no longer approximates a continuous bandwidth).
-    pub fn new(config: &TrackingObserverConfig) -> Result<Self, ConfigError> {
+    /// Validates the configuration for control period `ts_s`; `ω Ts` must stay below 2
+    /// (beyond that the discrete design no longer approximates a continuous bandwidth),
+    /// and every coefficient must be representable in `T`.
+    pub fn new(config: &TrackingObserverConfig, ts_s: f64) -> Result<Self, ConfigError> {
         let w = positive("bandwidth_rad_s", config.bandwidth_rad_s)?;
-        let ts = positive("ts_s", config.ts_s)?;
+        let ts = positive("period_s", ts_s)?;
         if w * ts > 2.0 {
             return Err(ConfigError::out_of_range("bandwidth_rad_s"));
         }
         let p = libm::exp(-w * ts);
+        // 1 − p and 1 − p² without cancellation for small ω Ts.
+        let one_minus_p = -libm::expm1(-w * ts);
         Ok(Self {
-            ts: T::from_f64(ts),
-            half_ts_sq: T::from_f64(0.5 * ts * ts),
-            alpha: T::from_f64(1.0 - p * p),
-            beta_over_ts: T::from_f64((1.0 - p) * (1.0 - p) / ts),
-            position: T::ZERO,
-            velocity: T::ZERO,
+            ts: coefficient("period_s", ts)?,
+            half_ts_sq: coefficient("period_s", 0.5 * ts * ts)?,
+            alpha: coefficient("bandwidth_rad_s", one_minus_p * (1.0 + p))?,
+            beta_over_ts: coefficient("bandwidth_rad_s", one_minus_p * one_minus_p / ts)?,
         })
-    }
-
-    /// Starts tracking at `position` with zero velocity.
-    pub fn reset(&mut self, position: T) {
-        self.position = position;
-        self.velocity = T::ZERO;
     }
 
     /// Feeds one position sample and the acceleration applied over the last period
     /// (`T::ZERO` when unknown); returns the velocity estimate.
     #[inline]
-    pub fn update(&mut self, measured: T, acceleration: T) -> T {
-        let predicted = self.position + self.predicted_step(acceleration);
+    pub fn update(&self, state: &mut TrackingObserverState<T>, measured: T, acceleration: T) -> T {
+        let predicted = state.position + self.predicted_step(state, acceleration);
         let innovation = measured - predicted;
-        self.position = predicted + self.alpha * innovation;
-        self.velocity = self.velocity + self.ts * acceleration + self.beta_over_ts * innovation;
-        self.velocity
+        state.position = predicted + self.alpha * innovation;
+        state.velocity = state.velocity + self.ts * acceleration + self.beta_over_ts * innovation;
+        state.velocity
     }
 
     /// Position change expected over the next period, `Ts v̂ + Ts²/2 a` (used to
     /// unwrap the next Hall sample).
     #[inline]
-    pub fn predicted_step(&self, acceleration: T) -> T {
-        self.ts * self.velocity + self.half_ts_sq * acceleration
-    }
-
-    /// Filtered position estimate.
-    pub fn position(&self) -> T {
-        self.position
+    pub fn predicted_step(&self, state: &TrackingObserverState<T>, acceleration: T) -> T {
+        self.ts * state.velocity + self.half_ts_sq * acceleration
     }
 }
 
@@ -86,12 +93,19 @@ impl<T: Real> TrackingObserver<T> {
 mod tests {
     use super::*;
 
-    fn observer(w: f64) -> TrackingObserver<f64> {
-        TrackingObserver::new(&TrackingObserverConfig {
-            bandwidth_rad_s: w,
-            ts_s: 1e-4,
-        })
-        .unwrap()
+    /// Coefficients at 10 kHz and a state at rest at 0, paired for the tests.
+    struct Observer(TrackingObserver<f64>, TrackingObserverState<f64>);
+
+    impl Observer {
+        fn update(&mut self, measured: f64, acceleration: f64) -> f64 {
+            self.0.update(&mut self.1, measured, acceleration)
+        }
+    }
+
+    fn observer(w: f64) -> Observer {
+        let coefficients =
+            TrackingObserver::new(&TrackingObserverConfig { bandwidth_rad_s: w }, 1e-4).unwrap();
+        Observer(coefficients, TrackingObserverState::at_rest(0.0))
     }
 
     #[test]
@@ -152,20 +166,33 @@ mod tests {
     #[test]
     fn rejects_bad_config() {
         let bad = |w: f64, ts: f64| {
-            TrackingObserver::<f32>::new(&TrackingObserverConfig {
-                bandwidth_rad_s: w,
-                ts_s: ts,
-            })
-            .err()
+            TrackingObserver::<f32>::new(&TrackingObserverConfig { bandwidth_rad_s: w }, ts).err()
         };
         assert_eq!(
             bad(f64::NAN, 1e-4),
             Some(ConfigError::not_finite("bandwidth_rad_s"))
         );
-        assert_eq!(bad(100.0, 0.0), Some(ConfigError::not_positive("ts_s")));
+        assert_eq!(bad(100.0, 0.0), Some(ConfigError::not_positive("period_s")));
         assert_eq!(
             bad(1e5, 1e-4),
             Some(ConfigError::out_of_range("bandwidth_rad_s"))
         );
+        // Valid in f64, but Ts²/2 underflows f32 at a 1e-25 s period.
+        assert_eq!(bad(100.0, 1e-25), Some(ConfigError::not_representable("period_s")));
+        assert!(TrackingObserver::<f64>::new(&TrackingObserverConfig { bandwidth_rad_s: 100.0 }, 1e-25).is_ok());
+    }
+
+    #[test]
+    fn new_coefficients_keep_the_state() {
+        // A bandwidth change mid-ramp leaves position and velocity where they were.
+        let mut obs = observer(2000.0);
+        for k in 0..3000 {
+            obs.update(0.25 * k as f64 * 1e-4, 0.0);
+        }
+        let before = obs.1;
+        obs.0 = TrackingObserver::new(&TrackingObserverConfig { bandwidth_rad_s: 500.0 }, 1e-4).unwrap();
+        assert_eq!(obs.1, before);
+        let v = obs.update(0.25 * 3000.0 * 1e-4, 0.0);
+        assert!((v - 0.25).abs() < 1e-9, "{v}");
     }
 }

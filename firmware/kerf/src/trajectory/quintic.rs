@@ -35,6 +35,17 @@ impl<T: Real> Quintic<T> {
         })
     }
 
+    /// Standing still at `position_m`.
+    pub fn at_rest(position_m: T) -> Self {
+        Self {
+            start: position_m,
+            distance: T::ZERO,
+            inv_duration: T::ZERO,
+            velocity_scale: T::ZERO,
+            acceleration_scale: T::ZERO,
+        }
+    }
+
     /// Reference at `t_s` seconds after the start (held at the ends outside [0, T]).
     pub fn sample(&self, t_s: T) -> Reference<T> {
         let one = T::from_f64(1.0);

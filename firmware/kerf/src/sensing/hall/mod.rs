@@ -157,8 +157,10 @@ impl HallPosition {
     }
 }
 
-/// Decoder state for one axis.
-#[derive(Clone, Debug)]
+/// Decoder coefficients of one sensor set: offsets, demodulation rows, fault limits
+/// and the optional phase correction, fixed once validated. The running part is a
+/// [`HallState`].
+#[derive(Clone, Debug, PartialEq)]
 pub struct HallDecoder {
     arithmetic: HallArithmetic,
     rail_high: u16,
@@ -175,10 +177,23 @@ pub struct HallDecoder {
     magnitude_sq_min_f32: f32,
     magnitude_sq_max_f32: f32,
     correction: Option<HallCorrection>,
+}
+
+/// What a decoder remembers between samples.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct HallState {
     /// The two samples before the present one, newest first, packed 16 bits a channel
     /// (stuck-channel diagnosis).
     history: [u64; 2],
+    /// Unwrapped position; `None` until the first good sample (pitch count zero).
     accumulator: Option<i64>,
+}
+
+impl HallState {
+    /// Forgets the pitch count: the next good sample restarts at pitch zero.
+    pub fn reset(&mut self) {
+        *self = Self::default();
+    }
 }
 
 /// Scale of the demodulated vector in the f32 path (kept equal to the integer one so
@@ -254,8 +269,6 @@ impl HallDecoder {
             magnitude_sq_min_f32: ((lo * nominal) * (lo * nominal)) as f32,
             magnitude_sq_max_f32: ((hi * nominal) * (hi * nominal)) as f32,
             correction: None,
-            history: [0; 2],
-            accumulator: None,
         })
     }
 
@@ -270,16 +283,17 @@ impl HallDecoder {
     /// 2^-32 pitch (velocity × period / pitch; 0 if unknown, which unwraps correctly up
     /// to a quarter pitch per sample).
     pub fn update(
-        &mut self,
+        &self,
+        state: &mut HallState,
         raw: [u16; 3],
         predicted_step: i64,
     ) -> Result<HallPosition, HallFault> {
-        let phase = self.phase(raw)?;
+        let phase = self.phase(&mut state.history, raw)?;
         let phase = match &self.correction {
             Some(table) => table.apply(phase),
             None => phase,
         };
-        let accumulator = match self.accumulator {
+        let accumulator = match state.accumulator {
             Some(last) => {
                 let predicted = last.wrapping_add(predicted_step);
                 let innovation = phase.wrapping_sub(predicted as u32) as i32;
@@ -290,18 +304,12 @@ impl HallDecoder {
             }
             None => i64::from(phase),
         };
-        self.accumulator = Some(accumulator);
+        state.accumulator = Some(accumulator);
         Ok(HallPosition { accumulator })
     }
 
-    /// Forgets the pitch count: the next good sample restarts at pitch zero.
-    pub fn reset(&mut self) {
-        self.accumulator = None;
-        self.history = [0; 2];
-    }
-
     /// Checks the sample and returns its phase word (no unwrapping).
-    fn phase(&mut self, raw: [u16; 3]) -> Result<u32, HallFault> {
+    fn phase(&self, history: &mut [u64; 2], raw: [u16; 3]) -> Result<u32, HallFault> {
         for (channel, &count) in raw.iter().enumerate() {
             // 0 wraps to u16::MAX: one comparison catches both rails.
             if count.wrapping_sub(1) >= self.rail_high - 1 {
@@ -309,9 +317,10 @@ impl HallDecoder {
             }
         }
         let u = [0, 1, 2].map(|k| (i32::from(raw[k]) << COUNT_FRACTION_BITS) - self.offset_q4[k]);
-        let history = self.history;
+        let previous = *history;
         let packed = pack(raw);
-        self.history = [packed, history[0]];
+        *history = [packed, previous[0]];
+        let history = previous;
         let stuck = || stuck_channel(packed, &history);
         let residual = (i64::from(self.sum_row_q16[0]) * i64::from(u[0])
             + i64::from(self.sum_row_q16[1]) * i64::from(u[1])

@@ -49,8 +49,8 @@ fn integer_and_f32_paths_match_the_f64_angle_at_12_and_16_bits() {
         let ch = Channels::ideal(&cfg);
         let mut f32_cfg = cfg;
         f32_cfg.arithmetic = HallArithmetic::F32;
-        let mut int = HallDecoder::new(&cfg).unwrap();
-        let mut flt = HallDecoder::new(&f32_cfg).unwrap();
+        let int = HallDecoder::new(&cfg).unwrap();
+        let flt = HallDecoder::new(&f32_cfg).unwrap();
         let (mut worst_int, mut worst_f32) = (0.0f64, 0.0f64);
         for k in 0..20_000 {
             let phi = 2.0 * PI * (k as f64 + 0.5) / 20_000.0;
@@ -82,7 +82,7 @@ fn integer_and_f32_paths_match_the_f64_angle_at_12_and_16_bits() {
 fn position_unwraps_across_pitches_in_both_directions() {
     let cfg = HallConfig::LM1247_16BIT;
     let ch = Channels::ideal(&cfg);
-    let mut dec = HallDecoder::new(&cfg).unwrap();
+    let (dec, mut dec_state) = (HallDecoder::new(&cfg).unwrap(), HallState::default());
     let start = 0.3;
     let mut path = heapless::Vec::<f64, 4096>::new();
     for k in 0..2000 {
@@ -92,7 +92,7 @@ fn position_unwraps_across_pitches_in_both_directions() {
         path.push(start + 5.0 - 0.124 * k as f64).unwrap();
     }
     for &turns in &path {
-        let pos = dec.update(ch.sample(2.0 * PI * turns), 0).unwrap();
+        let pos = dec.update(&mut dec_state, ch.sample(2.0 * PI * turns), 0).unwrap();
         // ADC rounding of the ideal channels: 0.5 LSB / A rad = 3e-6 turn.
         assert!((pos.position_m(1.0f64) - turns).abs() < 1e-5, "{turns}");
         assert_eq!(pos.pitch_count(), turns.floor() as i32);
@@ -107,13 +107,13 @@ fn prediction_unwraps_at_20_m_per_s_sampled_at_2_4_khz() {
     let ch = Channels::ideal(&cfg);
     let step_turns = 20.0 / 2400.0 / 0.018;
     for direction in [1.0, -1.0] {
-        let mut dec = HallDecoder::new(&cfg).unwrap();
+        let (dec, mut dec_state) = (HallDecoder::new(&cfg).unwrap(), HallState::default());
         let predicted = (direction * step_turns * 4_294_967_296.0) as i64;
         let mut first = 0.0;
         for k in 0..500 {
             let turns = 0.1 + direction * step_turns * k as f64;
             let pos = dec
-                .update(
+                .update(&mut dec_state, 
                     ch.sample(2.0 * PI * turns),
                     if k == 0 { 0 } else { predicted },
                 )
@@ -124,10 +124,10 @@ fn prediction_unwraps_at_20_m_per_s_sampled_at_2_4_khz() {
             assert!((pos.position_m(1.0f64) - turns - first).abs() < 1e-5, "{k}");
         }
         // Without the prediction the same samples are an implausible jump.
-        let mut plain = HallDecoder::new(&cfg).unwrap();
-        plain.update(ch.sample(0.0), 0).unwrap();
+        let (plain, mut plain_state) = (HallDecoder::new(&cfg).unwrap(), HallState::default());
+        plain.update(&mut plain_state, ch.sample(0.0), 0).unwrap();
         assert_eq!(
-            plain.update(ch.sample(2.0 * PI * direction * step_turns), 0),
+            plain.update(&mut plain_state, ch.sample(2.0 * PI * direction * step_turns), 0),
             Err(HallFault::ImplausibleJump)
         );
     }
@@ -137,38 +137,38 @@ fn prediction_unwraps_at_20_m_per_s_sampled_at_2_4_khz() {
 fn faults_are_named_and_hold_the_position() {
     let cfg = HallConfig::LM1247_16BIT;
     let ch = Channels::ideal(&cfg);
-    let mut dec = HallDecoder::new(&cfg).unwrap();
+    let (dec, mut dec_state) = (HallDecoder::new(&cfg).unwrap(), HallState::default());
     // At φ = −30° channel 1 is at its peak, so freezing it at mid-scale is a large error.
     let phi = -PI / 6.0;
     let good = ch.sample(phi);
-    let held = dec.update(good, 0).unwrap();
+    let held = dec.update(&mut dec_state, good, 0).unwrap();
     assert_eq!(
-        dec.update([0, good[1], good[2]], 0),
+        dec.update(&mut dec_state, [0, good[1], good[2]], 0),
         Err(HallFault::AdcRail(0))
     );
     assert_eq!(
-        dec.update([good[0], good[1], 65535], 0),
+        dec.update(&mut dec_state, [good[0], good[1], 65535], 0),
         Err(HallFault::AdcRail(2))
     );
     // A channel far off with no history of being frozen: the sum no longer vanishes.
     assert_eq!(
-        dec.update([good[0], 32768, good[2]], 0),
+        dec.update(&mut dec_state, [good[0], 32768, good[2]], 0),
         Err(HallFault::SumOutOfBand)
     );
     // All channels scaled down by half: sum fine, magnitude out of band.
     let half = good.map(|c| ((i32::from(c) + 32768) / 2) as u16);
-    assert_eq!(dec.update(half, 0), Err(HallFault::MagnitudeOutOfBand));
+    assert_eq!(dec.update(&mut dec_state, half, 0), Err(HallFault::MagnitudeOutOfBand));
     // Back to good data: the position did not move.
-    assert_eq!(dec.update(good, 0), Ok(held));
+    assert_eq!(dec.update(&mut dec_state, good, 0), Ok(held));
 
     // Stuck channel: frozen at its value while the axis moves on.
-    let mut dec = HallDecoder::new(&cfg).unwrap();
+    let (dec, mut dec_state) = (HallDecoder::new(&cfg).unwrap(), HallState::default());
     let frozen = ch.sample(0.0)[1];
     let mut first_fault = None;
     for k in 0..200 {
         let mut raw = ch.sample(2.0 * PI * k as f64 / 400.0);
         raw[1] = frozen;
-        if let Err(fault) = dec.update(raw, 0) {
+        if let Err(fault) = dec.update(&mut dec_state, raw, 0) {
             first_fault = Some((k, fault));
             break;
         }
@@ -276,7 +276,7 @@ fn calibration_recovers_offset_gain_phase_and_harmonic() {
         );
         let c2 = cfg.with_self_calibration(&fit);
         assert!((c2.sum_limit - 2.0 * fit.peak_sum_residual_counts / a).abs() < 1e-12);
-        let mut before = HallDecoder::new(&cfg).unwrap();
+        let before = HallDecoder::new(&cfg).unwrap();
         let mut after = HallDecoder::new(&c2).unwrap();
         after.set_correction(Some(fit.correction));
         let (mut e_before, mut e_after) = (Vec::new(), Vec::new());

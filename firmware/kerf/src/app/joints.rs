@@ -1,0 +1,562 @@
+//! A machine of N Hall-sensed linear axes following joint-space jobs: the single
+//! LM1247 axis is `Joints<T, 1>`, the three carriages of a delta `Joints<T, 3>`.
+//!
+//! One [`AxisLaw`] (coefficients) drives N [`AxisState`]s; each axis has its own
+//! [`HallAxis`] because each sensor set is calibrated on its own. The control period
+//! is [`JointsConfig::period_s`], given once and passed down to every part.
+//!
+//! A job is a list of [`Segment`]s: rest-to-rest minimum-jerk moves of every axis to a
+//! target in a given time (a move to where the axis already is, is a dwell). Stopping
+//! ramps every axis from its present reference velocity to rest in the same time at
+//! the configured deceleration, so the joint-space direction of motion is kept.
+
+use crate::app::axis::{AxisConfig, AxisFault, AxisLaw, AxisOutput, AxisState, HallAxis};
+use crate::app::calibrate::{CalibrationFit, CalibrationSweep};
+use crate::app::supervisor::{Machine, Step};
+use crate::control::pd::Reference;
+use crate::error::{in_range, positive, ConfigContext, ConfigError};
+use crate::scalar::Real;
+use crate::sensing::hall::{CalibrationError, HallConfig, SelfCalibration};
+use crate::trajectory::quintic::Quintic;
+
+/// Most segments a job holds.
+pub const MAX_SEGMENTS: usize = 16;
+
+/// Everything a machine of N axes needs, in SI units.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct JointsConfig<const N: usize> {
+    /// Control period, s: the only place it is stated.
+    pub period_s: f64,
+    /// The control law, shared by every axis.
+    pub axis: AxisConfig,
+    /// Hall decoder of each axis.
+    pub hall: [HallConfig; N],
+    /// Position of each axis at its first good sample (homing), m.
+    pub home_m: [f64; N],
+    /// Travel of each axis `[min, max]`, m: job targets must lie inside.
+    pub travel_m: [[f64; 2]; N],
+    /// Largest speed a job may ask of an axis, m/s.
+    pub speed_limit_m_s: f64,
+    /// Largest acceleration a job may ask of an axis, and the deceleration of a stop, m/s².
+    pub accel_limit_m_s2: f64,
+}
+
+impl JointsConfig<1> {
+    /// One LM1247 axis at 10 kHz, homed at 4.3 mm, 0–100 mm travel, 0.5 m/s and
+    /// 20 m/s² (below the 3.6 N rating on the 121 g slider with payload: 30 m/s²).
+    pub const LM1247: Self = Self {
+        period_s: 1e-4,
+        axis: AxisConfig::LM1247_SLAVE,
+        hall: [HallConfig::LM1247_16BIT],
+        home_m: [0.0043],
+        travel_m: [[0.0, 0.1]],
+        speed_limit_m_s: 0.5,
+        accel_limit_m_s2: 20.0,
+    };
+}
+
+/// One move of every axis.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Segment<const N: usize> {
+    /// Where each axis ends, m.
+    pub target_m: [f64; N],
+    /// How long the move takes, s.
+    pub duration_s: f64,
+}
+
+/// A joint-space job: its segments in order.
+pub type JointJob<const N: usize> = heapless::Vec<Segment<N>, MAX_SEGMENTS>;
+
+/// Why a job does not fit the machine. `segment` and `axis` index the job.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum JobError {
+    /// The job has no segment.
+    Empty,
+    /// A target or duration is NaN or infinite, or a duration is not positive.
+    NotFinite {
+        /// Segment index.
+        segment: u8,
+    },
+    /// A target lies outside the axis' travel.
+    OutOfTravel {
+        /// Segment index.
+        segment: u8,
+        /// Axis index.
+        axis: u8,
+    },
+    /// A move needs more speed or acceleration than the limits allow.
+    TooFast {
+        /// Segment index.
+        segment: u8,
+        /// Axis index.
+        axis: u8,
+    },
+}
+
+/// Which axis stopped the machine, and why.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct JointFault {
+    /// Axis index.
+    pub axis: u8,
+    /// The axis' fault.
+    pub fault: AxisFault,
+}
+
+/// One period's telemetry.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct JointTelemetry<T, const N: usize> {
+    /// Reference of each axis.
+    pub reference: [Reference<T>; N],
+    /// What each axis did (force, measured position, velocity, disturbance, status).
+    pub axes: [AxisOutput<T>; N],
+}
+
+/// The job in progress.
+#[derive(Clone, Debug)]
+struct Run<T, const N: usize> {
+    job: JointJob<N>,
+    segment: usize,
+    moves: [Quintic<T>; N],
+    period: u32,
+    periods: u32,
+}
+
+/// The stop ramp: every axis from (p0, v0) to rest in `periods`.
+#[derive(Copy, Clone, Debug)]
+struct StopRamp<T, const N: usize> {
+    start: [Reference<T>; N],
+    /// −v0/T per axis.
+    deceleration: [T; N],
+    period: u32,
+    periods: u32,
+}
+
+/// N axes as a [`Machine`] the supervisor runs.
+#[derive(Clone, Debug)]
+pub struct Joints<T, const N: usize> {
+    period_s: f64,
+    ts: T,
+    law: AxisLaw<T>,
+    sensors: [HallAxis<T>; N],
+    axes: [AxisState<T>; N],
+    pitch_m: f64,
+    travel_m: [[f64; 2]; N],
+    speed_limit_m_s: f64,
+    accel_limit_m_s2: f64,
+    sweep: Option<CalibrationSweep<T, N>>,
+    sweep_start_m: [T; N],
+    run: Option<Run<T, N>>,
+    stop: Option<StopRamp<T, N>>,
+    reference: [Reference<T>; N],
+    last: [AxisOutput<T>; N],
+}
+
+fn rest<T: Real>(position: T) -> Reference<T> {
+    Reference {
+        position,
+        velocity: T::ZERO,
+        acceleration: T::ZERO,
+    }
+}
+
+impl<T: Real, const N: usize> Joints<T, N> {
+    /// Validates `config`; a bad field is named with its path
+    /// (`axis.dob.bandwidth_rad_s`, `hall[2].pitch_m`, `travel_m[1]`).
+    pub fn new(config: &JointsConfig<N>) -> Result<Self, ConfigError> {
+        let period_s = positive("period_s", config.period_s)?;
+        let law = AxisLaw::new(&config.axis, period_s).within("axis")?;
+        let mut sensors = heapless::Vec::<HallAxis<T>, N>::new();
+        for (k, hall) in config.hall.iter().enumerate() {
+            // Capacity N for N configs: the push cannot fail.
+            let _ = sensors.push(HallAxis::new(hall).at(k).within("hall")?);
+        }
+        let sensors = sensors
+            .into_array()
+            .map_err(|_| ConfigError::out_of_range("hall"))?;
+        let pitch_m = config.hall.first().map_or(0.018, |h| h.pitch_m);
+        for (k, (home, [lo, hi])) in config.home_m.iter().zip(config.travel_m.iter()).enumerate() {
+            let element = |e: ConfigError| e.indexed(k);
+            in_range("travel_m", *lo, f64::MIN, f64::MAX).map_err(element)?;
+            in_range("travel_m", *hi, *lo, f64::MAX).map_err(element)?;
+            in_range("home_m", *home, *lo, *hi).map_err(element)?;
+        }
+        let speed_limit_m_s = positive("speed_limit_m_s", config.speed_limit_m_s)?;
+        let accel_limit_m_s2 = positive("accel_limit_m_s2", config.accel_limit_m_s2)?;
+        let home = config.home_m.map(T::from_f64);
+        let axes = home.map(AxisState::homed_at);
+        let reference = home.map(rest);
+        Ok(Self {
+            period_s,
+            ts: T::from_f64(period_s),
+            law,
+            sensors,
+            last: axes.map(|a| AxisOutput {
+                force_n: T::ZERO,
+                position_m: a.position_m(),
+                velocity_m_s: T::ZERO,
+                disturbance_n: T::ZERO,
+                status: a.status(),
+            }),
+            axes,
+            pitch_m,
+            travel_m: config.travel_m,
+            speed_limit_m_s,
+            accel_limit_m_s2,
+            sweep: None,
+            sweep_start_m: home,
+            run: None,
+            stop: None,
+            reference,
+        })
+    }
+
+    /// The control period, s.
+    pub fn period_s(&self) -> f64 {
+        self.period_s
+    }
+
+    /// The axes' states.
+    pub fn axes(&self) -> &[AxisState<T>; N] {
+        &self.axes
+    }
+
+    /// This period's references.
+    pub fn reference(&self) -> &[Reference<T>; N] {
+        &self.reference
+    }
+
+    /// Steps every axis with `self.reference`; the first fault stops all of them.
+    fn control(&mut self, inputs: &[[u16; 3]; N]) -> Result<[T; N], JointFault> {
+        let mut forces = [T::ZERO; N];
+        for (k, ((axis, sensor), counts)) in self
+            .axes
+            .iter_mut()
+            .zip(self.sensors.iter())
+            .zip(inputs.iter())
+            .enumerate()
+        {
+            let reference = self.reference.get(k).copied().unwrap_or(rest(T::ZERO));
+            let out = self.law.step(sensor, axis, *counts, &reference);
+            if let crate::app::axis::AxisStatus::Fault(fault) = out.status {
+                return Err(JointFault {
+                    axis: k as u8,
+                    fault,
+                });
+            }
+            if let (Some(force), Some(last)) = (forces.get_mut(k), self.last.get_mut(k)) {
+                *force = out.force_n;
+                *last = out;
+            }
+        }
+        Ok(forces)
+    }
+
+    fn engage(&mut self) {
+        for axis in &mut self.axes {
+            axis.engage();
+        }
+    }
+
+    fn begin_segment(&mut self, index: usize, from: [f64; N]) -> Result<(), JobError> {
+        let Some(run) = self.run.as_mut() else {
+            return Ok(());
+        };
+        let Some(segment) = run.job.get(index) else {
+            return Err(JobError::Empty);
+        };
+        let err = |kind: fn(u8, u8) -> JobError, axis: usize| kind(index as u8, axis as u8);
+        for (axis, (out, (start, target))) in run
+            .moves
+            .iter_mut()
+            .zip(from.iter().zip(segment.target_m.iter()))
+            .enumerate()
+        {
+            let distance = libm::fabs(target - start);
+            let t = segment.duration_s;
+            // Peak speed 1.875 D/T, peak acceleration 5.7735 D/T² (trajectory::quintic).
+            if 1.875 * distance > self.speed_limit_m_s * t
+                || 5.7735 * distance > self.accel_limit_m_s2 * t * t
+            {
+                return Err(err(|segment, axis| JobError::TooFast { segment, axis }, axis));
+            }
+            *out = Quintic::new(*start, target - start, t)
+                .map_err(|_| JobError::NotFinite { segment: index as u8 })?;
+        }
+        run.segment = index;
+        run.period = 0;
+        run.periods = libm::round(segment.duration_s / self.period_s) as u32;
+        Ok(())
+    }
+}
+
+impl<T: Real, const N: usize> Machine for Joints<T, N> {
+    type Inputs = [[u16; 3]; N];
+    type Outputs = [T; N];
+    type Job = JointJob<N>;
+    type JobError = JobError;
+    type Coefficients = AxisLaw<T>;
+    type Calibration = [HallAxis<T>; N];
+    type Fault = JointFault;
+    type Telemetry = JointTelemetry<T, N>;
+
+    fn safe_outputs(&self) -> [T; N] {
+        [T::ZERO; N]
+    }
+
+    fn monitor(&mut self, inputs: &[[u16; 3]; N]) -> Result<(), JointFault> {
+        for (k, ((axis, sensor), counts)) in self
+            .axes
+            .iter_mut()
+            .zip(self.sensors.iter())
+            .zip(inputs.iter())
+            .enumerate()
+        {
+            self.law
+                .monitor(sensor, axis, *counts)
+                .map_err(|fault| JointFault {
+                    axis: k as u8,
+                    fault,
+                })?;
+        }
+        self.reference = self.axes.map(|a| rest(a.position_m()));
+        Ok(())
+    }
+
+    fn begin_calibration(&mut self) {
+        self.sweep_start_m = self.axes.map(|a| a.position_m());
+        // Valid period and pitch were checked in `new`; a failure leaves no sweep, and
+        // `calibrate` then reports the sweep done at once.
+        self.sweep = CalibrationSweep::new(self.sweep_start_m, self.pitch_m, self.period_s).ok();
+        self.engage();
+    }
+
+    fn calibrate(
+        &mut self,
+        inputs: &[[u16; 3]; N],
+        record: &mut dyn FnMut(u8, [u16; 3]),
+    ) -> Result<Step<[T; N]>, JointFault> {
+        let Some(sweep) = self.sweep.as_mut() else {
+            return Ok(Step::Done(self.safe_outputs()));
+        };
+        self.reference = sweep.reference();
+        let done = sweep.advance(inputs, record);
+        let forces = self.control(inputs)?;
+        Ok(if done {
+            Step::Done(forces)
+        } else {
+            Step::Continue(forces)
+        })
+    }
+
+    fn finish_calibration(&mut self, sensors: [HallAxis<T>; N]) {
+        self.sensors = sensors;
+        // The out-and-back sweep ended where it started: re-home there with the
+        // calibrated decoders (the nominal decoders' position error does not carry over).
+        for (axis, start) in self.axes.iter_mut().zip(self.sweep_start_m.iter()) {
+            *axis = AxisState::homed_at(*start);
+        }
+        self.sweep = None;
+    }
+
+    fn check_job(&self, job: &JointJob<N>) -> Result<(), JobError> {
+        if job.is_empty() {
+            return Err(JobError::Empty);
+        }
+        for (s, segment) in job.iter().enumerate() {
+            let segment_index = s as u8;
+            if !(segment.duration_s.is_finite() && segment.duration_s > 0.0)
+                || segment.target_m.iter().any(|t| !t.is_finite())
+            {
+                return Err(JobError::NotFinite {
+                    segment: segment_index,
+                });
+            }
+            for (axis, (target, [lo, hi])) in
+                segment.target_m.iter().zip(self.travel_m.iter()).enumerate()
+            {
+                if target < lo || target > hi {
+                    return Err(JobError::OutOfTravel {
+                        segment: segment_index,
+                        axis: axis as u8,
+                    });
+                }
+            }
+            // Moves between targets are known now; the first one's start only at Start.
+            if let Some(previous) = s.checked_sub(1).and_then(|p| job.get(p)) {
+                for (axis, (a, b)) in previous
+                    .target_m
+                    .iter()
+                    .zip(segment.target_m.iter())
+                    .enumerate()
+                {
+                    let d = libm::fabs(b - a);
+                    let t = segment.duration_s;
+                    if 1.875 * d > self.speed_limit_m_s * t
+                        || 5.7735 * d > self.accel_limit_m_s2 * t * t
+                    {
+                        return Err(JobError::TooFast {
+                            segment: segment_index,
+                            axis: axis as u8,
+                        });
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn begin_job(&mut self, job: &JointJob<N>) -> Result<(), JobError> {
+        let from = self.axes.map(|a| a.position_m().to_f64());
+        self.run = Some(Run {
+            job: job.clone(),
+            segment: 0,
+            // Placeholders until `begin_segment` builds the real moves.
+            moves: from.map(|p| Quintic::at_rest(T::from_f64(p))),
+            period: 0,
+            periods: 0,
+        });
+        if let Err(e) = self.begin_segment(0, from) {
+            self.run = None;
+            return Err(e);
+        }
+        self.engage();
+        Ok(())
+    }
+
+    fn run(&mut self, inputs: &[[u16; 3]; N]) -> Result<Step<[T; N]>, JointFault> {
+        let mut done = false;
+        if let Some(run) = self.run.as_mut() {
+            let t = T::from_q32(i64::from(run.period) << 32) * self.ts;
+            self.reference = run.moves.map(|m| m.sample(t));
+            run.period += 1;
+            if run.period >= run.periods {
+                let next = run.segment + 1;
+                let from = run.job.get(run.segment).map(|s| s.target_m);
+                match (run.job.get(next).is_some(), from) {
+                    (true, Some(from)) => done = self.begin_segment(next, from).is_err(),
+                    _ => done = true,
+                }
+            }
+        } else {
+            done = true;
+        }
+        let forces = self.control(inputs)?;
+        if done {
+            self.run = None;
+            return Ok(Step::Done(forces));
+        }
+        Ok(Step::Continue(forces))
+    }
+
+    fn begin_stop(&mut self) {
+        self.run = None;
+        let start = self.reference;
+        let peak = start
+            .iter()
+            .map(|r| libm::fabs(r.velocity.to_f64()))
+            .fold(0.0, f64::max);
+        // Same time for every axis: v/a of the fastest, at least one period.
+        let periods = libm::ceil(peak / self.accel_limit_m_s2 / self.period_s).max(1.0);
+        let inv_duration = 1.0 / (periods * self.period_s);
+        self.stop = Some(StopRamp {
+            deceleration: start.map(|r| -r.velocity * T::from_f64(inv_duration)),
+            start,
+            period: 0,
+            periods: periods as u32,
+        });
+    }
+
+    fn stop(&mut self, inputs: &[[u16; 3]; N]) -> Result<Step<[T; N]>, JointFault> {
+        let mut done = true;
+        if let Some(ramp) = self.stop.as_mut() {
+            ramp.period = (ramp.period + 1).min(ramp.periods);
+            let t = T::from_q32(i64::from(ramp.period) << 32) * self.ts;
+            let half_t_sq = T::from_f64(0.5) * t * t;
+            for ((r, s), a) in self
+                .reference
+                .iter_mut()
+                .zip(ramp.start.iter())
+                .zip(ramp.deceleration.iter())
+            {
+                *r = Reference {
+                    position: s.position + s.velocity * t + *a * half_t_sq,
+                    velocity: s.velocity + *a * t,
+                    acceleration: *a,
+                };
+            }
+            done = ramp.period >= ramp.periods;
+            if done {
+                self.reference = self.reference.map(|r| rest(r.position));
+            }
+        }
+        let forces = self.control(inputs)?;
+        if done {
+            self.stop = None;
+            return Ok(Step::Done(forces));
+        }
+        Ok(Step::Continue(forces))
+    }
+
+    fn set_coefficients(&mut self, law: AxisLaw<T>) {
+        self.law = law;
+    }
+
+    fn reset(&mut self) {
+        for axis in &mut self.axes {
+            axis.reset();
+        }
+        self.run = None;
+        self.stop = None;
+        self.sweep = None;
+    }
+
+    fn telemetry(&self) -> JointTelemetry<T, N> {
+        JointTelemetry {
+            reference: self.reference,
+            axes: self.last,
+        }
+    }
+}
+
+/// Why the slower context could not turn a calibration into decoders.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum CalibrationFailure {
+    /// The fit of an axis failed.
+    Fit {
+        /// Axis index.
+        axis: usize,
+        /// Why.
+        error: CalibrationError,
+    },
+    /// The fitted decoder configuration was rejected.
+    Config(ConfigError),
+}
+
+/// The slower context's end of a calibration: fits every axis from the streamed
+/// samples, returns the decoders to send with `FinishCalibration` and the fits.
+pub fn fit_sensors<T: Real, const N: usize>(
+    config: &JointsConfig<N>,
+    samples: &CalibrationFit<N>,
+) -> Result<([HallAxis<T>; N], [SelfCalibration; N]), CalibrationFailure> {
+    let mut sensors = heapless::Vec::<HallAxis<T>, N>::new();
+    let mut fits = heapless::Vec::<SelfCalibration, N>::new();
+    for (axis, hall) in config.hall.iter().enumerate() {
+        let fit = samples
+            .finish(axis, &hall.calibration)
+            .map_err(|error| CalibrationFailure::Fit { axis, error })?;
+        let mut sensor = HallAxis::new(&hall.with_self_calibration(&fit))
+            .map_err(|e| CalibrationFailure::Config(e.at(axis).within("hall")))?;
+        sensor.set_correction(Some(fit.correction));
+        let _ = sensors.push(sensor);
+        let _ = fits.push(fit);
+    }
+    match (sensors.into_array(), fits.into_array()) {
+        (Ok(sensors), Ok(fits)) => Ok((sensors, fits)),
+        _ => Err(CalibrationFailure::Fit {
+            axis: 0,
+            error: CalibrationError::TooFewSamples,
+        }),
+    }
+}

@@ -1,0 +1,484 @@
+//! The supervisor: how any machine runs, stepped once per control period.
+//!
+//! Commands come from a slower context (a task, the host link) through a bounded
+//! lock-free queue ([`heapless::spsc`]); the supervisor takes at most the queue's
+//! capacity of them at the start of a period, and each is a few copies and
+//! comparisons, so nothing a command does can block or lengthen the period. Anything
+//! expensive — validating a configuration into coefficients, fitting a calibration —
+//! is done by the sender, which enqueues the finished result. What the supervisor has
+//! to say (command replies, mode changes, calibration samples, per-period telemetry)
+//! goes back through a second queue; when it is full the report is dropped and
+//! counted, never waited for.
+//!
+//! # Modes and transitions
+//!
+//! Outputs are the machine's safe value ([`Machine::safe_outputs`]: zero force, laser
+//! off) in every mode except `Calibrating` while it sweeps, `Running`, and the
+//! controlled `Stopping` ramp. In every mode the sensors are read and checked.
+//!
+//! | # | mode | event | next mode | outputs |
+//! |---|---|---|---|---|
+//! | 1 | Idle | `Calibrate` | Calibrating | sweep |
+//! | 2 | Ready | `Calibrate` | Calibrating | sweep |
+//! | 3 | Calibrating | sweep done | Calibrating (waits for the fit) | safe |
+//! | 4 | Calibrating | `FinishCalibration(coefficients)` after the sweep | Ready | safe |
+//! | 5 | Calibrating | `Stop` | Idle | safe |
+//! | 6 | Idle, Ready | `LoadJob(job)` that fits the machine | unchanged, job loaded | safe |
+//! | 7 | Ready | `Start` with a job loaded | Running | job |
+//! | 8 | Running | job done | Ready | safe |
+//! | 9 | Running | `Stop` | Stopping | ramp to rest |
+//! | 10 | Stopping | at rest | Ready | safe |
+//! | 11 | any but Fault | machine fault (sensor, non-finite value, …) | Fault(reason) | safe in the same period |
+//! | 12 | Fault | `ResetFault` | Idle | safe |
+//! | 13 | any | `ChangeSettings(coefficients)` | unchanged, coefficients replaced (state kept: bumpless) | as the mode |
+//! | 14 | any | any other command | unchanged, refused with [`CommandError::InvalidInMode`] | as the mode |
+//!
+//! A `LoadJob` whose job does not fit is refused with [`CommandError::Job`], a `Start`
+//! without a job with [`CommandError::NoJob`], a `FinishCalibration` before the sweep
+//! is over with [`CommandError::InvalidInMode`]; none of them changes anything.
+//!
+//! ```
+//! use heapless::spsc::Queue;
+//! use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
+//! # use kerf::app::supervisor::{Machine, Step};
+//! # /// A machine that needs no calibration data and runs jobs of `n` periods.
+//! # struct Counter { left: u32 }
+//! # impl Machine for Counter {
+//! #     type Inputs = bool; type Outputs = f32; type Job = u32; type JobError = ();
+//! #     type Coefficients = (); type Calibration = (); type Fault = (); type Telemetry = u32;
+//! #     fn safe_outputs(&self) -> f32 { 0.0 }
+//! #     fn monitor(&mut self, ok: &bool) -> Result<(), ()> { if *ok { Ok(()) } else { Err(()) } }
+//! #     fn begin_calibration(&mut self) {}
+//! #     fn calibrate(&mut self, ok: &bool, _: &mut dyn FnMut(u8, [u16; 3])) -> Result<Step<f32>, ()> { self.monitor(ok)?; Ok(Step::Done(0.0)) }
+//! #     fn finish_calibration(&mut self, _: ()) {}
+//! #     fn check_job(&self, job: &u32) -> Result<(), ()> { if *job > 0 { Ok(()) } else { Err(()) } }
+//! #     fn begin_job(&mut self, job: &u32) -> Result<(), ()> { self.left = *job; Ok(()) }
+//! #     fn run(&mut self, ok: &bool) -> Result<Step<f32>, ()> { self.monitor(ok)?; self.left -= 1; Ok(if self.left == 0 { Step::Done(1.0) } else { Step::Continue(1.0) }) }
+//! #     fn begin_stop(&mut self) {}
+//! #     fn stop(&mut self, ok: &bool) -> Result<Step<f32>, ()> { self.monitor(ok)?; Ok(Step::Done(0.5)) }
+//! #     fn set_coefficients(&mut self, _: ()) {}
+//! #     fn reset(&mut self) {}
+//! #     fn telemetry(&self) -> u32 { self.left }
+//! # }
+//! let mut commands: Queue<Command<Counter>, 4> = Queue::new();
+//! let mut reports: Queue<Report<Counter>, 16> = Queue::new();
+//! let (mut to_machine, from_sender) = commands.split();
+//! let (to_sender, mut from_machine) = reports.split();
+//! let mut supervisor = Supervisor::new(Counter { left: 0 }, from_sender, to_sender);
+//!
+//! // The slower context sends; the control period picks the commands up.
+//! to_machine.enqueue(Command::Calibrate).ok();
+//! supervisor.step(&true); // sweep (done at once here)
+//! to_machine.enqueue(Command::FinishCalibration(())).ok();
+//! to_machine.enqueue(Command::LoadJob(3)).ok();
+//! to_machine.enqueue(Command::Start).ok();
+//! supervisor.step(&true);
+//! assert_eq!(supervisor.mode(), Mode::Running);
+//! // A broken sensor: safe outputs in the same period, and a latched fault.
+//! assert_eq!(supervisor.step(&false), 0.0);
+//! assert_eq!(supervisor.mode(), Mode::Fault(()));
+//! // Refused: no start from Fault.
+//! to_machine.enqueue(Command::Start).ok();
+//! supervisor.step(&true);
+//! assert!(core::iter::from_fn(|| from_machine.dequeue())
+//!     .any(|r| matches!(r, Report::Refused { .. })));
+//! ```
+
+use heapless::spsc::{Consumer, Producer};
+
+/// What a machine's control step is asked to do in a period, and what it answers.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum Step<O> {
+    /// Keep going; these are the outputs.
+    Continue(O),
+    /// Finished in this period; these are the outputs.
+    Done(O),
+}
+
+impl<O> Step<O> {
+    fn outputs(self) -> O {
+        match self {
+            Self::Continue(o) | Self::Done(o) => o,
+        }
+    }
+}
+
+/// A machine the supervisor can run: the per-period parts of each mode. Every method is
+/// called from the control period, so each must be bounded in time and never panic.
+pub trait Machine {
+    /// One period's inputs, sampled together.
+    type Inputs;
+    /// One period's outputs, written together.
+    type Outputs: Copy;
+    /// What `Running` follows.
+    type Job: Clone;
+    /// Why a job does not fit the machine.
+    type JobError: Copy + core::fmt::Debug + PartialEq;
+    /// Validated coefficients that replace the running ones bumplessly.
+    type Coefficients;
+    /// The result of a calibration fit, computed in the slower context.
+    type Calibration;
+    /// Why the machine stopped.
+    type Fault: Copy + core::fmt::Debug + PartialEq;
+    /// What the machine reports each period.
+    type Telemetry: Copy;
+
+    /// Outputs that are safe at any time.
+    fn safe_outputs(&self) -> Self::Outputs;
+    /// Reads and checks the inputs while the outputs are safe (Idle, Ready, waiting).
+    fn monitor(&mut self, inputs: &Self::Inputs) -> Result<(), Self::Fault>;
+    /// Prepares the calibration sweep from the present state.
+    fn begin_calibration(&mut self);
+    /// One period of the sweep; `record(axis, counts)` streams the samples the fit
+    /// needs to the slower context.
+    fn calibrate(
+        &mut self,
+        inputs: &Self::Inputs,
+        record: &mut dyn FnMut(u8, [u16; 3]),
+    ) -> Result<Step<Self::Outputs>, Self::Fault>;
+    /// Installs a finished calibration.
+    fn finish_calibration(&mut self, calibration: Self::Calibration);
+    /// Whether `job` fits the machine (limits, workspace, capacity).
+    fn check_job(&self, job: &Self::Job) -> Result<(), Self::JobError>;
+    /// Prepares `job` from the present state (for example: it must start where the
+    /// machine is).
+    fn begin_job(&mut self, job: &Self::Job) -> Result<(), Self::JobError>;
+    /// One period of the job.
+    fn run(&mut self, inputs: &Self::Inputs) -> Result<Step<Self::Outputs>, Self::Fault>;
+    /// Starts the controlled ramp to rest from the present motion.
+    fn begin_stop(&mut self);
+    /// One period of the ramp to rest.
+    fn stop(&mut self, inputs: &Self::Inputs) -> Result<Step<Self::Outputs>, Self::Fault>;
+    /// Replaces the coefficients, keeping every state.
+    fn set_coefficients(&mut self, coefficients: Self::Coefficients);
+    /// Leaves a fault: states restart (position sensing is re-homed).
+    fn reset(&mut self);
+    /// This period's telemetry.
+    fn telemetry(&self) -> Self::Telemetry;
+}
+
+/// Supervisor modes.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Mode<F> {
+    /// Outputs safe, sensors monitored; waiting for `Calibrate`.
+    Idle,
+    /// The calibration sweep, then safe outputs until the fit arrives.
+    Calibrating,
+    /// Calibrated and at rest: a job can be loaded and started.
+    Ready,
+    /// Following the loaded job.
+    Running,
+    /// Ramping to rest after `Stop`.
+    Stopping,
+    /// Latched fault with its reason: safe outputs until `ResetFault`.
+    Fault(F),
+}
+
+/// A request from the slower context.
+pub enum Command<M: Machine> {
+    /// Start the calibration sweep.
+    Calibrate,
+    /// The fit of the streamed calibration samples (computed by the sender).
+    FinishCalibration(M::Calibration),
+    /// Load a job (checked against the machine before it is kept).
+    LoadJob(M::Job),
+    /// Run the loaded job.
+    Start,
+    /// Ramp to rest (Running) or abort the sweep (Calibrating).
+    Stop,
+    /// Leave a latched fault.
+    ResetFault,
+    /// Replace the coefficients (validated by the sender), bumplessly.
+    ChangeSettings(M::Coefficients),
+}
+
+/// Which command a reply is about.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CommandKind {
+    /// [`Command::Calibrate`].
+    Calibrate,
+    /// [`Command::FinishCalibration`].
+    FinishCalibration,
+    /// [`Command::LoadJob`].
+    LoadJob,
+    /// [`Command::Start`].
+    Start,
+    /// [`Command::Stop`].
+    Stop,
+    /// [`Command::ResetFault`].
+    ResetFault,
+    /// [`Command::ChangeSettings`].
+    ChangeSettings,
+}
+
+impl<M: Machine> Command<M> {
+    /// The command's kind.
+    pub fn kind(&self) -> CommandKind {
+        match self {
+            Self::Calibrate => CommandKind::Calibrate,
+            Self::FinishCalibration(_) => CommandKind::FinishCalibration,
+            Self::LoadJob(_) => CommandKind::LoadJob,
+            Self::Start => CommandKind::Start,
+            Self::Stop => CommandKind::Stop,
+            Self::ResetFault => CommandKind::ResetFault,
+            Self::ChangeSettings(_) => CommandKind::ChangeSettings,
+        }
+    }
+}
+
+/// Why a command was refused. A refused command changes nothing.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CommandError<J> {
+    /// Not valid in the present mode (row 14 of the table).
+    InvalidInMode,
+    /// `Start` with no job loaded.
+    NoJob,
+    /// The job does not fit the machine, or cannot start from its present state.
+    Job(J),
+}
+
+/// What the supervisor reports to the slower context.
+pub enum Report<M: Machine> {
+    /// The mode changed at `period`.
+    ModeChanged {
+        /// Control period count at the change.
+        period: u64,
+        /// The new mode.
+        mode: Mode<M::Fault>,
+    },
+    /// A command was carried out.
+    Accepted(CommandKind),
+    /// A command was refused and changed nothing.
+    Refused {
+        /// Which command.
+        command: CommandKind,
+        /// Why.
+        error: CommandError<M::JobError>,
+    },
+    /// One sample of the calibration sweep for the fit.
+    CalibrationSample {
+        /// Axis index.
+        axis: u8,
+        /// Raw Hall counts.
+        counts: [u16; 3],
+    },
+    /// One period's telemetry.
+    Telemetry {
+        /// Control period count.
+        period: u64,
+        /// The mode in that period.
+        mode: Mode<M::Fault>,
+        /// The machine's telemetry.
+        telemetry: M::Telemetry,
+    },
+}
+
+/// Runs a [`Machine`] through the modes, one [`Supervisor::step`] per control period.
+pub struct Supervisor<'q, M: Machine> {
+    machine: M,
+    mode: Mode<M::Fault>,
+    /// Whether the calibration sweep is over (Calibrating waits for the fit).
+    swept: bool,
+    job: Option<M::Job>,
+    commands: Consumer<'q, Command<M>>,
+    reports: Producer<'q, Report<M>>,
+    period: u64,
+    dropped_reports: u32,
+    telemetry_decimation: u32,
+}
+
+impl<'q, M: Machine> Supervisor<'q, M> {
+    /// A supervisor in Idle, reading `commands` and writing `reports`; telemetry every
+    /// period until [`Supervisor::set_telemetry_decimation`] says otherwise.
+    pub fn new(
+        machine: M,
+        commands: Consumer<'q, Command<M>>,
+        reports: Producer<'q, Report<M>>,
+    ) -> Self {
+        Self {
+            machine,
+            mode: Mode::Idle,
+            swept: false,
+            job: None,
+            commands,
+            reports,
+            period: 0,
+            dropped_reports: 0,
+            telemetry_decimation: 1,
+        }
+    }
+
+    /// Telemetry every `every` periods (0: none).
+    pub fn set_telemetry_decimation(&mut self, every: u32) {
+        self.telemetry_decimation = every;
+    }
+
+    /// The present mode.
+    pub fn mode(&self) -> Mode<M::Fault> {
+        self.mode
+    }
+
+    /// The machine (for inspection).
+    pub fn machine(&self) -> &M {
+        &self.machine
+    }
+
+    /// Control periods stepped (a `u64`: 58 million years at 10 kHz).
+    pub fn period(&self) -> u64 {
+        self.period
+    }
+
+    /// Reports dropped because the report queue was full.
+    pub fn dropped_reports(&self) -> u32 {
+        self.dropped_reports
+    }
+
+    /// One control period: commands, then the mode's step; returns the outputs to write.
+    pub fn step(&mut self, inputs: &M::Inputs) -> M::Outputs {
+        // At most the queue's capacity: bounded, and each command is O(1).
+        for _ in 0..self.commands.capacity() {
+            match self.commands.dequeue() {
+                Some(command) => self.handle(command),
+                None => break,
+            }
+        }
+        let result = match self.mode {
+            Mode::Idle | Mode::Ready | Mode::Fault(_) => self
+                .machine
+                .monitor(inputs)
+                .map(|()| Step::Continue(self.machine.safe_outputs())),
+            Mode::Calibrating if self.swept => self
+                .machine
+                .monitor(inputs)
+                .map(|()| Step::Continue(self.machine.safe_outputs())),
+            Mode::Calibrating => {
+                let reports = &mut self.reports;
+                let dropped = &mut self.dropped_reports;
+                let mut record = |axis: u8, counts: [u16; 3]| {
+                    if reports
+                        .enqueue(Report::CalibrationSample { axis, counts })
+                        .is_err()
+                    {
+                        *dropped = dropped.saturating_add(1);
+                    }
+                };
+                self.machine.calibrate(inputs, &mut record)
+            }
+            Mode::Running => self.machine.run(inputs),
+            Mode::Stopping => self.machine.stop(inputs),
+        };
+        let outputs = match (self.mode, result) {
+            // A latched fault stays; the monitor's own errors do not re-enter it.
+            (Mode::Fault(_), _) => self.machine.safe_outputs(),
+            (_, Err(fault)) => {
+                self.enter(Mode::Fault(fault));
+                self.machine.safe_outputs()
+            }
+            (mode, Ok(step)) => {
+                if let Step::Done(_) = step {
+                    match mode {
+                        Mode::Calibrating => self.swept = true,
+                        Mode::Running | Mode::Stopping => self.enter(Mode::Ready),
+                        _ => {}
+                    }
+                }
+                step.outputs()
+            }
+        };
+        if self.telemetry_decimation != 0
+            && self.period % u64::from(self.telemetry_decimation) == 0
+        {
+            let report = Report::Telemetry {
+                period: self.period,
+                mode: self.mode,
+                telemetry: self.machine.telemetry(),
+            };
+            self.report(report);
+        }
+        self.period = self.period.wrapping_add(1);
+        outputs
+    }
+
+    fn handle(&mut self, command: Command<M>) {
+        let kind = command.kind();
+        let report = match self.apply(command) {
+            Ok(()) => Report::Accepted(kind),
+            Err(error) => Report::Refused {
+                command: kind,
+                error,
+            },
+        };
+        self.report(report);
+    }
+
+    /// One row of the transition table, or the refusal.
+    fn apply(&mut self, command: Command<M>) -> Result<(), CommandError<M::JobError>> {
+        match (self.mode, command) {
+            (Mode::Idle | Mode::Ready, Command::Calibrate) => {
+                self.machine.begin_calibration();
+                self.swept = false;
+                self.enter(Mode::Calibrating);
+                Ok(())
+            }
+            (Mode::Calibrating, Command::FinishCalibration(calibration)) if self.swept => {
+                self.machine.finish_calibration(calibration);
+                self.enter(Mode::Ready);
+                Ok(())
+            }
+            (Mode::Calibrating, Command::Stop) => {
+                self.enter(Mode::Idle);
+                Ok(())
+            }
+            (Mode::Idle | Mode::Ready, Command::LoadJob(job)) => {
+                self.machine.check_job(&job).map_err(CommandError::Job)?;
+                self.job = Some(job);
+                Ok(())
+            }
+            (Mode::Ready, Command::Start) => match &self.job {
+                None => Err(CommandError::NoJob),
+                Some(job) => {
+                    self.machine.begin_job(job).map_err(CommandError::Job)?;
+                    self.enter(Mode::Running);
+                    Ok(())
+                }
+            },
+            (Mode::Running, Command::Stop) => {
+                self.machine.begin_stop();
+                self.enter(Mode::Stopping);
+                Ok(())
+            }
+            (Mode::Fault(_), Command::ResetFault) => {
+                self.machine.reset();
+                self.enter(Mode::Idle);
+                Ok(())
+            }
+            (_, Command::ChangeSettings(coefficients)) => {
+                self.machine.set_coefficients(coefficients);
+                Ok(())
+            }
+            _ => Err(CommandError::InvalidInMode),
+        }
+    }
+
+    fn enter(&mut self, mode: Mode<M::Fault>) {
+        if mode != self.mode {
+            self.mode = mode;
+            self.report(Report::ModeChanged {
+                period: self.period,
+                mode,
+            });
+        }
+    }
+
+    fn report(&mut self, report: Report<M>) {
+        if self.reports.enqueue(report).is_err() {
+            self.dropped_reports = self.dropped_reports.saturating_add(1);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,444 @@
+//! One test per row of the transition table (module docs), on a toy machine whose
+//! every call is recorded, plus the refusals.
+
+use super::*;
+use heapless::spsc::Queue;
+use std::vec::Vec;
+
+/// Inputs of the toy machine: whether the sensors are healthy.
+const OK: bool = true;
+const BROKEN: bool = false;
+
+/// Outputs: 0 is safe, 1 the sweep, 2 a job, 3 the stop ramp.
+const SAFE: u8 = 0;
+const SWEEP: u8 = 1;
+const JOB: u8 = 2;
+const RAMP: u8 = 3;
+
+#[derive(Default)]
+struct Toy {
+    /// Periods left in the sweep, job or ramp.
+    left: u32,
+    /// Last coefficients installed.
+    gain: u32,
+    calibrated: Option<u32>,
+    resets: u32,
+}
+
+impl Machine for Toy {
+    type Inputs = bool;
+    type Outputs = u8;
+    type Job = u32;
+    type JobError = &'static str;
+    type Coefficients = u32;
+    type Calibration = u32;
+    type Fault = &'static str;
+    type Telemetry = u32;
+
+    fn safe_outputs(&self) -> u8 {
+        SAFE
+    }
+    fn monitor(&mut self, ok: &bool) -> Result<(), &'static str> {
+        if *ok {
+            Ok(())
+        } else {
+            Err("sensor")
+        }
+    }
+    fn begin_calibration(&mut self) {
+        self.left = 2;
+    }
+    fn calibrate(
+        &mut self,
+        ok: &bool,
+        record: &mut dyn FnMut(u8, [u16; 3]),
+    ) -> Result<Step<u8>, &'static str> {
+        self.monitor(ok)?;
+        record(0, [1, 2, 3]);
+        self.left -= 1;
+        Ok(if self.left == 0 {
+            Step::Done(SWEEP)
+        } else {
+            Step::Continue(SWEEP)
+        })
+    }
+    fn finish_calibration(&mut self, calibration: u32) {
+        self.calibrated = Some(calibration);
+    }
+    fn check_job(&self, job: &u32) -> Result<(), &'static str> {
+        if *job == 0 || *job > 100 {
+            Err("does not fit")
+        } else {
+            Ok(())
+        }
+    }
+    fn begin_job(&mut self, job: &u32) -> Result<(), &'static str> {
+        self.left = *job;
+        Ok(())
+    }
+    fn run(&mut self, ok: &bool) -> Result<Step<u8>, &'static str> {
+        self.monitor(ok)?;
+        self.left -= 1;
+        Ok(if self.left == 0 {
+            Step::Done(JOB)
+        } else {
+            Step::Continue(JOB)
+        })
+    }
+    fn begin_stop(&mut self) {
+        self.left = 2;
+    }
+    fn stop(&mut self, ok: &bool) -> Result<Step<u8>, &'static str> {
+        self.run(ok).map(|s| match s {
+            Step::Continue(_) => Step::Continue(RAMP),
+            Step::Done(_) => Step::Done(RAMP),
+        })
+    }
+    fn set_coefficients(&mut self, gain: u32) {
+        self.gain = gain;
+    }
+    fn reset(&mut self) {
+        self.resets += 1;
+    }
+    fn telemetry(&self) -> u32 {
+        self.left
+    }
+}
+
+/// A supervisor with its two queues, and helpers to drive it like the slower context.
+struct Bench {
+    commands: Queue<Command<Toy>, 8>,
+    reports: Queue<Report<Toy>, 64>,
+}
+
+impl Bench {
+    fn new() -> Self {
+        Self {
+            commands: Queue::new(),
+            reports: Queue::new(),
+        }
+    }
+}
+
+/// Runs `f` with a fresh supervisor, a command sender, and a report drain.
+fn with_supervisor(
+    f: impl FnOnce(
+        &mut Supervisor<'_, Toy>,
+        &mut heapless::spsc::Producer<'_, Command<Toy>>,
+        &mut dyn FnMut() -> Vec<Report<Toy>>,
+    ),
+) {
+    let mut bench = Bench::new();
+    let (mut send, commands) = bench.commands.split();
+    let (reports, mut receive) = bench.reports.split();
+    let mut supervisor = Supervisor::new(Toy::default(), commands, reports);
+    supervisor.set_telemetry_decimation(0);
+    let mut drain = move || core::iter::from_fn(|| receive.dequeue()).collect::<Vec<_>>();
+    f(&mut supervisor, &mut send, &mut drain);
+}
+
+fn send(to: &mut heapless::spsc::Producer<'_, Command<Toy>>, command: Command<Toy>) {
+    assert!(to.enqueue(command).is_ok(), "command queue full");
+}
+
+fn refusals(reports: &[Report<Toy>]) -> Vec<(CommandKind, CommandError<&'static str>)> {
+    reports
+        .iter()
+        .filter_map(|r| match r {
+            Report::Refused { command, error } => Some((*command, *error)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Drives a fresh supervisor to Ready (rows 1, 3, 4).
+fn to_ready(
+    s: &mut Supervisor<'_, Toy>,
+    to: &mut heapless::spsc::Producer<'_, Command<Toy>>,
+) {
+    send(to, Command::Calibrate);
+    assert_eq!(s.step(&OK), SWEEP);
+    assert_eq!(s.step(&OK), SWEEP);
+    send(to, Command::FinishCalibration(7));
+    assert_eq!(s.step(&OK), SAFE);
+    assert_eq!(s.mode(), Mode::Ready);
+}
+
+#[test]
+fn row_1_idle_calibrate_sweeps_and_streams_samples() {
+    with_supervisor(|s, to, drain| {
+        assert_eq!(s.step(&OK), SAFE);
+        assert_eq!(s.mode(), Mode::Idle);
+        send(to, Command::Calibrate);
+        assert_eq!(s.step(&OK), SWEEP);
+        assert_eq!(s.mode(), Mode::Calibrating);
+        let samples = drain()
+            .iter()
+            .filter(|r| matches!(r, Report::CalibrationSample { axis: 0, counts: [1, 2, 3] }))
+            .count();
+        assert_eq!(samples, 1);
+    });
+}
+
+#[test]
+fn row_2_ready_calibrate_recalibrates() {
+    with_supervisor(|s, to, _| {
+        to_ready(s, to);
+        send(to, Command::Calibrate);
+        assert_eq!(s.step(&OK), SWEEP);
+        assert_eq!(s.mode(), Mode::Calibrating);
+    });
+}
+
+#[test]
+fn rows_3_and_4_sweep_done_waits_safe_for_the_fit_then_ready() {
+    with_supervisor(|s, to, drain| {
+        send(to, Command::Calibrate);
+        s.step(&OK);
+        s.step(&OK); // sweep done
+        drain();
+        // Finishing now is too early? No: the sweep is over. But before it, refused:
+        for _ in 0..3 {
+            assert_eq!(s.step(&OK), SAFE);
+            assert_eq!(s.mode(), Mode::Calibrating);
+        }
+        send(to, Command::FinishCalibration(42));
+        assert_eq!(s.step(&OK), SAFE);
+        assert_eq!(s.mode(), Mode::Ready);
+        assert_eq!(s.machine().calibrated, Some(42));
+    });
+}
+
+#[test]
+fn row_4_finish_before_the_sweep_is_over_is_refused() {
+    with_supervisor(|s, to, drain| {
+        send(to, Command::Calibrate);
+        s.step(&OK);
+        send(to, Command::FinishCalibration(1));
+        assert_eq!(s.step(&OK), SWEEP);
+        assert_eq!(s.mode(), Mode::Calibrating);
+        assert_eq!(s.machine().calibrated, None);
+        assert_eq!(
+            refusals(&drain()),
+            [(CommandKind::FinishCalibration, CommandError::InvalidInMode)]
+        );
+    });
+}
+
+#[test]
+fn row_5_stop_aborts_the_sweep() {
+    with_supervisor(|s, to, _| {
+        send(to, Command::Calibrate);
+        s.step(&OK);
+        send(to, Command::Stop);
+        assert_eq!(s.step(&OK), SAFE);
+        assert_eq!(s.mode(), Mode::Idle);
+    });
+}
+
+#[test]
+fn row_6_load_job_checks_it_and_changes_nothing_else() {
+    with_supervisor(|s, to, drain| {
+        send(to, Command::LoadJob(5));
+        s.step(&OK);
+        assert_eq!(s.mode(), Mode::Idle);
+        to_ready(s, to);
+        send(to, Command::LoadJob(500));
+        s.step(&OK);
+        assert_eq!(
+            refusals(&drain()),
+            [(CommandKind::LoadJob, CommandError::Job("does not fit"))]
+        );
+        // The earlier job is still the loaded one: Start runs 5 periods.
+        send(to, Command::Start);
+        for _ in 0..5 {
+            assert_eq!(s.step(&OK), JOB);
+        }
+        assert_eq!(s.mode(), Mode::Ready);
+    });
+}
+
+#[test]
+fn row_7_start_runs_the_job_and_without_one_is_refused() {
+    with_supervisor(|s, to, drain| {
+        to_ready(s, to);
+        drain();
+        send(to, Command::Start);
+        assert_eq!(s.step(&OK), SAFE);
+        assert_eq!(refusals(&drain()), [(CommandKind::Start, CommandError::NoJob)]);
+        assert_eq!(s.mode(), Mode::Ready);
+        send(to, Command::LoadJob(3));
+        send(to, Command::Start);
+        assert_eq!(s.step(&OK), JOB);
+        assert_eq!(s.mode(), Mode::Running);
+    });
+}
+
+#[test]
+fn row_8_job_done_is_ready() {
+    with_supervisor(|s, to, drain| {
+        to_ready(s, to);
+        send(to, Command::LoadJob(2));
+        send(to, Command::Start);
+        assert_eq!(s.step(&OK), JOB);
+        assert_eq!(s.step(&OK), JOB);
+        assert_eq!(s.mode(), Mode::Ready);
+        assert_eq!(s.step(&OK), SAFE);
+        assert!(drain()
+            .iter()
+            .any(|r| matches!(r, Report::ModeChanged { mode: Mode::Ready, period: 4 })));
+    });
+}
+
+#[test]
+fn rows_9_and_10_stop_ramps_to_rest_then_ready() {
+    with_supervisor(|s, to, _| {
+        to_ready(s, to);
+        send(to, Command::LoadJob(100));
+        send(to, Command::Start);
+        s.step(&OK);
+        send(to, Command::Stop);
+        assert_eq!(s.step(&OK), RAMP);
+        assert_eq!(s.mode(), Mode::Stopping);
+        assert_eq!(s.step(&OK), RAMP);
+        assert_eq!(s.mode(), Mode::Ready);
+        assert_eq!(s.step(&OK), SAFE);
+    });
+}
+
+#[test]
+fn row_11_a_fault_in_any_mode_is_safe_in_the_same_period() {
+    // Idle, Calibrating, Ready, Running, Stopping.
+    let setups: [fn(&mut Supervisor<'_, Toy>, &mut heapless::spsc::Producer<'_, Command<Toy>>); 5] = [
+        |_, _| {},
+        |s, to| {
+            send(to, Command::Calibrate);
+            s.step(&OK);
+        },
+        |s, to| to_ready(s, to),
+        |s, to| {
+            to_ready(s, to);
+            send(to, Command::LoadJob(100));
+            send(to, Command::Start);
+            s.step(&OK);
+        },
+        |s, to| {
+            to_ready(s, to);
+            send(to, Command::LoadJob(100));
+            send(to, Command::Start);
+            s.step(&OK);
+            send(to, Command::Stop);
+            s.step(&OK);
+        },
+    ];
+    for setup in setups {
+        with_supervisor(|s, to, _| {
+            setup(s, to);
+            assert_eq!(s.step(&BROKEN), SAFE);
+            assert_eq!(s.mode(), Mode::Fault("sensor"));
+            // Latched: healthy inputs do not leave it.
+            assert_eq!(s.step(&OK), SAFE);
+            assert_eq!(s.mode(), Mode::Fault("sensor"));
+        });
+    }
+}
+
+#[test]
+fn row_12_reset_fault_is_idle_and_resets_the_machine() {
+    with_supervisor(|s, to, _| {
+        s.step(&BROKEN);
+        send(to, Command::ResetFault);
+        assert_eq!(s.step(&OK), SAFE);
+        assert_eq!(s.mode(), Mode::Idle);
+        assert_eq!(s.machine().resets, 1);
+    });
+}
+
+#[test]
+fn row_13_settings_change_in_every_mode_keeps_the_mode() {
+    with_supervisor(|s, to, _| {
+        send(to, Command::ChangeSettings(1));
+        s.step(&OK);
+        assert_eq!((s.mode(), s.machine().gain), (Mode::Idle, 1));
+        to_ready(s, to);
+        send(to, Command::LoadJob(100));
+        send(to, Command::Start);
+        s.step(&OK);
+        send(to, Command::ChangeSettings(2));
+        assert_eq!(s.step(&OK), JOB);
+        assert_eq!((s.mode(), s.machine().gain), (Mode::Running, 2));
+        s.step(&BROKEN);
+        send(to, Command::ChangeSettings(3));
+        s.step(&OK);
+        assert_eq!((s.mode(), s.machine().gain), (Mode::Fault("sensor"), 3));
+    });
+}
+
+#[test]
+fn row_14_commands_invalid_in_the_mode_are_refused_and_change_nothing() {
+    use CommandKind as K;
+    // (setup, command, mode it must stay in)
+    with_supervisor(|s, to, drain| {
+        // Idle: Start, Stop, ResetFault, FinishCalibration.
+        for (command, kind) in [
+            (Command::Start, K::Start),
+            (Command::Stop, K::Stop),
+            (Command::ResetFault, K::ResetFault),
+            (Command::FinishCalibration(9), K::FinishCalibration),
+        ] {
+            send(to, command);
+            assert_eq!(s.step(&OK), SAFE);
+            assert_eq!(s.mode(), Mode::Idle);
+            assert_eq!(refusals(&drain()), [(kind, CommandError::InvalidInMode)]);
+        }
+        assert_eq!(s.machine().calibrated, None);
+        // Running: Calibrate, LoadJob, Start, ResetFault.
+        to_ready(s, to);
+        send(to, Command::LoadJob(100));
+        send(to, Command::Start);
+        s.step(&OK);
+        drain();
+        for (command, kind) in [
+            (Command::Calibrate, K::Calibrate),
+            (Command::LoadJob(3), K::LoadJob),
+            (Command::Start, K::Start),
+            (Command::ResetFault, K::ResetFault),
+        ] {
+            let left = s.machine().left;
+            send(to, command);
+            assert_eq!(s.step(&OK), JOB);
+            assert_eq!(s.mode(), Mode::Running);
+            assert_eq!(s.machine().left, left - 1);
+            assert_eq!(refusals(&drain()), [(kind, CommandError::InvalidInMode)]);
+        }
+        // Fault: Start, Calibrate, LoadJob, Stop.
+        s.step(&BROKEN);
+        drain();
+        for (command, kind) in [
+            (Command::Start, K::Start),
+            (Command::Calibrate, K::Calibrate),
+            (Command::LoadJob(3), K::LoadJob),
+            (Command::Stop, K::Stop),
+        ] {
+            send(to, command);
+            assert_eq!(s.step(&OK), SAFE);
+            assert_eq!(s.mode(), Mode::Fault("sensor"));
+            assert_eq!(refusals(&drain()), [(kind, CommandError::InvalidInMode)]);
+        }
+    });
+}
+
+#[test]
+fn a_full_report_queue_drops_and_counts_instead_of_waiting() {
+    let mut commands: Queue<Command<Toy>, 4> = Queue::new();
+    let mut reports: Queue<Report<Toy>, 4> = Queue::new();
+    let (_, from) = commands.split();
+    let (to, _) = reports.split();
+    let mut s = Supervisor::new(Toy::default(), from, to);
+    for _ in 0..100 {
+        s.step(&OK);
+    }
+    // Telemetry each period into a queue nobody drains.
+    assert!(s.dropped_reports() >= 90, "{}", s.dropped_reports());
+    assert_eq!(s.period(), 100);
+}
