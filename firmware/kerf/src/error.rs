@@ -49,7 +49,7 @@ pub enum PathSegment {
 
 /// Deepest path a [`ConfigError`] keeps; outer parts beyond it are dropped and the
 /// path is shown with a leading `…`.
-pub const MAX_PATH_DEPTH: usize = 8;
+pub const MAX_PATH_DEPTH: usize = 6;
 
 /// Where in a configuration the bad value is: innermost segment last.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
