@@ -194,6 +194,33 @@ impl<T: Float> Actuator<T> {
 }
 
 /// A validated delta geometry with precomputed constants, for scalar `T`.
+///
+/// # Example
+///
+/// The Keops slave in `f64`: inverse kinematics of a pose in its workspace, forward
+/// kinematics back to the same pose, and a pose no arm reaches.
+///
+/// ```
+/// use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
+/// use kerf::kinematics::Vector3;
+///
+/// let keops = DeltaGeometry::<f64>::new(&DeltaConfig::SLAVE_KEOPS).unwrap();
+///
+/// // (5, −3) mm off the axis, 50 mm above the base (workspace z 26.8…81.4 mm).
+/// let p = Vector3::new(0.005, -0.003, 0.050);
+/// assert!(keops.reachable(&p));
+/// let q = keops.inverse(&p).unwrap(); // carriage displacements d1, d2, d3 in m
+/// let back = keops.forward(&q).unwrap();
+/// assert!((back - p).amax() < 1e-9);
+///
+/// // 1 m to the side: no arm reaches, an error instead of a NaN.
+/// let far = Vector3::new(1.0, 0.0, 0.050);
+/// assert!(matches!(
+///     keops.inverse(&far),
+///     Err(KinematicsError::OutOfReach(_))
+/// ));
+/// assert!(!keops.reachable(&far));
+/// ```
 #[derive(Copy, Clone, Debug)]
 pub struct DeltaGeometry<T> {
     actuators: [Actuator<T>; 3],
