@@ -255,6 +255,46 @@ pub struct ContourReference<T: Float> {
 const NEWTON_STEPS: usize = 2;
 
 /// Steps θ along an EFD curve at the tangential speed of a [`SpeedRamp`].
+///
+/// # Example
+///
+/// A circle of radius 8 mm described by 30 harmonics, followed at 8 mm/s with a 1 ms
+/// control period: after the jerk-limited start each period moves the reference by
+/// V·Ts = 8 µm along the curve.
+///
+/// ```
+/// use kerf::trajectory::efd::Efd;
+/// use kerf::trajectory::shapes;
+/// use kerf::trajectory::tangential::{ContourFollower, FollowerConfig, SpeedRampConfig};
+///
+/// let circle: [[f64; 2]; 128] = shapes::ellipse(8e-3, 8e-3);
+/// let efd = Efd::<f64, 30>::from_polygon(&circle, 30).unwrap();
+/// let (speed, ts) = (8e-3, 1e-3);
+/// let config = FollowerConfig {
+///     ramp: SpeedRampConfig {
+///         speed_m_s: speed,
+///         accel_m_s2: 0.5,
+///         jerk_m_s3: 50.0,
+///         ts_s: ts,
+///     },
+///     accel_limit_m_s2: 10.0,
+/// };
+/// let mut follower = ContourFollower::new(efd, &config, 0.0).unwrap();
+/// follower.start();
+///
+/// let mut previous = follower.step().position;
+/// let mut steps = [0.0; 300];
+/// for step in steps.iter_mut() {
+///     let reference = follower.step();
+///     *step = (reference.position - previous).norm();
+///     previous = reference.position;
+/// }
+/// // The first periods are still on the speed ramp; by the end the follower cruises
+/// // at V, and the step (a chord of the curve, as long as the arc to 1e-12 m) is V·Ts.
+/// assert!(steps[0] < 0.1 * speed * ts);
+/// assert!(follower.ramp().is_cruising());
+/// assert!((steps[299] - speed * ts).abs() < 1e-9);
+/// ```
 #[derive(Clone, Debug)]
 pub struct ContourFollower<T: Float, const N: usize> {
     efd: Efd<T, N>,

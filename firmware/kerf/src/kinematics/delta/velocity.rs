@@ -1,0 +1,214 @@
+//! Velocity level: the Jacobian Jx, its inverse and its time derivative.
+
+use super::{cross3, dot3, or_not_finite, zero_if_finite, DeltaGeometry, KinematicsError};
+use crate::scalar::Float;
+use nalgebra::{Matrix3, Vector3};
+
+/// What the velocity maps share at (q, p) (SPEC velocity, T eqs. 138–145).
+struct VelocityTerms<T> {
+    /// Arm vectors gi = p + ai; J2's rows are fi = −gi, so J2 = −G.
+    g: [Vector3<T>; 3],
+    /// J1's diagonal fdi = wi · gi.
+    fd: Vector3<T>,
+    /// Columns g2 × g3, g3 × g1, g1 × g2 of adj G = adj J2 (3 × 3: adj(−G) = adj G).
+    adj: [Vector3<T>; 3],
+    /// 1 / det J2 = −1 / det G, so that J2⁻¹ = adj G / det J2.
+    inv_det_j2: T,
+}
+
+impl<T: Float> VelocityTerms<T> {
+    /// Jx = J2⁻¹ J1: the diagonal J1 scales column j of adj G / det J2 by fdj.
+    #[inline]
+    fn jacobian(&self) -> Matrix3<T> {
+        let s = self.fd * self.inv_det_j2;
+        Matrix3::from_columns(&[self.adj[0] * s.x, self.adj[1] * s.y, self.adj[2] * s.z])
+    }
+}
+
+impl<T: Float> DeltaGeometry<T> {
+    /// J2 = −G, J1 = diag(fdi) and J2⁻¹ = adj G / det J2 (SPEC velocity,
+    /// T eqs. 138–145), with the singularity checks. Inlined so that each map keeps
+    /// only what it uses in registers.
+    ///
+    /// NaN or ±∞ in q or p makes a row gi non-finite and with it det G (every entry
+    /// of G enters a product of det G = g1 · (g2 × g3)), which fails the J2 check.
+    #[inline(always)]
+    fn velocity_terms(
+        &self,
+        q: &Vector3<T>,
+        p: &Vector3<T>,
+    ) -> Result<VelocityTerms<T>, KinematicsError> {
+        let [act1, act2, act3] = &self.actuators;
+        let g = [
+            p + act1.half_sigma(q.x),
+            p + act2.half_sigma(q.y),
+            p + act3.half_sigma(q.z),
+        ];
+        let fd = Vector3::new(
+            dot3(&act1.rail, &g[0]),
+            dot3(&act2.rail, &g[1]),
+            dot3(&act3.rail, &g[2]),
+        );
+        let err = if fd.x.abs() < act1.singular_fd_m {
+            KinematicsError::SingularJ1(0)
+        } else if fd.y.abs() < act2.singular_fd_m {
+            KinematicsError::SingularJ1(1)
+        } else if fd.z.abs() < act3.singular_fd_m {
+            KinematicsError::SingularJ1(2)
+        } else {
+            let [g1, g2, g3] = &g;
+            let adj = [cross3(g2, g3), cross3(g3, g1), cross3(g1, g2)];
+            let det_g = dot3(g1, &adj[0]);
+            if det_g.abs() >= self.singular_det_m3 && zero_if_finite(det_g) == T::zero() {
+                return Ok(VelocityTerms {
+                    g,
+                    fd,
+                    adj,
+                    inv_det_j2: -T::one() / det_g,
+                });
+            }
+            KinematicsError::SingularJ2
+        };
+        Err(or_not_finite(&[q, p], err))
+    }
+
+    /// Jx = J2⁻¹ J1 at the consistent pair (q, p), so that ṗ = Jx q̇ (T eq. 146).
+    pub fn jacobian(&self, q: &Vector3<T>, p: &Vector3<T>) -> Result<Matrix3<T>, KinematicsError> {
+        Ok(self.velocity_terms(q, p)?.jacobian())
+    }
+
+    /// Jx⁻¹ = J1⁻¹ J2 at (q, p), so that q̇ = Jx⁻¹ ṗ: row i is fi / fdi = −gi / fdi.
+    pub fn jacobian_inverse(
+        &self,
+        q: &Vector3<T>,
+        p: &Vector3<T>,
+    ) -> Result<Matrix3<T>, KinematicsError> {
+        let VelocityTerms { g, fd, .. } = self.velocity_terms(q, p)?;
+        let [g1, g2, g3] = g;
+        Ok(Matrix3::from_rows(&[
+            (-g1 / fd.x).transpose(),
+            (-g2 / fd.y).transpose(),
+            (-g3 / fd.z).transpose(),
+        ]))
+    }
+
+    /// J̇x at (q, p) moving with joint velocity q̇ (m/s): from J2 Jx = J1,
+    /// J̇x = J2⁻¹ (J̇1 − J̇2 Jx) with ṗ = Jx q̇, ḟi = −(ṗ + ȧi) and
+    /// ḟdi = cαi (cθi ẋ + sθi ẏ) − sαi ż + ḋi (time derivatives of T eqs. 139–142).
+    /// With ġi = ṗ + ḋi wi = −ḟi (ȧi = ḋi wi) that is ḟdi = wi · ġi and
+    /// J̇x = adj G (J̇1 + Ġ Jx) / det J2.
+    pub fn jacobian_derivative(
+        &self,
+        q: &Vector3<T>,
+        p: &Vector3<T>,
+        q_dot: &Vector3<T>,
+    ) -> Result<Matrix3<T>, KinematicsError> {
+        let zero = T::zero();
+        if zero_if_finite(q_dot.x) + zero_if_finite(q_dot.y) + zero_if_finite(q_dot.z) != zero {
+            return Err(KinematicsError::NotFinite);
+        }
+        let terms = self.velocity_terms(q, p)?;
+        let jx = terms.jacobian();
+        let p_dot = Vector3::new(
+            dot3(&jx.row(0).transpose(), q_dot),
+            dot3(&jx.row(1).transpose(), q_dot),
+            dot3(&jx.row(2).transpose(), q_dot),
+        );
+        let [act1, act2, act3] = &self.actuators;
+        let g_dot = [
+            p_dot + act1.rail * q_dot.x,
+            p_dot + act2.rail * q_dot.y,
+            p_dot + act3.rail * q_dot.z,
+        ];
+        // M = J̇1 + Ġ Jx: row i is ġiᵀ Jx plus ḟdi on the diagonal.
+        let mut m = Matrix3::from_fn(|i, j| dot3(&g_dot[i], &jx.column(j).into_owned()));
+        m[(0, 0)] += dot3(&act1.rail, &g_dot[0]);
+        m[(1, 1)] += dot3(&act2.rail, &g_dot[1]);
+        m[(2, 2)] += dot3(&act3.rail, &g_dot[2]);
+        let [c1, c2, c3] = &terms.adj;
+        Ok(Matrix3::from_fn(|k, j| {
+            (c1[k] * m[(0, j)] + c2[k] * m[(1, j)] + c3[k] * m[(2, j)]) * terms.inv_det_j2
+        }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::kinematics::delta::test_util::*;
+    use nalgebra::Matrix3;
+
+    #[test]
+    fn jacobian_matches_finite_differences_of_fk() {
+        let h = 1e-6;
+        for (name, c) in all() {
+            let g = geometry::<f64>(&c);
+            for (q, p) in workspace(&c, 8) {
+                let jx = g.jacobian(&q, &p).unwrap();
+                let mut fd = Matrix3::zeros();
+                let mut ok = true;
+                for j in 0..3 {
+                    let mut dq = V::zeros();
+                    dq[j] = h;
+                    match (g.forward(&(q + dq)), g.forward(&(q - dq))) {
+                        (Ok(a), Ok(b)) => fd.set_column(j, &((a - b) / (2.0 * h))),
+                        _ => ok = false, // at the edge of travel
+                    }
+                }
+                if !ok {
+                    continue;
+                }
+                // Central differences: truncation h² |FK'''| ≲ 1e-12 / l², rounding
+                // 1e-16 × 0.3 m / h = 3e-11; relative 1e-6 of |Jx| covers both.
+                let scale = jx.amax().max(1.0);
+                assert!((fd - jx).amax() < 1e-6 * scale, "{name} {q}: {jx} vs {fd}");
+                let jinv = g.jacobian_inverse(&q, &p).unwrap();
+                assert!(
+                    (jx * jinv - Matrix3::identity()).amax() < 1e-9 * scale,
+                    "{name}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn jacobian_derivative_matches_finite_differences_along_a_trajectory() {
+        let h = 1e-6;
+        for (name, c) in all() {
+            let g = geometry::<f64>(&c);
+            // Each actuator oscillates about the middle of its travel with its own
+            // frequency and phase (q̇ up to ~1 m/s).
+            let mid = travel_point(&c, [0.5; 3]);
+            let amp = 0.25 * (c.actuators[0].travel_max_m - c.actuators[0].travel_min_m);
+            let w = [11.0, 17.0, 23.0];
+            let q_at = |t: f64| V::from_fn(|i, _| mid[i] + amp * (w[i] * t + i as f64).sin());
+            let qd_at = |t: f64| V::from_fn(|i, _| amp * w[i] * (w[i] * t + i as f64).cos());
+            let jx_at = |t: f64| {
+                let q = q_at(t);
+                g.forward(&q).and_then(|p| g.jacobian(&q, &p))
+            };
+            let mut compared = 0;
+            for k in 0..200 {
+                let t = k as f64 * 2e-3;
+                let q = q_at(t);
+                let Ok(p) = g.forward(&q) else { continue };
+                let (Ok(jd), Ok(a), Ok(b)) = (
+                    g.jacobian_derivative(&q, &p, &qd_at(t)),
+                    jx_at(t + h),
+                    jx_at(t - h),
+                ) else {
+                    continue;
+                };
+                let fd = (a - b) / (2.0 * h);
+                // As above: relative 1e-5 of |J̇x| (an extra derivative in the
+                // truncation term), with a floor for where J̇x passes through zero.
+                let scale = jd.amax().max(1.0);
+                assert!(
+                    (fd - jd).amax() < 1e-5 * scale,
+                    "{name} t={t}: {jd} vs {fd}"
+                );
+                compared += 1;
+            }
+            assert!(compared > 20, "{name}: {compared}");
+        }
+    }
+}
