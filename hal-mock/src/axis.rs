@@ -2,7 +2,8 @@
 
 use crate::hall_sensor::{HallSensor, HallSensorParams};
 use crate::linear_motor::{LinearMotor, LinearMotorParams};
-use kerf::hal::{ControlClock, ForceOutput, HallInput};
+use kerf::hal::{SampleInputs, WriteOutputs};
+use kerf::Real;
 
 /// One axis: plant plus sensors, advanced by one period per force command.
 #[derive(Clone, Debug)]
@@ -11,7 +12,6 @@ pub struct SimulatedAxis {
     pub motor: LinearMotor,
     /// Its Hall sensors.
     pub sensor: HallSensor,
-    ts_s: f64,
 }
 
 impl SimulatedAxis {
@@ -26,7 +26,6 @@ impl SimulatedAxis {
         Self {
             motor: LinearMotor::new(motor, ts_s, 10, position_m),
             sensor: HallSensor::new(sensor, seed),
-            ts_s,
         }
     }
 
@@ -36,22 +35,15 @@ impl SimulatedAxis {
     }
 }
 
-impl HallInput for SimulatedAxis {
-    fn hall_counts(&mut self, _axis: usize) -> [u16; 3] {
-        let x = self.motor.position_m;
-        self.sensor.sample(x)
+impl SampleInputs<[[u16; 3]; 1]> for SimulatedAxis {
+    fn sample(&mut self) -> [[u16; 3]; 1] {
+        [self.sensor.sample(self.motor.position_m)]
     }
 }
 
-impl ForceOutput for SimulatedAxis {
+impl<T: Real> WriteOutputs<[T; 1]> for SimulatedAxis {
     /// Applies the force and advances the plant by one period.
-    fn set_force(&mut self, _axis: usize, force_n: f32) {
-        self.apply_force(f64::from(force_n));
-    }
-}
-
-impl ControlClock for SimulatedAxis {
-    fn period_s(&self) -> f32 {
-        self.ts_s as f32
+    fn write(&mut self, force_n: &[T; 1]) {
+        self.apply_force(force_n[0].to_f64());
     }
 }

@@ -12,6 +12,3 @@ pub mod hall_sensor;
 pub mod linear_motor;
 pub mod link;
 pub mod noise;
-pub mod scenario;
-#[cfg(feature = "std")]
-pub mod trace;

@@ -1,14 +1,14 @@
 //! Closed-loop scenarios of one LM1247 axis: Hall decode → DOB + PD → simulated plant.
 
 use hal_mock::hall_sensor::{ChannelFault, HallSensorParams};
-use hal_mock::scenario::{
-    run, run_into, self_calibrate, Motion, Outcome, Scenario, MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M,
-};
 use kerf::app::axis::AxisFault;
 use kerf::sensing::hall::HallFault;
 use kerf::Q32;
+use kerf_sim::scenario::{
+    run, run_into, run_with, Motion, Outcome, Scenario, MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M,
+};
 
-fn report(name: &str, o: &hal_mock::scenario::Outcome) {
+fn report(name: &str, o: &kerf_sim::scenario::Outcome) {
     println!(
         "{name:>4}: periods {} rms {:.3} um max {:.3} um  peaks: force {:.3} N dist {:.3} N vel {:.3} m/s pos {:.4} m",
         o.periods,
@@ -54,7 +54,7 @@ fn load_step_is_rejected_with_dob_and_not_without() {
     s.load_step = Some((STEP_AT_S, 1.0));
     let window = Outcome::with_window(STEP_AT_S + SETTLE_TIME_S, SETTLE_BOUND_M);
     let with = run_into::<f32>(&s, window).unwrap();
-    s.axis.dob.compensate = false;
+    s.machine.axis.dob.compensate = false;
     let without = run_into::<f32>(&s, window).unwrap();
     report("DOB", &with);
     report("PD", &without);
@@ -153,8 +153,15 @@ fn self_calibration_then_tracking_on_imperfect_sensors() {
     let mut s = Scenario::TRACKING;
     s.sensor = HallSensorParams::lm1247_imperfect(16, 4.0);
     let uncalibrated = run::<f32>(&s).unwrap();
-    let (fit, calibrated) = self_calibrate::<f32>(&s).unwrap();
-    let tracked = run::<f32>(&calibrated).unwrap();
+    let mut calibrated = s;
+    calibrated.calibrate = true;
+    let (tracked, fit) = run_with::<f32>(
+        &calibrated,
+        Outcome::with_window(f64::INFINITY, f64::INFINITY),
+        |_| {},
+    )
+    .unwrap();
+    let fit = fit.expect("the scenario calibrates");
     report("raw", &uncalibrated);
     report("cal", &tracked);
     println!("fitted model: {:.4?}", fit.model);
@@ -170,7 +177,7 @@ fn self_calibration_then_tracking_on_imperfect_sensors() {
     // twice the healthy residual, which is the common-mode harmonic (Σ hk Ak ≈ 0.06 A),
     // so 0.12 A. A channel that freezes mid-move is caught once it is 0.06–0.18 A off,
     // about half the travel the nominal 0.5 A limit needs (157 periods above).
-    let limit = calibrated.axis.hall.sum_limit;
+    let limit = s.machine.hall[0].with_self_calibration(&fit).sum_limit;
     println!(
         "learnt sum limit {:.3} A (peak healthy residual {:.1} counts)",
         limit, fit.peak_sum_residual_counts
@@ -199,11 +206,13 @@ fn trace_writes_the_run_as_csv() {
     let mut s = Scenario::TRACKING;
     s.periods = 500;
     s.sensor_fault = Some((0.04, ChannelFault::OpenWire(2)));
-    let mut simulation = hal_mock::scenario::Simulation::<f32>::new(&s).unwrap();
-    let mut recorder = hal_mock::trace::Recorder::new();
-    while let Some(p) = simulation.step() {
-        recorder.push(p);
-    }
+    let mut recorder = kerf_sim::trace::Recorder::new();
+    run_with::<f32>(&s, Outcome::default(), |p| {
+        if p.in_job() {
+            recorder.push(*p)
+        }
+    })
+    .unwrap();
     let mut csv = Vec::new();
     recorder.write_csv(&mut csv).unwrap();
     let text = String::from_utf8(csv).unwrap();

@@ -4,7 +4,8 @@
 
 use hal_mock::hall_sensor::{HallSensor, HallSensorParams};
 use kerf::sensing::hall::{
-    CorrectionLearner, HallCalibrator, HallConfig, HallCorrection, HallDecoder, HallState, SelfCalibration,
+    CorrectionLearner, HallCalibrator, HallConfig, HallCorrection, HallDecoder, HallState,
+    SelfCalibration,
 };
 use kerf::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
 
@@ -52,7 +53,7 @@ fn calibrate(config: &HallConfig, sensor: &mut HallSensor) -> SelfCalibration {
 /// Correction learnt against the master's 0.5 µm encoder over 10 pitches of slow
 /// motion (100 samples per table entry average the noise down by 10).
 fn learn_correction(config: &HallConfig, sensor: &mut HallSensor) -> HallCorrection {
-    let (decoder, mut decoder_state) = (HallDecoder::new(config).unwrap(), HallState::default());
+    let decoder = HallDecoder::new(config).unwrap();
     let mut learner = CorrectionLearner::default();
     let n = 256_000;
     for k in 0..n {
@@ -132,7 +133,8 @@ fn velocity_estimate_noise_against_finite_difference() {
     let mut config = HallConfig::LM1247_16BIT;
     let fit = calibrate(&config, &mut sensor);
     config.calibration = fit.calibration;
-    let (mut decoder, mut decoder_state) = (HallDecoder::new(&config).unwrap(), HallState::default());
+    let (mut decoder, mut decoder_state) =
+        (HallDecoder::new(&config).unwrap(), HallState::default());
     decoder.set_correction(Some(fit.correction));
     let ts = 1e-4;
     let bandwidth = 2.0 * std::f64::consts::PI * 600.0;
@@ -149,7 +151,8 @@ fn velocity_estimate_noise_against_finite_difference() {
     let mut last = None;
     for k in 0..20_000 {
         let x = 0.001 + speed * ts * k as f64;
-        let step = (observer.predicted_step(&observer_state, 0.0) / PITCH_M * 4_294_967_296.0) as i64;
+        let step =
+            (observer.predicted_step(&observer_state, 0.0) / PITCH_M * 4_294_967_296.0) as i64;
         let position = decoder
             .update(&mut decoder_state, sensor.sample(x), step)
             .unwrap()

@@ -6,13 +6,14 @@
 
 use hal_mock::delta_plant::{DeltaPlant, DeltaPlantParams};
 use hal_mock::hall_sensor::{HallSensor, HallSensorParams};
-use hal_mock::scenario::{MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M};
 use host_tests::contours::{cam_at_10_mm_s, CUT_Z_M};
-use kerf::app::axis::{AxisConfig, AxisLoop, AxisState};
+use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, AxisStatus, HallAxis};
 use kerf::control::pd::Reference;
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
+use kerf::sensing::hall::HallConfig;
 use kerf::trajectory::spline::JointSpline;
+use kerf_sim::scenario::{MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M};
 
 #[test]
 fn keops_slave_follows_the_cam_contour_through_hall_sensors() {
@@ -38,13 +39,13 @@ fn keops_slave_follows_the_cam_contour_through_hall_sensors() {
     let mut sensors: Vec<HallSensor> = (0..3)
         .map(|k| HallSensor::new(HallSensorParams::LM1247_16BIT, 100 + k))
         .collect();
-    let mut loops: Vec<AxisLoop<f32>> = (0..3)
-        .map(|k| {
-            let mut axis = AxisLoop::<f32>::new(&AxisConfig::LM1247_SLAVE).unwrap();
-            axis.set_home(q0[k] as f32);
-            axis
-        })
+    // One law for the three joints, one decoder per sensor set, three states.
+    let law = AxisLaw::<f32>::new(&AxisConfig::LM1247_SLAVE, TS_S).unwrap();
+    let decoders: Vec<HallAxis<f32>> = (0..3)
+        .map(|_| HallAxis::new(&HallConfig::LM1247_16BIT).unwrap())
         .collect();
+    let mut loops: Vec<AxisState<f32>> =
+        (0..3).map(|k| AxisState::homed_at(q0[k] as f32)).collect();
 
     // The loops first hold the start pose for 0.2 s: gravity loads the carriages from the
     // first period, and the DOB takes that up like a load step before the cut starts.
@@ -62,8 +63,13 @@ fn keops_slave_follows_the_cam_contour_through_hall_sensors() {
                 velocity: reference.qd[k] as f32,
                 acceleration: reference.qdd[k] as f32,
             };
-            let out = loops[k].step(sensors[k].sample(plant.q_m[k]), &r);
-            assert_eq!(out.state, AxisState::Running, "joint {k} at {t} s");
+            let out = law.step(
+                &decoders[k],
+                &mut loops[k],
+                sensors[k].sample(plant.q_m[k]),
+                &r,
+            );
+            assert_eq!(out.status, AxisStatus::Running, "joint {k} at {t} s");
             force[k] = f64::from(out.force_n);
         }
         plant.step(force).unwrap();

@@ -1,23 +1,21 @@
-//! What the application needs from a board: sample inputs, write outputs, the period.
+//! What the application needs from a board: one period's inputs sampled together,
+//! one period's outputs written together.
 //!
-//! Implemented per board (and by `hal-mock` for simulated machines). Only `app` and
-//! the binaries use these traits; every algorithm stays sans-IO.
+//! A board implements these with its ADC DMA buffer (every Hall channel of every axis
+//! converted on the same timer trigger) and its current-loop or PWM outputs; `hal-mock`
+//! implements them with simulated machines. [`crate::app::control_period`] is the one
+//! place that calls them, from the control interrupt.
 
-/// Three analog Hall channels per axis, raw ADC counts (offset-binary).
-pub trait HallInput {
-    /// Latest simultaneous sample of axis `axis`: `[u1, u2, u3]`.
-    fn hall_counts(&mut self, axis: usize) -> [u16; 3];
+/// All inputs of a control period, sampled together: `I` is one period's samples (for
+/// Hall axes, raw counts `[u1, u2, u3]` per axis).
+pub trait SampleInputs<I> {
+    /// The latest complete set of samples.
+    fn sample(&mut self) -> I;
 }
 
-/// Per-axis force (current) command.
-pub trait ForceOutput {
-    /// Commands `force_n` newtons on axis `axis` (the driver converts with its force
-    /// constant). Must accept 0.0 at any time: that is the safe state.
-    fn set_force(&mut self, axis: usize, force_n: f32);
-}
-
-/// The fixed control period.
-pub trait ControlClock {
-    /// Period of the control interrupt in seconds.
-    fn period_s(&self) -> f32;
+/// All outputs of a control period, written together: `O` is one period's commands
+/// (for linear-motor axes, the force of each in N).
+pub trait WriteOutputs<O> {
+    /// Applies `outputs`. Must accept the machine's safe outputs at any time.
+    fn write(&mut self, outputs: &O);
 }

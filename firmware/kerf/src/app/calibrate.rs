@@ -54,7 +54,11 @@ impl<T: Real, const N: usize> CalibrationSweep<T, N> {
         }
         Ok(Self {
             out: Quintic::new(0.0, SWEEP_PITCHES * pitch, SWEEP_DURATION_S)?,
-            back: Quintic::new(SWEEP_PITCHES * pitch, -SWEEP_PITCHES * pitch, SWEEP_DURATION_S)?,
+            back: Quintic::new(
+                SWEEP_PITCHES * pitch,
+                -SWEEP_PITCHES * pitch,
+                SWEEP_DURATION_S,
+            )?,
             start_m,
             ts: T::from_f64(ts),
             rest: T::from_f64(REST_S),
@@ -84,7 +88,11 @@ impl<T: Real, const N: usize> CalibrationSweep<T, N> {
 
     /// Passes this period's raw counts of every axis to `record` when they are to be
     /// kept, and advances; `true` once the sweep is over.
-    pub fn advance(&mut self, counts: &[[u16; 3]; N], record: &mut dyn FnMut(u8, [u16; 3])) -> bool {
+    pub fn advance(
+        &mut self,
+        counts: &[[u16; 3]; N],
+        record: &mut dyn FnMut(u8, [u16; 3]),
+    ) -> bool {
         if self.period % self.decimation == 0 {
             for (axis, c) in counts.iter().enumerate() {
                 record(axis as u8, *c);
@@ -166,9 +174,15 @@ mod tests {
             }
             assert_eq!(periods, sweep.periods());
             assert_eq!(first, Some([0.004, -0.01]));
-            assert!((far - (0.004 + SWEEP_PITCHES * 0.018)).abs() < 1e-12, "{far}");
+            assert!(
+                (far - (0.004 + SWEEP_PITCHES * 0.018)).abs() < 1e-12,
+                "{far}"
+            );
             assert!((last[0] - 0.004).abs() < 1e-12, "{last:?}");
-            assert!(pushed[0] > CALIBRATION_SAMPLES as u32 * 9 / 10, "{pushed:?}");
+            assert!(
+                pushed[0] > CALIBRATION_SAMPLES as u32 * 9 / 10,
+                "{pushed:?}"
+            );
             assert_eq!(pushed[0], pushed[1]);
         }
     }

@@ -279,10 +279,14 @@ impl<T: Real, const N: usize> Joints<T, N> {
             if 1.875 * distance > self.speed_limit_m_s * t
                 || 5.7735 * distance > self.accel_limit_m_s2 * t * t
             {
-                return Err(err(|segment, axis| JobError::TooFast { segment, axis }, axis));
+                return Err(err(
+                    |segment, axis| JobError::TooFast { segment, axis },
+                    axis,
+                ));
             }
-            *out = Quintic::new(*start, target - start, t)
-                .map_err(|_| JobError::NotFinite { segment: index as u8 })?;
+            *out = Quintic::new(*start, target - start, t).map_err(|_| JobError::NotFinite {
+                segment: index as u8,
+            })?;
         }
         run.segment = index;
         run.period = 0;
@@ -353,11 +357,13 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
     fn finish_calibration(&mut self, sensors: [HallAxis<T>; N]) {
         self.sensors = sensors;
         // The out-and-back sweep ended where it started: re-home there with the
-        // calibrated decoders (the nominal decoders' position error does not carry over).
-        for (axis, start) in self.axes.iter_mut().zip(self.sweep_start_m.iter()) {
-            *axis = AxisState::homed_at(*start);
-        }
-        self.sweep = None;
+        // calibrated decoders (the nominal decoders' position error does not carry
+        // over). A stored calibration without a sweep re-homes where the axes are.
+        let home = match self.sweep.take() {
+            Some(_) => self.sweep_start_m,
+            None => self.axes.map(|a| a.position_m()),
+        };
+        self.axes = home.map(AxisState::homed_at);
     }
 
     fn check_job(&self, job: &JointJob<N>) -> Result<(), JobError> {
@@ -373,8 +379,11 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
                     segment: segment_index,
                 });
             }
-            for (axis, (target, [lo, hi])) in
-                segment.target_m.iter().zip(self.travel_m.iter()).enumerate()
+            for (axis, (target, [lo, hi])) in segment
+                .target_m
+                .iter()
+                .zip(self.travel_m.iter())
+                .enumerate()
             {
                 if target < lo || target > hi {
                     return Err(JobError::OutOfTravel {

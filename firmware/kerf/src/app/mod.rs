@@ -11,3 +11,19 @@ pub mod axis;
 pub mod calibrate;
 pub mod joints;
 pub mod supervisor;
+
+use crate::hal::{SampleInputs, WriteOutputs};
+use supervisor::{Machine, Supervisor};
+
+/// One control period on a board: sample every input, step the supervisor, write every
+/// output. The control interrupt of the QEMU image and of a board image call this.
+pub fn control_period<M, H>(supervisor: &mut Supervisor<'_, M>, hal: &mut H) -> M::Outputs
+where
+    M: Machine,
+    H: SampleInputs<M::Inputs> + WriteOutputs<M::Outputs>,
+{
+    let inputs = hal.sample();
+    let outputs = supervisor.step(&inputs);
+    hal.write(&outputs);
+    outputs
+}

@@ -22,6 +22,7 @@
 //! | 2 | Ready | `Calibrate` | Calibrating | sweep |
 //! | 3 | Calibrating | sweep done | Calibrating (waits for the fit) | safe |
 //! | 4 | Calibrating | `FinishCalibration(coefficients)` after the sweep | Ready | safe |
+//! | 4b | Idle | `FinishCalibration(coefficients)`: a stored calibration, no sweep | Ready | safe |
 //! | 5 | Calibrating | `Stop` | Idle | safe |
 //! | 6 | Idle, Ready | `LoadJob(job)` that fits the machine | unchanged, job loaded | safe |
 //! | 7 | Ready | `Start` with a job loaded | Running | job |
@@ -265,6 +266,8 @@ pub enum Report<M: Machine> {
         /// Raw Hall counts.
         counts: [u16; 3],
     },
+    /// The calibration sweep is over: every sample has been sent, the fit can run.
+    SweepDone,
     /// One period's telemetry.
     Telemetry {
         /// Control period count.
@@ -380,7 +383,10 @@ impl<'q, M: Machine> Supervisor<'q, M> {
             (mode, Ok(step)) => {
                 if let Step::Done(_) = step {
                     match mode {
-                        Mode::Calibrating => self.swept = true,
+                        Mode::Calibrating => {
+                            self.swept = true;
+                            self.report(Report::SweepDone);
+                        }
                         Mode::Running | Mode::Stopping => self.enter(Mode::Ready),
                         _ => {}
                     }
@@ -388,8 +394,7 @@ impl<'q, M: Machine> Supervisor<'q, M> {
                 step.outputs()
             }
         };
-        if self.telemetry_decimation != 0
-            && self.period % u64::from(self.telemetry_decimation) == 0
+        if self.telemetry_decimation != 0 && self.period % u64::from(self.telemetry_decimation) == 0
         {
             let report = Report::Telemetry {
                 period: self.period,
@@ -421,6 +426,11 @@ impl<'q, M: Machine> Supervisor<'q, M> {
                 self.machine.begin_calibration();
                 self.swept = false;
                 self.enter(Mode::Calibrating);
+                Ok(())
+            }
+            (Mode::Idle, Command::FinishCalibration(calibration)) => {
+                self.machine.finish_calibration(calibration);
+                self.enter(Mode::Ready);
                 Ok(())
             }
             (Mode::Calibrating, Command::FinishCalibration(calibration)) if self.swept => {

@@ -105,7 +105,12 @@ impl<T: Real> Dob<T> {
     /// z ← z + k (F + g An v − z) is, in terms of the estimate and the last velocity v₋,
     /// F̂ ← F̂ + k (F − F̂) + (1 − k) g An (v₋ − v).
     #[inline]
-    pub fn update(&self, state: &mut DobState<T>, acceleration_des: T, velocity: T) -> DobOutput<T> {
+    pub fn update(
+        &self,
+        state: &mut DobState<T>,
+        acceleration_des: T,
+        velocity: T,
+    ) -> DobOutput<T> {
         let disturbance_n = state.estimate_n;
         let compensation = if self.compensate {
             disturbance_n
@@ -185,7 +190,11 @@ mod tests {
             out = dob.update(&mut state, 100.0, 0.0);
         }
         assert_eq!(out.force_n, 3.6);
-        assert!((state.estimate_n - 3.6).abs() < 1e-6, "{}", state.estimate_n);
+        assert!(
+            (state.estimate_n - 3.6).abs() < 1e-6,
+            "{}",
+            state.estimate_n
+        );
     }
 
     #[test]

@@ -178,8 +178,17 @@ mod tests {
             Some(ConfigError::out_of_range("bandwidth_rad_s"))
         );
         // Valid in f64, but Ts²/2 underflows f32 at a 1e-25 s period.
-        assert_eq!(bad(100.0, 1e-25), Some(ConfigError::not_representable("period_s")));
-        assert!(TrackingObserver::<f64>::new(&TrackingObserverConfig { bandwidth_rad_s: 100.0 }, 1e-25).is_ok());
+        assert_eq!(
+            bad(100.0, 1e-25),
+            Some(ConfigError::not_representable("period_s"))
+        );
+        assert!(TrackingObserver::<f64>::new(
+            &TrackingObserverConfig {
+                bandwidth_rad_s: 100.0
+            },
+            1e-25
+        )
+        .is_ok());
     }
 
     #[test]
@@ -190,7 +199,13 @@ mod tests {
             obs.update(0.25 * k as f64 * 1e-4, 0.0);
         }
         let before = obs.1;
-        obs.0 = TrackingObserver::new(&TrackingObserverConfig { bandwidth_rad_s: 500.0 }, 1e-4).unwrap();
+        obs.0 = TrackingObserver::new(
+            &TrackingObserverConfig {
+                bandwidth_rad_s: 500.0,
+            },
+            1e-4,
+        )
+        .unwrap();
         assert_eq!(obs.1, before);
         let v = obs.update(0.25 * 3000.0 * 1e-4, 0.0);
         assert!((v - 0.25).abs() < 1e-9, "{v}");

@@ -152,10 +152,7 @@ fn refusals(reports: &[Report<Toy>]) -> Vec<(CommandKind, CommandError<&'static 
 }
 
 /// Drives a fresh supervisor to Ready (rows 1, 3, 4).
-fn to_ready(
-    s: &mut Supervisor<'_, Toy>,
-    to: &mut heapless::spsc::Producer<'_, Command<Toy>>,
-) {
+fn to_ready(s: &mut Supervisor<'_, Toy>, to: &mut heapless::spsc::Producer<'_, Command<Toy>>) {
     send(to, Command::Calibrate);
     assert_eq!(s.step(&OK), SWEEP);
     assert_eq!(s.step(&OK), SWEEP);
@@ -174,7 +171,15 @@ fn row_1_idle_calibrate_sweeps_and_streams_samples() {
         assert_eq!(s.mode(), Mode::Calibrating);
         let samples = drain()
             .iter()
-            .filter(|r| matches!(r, Report::CalibrationSample { axis: 0, counts: [1, 2, 3] }))
+            .filter(|r| {
+                matches!(
+                    r,
+                    Report::CalibrationSample {
+                        axis: 0,
+                        counts: [1, 2, 3]
+                    }
+                )
+            })
             .count();
         assert_eq!(samples, 1);
     });
@@ -196,8 +201,7 @@ fn rows_3_and_4_sweep_done_waits_safe_for_the_fit_then_ready() {
         send(to, Command::Calibrate);
         s.step(&OK);
         s.step(&OK); // sweep done
-        drain();
-        // Finishing now is too early? No: the sweep is over. But before it, refused:
+        assert!(drain().iter().any(|r| matches!(r, Report::SweepDone)));
         for _ in 0..3 {
             assert_eq!(s.step(&OK), SAFE);
             assert_eq!(s.mode(), Mode::Calibrating);
@@ -222,6 +226,16 @@ fn row_4_finish_before_the_sweep_is_over_is_refused() {
             refusals(&drain()),
             [(CommandKind::FinishCalibration, CommandError::InvalidInMode)]
         );
+    });
+}
+
+#[test]
+fn row_4b_a_stored_calibration_makes_idle_ready_without_a_sweep() {
+    with_supervisor(|s, to, _| {
+        send(to, Command::FinishCalibration(5));
+        assert_eq!(s.step(&OK), SAFE);
+        assert_eq!(s.mode(), Mode::Ready);
+        assert_eq!(s.machine().calibrated, Some(5));
     });
 }
 
@@ -265,7 +279,10 @@ fn row_7_start_runs_the_job_and_without_one_is_refused() {
         drain();
         send(to, Command::Start);
         assert_eq!(s.step(&OK), SAFE);
-        assert_eq!(refusals(&drain()), [(CommandKind::Start, CommandError::NoJob)]);
+        assert_eq!(
+            refusals(&drain()),
+            [(CommandKind::Start, CommandError::NoJob)]
+        );
         assert_eq!(s.mode(), Mode::Ready);
         send(to, Command::LoadJob(3));
         send(to, Command::Start);
@@ -284,9 +301,13 @@ fn row_8_job_done_is_ready() {
         assert_eq!(s.step(&OK), JOB);
         assert_eq!(s.mode(), Mode::Ready);
         assert_eq!(s.step(&OK), SAFE);
-        assert!(drain()
-            .iter()
-            .any(|r| matches!(r, Report::ModeChanged { mode: Mode::Ready, period: 4 })));
+        assert!(drain().iter().any(|r| matches!(
+            r,
+            Report::ModeChanged {
+                mode: Mode::Ready,
+                period: 4
+            }
+        )));
     });
 }
 
@@ -379,12 +400,11 @@ fn row_14_commands_invalid_in_the_mode_are_refused_and_change_nothing() {
     use CommandKind as K;
     // (setup, command, mode it must stay in)
     with_supervisor(|s, to, drain| {
-        // Idle: Start, Stop, ResetFault, FinishCalibration.
+        // Idle: Start, Stop, ResetFault.
         for (command, kind) in [
             (Command::Start, K::Start),
             (Command::Stop, K::Stop),
             (Command::ResetFault, K::ResetFault),
-            (Command::FinishCalibration(9), K::FinishCalibration),
         ] {
             send(to, command);
             assert_eq!(s.step(&OK), SAFE);

@@ -92,7 +92,9 @@ fn position_unwraps_across_pitches_in_both_directions() {
         path.push(start + 5.0 - 0.124 * k as f64).unwrap();
     }
     for &turns in &path {
-        let pos = dec.update(&mut dec_state, ch.sample(2.0 * PI * turns), 0).unwrap();
+        let pos = dec
+            .update(&mut dec_state, ch.sample(2.0 * PI * turns), 0)
+            .unwrap();
         // ADC rounding of the ideal channels: 0.5 LSB / A rad = 3e-6 turn.
         assert!((pos.position_m(1.0f64) - turns).abs() < 1e-5, "{turns}");
         assert_eq!(pos.pitch_count(), turns.floor() as i32);
@@ -113,7 +115,8 @@ fn prediction_unwraps_at_20_m_per_s_sampled_at_2_4_khz() {
         for k in 0..500 {
             let turns = 0.1 + direction * step_turns * k as f64;
             let pos = dec
-                .update(&mut dec_state, 
+                .update(
+                    &mut dec_state,
                     ch.sample(2.0 * PI * turns),
                     if k == 0 { 0 } else { predicted },
                 )
@@ -127,7 +130,11 @@ fn prediction_unwraps_at_20_m_per_s_sampled_at_2_4_khz() {
         let (plain, mut plain_state) = (HallDecoder::new(&cfg).unwrap(), HallState::default());
         plain.update(&mut plain_state, ch.sample(0.0), 0).unwrap();
         assert_eq!(
-            plain.update(&mut plain_state, ch.sample(2.0 * PI * direction * step_turns), 0),
+            plain.update(
+                &mut plain_state,
+                ch.sample(2.0 * PI * direction * step_turns),
+                0
+            ),
             Err(HallFault::ImplausibleJump)
         );
     }
@@ -157,7 +164,10 @@ fn faults_are_named_and_hold_the_position() {
     );
     // All channels scaled down by half: sum fine, magnitude out of band.
     let half = good.map(|c| ((i32::from(c) + 32768) / 2) as u16);
-    assert_eq!(dec.update(&mut dec_state, half, 0), Err(HallFault::MagnitudeOutOfBand));
+    assert_eq!(
+        dec.update(&mut dec_state, half, 0),
+        Err(HallFault::MagnitudeOutOfBand)
+    );
     // Back to good data: the position did not move.
     assert_eq!(dec.update(&mut dec_state, good, 0), Ok(held));
 

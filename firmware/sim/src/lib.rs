@@ -1,0 +1,12 @@
+//! Scenarios: a kerf machine app put together with simulated hardware from `hal-mock`.
+//! The host tests and the QEMU image both run them from here, so both check the same
+//! thing against the same bounds; `hal-mock` itself holds hardware only.
+#![no_std]
+#![forbid(unsafe_code)]
+
+#[cfg(feature = "std")]
+extern crate std;
+
+pub mod scenario;
+#[cfg(feature = "std")]
+pub mod trace;

@@ -1,0 +1,573 @@
+//! The single LM1247 axis as a machine app (`Joints<T, 1>` under the supervisor) on the
+//! simulated axis, with the slower context's side ([`Operator`]) that calibrates, loads
+//! the job and starts it through the command queue, as a host or task would.
+
+use hal_mock::axis::SimulatedAxis;
+use hal_mock::hall_sensor::{ChannelFault, HallSensorParams};
+use hal_mock::linear_motor::LinearMotorParams;
+use heapless::spsc::{Consumer, Producer};
+use kerf::app::axis::{AxisFault, HallAxis};
+use kerf::app::calibrate::CalibrationFit;
+use kerf::app::joints::{fit_sensors, CalibrationFailure, JointJob, Joints, JointsConfig, Segment};
+use kerf::app::supervisor::{Command, CommandKind, Machine, Mode, Report, Supervisor};
+use kerf::control::pd::Reference;
+use kerf::hal::{SampleInputs, WriteOutputs};
+use kerf::sensing::hall::{HallCorrection, SelfCalibration};
+use kerf::trajectory::quintic::Quintic;
+use kerf::{ConfigError, Real};
+
+/// Control period of the single-axis scenarios (10 kHz): the machine's, stated once in
+/// [`JointsConfig::LM1247`].
+pub const TS_S: f64 = JointsConfig::LM1247.period_s;
+/// Where the slider starts (an arbitrary phase inside the first pitch), m.
+pub const START_M: f64 = 0.0043;
+/// Stroke of the tracking profile: 30 mm, 1.67 magnetic pitches, out and back.
+pub const STROKE_M: f64 = 0.030;
+
+/// Bound on the RMS tracking error over the 1 s profile, m.
+///
+/// Why: the error is set by disturbances, not by the sensor. The noise floor is
+/// 2 LSB on a 26214-count amplitude, a phase noise of 2·√(2/3)/26214 rad, i.e. 0.18 µm
+/// RMS at an 18 mm pitch. The disturbances are Coulomb friction (0.08 N, switching on
+/// at each start) and the nominal-mass error (121 g true vs 71 g nominal, 0.05 kg ×
+/// 1.08 m/s² = 0.054 N during acceleration). The loop's response to a force step is
+/// measured by the load-step test: 1 N gives a 30 µm peak that the DOB removes with
+/// its 1.06 ms time constant. Scaled linearly, 0.08 + 0.054 N gives about 4 µm peak,
+/// present only around the transitions, so the RMS over the profile is about 1 µm.
+/// The bounds are these estimates with a margin of 2 to 3.
+pub const RMS_ERROR_BOUND_M: f64 = 2.5e-6;
+/// Bound on the maximum tracking error over the profile, m (see [`RMS_ERROR_BOUND_M`]).
+pub const MAX_ERROR_BOUND_M: f64 = 10e-6;
+
+/// The 1 s tracking profile: rest, 30 mm out in 0.4 s, dwell, back in 0.4 s, rest.
+/// Peak speed 0.14 m/s, peak acceleration 1.08 m/s².
+pub fn profile(t_s: f64) -> Reference<f64> {
+    // Constant, valid arguments: construction cannot fail.
+    let out = Quintic::<f64>::new(START_M, STROKE_M, 0.4);
+    let back = Quintic::<f64>::new(START_M + STROKE_M, -STROKE_M, 0.4);
+    match (out, back) {
+        (Ok(out), Ok(_)) if t_s < 0.5 => out.sample(t_s - 0.05),
+        (Ok(_), Ok(back)) => back.sample(t_s - 0.5),
+        _ => Reference {
+            position: START_M,
+            velocity: 0.0,
+            acceleration: 0.0,
+        },
+    }
+}
+
+/// The 1 s tracking profile as a job: dwell 50 ms, 30 mm out in 0.4 s, dwell 50 ms,
+/// back in 0.4 s, dwell 0.1 s (the same reference as [`profile`]).
+pub fn profile_job() -> JointJob<1> {
+    let at = |target: f64, duration_s: f64| Segment {
+        target_m: [target],
+        duration_s,
+    };
+    [
+        at(START_M, 0.05),
+        at(START_M + STROKE_M, 0.4),
+        at(START_M + STROKE_M, 0.05),
+        at(START_M, 0.4),
+        at(START_M, 0.1),
+    ]
+    .into_iter()
+    .collect()
+}
+
+/// What the axis is asked to do.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Motion {
+    /// The 1 s [`profile`].
+    Profile,
+    /// Hold the start position.
+    Hold,
+}
+
+impl Motion {
+    /// The job for `periods` periods of this motion.
+    pub fn job(self, periods: u32) -> JointJob<1> {
+        match self {
+            Motion::Profile => profile_job(),
+            Motion::Hold => [Segment {
+                target_m: [START_M],
+                duration_s: f64::from(periods) * TS_S,
+            }]
+            .into_iter()
+            .collect(),
+        }
+    }
+}
+
+/// Scenario knobs.
+#[derive(Copy, Clone, Debug)]
+pub struct Scenario {
+    /// The machine: control law, decoder, period, limits.
+    pub machine: JointsConfig<1>,
+    /// Plant.
+    pub motor: LinearMotorParams,
+    /// Sensors.
+    pub sensor: HallSensorParams,
+    /// Noise seed.
+    pub seed: u64,
+    /// Number of control periods of the job.
+    pub periods: u32,
+    /// The motion to follow.
+    pub motion: Motion,
+    /// Learnt phase correction for the decoder, if any.
+    pub correction: Option<HallCorrection>,
+    /// External load step: (time in s, force in N).
+    pub load_step: Option<(f64, f64)>,
+    /// Inject a sensor fault from this time in s on.
+    pub sensor_fault: Option<(f64, ChannelFault)>,
+    /// Run the calibration mode first (sweep, fit) instead of installing the
+    /// configured decoder as a stored calibration.
+    pub calibrate: bool,
+}
+
+impl Scenario {
+    /// The reference scenario: LM1247 axis with payload, 1 s of [`profile`].
+    pub const TRACKING: Self = Self {
+        machine: JointsConfig::LM1247,
+        motor: LinearMotorParams::LM1247_WITH_PAYLOAD,
+        sensor: HallSensorParams::LM1247_16BIT,
+        seed: 0x6b65_7266,
+        periods: 10_000,
+        motion: Motion::Profile,
+        correction: None,
+        load_step: None,
+        sensor_fault: None,
+        calibrate: false,
+    };
+}
+
+/// One simulated control period, as the rig sees it.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Period {
+    /// Time since the job started, s (−1 before).
+    pub t_s: f64,
+    /// The supervisor's mode after the period.
+    pub mode: Mode<kerf::app::joints::JointFault>,
+    /// Whether the job was running in this period (it may have ended in it).
+    pub ran_job: bool,
+    /// Reference position minus true plant position, m.
+    pub error_m: f64,
+    /// Force command, N.
+    pub force_n: f64,
+    /// Disturbance estimate, N.
+    pub disturbance_n: f64,
+    /// Velocity estimate, m/s.
+    pub velocity_m_s: f64,
+    /// Measured position, m.
+    pub position_m: f64,
+    /// The latched fault, if any.
+    pub fault: Option<AxisFault>,
+    /// Raw Hall counts the controller read this period.
+    pub hall_counts: [u16; 3],
+}
+
+impl Period {
+    /// Whether the period counts for the job's statistics (running, or faulted).
+    pub fn in_job(&self) -> bool {
+        self.ran_job || matches!(self.mode, Mode::Fault(_))
+    }
+}
+
+/// The machine app in scalar `T` and the simulated axis: what the control interrupt
+/// owns. Commands reach it only through the supervisor's queue.
+pub struct Rig<'q, T: Real> {
+    scenario: Scenario,
+    supervisor: Supervisor<'q, Joints<T, 1>>,
+    plant: SimulatedAxis,
+    period: u32,
+    job_start: Option<u32>,
+}
+
+impl<'q, T: Real> Rig<'q, T> {
+    /// Builds the machine (validating its configuration) and the plant at rest.
+    pub fn new(
+        scenario: &Scenario,
+        commands: Consumer<'q, Command<Joints<T, 1>>>,
+        reports: Producer<'q, Report<Joints<T, 1>>>,
+    ) -> Result<Self, ConfigError> {
+        let mut machine_config = scenario.machine;
+        machine_config.home_m = [START_M];
+        let machine = Joints::<T, 1>::new(&machine_config)?;
+        let mut supervisor = Supervisor::new(machine, commands, reports);
+        supervisor.set_telemetry_decimation(0);
+        let plant = SimulatedAxis::new(
+            scenario.motor,
+            scenario.sensor,
+            machine_config.period_s,
+            scenario.seed,
+            START_M,
+        );
+        Ok(Self {
+            scenario: *scenario,
+            supervisor,
+            plant,
+            period: 0,
+            job_start: None,
+        })
+    }
+
+    /// The supervisor (mode, machine).
+    pub fn supervisor(&self) -> &Supervisor<'q, Joints<T, 1>> {
+        &self.supervisor
+    }
+
+    /// One control period: inputs sampled, supervisor stepped, outputs written (the
+    /// plant advances one period), as the control interrupt does it.
+    pub fn step(&mut self) -> Period {
+        let ts = self.scenario.machine.period_s;
+        let before = self.supervisor.mode();
+        self.period += 1;
+        let true_position_m = self.plant.motor.position_m;
+        let mut hal = Recording {
+            plant: &mut self.plant,
+            inputs: [[0; 3]],
+        };
+        let force = kerf::app::control_period(&mut self.supervisor, &mut hal);
+        let hall_counts = hal.inputs[0];
+        let mode = self.supervisor.mode();
+        // Scenario times count from the job's start (after any calibration); set up the
+        // plant's load and sensor for the next period.
+        if mode == Mode::Running && self.job_start.is_none() {
+            self.job_start = Some(self.period - 1);
+        }
+        let t = self
+            .job_start
+            .map_or(-1.0, |start| f64::from(self.period - 1 - start) * ts);
+        if let Some(start) = self.job_start {
+            let t_next = f64::from(self.period - start) * ts;
+            if let Some((at, force)) = self.scenario.load_step {
+                self.plant.motor.load_force_n = if t_next >= at { force } else { 0.0 };
+            }
+            if let Some((at, fault)) = self.scenario.sensor_fault {
+                if t_next >= at {
+                    self.plant.sensor.fault = Some(fault);
+                }
+            }
+        }
+        let machine = self.supervisor.machine();
+        let reference = machine.reference()[0];
+        let out = machine.telemetry().axes[0];
+        let moving = |m| matches!(m, Mode::Running | Mode::Stopping);
+        Period {
+            t_s: t,
+            mode,
+            ran_job: moving(mode) || (moving(before) && self.job_start.is_some()),
+            error_m: reference.position.to_f64() - true_position_m,
+            force_n: force[0].to_f64(),
+            disturbance_n: out.disturbance_n.to_f64(),
+            velocity_m_s: out.velocity_m_s.to_f64(),
+            position_m: out.position_m.to_f64(),
+            fault: match mode {
+                Mode::Fault(f) => Some(f.fault),
+                _ => None,
+            },
+            hall_counts,
+        }
+    }
+}
+
+/// The simulated axis behind the HAL traits, keeping what it sampled for the record.
+struct Recording<'a> {
+    plant: &'a mut SimulatedAxis,
+    inputs: [[u16; 3]; 1],
+}
+
+impl SampleInputs<[[u16; 3]; 1]> for Recording<'_> {
+    fn sample(&mut self) -> [[u16; 3]; 1] {
+        self.inputs = self.plant.sample();
+        self.inputs
+    }
+}
+
+impl<T: Real> WriteOutputs<[T; 1]> for Recording<'_> {
+    fn write(&mut self, force_n: &[T; 1]) {
+        self.plant.write(force_n);
+    }
+}
+
+/// Where the [`Operator`] is.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum OperatorState {
+    /// Waiting for the calibration sweep's samples.
+    Calibrating,
+    /// Calibration (or the stored decoder) sent; waiting for Ready.
+    Calibrated,
+    /// Job loaded and started.
+    Running,
+    /// The job ran to its end.
+    Finished,
+    /// The machine faulted, a command was refused, or the calibration failed.
+    Failed(OperatorError),
+}
+
+/// Why the operator gave up.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum OperatorError {
+    /// The machine entered Fault.
+    Fault(kerf::app::joints::JointFault),
+    /// A command was refused.
+    Refused(CommandKind),
+    /// The fit failed.
+    Calibration(CalibrationFailure),
+    /// The command queue was full.
+    QueueFull,
+}
+
+/// The slower context's side of a scenario: what a supervisor task (QEMU) or a host
+/// does through the queues. Calibrates (or installs the configured decoder), loads the
+/// scenario's job, starts it, and watches the reports.
+pub struct Operator {
+    scenario: Scenario,
+    state: OperatorState,
+    samples: CalibrationFit<1>,
+    fit: Option<SelfCalibration>,
+}
+
+impl Operator {
+    /// A fresh operator for `scenario`.
+    pub fn new(scenario: &Scenario) -> Self {
+        Self {
+            scenario: *scenario,
+            state: OperatorState::Calibrated,
+            samples: CalibrationFit::default(),
+            fit: None,
+        }
+    }
+
+    /// The first commands: `Calibrate`, or the stored decoder then the job.
+    pub fn start<T: Real>(
+        &mut self,
+        commands: &mut Producer<'_, Command<Joints<T, 1>>>,
+    ) -> OperatorState {
+        if self.scenario.calibrate {
+            self.state = OperatorState::Calibrating;
+            self.send(commands, Command::Calibrate);
+        } else {
+            match HallAxis::<T>::new(&self.scenario.machine.hall[0]) {
+                Ok(mut sensor) => {
+                    sensor.set_correction(self.scenario.correction);
+                    self.send(commands, Command::FinishCalibration([sensor]));
+                    self.send_job(commands);
+                }
+                Err(e) => {
+                    self.state = OperatorState::Failed(OperatorError::Calibration(
+                        CalibrationFailure::Config(e),
+                    ))
+                }
+            }
+        }
+        self.state
+    }
+
+    /// The fit, once the calibration ran.
+    pub fn fit(&self) -> Option<&SelfCalibration> {
+        self.fit.as_ref()
+    }
+
+    /// Handles every pending report; returns the state after them.
+    pub fn poll<T: Real>(
+        &mut self,
+        reports: &mut Consumer<'_, Report<Joints<T, 1>>>,
+        commands: &mut Producer<'_, Command<Joints<T, 1>>>,
+    ) -> OperatorState {
+        while let Some(report) = reports.dequeue() {
+            match report {
+                Report::CalibrationSample { axis, counts } => {
+                    if self.samples.push(axis, counts).is_err() {
+                        self.fail(OperatorError::Calibration(CalibrationFailure::Fit {
+                            axis: usize::from(axis),
+                            error: kerf::sensing::hall::CalibrationError::TooFewSamples,
+                        }));
+                    }
+                }
+                Report::SweepDone => {
+                    match fit_sensors::<T, 1>(&self.scenario.machine, &self.samples) {
+                        Ok((sensors, fits)) => {
+                            self.fit = Some(fits[0]);
+                            self.state = OperatorState::Calibrated;
+                            self.send(commands, Command::FinishCalibration(sensors));
+                            self.send_job(commands);
+                        }
+                        Err(e) => self.fail(OperatorError::Calibration(e)),
+                    }
+                }
+                Report::Refused { command, .. } => self.fail(OperatorError::Refused(command)),
+                Report::ModeChanged {
+                    mode: Mode::Fault(f),
+                    ..
+                } => self.fail(OperatorError::Fault(f)),
+                Report::ModeChanged {
+                    mode: Mode::Running,
+                    ..
+                } if self.state == OperatorState::Calibrated => self.state = OperatorState::Running,
+                Report::ModeChanged {
+                    mode: Mode::Ready, ..
+                } if self.state == OperatorState::Running => self.state = OperatorState::Finished,
+                _ => {}
+            }
+        }
+        self.state
+    }
+
+    fn send_job<T: Real>(&mut self, commands: &mut Producer<'_, Command<Joints<T, 1>>>) {
+        let job = self.scenario.motion.job(self.scenario.periods);
+        self.send(commands, Command::LoadJob(job));
+        self.send(commands, Command::Start);
+    }
+
+    fn send<T: Real>(
+        &mut self,
+        commands: &mut Producer<'_, Command<Joints<T, 1>>>,
+        command: Command<Joints<T, 1>>,
+    ) {
+        if commands.enqueue(command).is_err() {
+            self.fail(OperatorError::QueueFull);
+        }
+    }
+
+    fn fail(&mut self, error: OperatorError) {
+        if !matches!(self.state, OperatorState::Failed(_)) {
+            self.state = OperatorState::Failed(error);
+        }
+    }
+}
+
+/// Queue capacities of a scenario: commands (a few per phase) and reports (a
+/// calibration sweep streams one sample per 25 periods; the operator drains every period).
+pub const COMMAND_CAPACITY: usize = 8;
+/// See [`COMMAND_CAPACITY`].
+pub const REPORT_CAPACITY: usize = 64;
+
+/// Error statistics and signal peaks over a run; fed one [`Period`] at a time.
+#[derive(Copy, Clone, Debug, Default)]
+pub struct Outcome {
+    /// Periods run.
+    pub periods: u32,
+    /// RMS of (reference − true plant position), m.
+    pub rms_error_m: f64,
+    /// Maximum |reference − true plant position|, m.
+    pub max_error_m: f64,
+    /// Maximum |error| at or after [`Outcome::window_from_s`], m.
+    pub max_error_after_m: f64,
+    /// Start of the window for `max_error_after_m`, s.
+    pub window_from_s: f64,
+    /// Error level for `last_violation_s`, m.
+    pub settle_bound_m: f64,
+    /// Last time |error| exceeded `settle_bound_m`, s (negative if never).
+    pub last_violation_s: f64,
+    /// Peak |force command|, N.
+    pub peak_force_n: f64,
+    /// Peak |disturbance estimate|, N.
+    pub peak_disturbance_n: f64,
+    /// Peak |velocity estimate|, m/s.
+    pub peak_velocity_m_s: f64,
+    /// Peak |measured position|, m.
+    pub peak_position_m: f64,
+    /// First period in fault, if any.
+    pub fault_period: Option<u32>,
+    /// The fault reported.
+    pub fault: Option<AxisFault>,
+    /// Largest |force command| from the fault on, N (must be 0).
+    pub force_after_fault_n: f64,
+    sum_sq_error: f64,
+}
+
+impl Outcome {
+    /// Statistics that also track settling: the max error from `window_from_s` on and
+    /// the last time the error exceeded `settle_bound_m`.
+    pub fn with_window(window_from_s: f64, settle_bound_m: f64) -> Self {
+        Self {
+            window_from_s,
+            settle_bound_m,
+            last_violation_s: -1.0,
+            ..Self::default()
+        }
+    }
+
+    /// Adds one period.
+    pub fn add(&mut self, p: &Period) {
+        let e = libm::fabs(p.error_m);
+        self.sum_sq_error += e * e;
+        self.periods += 1;
+        self.rms_error_m = libm::sqrt(self.sum_sq_error / f64::from(self.periods));
+        self.max_error_m = self.max_error_m.max(e);
+        if p.t_s >= self.window_from_s {
+            self.max_error_after_m = self.max_error_after_m.max(e);
+        }
+        if e > self.settle_bound_m {
+            self.last_violation_s = p.t_s;
+        }
+        self.peak_force_n = self.peak_force_n.max(libm::fabs(p.force_n));
+        self.peak_disturbance_n = self.peak_disturbance_n.max(libm::fabs(p.disturbance_n));
+        self.peak_velocity_m_s = self.peak_velocity_m_s.max(libm::fabs(p.velocity_m_s));
+        self.peak_position_m = self.peak_position_m.max(libm::fabs(p.position_m));
+        if let Some(fault) = p.fault {
+            self.fault_period.get_or_insert(self.periods - 1);
+            self.fault.get_or_insert(fault);
+            self.force_after_fault_n = self.force_after_fault_n.max(libm::fabs(p.force_n));
+        }
+    }
+}
+
+/// Runs `scenario` with the machine in scalar `T`: the operator and the rig in
+/// lockstep (the operator polls after every period), collecting the job's periods into
+/// `outcome` and handing every period to `each`. Returns the outcome and the fit (when
+/// the scenario calibrates).
+pub fn run_with<T: Real>(
+    scenario: &Scenario,
+    mut outcome: Outcome,
+    mut each: impl FnMut(&Period),
+) -> Result<(Outcome, Option<SelfCalibration>), ScenarioError> {
+    let mut commands = heapless::spsc::Queue::<Command<Joints<T, 1>>, COMMAND_CAPACITY>::new();
+    let mut reports = heapless::spsc::Queue::<Report<Joints<T, 1>>, REPORT_CAPACITY>::new();
+    let (mut send, from_sender) = commands.split();
+    let (to_operator, mut receive) = reports.split();
+    let mut rig =
+        Rig::<T>::new(scenario, from_sender, to_operator).map_err(ScenarioError::Config)?;
+    let mut operator = Operator::new(scenario);
+    operator.start(&mut send);
+    // Calibration (1.26 s), the wait for the fit, then the job.
+    let limit = 4 * scenario.periods + 20_000;
+    for _ in 0..limit {
+        let period = rig.step();
+        if period.in_job() {
+            outcome.add(&period);
+        }
+        each(&period);
+        match operator.poll(&mut receive, &mut send) {
+            OperatorState::Finished => return Ok((outcome, operator.fit().copied())),
+            OperatorState::Failed(OperatorError::Fault(_)) => {}
+            OperatorState::Failed(e) => return Err(ScenarioError::Operator(e)),
+            _ => {}
+        }
+        if outcome.periods >= scenario.periods {
+            return Ok((outcome, operator.fit().copied()));
+        }
+    }
+    Err(ScenarioError::Timeout)
+}
+
+/// Why a scenario could not be run to its end.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum ScenarioError {
+    /// The machine configuration was rejected.
+    Config(ConfigError),
+    /// The operator gave up (refused command, failed fit).
+    Operator(OperatorError),
+    /// The job did not finish in time.
+    Timeout,
+}
+
+/// Runs `scenario` with the machine in scalar `T`, collecting into `outcome`.
+pub fn run_into<T: Real>(scenario: &Scenario, outcome: Outcome) -> Result<Outcome, ScenarioError> {
+    run_with::<T>(scenario, outcome, |_| {}).map(|(o, _)| o)
+}
+
+/// Runs `scenario` with the machine in scalar `T`.
+pub fn run<T: Real>(scenario: &Scenario) -> Result<Outcome, ScenarioError> {
+    run_into::<T>(scenario, Outcome::with_window(f64::INFINITY, f64::INFINITY))
+}
