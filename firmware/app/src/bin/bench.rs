@@ -7,14 +7,14 @@
 use core::f32::consts::PI;
 use core::hint::black_box;
 use cortex_m_semihosting::hprintln;
-use kerf::app::axis::{AxisConfig, AxisLoop};
+use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
 use kerf::codec::dct::{Dct, NaiveDct};
 use kerf::codec::sdct::{SdctConfig, SdctDecoder, SdctEncoder, Selection};
-use kerf::control::dob::Dob;
+use kerf::control::dob::{Dob, DobState};
 use kerf::control::pd::{Pd, Reference};
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
-use kerf::sensing::hall::{HallArithmetic, HallConfig, HallDecoder};
+use kerf::sensing::hall::{HallArithmetic, HallConfig, HallDecoder, HallState};
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::shapes;
 use kerf::{Real, Q32};
@@ -75,29 +75,38 @@ fn main() -> ! {
 
     let hall = hall_inputs();
     let axis = AxisConfig::LM1247_SLAVE;
+    let hall_config = HallConfig::LM1247_16BIT;
+    let ts = 1e-4;
     let (
-        Ok(mut decoder),
+        Ok(decoder),
         Ok(pd32),
-        Ok(mut dob32),
+        Ok(dob32),
         Ok(pdq),
-        Ok(mut dobq),
-        Ok(mut loop32),
-        Ok(mut loop64),
+        Ok(dobq),
+        Ok(law32),
+        Ok(law64),
+        Ok(sensor32),
+        Ok(sensor64),
     ) = (
-        HallDecoder::new(&axis.hall),
+        HallDecoder::new(&hall_config),
         Pd::<f32>::new(&axis.pd),
-        Dob::<f32>::new(&axis.dob),
+        Dob::<f32>::new(&axis.dob, ts),
         Pd::<Q32>::new(&axis.pd),
-        Dob::<Q32>::new(&axis.dob),
-        AxisLoop::<f32>::new(&axis),
-        AxisLoop::<f64>::new(&axis),
+        Dob::<Q32>::new(&axis.dob, ts),
+        AxisLaw::<f32>::new(&axis, ts),
+        AxisLaw::<f64>::new(&axis, ts),
+        HallAxis::<f32>::new(&hall_config),
+        HallAxis::<f64>::new(&hall_config),
     )
     else {
         exit(false)
     };
-    let mut f32_hall = axis.hall;
+    let (mut hall_state, mut hall_state_f32) = (HallState::default(), HallState::default());
+    let (mut dob32_state, mut dobq_state) = (DobState::at(0.0f32), DobState::at(Q32::ZERO));
+    let (mut axis32, mut axis64) = (AxisState::homed_at(0.004f32), AxisState::homed_at(0.004f64));
+    let mut f32_hall = hall_config;
     f32_hall.arithmetic = HallArithmetic::F32;
-    let Ok(mut decoder_f32) = HallDecoder::new(&f32_hall) else {
+    let Ok(decoder_f32) = HallDecoder::new(&f32_hall) else {
         exit(false)
     };
     let mask = INPUTS as u32 - 1;
@@ -125,13 +134,17 @@ fn main() -> ! {
         &mut counter,
         "sensing::hall::HallDecoder::update (integer path, per axis)",
         |i| {
-            black_box(decoder.update(black_box(hall[(i & mask) as usize]), 0).ok());
+            black_box(
+                decoder
+                    .update(&mut hall_state, black_box(hall[(i & mask) as usize]), 0)
+                    .ok(),
+            );
         },
         "same decoder, HallArithmetic::F32 (f32 + libm::atan2f)",
         |i| {
             black_box(
                 decoder_f32
-                    .update(black_box(hall[(i & mask) as usize]), 0)
+                    .update(&mut hall_state_f32, black_box(hall[(i & mask) as usize]), 0)
                     .ok(),
             );
         },
@@ -152,7 +165,7 @@ fn main() -> ! {
         |i| {
             let k = (i & mask) as usize;
             let a = pd32.acceleration(&refs[k], black_box(positions[k]), black_box(0.099));
-            black_box(dob32.update(a, 0.099));
+            black_box(dob32.update(&mut dob32_state, a, 0.099));
         },
         "same law <Q32> (Q31.32 fixed point)",
         |i| {
@@ -162,7 +175,7 @@ fn main() -> ! {
                 black_box(positions_q[k]),
                 black_box(Q32::from_q32(425_201_762)),
             );
-            black_box(dobq.update(a, Q32::from_q32(425_201_762)));
+            black_box(dobq.update(&mut dobq_state, a, Q32::from_q32(425_201_762)));
         },
     );
 
@@ -173,15 +186,15 @@ fn main() -> ! {
     });
     row(
         &mut counter,
-        "app::axis::AxisLoop::step <f32> (decode + observer + PD + DOB)",
+        "app::axis::AxisLaw::step <f32> (decode + observer + PD + DOB)",
         |i| {
             let k = (i & mask) as usize;
-            black_box(loop32.step(black_box(hall[k]), &refs[k]));
+            black_box(law32.step(&sensor32, &mut axis32, black_box(hall[k]), &refs[k]));
         },
         "same loop <f64> (software double)",
         |i| {
             let k = (i & mask) as usize;
-            black_box(loop64.step(black_box(hall[k]), &refs64[k]));
+            black_box(law64.step(&sensor64, &mut axis64, black_box(hall[k]), &refs64[k]));
         },
     );
     kinematics_rows(&mut counter);
