@@ -376,13 +376,13 @@ impl Operator {
     ) -> OperatorState {
         while let Some(report) = reports.dequeue() {
             match report {
-                Report::CalibrationSample { axis, counts } => {
-                    if self.samples.push(axis, counts).is_err() {
-                        self.fail(OperatorError::Calibration(CalibrationFailure::Fit {
-                            axis: usize::from(axis),
-                            error: kerf::sensing::hall::CalibrationError::TooFewSamples,
-                        }));
-                    }
+                Report::CalibrationSample { axis, counts }
+                    if self.samples.push(axis, counts).is_err() =>
+                {
+                    self.fail(OperatorError::Calibration(CalibrationFailure::Fit {
+                        axis: usize::from(axis),
+                        error: kerf::sensing::hall::CalibrationError::TooFewSamples,
+                    }));
                 }
                 Report::SweepDone => {
                     match fit_sensors::<T, 1>(&self.scenario.machine, &self.samples) {

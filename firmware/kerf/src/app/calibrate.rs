@@ -153,7 +153,8 @@ mod tests {
         for ts in [1e-4, 4.17e-4] {
             let mut sweep = CalibrationSweep::<f64, 2>::new([0.004, -0.01], 0.018, ts).unwrap();
             let mut fit = CalibrationFit::<2>::default();
-            let (mut first, mut far, mut last) = (None, 0.0f64, [0.0; 2]);
+            let (mut first, mut far) = (None, 0.0f64);
+            let mut last;
             let mut periods = 0;
             let mut pushed = [0u32; 2];
             loop {

@@ -330,7 +330,8 @@ fn rows_9_and_10_stop_ramps_to_rest_then_ready() {
 #[test]
 fn row_11_a_fault_in_any_mode_is_safe_in_the_same_period() {
     // Idle, Calibrating, Ready, Running, Stopping.
-    let setups: [fn(&mut Supervisor<'_, Toy>, &mut heapless::spsc::Producer<'_, Command<Toy>>); 5] = [
+    type Setup = fn(&mut Supervisor<'_, Toy>, &mut heapless::spsc::Producer<'_, Command<Toy>>);
+    let setups: [Setup; 5] = [
         |_, _| {},
         |s, to| {
             send(to, Command::Calibrate);
