@@ -153,6 +153,14 @@ pub struct Joints<T, const N: usize> {
     last: [AxisOutput<T>; N],
 }
 
+/// Whether a minimum-jerk move of `distance_m` in `duration_s` exceeds the limits:
+/// peak speed 1.875 D/T, peak acceleration 5.7735 D/T² (trajectory::quintic).
+fn too_fast(speed_limit_m_s: f64, accel_limit_m_s2: f64, distance_m: f64, duration_s: f64) -> bool {
+    let d = libm::fabs(distance_m);
+    1.875 * d > speed_limit_m_s * duration_s
+        || 5.7735 * d > accel_limit_m_s2 * duration_s * duration_s
+}
+
 fn rest<T: Real>(position: T) -> Reference<T> {
     Reference {
         position,
@@ -253,6 +261,16 @@ impl<T: Real, const N: usize> Joints<T, N> {
         Ok(forces)
     }
 
+    /// [`too_fast`] with this machine's limits.
+    fn too_fast(&self, distance_m: f64, duration_s: f64) -> bool {
+        too_fast(
+            self.speed_limit_m_s,
+            self.accel_limit_m_s2,
+            distance_m,
+            duration_s,
+        )
+    }
+
     fn engage(&mut self) {
         for axis in &mut self.axes {
             axis.engage();
@@ -260,6 +278,7 @@ impl<T: Real, const N: usize> Joints<T, N> {
     }
 
     fn begin_segment(&mut self, index: usize, from: [f64; N]) -> Result<(), JobError> {
+        let (speed_limit, accel_limit) = (self.speed_limit_m_s, self.accel_limit_m_s2);
         let Some(run) = self.run.as_mut() else {
             return Ok(());
         };
@@ -273,19 +292,16 @@ impl<T: Real, const N: usize> Joints<T, N> {
             .zip(from.iter().zip(segment.target_m.iter()))
             .enumerate()
         {
-            let distance = libm::fabs(target - start);
-            let t = segment.duration_s;
-            // Peak speed 1.875 D/T, peak acceleration 5.7735 D/T² (trajectory::quintic).
-            if 1.875 * distance > self.speed_limit_m_s * t
-                || 5.7735 * distance > self.accel_limit_m_s2 * t * t
-            {
+            if too_fast(speed_limit, accel_limit, target - start, segment.duration_s) {
                 return Err(err(
                     |segment, axis| JobError::TooFast { segment, axis },
                     axis,
                 ));
             }
-            *out = Quintic::new(*start, target - start, t).map_err(|_| JobError::NotFinite {
-                segment: index as u8,
+            *out = Quintic::new(*start, target - start, segment.duration_s).map_err(|_| {
+                JobError::NotFinite {
+                    segment: index as u8,
+                }
             })?;
         }
         run.segment = index;
@@ -400,11 +416,7 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
                     .zip(segment.target_m.iter())
                     .enumerate()
                 {
-                    let d = libm::fabs(b - a);
-                    let t = segment.duration_s;
-                    if 1.875 * d > self.speed_limit_m_s * t
-                        || 5.7735 * d > self.accel_limit_m_s2 * t * t
-                    {
+                    if self.too_fast(b - a, segment.duration_s) {
                         return Err(JobError::TooFast {
                             segment: segment_index,
                             axis: axis as u8,
