@@ -22,4 +22,4 @@ pub mod sensing;
 pub mod trajectory;
 
 pub use error::{ConfigContext, ConfigError, ConfigErrorKind};
-pub use scalar::{Real, Q32};
+pub use scalar::{Float, Real, Q32};

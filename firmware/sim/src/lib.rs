@@ -7,6 +7,8 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+pub mod operator;
 pub mod scenario;
+pub mod slave;
 #[cfg(feature = "std")]
 pub mod trace;

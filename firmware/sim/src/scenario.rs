@@ -7,14 +7,20 @@ use hal_mock::hall_sensor::{ChannelFault, HallSensorParams};
 use hal_mock::linear_motor::LinearMotorParams;
 use heapless::spsc::{Consumer, Producer};
 use kerf::app::axis::{AxisFault, HallAxis};
-use kerf::app::calibrate::CalibrationFit;
-use kerf::app::joints::{fit_sensors, CalibrationFailure, JointJob, Joints, JointsConfig, Segment};
-use kerf::app::supervisor::{Command, CommandKind, Machine, Mode, Report, Supervisor};
+use kerf::app::joints::{JointFault, JointJob, Joints, JointsConfig, Segment};
+use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::control::pd::Reference;
 use kerf::hal::{SampleInputs, WriteOutputs};
 use kerf::sensing::hall::{HallCorrection, SelfCalibration};
 use kerf::trajectory::quintic::Quintic;
-use kerf::{ConfigError, Real};
+use kerf::{ConfigContext, ConfigError, Real};
+
+pub use crate::operator::{
+    Operator, OperatorError, OperatorState, COMMAND_CAPACITY, REPORT_CAPACITY,
+};
+
+/// The single axis' operator.
+pub type AxisOperator<T> = Operator<Joints<T, 1>, 1>;
 
 /// Control period of the single-axis scenarios (10 kHz): the machine's, stated once in
 /// [`JointsConfig::LM1247`].
@@ -138,6 +144,26 @@ impl Scenario {
         sensor_fault: None,
         calibrate: false,
     };
+
+    /// The slower context for this scenario: calibrates when `calibrate` is set,
+    /// otherwise installs the configured decoder (with `correction`) as a stored
+    /// calibration; then loads and starts the motion's job.
+    pub fn operator<T: Real>(&self) -> Result<AxisOperator<T>, ConfigError> {
+        let stored = if self.calibrate {
+            None
+        } else {
+            let mut sensor = HallAxis::<T>::new(&self.machine.hall[0])
+                .at(0)
+                .within("hall")?;
+            sensor.set_correction(self.correction);
+            Some([sensor])
+        };
+        Ok(Operator::new(
+            self.machine.hall,
+            stored,
+            self.motion.job(self.periods),
+        ))
+    }
 }
 
 /// One simulated control period, as the rig sees it.
@@ -289,159 +315,6 @@ impl<T: Real> WriteOutputs<[T; 1]> for Recording<'_> {
     }
 }
 
-/// Where the [`Operator`] is.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub enum OperatorState {
-    /// Waiting for the calibration sweep's samples.
-    Calibrating,
-    /// Calibration (or the stored decoder) sent; waiting for Ready.
-    Calibrated,
-    /// Job loaded and started.
-    Running,
-    /// The job ran to its end.
-    Finished,
-    /// The machine faulted, a command was refused, or the calibration failed.
-    Failed(OperatorError),
-}
-
-/// Why the operator gave up.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub enum OperatorError {
-    /// The machine entered Fault.
-    Fault(kerf::app::joints::JointFault),
-    /// A command was refused.
-    Refused(CommandKind),
-    /// The fit failed.
-    Calibration(CalibrationFailure),
-    /// The command queue was full.
-    QueueFull,
-}
-
-/// The slower context's side of a scenario: what a supervisor task (QEMU) or a host
-/// does through the queues. Calibrates (or installs the configured decoder), loads the
-/// scenario's job, starts it, and watches the reports.
-pub struct Operator {
-    scenario: Scenario,
-    state: OperatorState,
-    samples: CalibrationFit<1>,
-    fit: Option<SelfCalibration>,
-}
-
-impl Operator {
-    /// A fresh operator for `scenario`.
-    pub fn new(scenario: &Scenario) -> Self {
-        Self {
-            scenario: *scenario,
-            state: OperatorState::Calibrated,
-            samples: CalibrationFit::default(),
-            fit: None,
-        }
-    }
-
-    /// The first commands: `Calibrate`, or the stored decoder then the job.
-    pub fn start<T: Real>(
-        &mut self,
-        commands: &mut Producer<'_, Command<Joints<T, 1>>>,
-    ) -> OperatorState {
-        if self.scenario.calibrate {
-            self.state = OperatorState::Calibrating;
-            self.send(commands, Command::Calibrate);
-        } else {
-            match HallAxis::<T>::new(&self.scenario.machine.hall[0]) {
-                Ok(mut sensor) => {
-                    sensor.set_correction(self.scenario.correction);
-                    self.send(commands, Command::FinishCalibration([sensor]));
-                    self.send_job(commands);
-                }
-                Err(e) => {
-                    self.state = OperatorState::Failed(OperatorError::Calibration(
-                        CalibrationFailure::Config(e),
-                    ))
-                }
-            }
-        }
-        self.state
-    }
-
-    /// The fit, once the calibration ran.
-    pub fn fit(&self) -> Option<&SelfCalibration> {
-        self.fit.as_ref()
-    }
-
-    /// Handles every pending report; returns the state after them.
-    pub fn poll<T: Real>(
-        &mut self,
-        reports: &mut Consumer<'_, Report<Joints<T, 1>>>,
-        commands: &mut Producer<'_, Command<Joints<T, 1>>>,
-    ) -> OperatorState {
-        while let Some(report) = reports.dequeue() {
-            match report {
-                Report::CalibrationSample { axis, counts }
-                    if self.samples.push(axis, counts).is_err() =>
-                {
-                    self.fail(OperatorError::Calibration(CalibrationFailure::Fit {
-                        axis: usize::from(axis),
-                        error: kerf::sensing::hall::CalibrationError::TooFewSamples,
-                    }));
-                }
-                Report::SweepDone => {
-                    match fit_sensors::<T, 1>(&self.scenario.machine, &self.samples) {
-                        Ok((sensors, fits)) => {
-                            self.fit = Some(fits[0]);
-                            self.state = OperatorState::Calibrated;
-                            self.send(commands, Command::FinishCalibration(sensors));
-                            self.send_job(commands);
-                        }
-                        Err(e) => self.fail(OperatorError::Calibration(e)),
-                    }
-                }
-                Report::Refused { command, .. } => self.fail(OperatorError::Refused(command)),
-                Report::ModeChanged {
-                    mode: Mode::Fault(f),
-                    ..
-                } => self.fail(OperatorError::Fault(f)),
-                Report::ModeChanged {
-                    mode: Mode::Running,
-                    ..
-                } if self.state == OperatorState::Calibrated => self.state = OperatorState::Running,
-                Report::ModeChanged {
-                    mode: Mode::Ready, ..
-                } if self.state == OperatorState::Running => self.state = OperatorState::Finished,
-                _ => {}
-            }
-        }
-        self.state
-    }
-
-    fn send_job<T: Real>(&mut self, commands: &mut Producer<'_, Command<Joints<T, 1>>>) {
-        let job = self.scenario.motion.job(self.scenario.periods);
-        self.send(commands, Command::LoadJob(job));
-        self.send(commands, Command::Start);
-    }
-
-    fn send<T: Real>(
-        &mut self,
-        commands: &mut Producer<'_, Command<Joints<T, 1>>>,
-        command: Command<Joints<T, 1>>,
-    ) {
-        if commands.enqueue(command).is_err() {
-            self.fail(OperatorError::QueueFull);
-        }
-    }
-
-    fn fail(&mut self, error: OperatorError) {
-        if !matches!(self.state, OperatorState::Failed(_)) {
-            self.state = OperatorState::Failed(error);
-        }
-    }
-}
-
-/// Queue capacities of a scenario: commands (a few per phase) and reports (a
-/// calibration sweep streams one sample per 25 periods; the operator drains every period).
-pub const COMMAND_CAPACITY: usize = 8;
-/// See [`COMMAND_CAPACITY`].
-pub const REPORT_CAPACITY: usize = 64;
-
 /// Error statistics and signal peaks over a run; fed one [`Period`] at a time.
 #[derive(Copy, Clone, Debug, Default)]
 pub struct Outcome {
@@ -528,7 +401,7 @@ pub fn run_with<T: Real>(
     let (to_operator, mut receive) = reports.split();
     let mut rig =
         Rig::<T>::new(scenario, from_sender, to_operator).map_err(ScenarioError::Config)?;
-    let mut operator = Operator::new(scenario);
+    let mut operator = scenario.operator::<T>().map_err(ScenarioError::Config)?;
     operator.start(&mut send);
     // Calibration (1.26 s), the wait for the fit, then the job.
     let limit = 4 * scenario.periods + 20_000;
@@ -557,7 +430,7 @@ pub enum ScenarioError {
     /// The machine configuration was rejected.
     Config(ConfigError),
     /// The operator gave up (refused command, failed fit).
-    Operator(OperatorError),
+    Operator(OperatorError<JointFault>),
     /// The job did not finish in time.
     Timeout,
 }

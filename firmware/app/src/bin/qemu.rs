@@ -18,8 +18,8 @@ use kerf::app::joints::Joints;
 use kerf::app::supervisor::{Command, Report};
 use kerf_app::exit;
 use kerf_sim::scenario::{
-    Operator, OperatorState, Outcome, Rig, Scenario, COMMAND_CAPACITY, MAX_ERROR_BOUND_M,
-    REPORT_CAPACITY, RMS_ERROR_BOUND_M, TS_S,
+    OperatorState, Outcome, Rig, Scenario, COMMAND_CAPACITY, MAX_ERROR_BOUND_M, REPORT_CAPACITY,
+    RMS_ERROR_BOUND_M, TS_S,
 };
 
 type Machine = Joints<f32, 1>;
@@ -41,7 +41,13 @@ async fn smoke(scenario: Scenario) {
             exit(false)
         }
     };
-    let mut operator = Operator::new(&scenario);
+    let mut operator = match scenario.operator::<f32>() {
+        Ok(operator) => operator,
+        Err(e) => {
+            hprintln!("kerf qemu smoke: configuration rejected: {} -> FAIL", e);
+            exit(false)
+        }
+    };
     operator.start(&mut send);
     let mut outcome = Outcome::with_window(f64::INFINITY, f64::INFINITY);
     let mut printed_fit = false;

@@ -11,10 +11,14 @@
 //! time on three axes, and on a delta equal carriage moves translate the effector
 //! along its axis instead of sideways, so the pose stays well inside the workspace.
 
+use crate::app::axis::HallAxis;
+use crate::app::supervisor::Machine;
 use crate::control::pd::Reference;
 use crate::error::{positive, ConfigError};
 use crate::scalar::Real;
-use crate::sensing::hall::{CalibrationError, HallCalibration, HallCalibrator, SelfCalibration};
+use crate::sensing::hall::{
+    CalibrationError, HallCalibration, HallCalibrator, HallConfig, SelfCalibration,
+};
 use crate::trajectory::quintic::Quintic;
 
 /// Raw samples kept per axis.
@@ -142,6 +146,57 @@ impl<const N: usize> CalibrationFit<N> {
             None => Err(CalibrationError::TooFewSamples),
         }
     }
+}
+
+/// Why the slower context could not turn a calibration into decoders.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum CalibrationFailure {
+    /// The fit of an axis failed.
+    Fit {
+        /// Axis index.
+        axis: usize,
+        /// Why.
+        error: CalibrationError,
+    },
+    /// The fitted decoder configuration was rejected.
+    Config(ConfigError),
+}
+
+/// The slower context's end of a calibration: fits every axis from the streamed
+/// samples, returns the decoders to send with `FinishCalibration` and the fits.
+pub fn fit_sensors<T: Real, const N: usize>(
+    hall: &[HallConfig; N],
+    samples: &CalibrationFit<N>,
+) -> Result<([HallAxis<T>; N], [SelfCalibration; N]), CalibrationFailure> {
+    let mut sensors = heapless::Vec::<HallAxis<T>, N>::new();
+    let mut fits = heapless::Vec::<SelfCalibration, N>::new();
+    for (axis, hall) in hall.iter().enumerate() {
+        let fit = samples
+            .finish(axis, &hall.calibration)
+            .map_err(|error| CalibrationFailure::Fit { axis, error })?;
+        let mut sensor = HallAxis::new(&hall.with_self_calibration(&fit))
+            .map_err(|e| CalibrationFailure::Config(e.at(axis).within("hall")))?;
+        sensor.set_correction(Some(fit.correction));
+        let _ = sensors.push(sensor);
+        let _ = fits.push(fit);
+    }
+    match (sensors.into_array(), fits.into_array()) {
+        (Ok(sensors), Ok(fits)) => Ok((sensors, fits)),
+        _ => Err(CalibrationFailure::Fit {
+            axis: 0,
+            error: CalibrationError::TooFewSamples,
+        }),
+    }
+}
+
+/// A machine whose calibration is one fitted Hall decoder per axis: the slower
+/// context's side of `FinishCalibration`.
+pub trait HallMachine<const N: usize>: Machine {
+    /// Fits the streamed samples into the machine's calibration; also returns the fits.
+    fn fit(
+        hall: &[HallConfig; N],
+        samples: &CalibrationFit<N>,
+    ) -> Result<(Self::Calibration, [SelfCalibration; N]), CalibrationFailure>;
 }
 
 #[cfg(test)]

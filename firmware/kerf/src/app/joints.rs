@@ -11,12 +11,14 @@
 //! the configured deceleration, so the joint-space direction of motion is kept.
 
 use crate::app::axis::{AxisConfig, AxisFault, AxisLaw, AxisOutput, AxisState, HallAxis};
-use crate::app::calibrate::{CalibrationFit, CalibrationSweep};
+use crate::app::calibrate::{
+    fit_sensors, CalibrationFailure, CalibrationFit, CalibrationSweep, HallMachine,
+};
 use crate::app::supervisor::{Machine, Step};
 use crate::control::pd::Reference;
 use crate::error::{in_range, positive, ConfigContext, ConfigError};
 use crate::scalar::Real;
-use crate::sensing::hall::{CalibrationError, HallConfig, SelfCalibration};
+use crate::sensing::hall::{HallConfig, SelfCalibration};
 use crate::trajectory::quintic::Quintic;
 
 /// Most segments a job holds.
@@ -233,6 +235,17 @@ impl<T: Real, const N: usize> Joints<T, N> {
     /// This period's references.
     pub fn reference(&self) -> &[Reference<T>; N] {
         &self.reference
+    }
+
+    /// Steps every axis towards `reference` (a machine built on these joints computes
+    /// it, for example from kinematics); the first fault stops all of them.
+    pub(crate) fn follow(
+        &mut self,
+        inputs: &[[u16; 3]; N],
+        reference: [Reference<T>; N],
+    ) -> Result<[T; N], JointFault> {
+        self.reference = reference;
+        self.control(inputs)
     }
 
     /// Steps every axis with `self.reference`; the first fault stops all of them.
@@ -541,43 +554,11 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
     }
 }
 
-/// Why the slower context could not turn a calibration into decoders.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub enum CalibrationFailure {
-    /// The fit of an axis failed.
-    Fit {
-        /// Axis index.
-        axis: usize,
-        /// Why.
-        error: CalibrationError,
-    },
-    /// The fitted decoder configuration was rejected.
-    Config(ConfigError),
-}
-
-/// The slower context's end of a calibration: fits every axis from the streamed
-/// samples, returns the decoders to send with `FinishCalibration` and the fits.
-pub fn fit_sensors<T: Real, const N: usize>(
-    config: &JointsConfig<N>,
-    samples: &CalibrationFit<N>,
-) -> Result<([HallAxis<T>; N], [SelfCalibration; N]), CalibrationFailure> {
-    let mut sensors = heapless::Vec::<HallAxis<T>, N>::new();
-    let mut fits = heapless::Vec::<SelfCalibration, N>::new();
-    for (axis, hall) in config.hall.iter().enumerate() {
-        let fit = samples
-            .finish(axis, &hall.calibration)
-            .map_err(|error| CalibrationFailure::Fit { axis, error })?;
-        let mut sensor = HallAxis::new(&hall.with_self_calibration(&fit))
-            .map_err(|e| CalibrationFailure::Config(e.at(axis).within("hall")))?;
-        sensor.set_correction(Some(fit.correction));
-        let _ = sensors.push(sensor);
-        let _ = fits.push(fit);
-    }
-    match (sensors.into_array(), fits.into_array()) {
-        (Ok(sensors), Ok(fits)) => Ok((sensors, fits)),
-        _ => Err(CalibrationFailure::Fit {
-            axis: 0,
-            error: CalibrationError::TooFewSamples,
-        }),
+impl<T: Real, const N: usize> HallMachine<N> for Joints<T, N> {
+    fn fit(
+        hall: &[HallConfig; N],
+        samples: &CalibrationFit<N>,
+    ) -> Result<([HallAxis<T>; N], [SelfCalibration; N]), CalibrationFailure> {
+        fit_sensors(hall, samples)
     }
 }

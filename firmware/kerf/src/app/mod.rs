@@ -9,6 +9,7 @@
 
 pub mod axis;
 pub mod calibrate;
+pub mod delta_slave;
 pub mod joints;
 pub mod supervisor;
 

@@ -1,0 +1,530 @@
+//! The Keops delta slave as a machine: three Hall-sensed carriages ([`Joints<T, 3>`])
+//! under the delta kinematics, following straight effector moves.
+//!
+//! A job ([`DeltaJob`]) is planned in the slower context, where there is time to
+//! check it: every move is sampled in time and each sample's joint position, speed
+//! and acceleration must be reachable and inside the carriages' limits. The control
+//! period then only checks that the job was planned for this machine (geometry,
+//! travel, limits and period compared: a few dozen comparisons), and evaluates one
+//! inverse kinematics, Jx⁻¹ and J̇x per period.
+//!
+//! Running a job: a joint-space approach move from wherever the carriages are to the
+//! job's start (checked against the speed and acceleration limits at `Start`), then the
+//! straight moves, each a rest-to-rest minimum-jerk profile along the line. The joint
+//! references come from the effector's (SPEC velocity, T eq. 146):
+//! q = IK(p), q̇ = Jx⁻¹ ṗ, q̈ = Jx⁻¹ (p̈ − J̇x q̇).
+//!
+//! Calibration sweeps the three carriages together, by the same displacement. From a
+//! pose on the axis of symmetry (the preset homes there), equal displacements keep
+//! the effector on that axis: it moves straight up and back, the arms share the load
+//! evenly, and one sweep calibrates all three sensor sets in the time of one. One
+//! carriage at a time would take three times as long and tilt the arms of the two
+//! holding carriages towards the moving one. A stop ramps the joint references to rest
+//! ([`Joints`]'s synchronized ramp): over the ≤ 25 ms of a stop at the preset's limits
+//! the effector leaves the line by well under a micrometre.
+
+use crate::app::axis::{AxisConfig, AxisLaw, HallAxis};
+use crate::app::calibrate::{fit_sensors, CalibrationFailure, CalibrationFit, HallMachine};
+use crate::app::joints::{
+    JobError, JointFault, JointJob, JointTelemetry, Joints, JointsConfig, Segment, MAX_SEGMENTS,
+};
+use crate::app::supervisor::{Machine, Step};
+use crate::control::pd::Reference;
+use crate::error::{ConfigContext, ConfigError};
+use crate::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
+use crate::scalar::{lit, Float, Real};
+use crate::sensing::hall::{HallConfig, SelfCalibration};
+use crate::trajectory::quintic::Quintic;
+use nalgebra::Vector3;
+
+/// Instants per move at which a plan checks the joint limits (plus the end). A
+/// minimum-jerk move's joint speed and acceleration are smooth in time; between
+/// samples 1/64 of the move apart they exceed the sampled peak by well under 1 %.
+pub const PLAN_SAMPLES: usize = 64;
+
+/// Everything the delta slave needs, in SI units.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct DeltaSlaveConfig {
+    /// The three carriages: period, control law, Hall decoders, homes, travel and the
+    /// joint speed and acceleration limits.
+    pub joints: JointsConfig<3>,
+    /// The delta's geometry.
+    pub delta: DeltaConfig,
+}
+
+impl DeltaSlaveConfig {
+    /// The Keops slave (T 7.1.2) at 10 kHz: LM1247 carriages with 16-bit Hall sensing,
+    /// homed at 10 mm with the effector on the axis of symmetry (so the calibration
+    /// sweep, 1.5 pitches = 27 mm up, stays inside the 0–40 mm travel), 0.5 m/s and
+    /// 20 m/s² per carriage.
+    pub const KEOPS: Self = Self {
+        joints: JointsConfig {
+            period_s: 1e-4,
+            axis: AxisConfig::LM1247_SLAVE,
+            hall: [HallConfig::LM1247_16BIT; 3],
+            home_m: [0.010; 3],
+            travel_m: [[0.0, 0.040]; 3],
+            speed_limit_m_s: 0.5,
+            accel_limit_m_s2: 20.0,
+        },
+        delta: DeltaConfig::SLAVE_KEOPS,
+    };
+}
+
+/// Why a job cannot be planned, or started. `segment` indexes the job's moves.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DeltaJobError {
+    /// The job has no move, or more than [`MAX_SEGMENTS`].
+    Size,
+    /// A point or duration is NaN or infinite, or a duration is not positive.
+    NotFinite {
+        /// Move index (the start point and approach count as move 0).
+        segment: u8,
+    },
+    /// A move leaves the workspace (out of reach, outside a carriage's travel, or
+    /// through a singularity).
+    Unreachable {
+        /// Move index.
+        segment: u8,
+        /// What the kinematics said.
+        error: KinematicsError,
+    },
+    /// A move needs more carriage speed or acceleration than the limits allow.
+    TooFast {
+        /// Move index.
+        segment: u8,
+        /// Carriage index.
+        axis: u8,
+    },
+    /// The job was planned for another configuration than this machine's.
+    OtherMachine,
+    /// At `Start`: the approach from where the carriages are is too fast.
+    Approach(JobError),
+}
+
+/// A planned job: a start point, the approach time to reach it, and straight moves.
+/// Only [`DeltaJob::plan`] makes one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeltaJob {
+    start_m: [f64; 3],
+    start_joints_m: [f64; 3],
+    approach_s: f64,
+    moves: heapless::Vec<Segment<3>, MAX_SEGMENTS>,
+    planned_for: Limits,
+}
+
+/// What a plan was checked against.
+#[derive(Copy, Clone, Debug, PartialEq)]
+struct Limits {
+    delta: DeltaConfig,
+    travel_m: [[f64; 2]; 3],
+    speed_limit_m_s: f64,
+    accel_limit_m_s2: f64,
+    period_s: f64,
+}
+
+impl Limits {
+    fn of(config: &DeltaSlaveConfig) -> Self {
+        Self {
+            delta: config.delta,
+            travel_m: config.joints.travel_m,
+            speed_limit_m_s: config.joints.speed_limit_m_s,
+            accel_limit_m_s2: config.joints.accel_limit_m_s2,
+            period_s: config.joints.period_s,
+        }
+    }
+}
+
+/// Joint references from the effector's position, velocity and acceleration
+/// (T eq. 146 and its time derivative).
+fn joint_references<T: Float>(
+    geometry: &DeltaGeometry<T>,
+    p: &Vector3<T>,
+    p_dot: &Vector3<T>,
+    p_ddot: &Vector3<T>,
+) -> Result<[Reference<T>; 3], KinematicsError> {
+    let q = geometry.inverse(p)?;
+    let jx_inv = geometry.jacobian_inverse(&q, p)?;
+    let q_dot = jx_inv * p_dot;
+    let jx_dot = geometry.jacobian_derivative(&q, p, &q_dot)?;
+    let q_ddot = jx_inv * (p_ddot - jx_dot * q_dot);
+    Ok([0, 1, 2].map(|k| Reference {
+        position: q[k],
+        velocity: q_dot[k],
+        acceleration: q_ddot[k],
+    }))
+}
+
+/// One straight move: the effector at `from + line · s(t)` with s a minimum-jerk 0 → 1.
+#[derive(Copy, Clone, Debug)]
+struct Line<T> {
+    from: Vector3<T>,
+    line: Vector3<T>,
+    profile: Quintic<T>,
+}
+
+impl<T: Float> Line<T> {
+    fn new(from: [f64; 3], to: [f64; 3], duration_s: f64) -> Result<Self, ConfigError> {
+        let v = |a: [f64; 3]| Vector3::new(lit(a[0]), lit(a[1]), lit(a[2]));
+        Ok(Self {
+            from: v(from),
+            line: v([to[0] - from[0], to[1] - from[1], to[2] - from[2]]),
+            profile: Quintic::new(0.0, 1.0, duration_s)?,
+        })
+    }
+
+    /// The effector's position, velocity and acceleration `t_s` into the move.
+    fn at(&self, t_s: T) -> (Vector3<T>, Vector3<T>, Vector3<T>) {
+        let s = self.profile.sample(t_s);
+        (
+            self.from + self.line * s.position,
+            self.line * s.velocity,
+            self.line * s.acceleration,
+        )
+    }
+}
+
+impl DeltaJob {
+    /// Plans a job for `config`: reach `start_m` by a joint-space approach of
+    /// `approach_s`, then the straight `moves` (effector targets in m). Every move is
+    /// checked at [`PLAN_SAMPLES`] instants: reachable, inside travel, away from
+    /// singularities, within the carriages' speed and acceleration limits.
+    pub fn plan(
+        config: &DeltaSlaveConfig,
+        start_m: [f64; 3],
+        approach_s: f64,
+        moves: &[Segment<3>],
+    ) -> Result<Self, DeltaJobError> {
+        let not_finite = |segment: usize| DeltaJobError::NotFinite {
+            segment: segment as u8,
+        };
+        let moves = heapless::Vec::from_slice(moves).map_err(|_| DeltaJobError::Size)?;
+        if moves.is_empty() {
+            return Err(DeltaJobError::Size);
+        }
+        let geometry =
+            DeltaGeometry::<f64>::new(&config.delta).map_err(|_| DeltaJobError::OtherMachine)?;
+        let finite = |p: &[f64; 3]| p.iter().all(|c| c.is_finite());
+        if !(approach_s.is_finite() && approach_s > 0.0 && finite(&start_m)) {
+            return Err(not_finite(0));
+        }
+        let start = Vector3::from(start_m);
+        let start_joints = geometry
+            .inverse(&start)
+            .map_err(|error| DeltaJobError::Unreachable { segment: 0, error })?;
+        let limits = &config.joints;
+        let mut from = start_m;
+        for (index, segment) in moves.iter().enumerate() {
+            if !finite(&segment.target_m) {
+                return Err(not_finite(index));
+            }
+            let line = Line::<f64>::new(from, segment.target_m, segment.duration_s)
+                .map_err(|_| not_finite(index))?;
+            for n in 0..=PLAN_SAMPLES {
+                let t = segment.duration_s * n as f64 / PLAN_SAMPLES as f64;
+                let (p, p_dot, p_ddot) = line.at(t);
+                let joints = joint_references(&geometry, &p, &p_dot, &p_ddot).map_err(|error| {
+                    DeltaJobError::Unreachable {
+                        segment: index as u8,
+                        error,
+                    }
+                })?;
+                for (axis, (r, [lo, hi])) in joints.iter().zip(limits.travel_m.iter()).enumerate() {
+                    let outside = r.position < *lo || r.position > *hi;
+                    if outside {
+                        return Err(DeltaJobError::Unreachable {
+                            segment: index as u8,
+                            error: KinematicsError::OutsideTravel(axis as u8),
+                        });
+                    }
+                    if libm::fabs(r.velocity) > limits.speed_limit_m_s
+                        || libm::fabs(r.acceleration) > limits.accel_limit_m_s2
+                    {
+                        return Err(DeltaJobError::TooFast {
+                            segment: index as u8,
+                            axis: axis as u8,
+                        });
+                    }
+                }
+            }
+            from = segment.target_m;
+        }
+        Ok(Self {
+            start_m,
+            start_joints_m: start_joints.into(),
+            approach_s,
+            moves,
+            planned_for: Limits::of(config),
+        })
+    }
+
+    /// Where the straight moves start, m.
+    pub fn start_m(&self) -> [f64; 3] {
+        self.start_m
+    }
+
+    /// The straight moves.
+    pub fn moves(&self) -> &[Segment<3>] {
+        &self.moves
+    }
+
+    /// Time from `Start` to the end of the last move, s.
+    pub fn duration_s(&self) -> f64 {
+        self.approach_s + self.moves.iter().map(|m| m.duration_s).sum::<f64>()
+    }
+}
+
+/// Why the slave stopped.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DeltaFault {
+    /// A carriage's fault.
+    Joint(JointFault),
+    /// The joint references could not be computed.
+    Kinematics(KinematicsError),
+}
+
+/// One period's telemetry.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct DeltaTelemetry<T> {
+    /// The carriages.
+    pub joints: JointTelemetry<T, 3>,
+    /// The effector's reference position during a straight move, m.
+    pub effector_reference_m: Option<[T; 3]>,
+}
+
+/// Where a running job is.
+#[derive(Copy, Clone, Debug)]
+enum Phase<T> {
+    Approach,
+    Move {
+        index: usize,
+        line: Line<T>,
+        period: u32,
+        periods: u32,
+    },
+}
+
+/// The delta slave as a [`Machine`] the supervisor runs.
+#[derive(Clone, Debug)]
+pub struct DeltaSlave<T: Float> {
+    joints: Joints<T, 3>,
+    geometry: DeltaGeometry<T>,
+    limits: Limits,
+    /// The control period in `T`, s.
+    ts: T,
+    job: Option<DeltaJob>,
+    phase: Option<Phase<T>>,
+    effector_reference_m: Option<[T; 3]>,
+}
+
+impl<T: Float> DeltaSlave<T> {
+    /// Validates `config`; a bad field is named with its path
+    /// (`joints.axis.dob.bandwidth_rad_s`, `delta.actuators[1].theta_rad`).
+    pub fn new(config: &DeltaSlaveConfig) -> Result<Self, ConfigError> {
+        let joints = Joints::new(&config.joints).within("joints")?;
+        let geometry = DeltaGeometry::new(&config.delta).within("delta")?;
+        for (k, (home, actuator)) in config
+            .joints
+            .home_m
+            .iter()
+            .zip(config.delta.actuators.iter())
+            .enumerate()
+        {
+            if *home < actuator.travel_min_m || *home > actuator.travel_max_m {
+                return Err(ConfigError::out_of_range("home_m")
+                    .indexed(k)
+                    .within("joints"));
+            }
+        }
+        Ok(Self {
+            joints,
+            geometry,
+            limits: Limits::of(config),
+            ts: lit(config.joints.period_s),
+            job: None,
+            phase: None,
+            effector_reference_m: None,
+        })
+    }
+
+    /// The carriages.
+    pub fn joints(&self) -> &Joints<T, 3> {
+        &self.joints
+    }
+
+    /// The geometry.
+    pub fn geometry(&self) -> &DeltaGeometry<T> {
+        &self.geometry
+    }
+
+    fn next_move(&mut self, index: usize) -> Option<Phase<T>> {
+        let job = self.job.as_ref()?;
+        let segment = job.moves.get(index)?;
+        let from = match index.checked_sub(1) {
+            None => job.start_m,
+            Some(previous) => job.moves.get(previous)?.target_m,
+        };
+        // Planned and checked: the line's inputs are finite and its duration positive.
+        let line = Line::new(from, segment.target_m, segment.duration_s).ok()?;
+        Some(Phase::Move {
+            index,
+            line,
+            period: 0,
+            periods: libm::round(segment.duration_s / self.limits.period_s) as u32,
+        })
+    }
+}
+
+impl<T: Float> Machine for DeltaSlave<T> {
+    type Inputs = [[u16; 3]; 3];
+    type Outputs = [T; 3];
+    type Job = DeltaJob;
+    type JobError = DeltaJobError;
+    type Coefficients = AxisLaw<T>;
+    type Calibration = [HallAxis<T>; 3];
+    type Fault = DeltaFault;
+    type Telemetry = DeltaTelemetry<T>;
+
+    fn safe_outputs(&self) -> [T; 3] {
+        self.joints.safe_outputs()
+    }
+
+    fn monitor(&mut self, inputs: &[[u16; 3]; 3]) -> Result<(), DeltaFault> {
+        self.joints.monitor(inputs).map_err(DeltaFault::Joint)
+    }
+
+    fn begin_calibration(&mut self) {
+        self.joints.begin_calibration();
+    }
+
+    fn calibrate(
+        &mut self,
+        inputs: &[[u16; 3]; 3],
+        record: &mut dyn FnMut(u8, [u16; 3]),
+    ) -> Result<Step<[T; 3]>, DeltaFault> {
+        self.joints
+            .calibrate(inputs, record)
+            .map_err(DeltaFault::Joint)
+    }
+
+    fn finish_calibration(&mut self, sensors: [HallAxis<T>; 3]) {
+        self.joints.finish_calibration(sensors);
+    }
+
+    fn check_job(&self, job: &DeltaJob) -> Result<(), DeltaJobError> {
+        if job.planned_for == self.limits {
+            Ok(())
+        } else {
+            Err(DeltaJobError::OtherMachine)
+        }
+    }
+
+    fn begin_job(&mut self, job: &DeltaJob) -> Result<(), DeltaJobError> {
+        self.check_job(job)?;
+        let mut approach = JointJob::new();
+        // Capacity MAX_SEGMENTS ≥ 1.
+        let _ = approach.push(Segment {
+            target_m: job.start_joints_m,
+            duration_s: job.approach_s,
+        });
+        self.joints
+            .begin_job(&approach)
+            .map_err(DeltaJobError::Approach)?;
+        self.job = Some(job.clone());
+        self.phase = Some(Phase::Approach);
+        self.effector_reference_m = None;
+        Ok(())
+    }
+
+    fn run(&mut self, inputs: &[[u16; 3]; 3]) -> Result<Step<[T; 3]>, DeltaFault> {
+        match self.phase {
+            Some(Phase::Approach) => {
+                let step = self.joints.run(inputs).map_err(DeltaFault::Joint)?;
+                Ok(match step {
+                    Step::Continue(forces) => Step::Continue(forces),
+                    Step::Done(forces) => match self.next_move(0) {
+                        Some(phase) => {
+                            self.phase = Some(phase);
+                            Step::Continue(forces)
+                        }
+                        None => Step::Done(forces),
+                    },
+                })
+            }
+            Some(Phase::Move {
+                index,
+                line,
+                period,
+                periods,
+            }) => {
+                let t = <T as Real>::from_q32(i64::from(period) << 32) * self.ts;
+                let (p, p_dot, p_ddot) = line.at(t);
+                let references = joint_references(&self.geometry, &p, &p_dot, &p_ddot)
+                    .map_err(DeltaFault::Kinematics)?;
+                self.effector_reference_m = Some([p.x, p.y, p.z]);
+                let forces = self
+                    .joints
+                    .follow(inputs, references)
+                    .map_err(DeltaFault::Joint)?;
+                let period = period + 1;
+                if period < periods {
+                    self.phase = Some(Phase::Move {
+                        index,
+                        line,
+                        period,
+                        periods,
+                    });
+                    return Ok(Step::Continue(forces));
+                }
+                self.phase = self.next_move(index + 1);
+                // The last move ends at rest: its joint references hold there.
+                Ok(match self.phase {
+                    Some(_) => Step::Continue(forces),
+                    None => Step::Done(forces),
+                })
+            }
+            None => Ok(Step::Done(self.safe_outputs())),
+        }
+    }
+
+    fn begin_stop(&mut self) {
+        self.phase = None;
+        self.effector_reference_m = None;
+        self.joints.begin_stop();
+    }
+
+    fn stop(&mut self, inputs: &[[u16; 3]; 3]) -> Result<Step<[T; 3]>, DeltaFault> {
+        self.joints.stop(inputs).map_err(DeltaFault::Joint)
+    }
+
+    fn set_coefficients(&mut self, law: AxisLaw<T>) {
+        self.joints.set_coefficients(law);
+    }
+
+    fn reset(&mut self) {
+        self.joints.reset();
+        self.phase = None;
+        self.effector_reference_m = None;
+    }
+
+    fn telemetry(&self) -> DeltaTelemetry<T> {
+        DeltaTelemetry {
+            joints: self.joints.telemetry(),
+            effector_reference_m: self.effector_reference_m,
+        }
+    }
+}
+
+impl<T: Float> HallMachine<3> for DeltaSlave<T> {
+    fn fit(
+        hall: &[HallConfig; 3],
+        samples: &CalibrationFit<3>,
+    ) -> Result<([HallAxis<T>; 3], [SelfCalibration; 3]), CalibrationFailure> {
+        fit_sensors(hall, samples)
+    }
+}
+
+#[cfg(test)]
+mod tests;

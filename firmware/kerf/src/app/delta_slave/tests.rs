@@ -1,0 +1,178 @@
+//! The delta slave's planning and joint references, against finite differences of the
+//! inverse kinematics (a different computation from the Jacobian route).
+
+use super::*;
+use std::format;
+use std::string::ToString;
+
+/// On the axis of symmetry at the preset's home, in the middle of the workspace.
+fn centre() -> [f64; 3] {
+    let geometry = DeltaGeometry::<f64>::new(&DeltaConfig::SLAVE_KEOPS).unwrap();
+    let p = geometry.forward(&Vector3::new(0.02, 0.02, 0.02)).unwrap();
+    [p.x, p.y, p.z]
+}
+
+fn shifted(p: [f64; 3], d: [f64; 3]) -> [f64; 3] {
+    [p[0] + d[0], p[1] + d[1], p[2] + d[2]]
+}
+
+fn square(side_m: f64, duration_s: f64) -> heapless::Vec<Segment<3>, 8> {
+    let c = centre();
+    let h = side_m / 2.0;
+    [[h, -h], [h, h], [-h, h], [-h, -h]]
+        .iter()
+        .map(|[x, y]| Segment {
+            target_m: shifted(c, [*x, *y, 0.0]),
+            duration_s,
+        })
+        .collect()
+}
+
+#[test]
+fn joint_references_match_finite_differences_of_the_inverse_kinematics() {
+    let geometry = DeltaGeometry::<f64>::new(&DeltaConfig::SLAVE_KEOPS).unwrap();
+    let c = centre();
+    // A diagonal line across the workspace with a height change, 0.2 s.
+    let line = Line::<f64>::new(
+        shifted(c, [-0.012, -0.010, -0.008]),
+        shifted(c, [0.014, 0.011, 0.006]),
+        0.2,
+    )
+    .unwrap();
+    let ik = |t: f64| geometry.inverse(&line.at(t).0).unwrap();
+    // Central differences with h = 0.1 ms: truncation error h²/6 q⁽³⁾ ≈ 2e-9 · q⁽³⁾,
+    // with |q⁽³⁾| ≲ 1e3 m/s³ here: ≲ 2e-6 m/s on q̇; h²/12 q⁽⁴⁾ on q̈ (|q⁽⁴⁾| ≲ 1e5 m/s⁴)
+    // ≲ 1e-4 m/s², plus rounding 1e-16 / h² ≈ 1e-8.
+    let h = 1e-4;
+    let mut peak = (0.0f64, 0.0f64);
+    for n in 1..40 {
+        let t = 0.005 * f64::from(n);
+        let (p, p_dot, p_ddot) = line.at(t);
+        let r = joint_references(&geometry, &p, &p_dot, &p_ddot).unwrap();
+        let (q_minus, q, q_plus) = (ik(t - h), ik(t), ik(t + h));
+        for k in 0..3 {
+            let velocity = (q_plus[k] - q_minus[k]) / (2.0 * h);
+            let acceleration = (q_plus[k] - 2.0 * q[k] + q_minus[k]) / (h * h);
+            assert!((r[k].position - q[k]).abs() < 1e-15, "q{k} at {t}");
+            assert!((r[k].velocity - velocity).abs() < 2e-6, "q̇{k} at {t}");
+            assert!(
+                (r[k].acceleration - acceleration).abs() < 2e-4,
+                "q̈{k} at {t}: {} vs {acceleration}",
+                r[k].acceleration
+            );
+            peak = (
+                peak.0.max(r[k].velocity.abs()),
+                peak.1.max(r[k].acceleration.abs()),
+            );
+        }
+    }
+    // The line is fast enough that the check means something.
+    assert!(peak.0 > 0.1 && peak.1 > 2.0, "{peak:?}");
+}
+
+#[test]
+fn a_square_at_the_centre_plans() {
+    let config = DeltaSlaveConfig::KEOPS;
+    let moves = square(0.02, 0.5);
+    let job = DeltaJob::plan(&config, moves[3].target_m, 0.3, &moves).unwrap();
+    assert_eq!(job.moves().len(), 4);
+    assert!((job.duration_s() - 2.3).abs() < 1e-12);
+    let slave = DeltaSlave::<f32>::new(&config).unwrap();
+    assert_eq!(slave.check_job(&job), Ok(()));
+}
+
+#[test]
+fn plans_that_do_not_fit_are_refused_with_the_move_that_fails() {
+    let config = DeltaSlaveConfig::KEOPS;
+    let c = centre();
+    let at = |d: [f64; 3], duration_s: f64| Segment {
+        target_m: shifted(c, d),
+        duration_s,
+    };
+    let plan = |moves: &[Segment<3>]| DeltaJob::plan(&config, c, 0.3, moves);
+    assert_eq!(plan(&[]), Err(DeltaJobError::Size));
+    assert_eq!(
+        plan(&[at([0.0; 3], 0.1); MAX_SEGMENTS + 1]),
+        Err(DeltaJobError::Size)
+    );
+    assert_eq!(
+        plan(&[at([0.01, 0.0, 0.0], 0.5), at([f64::NAN, 0.0, 0.0], 0.5)]),
+        Err(DeltaJobError::NotFinite { segment: 1 })
+    );
+    assert_eq!(
+        plan(&[at([0.01, 0.0, 0.0], 0.0)]),
+        Err(DeltaJobError::NotFinite { segment: 0 })
+    );
+    assert_eq!(
+        DeltaJob::plan(&config, c, f64::INFINITY, &[at([0.0; 3], 0.1)]),
+        Err(DeltaJobError::NotFinite { segment: 0 })
+    );
+    // 0.2 m sideways is far out of reach of 70 mm arms; the start point too.
+    assert!(matches!(
+        plan(&[at([0.01, 0.0, 0.0], 0.5), at([0.2, 0.0, 0.0], 5.0)]),
+        Err(DeltaJobError::Unreachable { segment: 1, .. })
+    ));
+    assert!(matches!(
+        DeltaJob::plan(
+            &config,
+            shifted(c, [0.2, 0.0, 0.0]),
+            0.3,
+            &[at([0.0; 3], 0.5)]
+        ),
+        Err(DeltaJobError::Unreachable { segment: 0, .. })
+    ));
+    // 20 mm in 20 ms: 1.875 · 1 m/s along x needs well over 0.5 m/s of some carriage.
+    assert!(matches!(
+        plan(&[at([0.02, 0.0, 0.0], 0.02)]),
+        Err(DeltaJobError::TooFast { segment: 0, .. })
+    ));
+}
+
+#[test]
+fn a_plan_for_another_machine_is_refused_at_load() {
+    let mut other = DeltaSlaveConfig::KEOPS;
+    other.joints.speed_limit_m_s = 1.0;
+    let moves = square(0.02, 0.5);
+    let job = DeltaJob::plan(&other, moves[3].target_m, 0.3, &moves).unwrap();
+    let mut slave = DeltaSlave::<f32>::new(&DeltaSlaveConfig::KEOPS).unwrap();
+    assert_eq!(slave.check_job(&job), Err(DeltaJobError::OtherMachine));
+    assert_eq!(slave.begin_job(&job), Err(DeltaJobError::OtherMachine));
+}
+
+#[test]
+fn an_approach_too_fast_from_where_the_carriages_are_is_refused_at_start() {
+    let config = DeltaSlaveConfig::KEOPS;
+    let moves = square(0.02, 0.5);
+    // The carriages sit at their 10 mm home; the square's corner needs ~10 mm of each
+    // in 1 ms.
+    let job = DeltaJob::plan(&config, moves[3].target_m, 1e-3, &moves).unwrap();
+    let mut slave = DeltaSlave::<f32>::new(&config).unwrap();
+    assert!(matches!(
+        slave.begin_job(&job),
+        Err(DeltaJobError::Approach(JobError::TooFast { .. }))
+    ));
+}
+
+#[test]
+fn config_errors_name_the_whole_path() {
+    let mut config = DeltaSlaveConfig::KEOPS;
+    config.delta.actuators[1].theta_rad = f64::NAN;
+    let e = DeltaSlave::<f32>::new(&config).unwrap_err();
+    assert_eq!(e.to_string(), "delta.actuators[1].theta_rad: not finite");
+
+    let mut config = DeltaSlaveConfig::KEOPS;
+    config.joints.axis.dob.bandwidth_rad_s = -1.0;
+    let e = DeltaSlave::<f32>::new(&config).unwrap_err();
+    assert_eq!(
+        format!("{}", e.path),
+        "joints.axis.dob.bandwidth_rad_s",
+        "{e}"
+    );
+
+    // Inside the joints' travel but outside the actuator's.
+    let mut config = DeltaSlaveConfig::KEOPS;
+    config.joints.travel_m[2] = [0.0, 0.1];
+    config.joints.home_m[2] = 0.05;
+    let e = DeltaSlave::<f32>::new(&config).unwrap_err();
+    assert_eq!(format!("{}", e.path), "joints.home_m[2]", "{e}");
+}

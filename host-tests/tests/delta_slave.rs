@@ -1,0 +1,74 @@
+//! The Keops delta slave as a machine app: the operator calibrates the three carriages
+//! together (imperfect Hall sensors, different on each carriage), plans a square,
+//! loads and starts it through the supervisor's queues; the Lagrangian plant with
+//! gravity is read back only through the Hall sensors.
+
+use hal_mock::hall_sensor::ChannelFault;
+use kerf::app::axis::AxisFault;
+use kerf::app::delta_slave::DeltaFault;
+use kerf::app::joints::JointFault;
+use kerf::sensing::hall::HallFault;
+use kerf_sim::scenario::{MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M};
+use kerf_sim::slave::{run_slave, SlaveOutcome, SlaveScenario};
+
+fn square<T: kerf::Float>() -> SlaveOutcome {
+    let scenario = SlaveScenario::square();
+    let outcome = run_slave::<T>(&scenario, 0, |_| {}).unwrap();
+    println!(
+        "Keops slave, 20 mm square at 40 mm/s mean ({} periods on the lines): effector error RMS {:.3} µm, max {:.3} µm; max ‖Jx‖∞ {:.2}",
+        outcome.periods,
+        outcome.rms_effector_error_m * 1e6,
+        outcome.max_effector_error_m * 1e6,
+        outcome.max_jacobian_gain
+    );
+    outcome
+}
+
+/// Each carriage loop meets the single-axis bounds (its motion is slower than that
+/// scenario's; gravity and the arms' coupling are left to the DOB); a joint error
+/// vector e moves the effector by at most ‖Jx‖∞ |e|∞ per axis, √3 of that in norm.
+fn check(outcome: &SlaveOutcome) {
+    let scenario = SlaveScenario::square();
+    let expected = (4.0 * scenario.side_s / scenario.machine.joints.period_s) as u32;
+    assert_eq!(outcome.periods, expected, "every period of the four sides");
+    assert!(outcome.fault.is_none(), "{outcome:?}");
+    let gain = 3f64.sqrt() * outcome.max_jacobian_gain;
+    assert!(
+        outcome.rms_effector_error_m < gain * RMS_ERROR_BOUND_M,
+        "{outcome:?}"
+    );
+    assert!(
+        outcome.max_effector_error_m < gain * MAX_ERROR_BOUND_M,
+        "{outcome:?}"
+    );
+}
+
+#[test]
+fn keops_slave_calibrates_and_cuts_a_square_in_f32() {
+    check(&square::<f32>());
+}
+
+#[test]
+fn keops_slave_calibrates_and_cuts_a_square_in_f64() {
+    check(&square::<f64>());
+}
+
+/// An open wire on carriage 2 half-way through: the machine names the carriage and the
+/// channel, and all three forces are zero from that period on.
+#[test]
+fn a_broken_sensor_on_one_carriage_stops_all_three() {
+    let mut scenario = SlaveScenario::square();
+    scenario.sensor_fault = Some((1.0, 2, ChannelFault::OpenWire(1)));
+    let outcome = run_slave::<f32>(&scenario, 100, |_| {}).unwrap();
+    assert_eq!(
+        outcome.fault,
+        Some(DeltaFault::Joint(JointFault {
+            axis: 2,
+            fault: AxisFault::Sensor(HallFault::AdcRail(1)),
+        })),
+        "{outcome:?}"
+    );
+    let at = outcome.fault_at_s.unwrap();
+    assert!((at - 1.0).abs() < 1.5e-4, "{at}");
+    assert_eq!(outcome.force_after_fault_n, 0.0);
+}
