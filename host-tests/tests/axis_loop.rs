@@ -231,3 +231,111 @@ fn trace_writes_the_run_as_csv() {
     assert_eq!(row(399)[9], "");
     assert_eq!(row(400)[9], "Sensor(AdcRail(2))");
 }
+
+/// Gains changed through the command queue in the middle of the 30 mm move, at
+/// 0.14 m/s: PD bandwidth 40 → 52 Hz (Kp ×1.69, Kd ×1.3), DOB bandwidth 150 → 100 Hz.
+///
+/// Stated bound on the force step at the change. The state (position, velocity,
+/// disturbance estimate) is kept, so the command An (q̈ref + Kp e + Kd ė) + F̂dis
+/// changes by An (ΔKp e + ΔKd ė) in the PD part, and the DOB's per-period change
+/// g Ts (innovation) scales by g'/g ≤ 1. So
+/// |ΔF| ≤ max(1, g'/g) · (largest step of the 200 periods before) + An (|ΔKp| |e| + |ΔKd| |ė|)
+/// with e, ė what the law saw at the change. A restart (fresh state with the new law,
+/// as a config reload that rebuilds the loop would do) must break the same bound.
+#[test]
+fn gain_change_mid_profile_is_bumpless() {
+    use heapless::spsc::Queue;
+    use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
+    use kerf::app::joints::Joints;
+    use kerf::app::supervisor::{Command, Machine, Mode, Report};
+    use kerf_sim::scenario::{Rig, COMMAND_CAPACITY, REPORT_CAPACITY, TS_S};
+
+    type M = Joints<f64, 1>;
+    let scenario = Scenario::TRACKING;
+    let mut commands = Queue::<Command<M>, COMMAND_CAPACITY>::new();
+    let mut reports = Queue::<Report<M>, REPORT_CAPACITY>::new();
+    let (mut send, from_sender) = commands.split();
+    let (to_operator, mut receive) = reports.split();
+    let mut rig = Rig::<f64>::new(&scenario, from_sender, to_operator).unwrap();
+    let mut operator = scenario.operator::<f64>().unwrap();
+    operator.start(&mut send);
+
+    let old = AxisConfig::LM1247_SLAVE;
+    let mut new = old;
+    let w = 2.0 * std::f64::consts::PI * 52.0;
+    new.pd.kp_per_s2 = w * w;
+    new.pd.kd_per_s = 2.0 * w;
+    new.dob.bandwidth_rad_s = 2.0 * std::f64::consts::PI * 100.0;
+    let new_law = AxisLaw::<f64>::new(&new, TS_S).unwrap();
+
+    const CHANGE_AT_S: f64 = 0.25;
+    let mut forces = Vec::new();
+    let mut change = None;
+    let mut outcome = Outcome::default();
+    while outcome.periods < scenario.periods {
+        let machine_before = rig.supervisor().machine().clone();
+        let p = rig.step();
+        operator.poll(&mut receive, &mut send);
+        if !p.in_job() {
+            continue;
+        }
+        outcome.add(&p);
+        forces.push(p.force_n);
+        if change.is_some_and(|(n, _, _)| n + 1 == forces.len()) {
+            // The period the new law first ran in: what it saw.
+            let machine = rig.supervisor().machine();
+            let r = machine.reference()[0];
+            let out = machine.telemetry().axes[0];
+            let e = r.position - out.position_m;
+            let e_dot = r.velocity - out.velocity_m_s;
+            // The restart: the same period from a fresh state (homed where the axis
+            // was, nothing observed yet) with the new law and the same Hall counts.
+            let before = machine_before.axes()[0];
+            let mut fresh = AxisState::<f64>::homed_at(before.position_m());
+            fresh.engage();
+            let sensor = HallAxis::<f64>::new(&scenario.machine.hall[0]).unwrap();
+            let restart = new_law.step(&sensor, &mut fresh, p.hall_counts, &r);
+            change = change.map(|(n, _, _)| (n, (e, e_dot), restart.force_n));
+        }
+        if p.t_s >= CHANGE_AT_S && change.is_none() {
+            // Picked up at the start of the next period.
+            assert!(send
+                .enqueue(Command::ChangeSettings(new_law.clone()))
+                .is_ok());
+            change = Some((forces.len(), (0.0, 0.0), 0.0));
+        }
+    }
+    assert!(outcome.fault_period.is_none());
+    assert_eq!(
+        rig.supervisor().mode(),
+        Mode::Ready,
+        "the profile ran to its end"
+    );
+    let (n, (e, e_dot), restart_force) = change.unwrap();
+    let step = |k: usize| (forces[k] - forces[k - 1]).abs();
+    let normal = (n - 200..n).map(step).fold(0.0, f64::max);
+    let an = old.dob.nominal_mass_kg;
+    let pd_term = an
+        * ((new.pd.kp_per_s2 - old.pd.kp_per_s2).abs() * e.abs()
+            + (new.pd.kd_per_s - old.pd.kd_per_s).abs() * e_dot.abs());
+    let g_ratio = (new.dob.bandwidth_rad_s / old.dob.bandwidth_rad_s).max(1.0);
+    let bound = g_ratio * normal + pd_term;
+    let restart_step = (restart_force - forces[n - 1]).abs();
+    println!(
+        "gain change at {:.4} s: force step {:.3} mN (bound {:.3} mN = {:.3} steady + {:.3} PD); a restart would step {:.1} mN",
+        n as f64 * TS_S,
+        step(n) * 1e3,
+        bound * 1e3,
+        normal * 1e3,
+        pd_term * 1e3,
+        restart_step * 1e3
+    );
+    assert!(step(n) <= bound, "{} > {bound}", step(n));
+    assert!(
+        restart_step > bound,
+        "the bound does not tell a restart apart"
+    );
+    // The tracking still meets the scenario's bounds with the new gains.
+    assert!(outcome.rms_error_m < RMS_ERROR_BOUND_M, "{outcome:?}");
+    assert!(outcome.max_error_m < MAX_ERROR_BOUND_M, "{outcome:?}");
+}
