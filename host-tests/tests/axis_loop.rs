@@ -299,9 +299,7 @@ fn gain_change_mid_profile_is_bumpless() {
         }
         if p.t_s >= CHANGE_AT_S && change.is_none() {
             // Picked up at the start of the next period.
-            assert!(send
-                .enqueue(Command::ChangeSettings(new_law.clone()))
-                .is_ok());
+            assert!(send.enqueue(Command::ChangeSettings(new_law)).is_ok());
             change = Some((forces.len(), (0.0, 0.0), 0.0));
         }
     }
