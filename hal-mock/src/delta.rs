@@ -1,9 +1,10 @@
 //! A simulated delta robot behind kerf's HAL traits: the Lagrangian plant with one set
 //! of Hall sensors per carriage. Nine Hall counts out, three forces in.
 
+use crate::axis::SimulatedClock;
 use crate::delta_plant::{DeltaPlant, DeltaPlantParams};
 use crate::hall_sensor::{HallSensor, HallSensorParams};
-use kerf::hal::{SampleInputs, WriteOutputs};
+use kerf::hal::{Monotonic, SampleInputs, WriteOutputs};
 use kerf::kinematics::delta::{DeltaConfig, KinematicsError};
 use kerf::kinematics::Vector3;
 use kerf::Real;
@@ -18,6 +19,8 @@ pub struct SimulatedDelta {
     /// The first error of the plant's integration (the motion left the region where
     /// the mechanism assembles); the plant stands still from then on.
     pub error: Option<KinematicsError>,
+    /// Simulated time, ns: one period per write.
+    pub clock: SimulatedClock,
 }
 
 impl SimulatedDelta {
@@ -36,6 +39,7 @@ impl SimulatedDelta {
             sensors: [(sensors[0], 0), (sensors[1], 1), (sensors[2], 2)]
                 .map(|(params, k)| HallSensor::new(params, seed + k)),
             error: None,
+            clock: SimulatedClock::new(ts_s),
         })
     }
 }
@@ -61,5 +65,15 @@ impl<T: Real> WriteOutputs<[T; 3]> for SimulatedDelta {
             let force = Vector3::from(force_n.map(|f| f.to_f64()));
             self.error = self.plant.step(force).err();
         }
+        self.clock.advance();
+    }
+}
+
+impl Monotonic for SimulatedDelta {
+    fn tick_hz(&self) -> u64 {
+        self.clock.tick_hz()
+    }
+    fn now(&mut self) -> u64 {
+        self.clock.now()
     }
 }

@@ -32,6 +32,7 @@ fn check(outcome: &SlaveOutcome) {
     let expected = (4.0 * scenario.side_s / scenario.machine.joints.period_s) as u32;
     assert_eq!(outcome.periods, expected, "every period of the four sides");
     assert!(outcome.fault.is_none(), "{outcome:?}");
+    assert_eq!(outcome.late_periods, 0);
     let gain = 3f64.sqrt() * outcome.max_jacobian_gain;
     assert!(
         outcome.rms_effector_error_m < gain * RMS_ERROR_BOUND_M,

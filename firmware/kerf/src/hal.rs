@@ -1,5 +1,5 @@
 //! What the application needs from a board: one period's inputs sampled together,
-//! one period's outputs written together.
+//! one period's outputs written together, and a monotonic tick.
 //!
 //! A board implements these with its ADC DMA buffer (every Hall channel of every axis
 //! converted on the same timer trigger) and its current-loop or PWM outputs; `hal-mock`
@@ -18,4 +18,14 @@ pub trait SampleInputs<I> {
 pub trait WriteOutputs<O> {
     /// Applies `outputs`. Must accept the machine's safe outputs at any time.
     fn write(&mut self, outputs: &O);
+}
+
+/// A tick counter that only counts up and never wraps in a machine's life: 64 bits
+/// (a 170 MHz timer extended in software wraps after 3,400 years). The app reads it
+/// once per control period to find periods that came late.
+pub trait Monotonic {
+    /// Ticks per second.
+    fn tick_hz(&self) -> u64;
+    /// The present tick.
+    fn now(&mut self) -> u64;
 }

@@ -9,8 +9,9 @@ use heapless::spsc::{Consumer, Producer};
 use kerf::app::axis::{AxisFault, HallAxis};
 use kerf::app::joints::{JointFault, JointJob, Joints, JointsConfig, Segment};
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
+use kerf::app::PeriodClock;
 use kerf::control::pd::Reference;
-use kerf::hal::{SampleInputs, WriteOutputs};
+use kerf::hal::{Monotonic, SampleInputs, WriteOutputs};
 use kerf::sensing::hall::{HallCorrection, SelfCalibration};
 use kerf::trajectory::quintic::Quintic;
 use kerf::{ConfigContext, ConfigError, Real};
@@ -204,6 +205,7 @@ pub struct Rig<'q, T: Real> {
     scenario: Scenario,
     supervisor: Supervisor<'q, Joints<T, 1>>,
     plant: SimulatedAxis,
+    clock: PeriodClock,
     period: u32,
     job_start: Option<u32>,
 }
@@ -227,13 +229,20 @@ impl<'q, T: Real> Rig<'q, T> {
             scenario.seed,
             START_M,
         );
+        let clock = PeriodClock::new(machine_config.period_s, plant.tick_hz())?;
         Ok(Self {
             scenario: *scenario,
             supervisor,
             plant,
             period: 0,
+            clock,
             job_start: None,
         })
+    }
+
+    /// The control period's clock (late periods).
+    pub fn clock(&self) -> &PeriodClock {
+        &self.clock
     }
 
     /// The supervisor (mode, machine).
@@ -252,7 +261,7 @@ impl<'q, T: Real> Rig<'q, T> {
             plant: &mut self.plant,
             inputs: [[0; 3]],
         };
-        let force = kerf::app::control_period(&mut self.supervisor, &mut hal);
+        let force = kerf::app::control_period(&mut self.supervisor, &mut self.clock, &mut hal);
         let hall_counts = hal.inputs[0];
         let mode = self.supervisor.mode();
         // Scenario times count from the job's start (after any calibration); set up the
@@ -306,6 +315,15 @@ impl SampleInputs<[[u16; 3]; 1]> for Recording<'_> {
     fn sample(&mut self) -> [[u16; 3]; 1] {
         self.inputs = self.plant.sample();
         self.inputs
+    }
+}
+
+impl Monotonic for Recording<'_> {
+    fn tick_hz(&self) -> u64 {
+        self.plant.tick_hz()
+    }
+    fn now(&mut self) -> u64 {
+        self.plant.now()
     }
 }
 

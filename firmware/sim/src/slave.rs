@@ -11,6 +11,8 @@ use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::delta_slave::{DeltaFault, DeltaJob, DeltaJobError, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::joints::Segment;
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
+use kerf::app::PeriodClock;
+use kerf::hal::Monotonic;
 use kerf::kinematics::delta::{DeltaGeometry, KinematicsError};
 use kerf::kinematics::Vector3;
 use kerf::scalar::Float;
@@ -116,6 +118,7 @@ pub struct SlaveRig<'q, T: Float> {
     supervisor: Supervisor<'q, DeltaSlave<T>>,
     plant: SimulatedDelta,
     geometry: DeltaGeometry<f64>,
+    clock: PeriodClock,
     period: u32,
     job_start: Option<u32>,
 }
@@ -142,11 +145,14 @@ impl<'q, T: Float> SlaveRig<'q, T> {
         .map_err(SlaveError::Plant)?;
         let geometry =
             DeltaGeometry::new(&config.delta).map_err(|e| SlaveError::Config(e.within("delta")))?;
+        let clock = PeriodClock::new(config.joints.period_s, plant.tick_hz())
+            .map_err(SlaveError::Config)?;
         Ok(Self {
             scenario: *scenario,
             supervisor,
             plant,
             geometry,
+            clock,
             period: 0,
             job_start: None,
         })
@@ -155,6 +161,11 @@ impl<'q, T: Float> SlaveRig<'q, T> {
     /// The supervisor.
     pub fn supervisor(&self) -> &Supervisor<'q, DeltaSlave<T>> {
         &self.supervisor
+    }
+
+    /// The control period's clock (late periods).
+    pub fn clock(&self) -> &PeriodClock {
+        &self.clock
     }
 
     /// The simulated delta.
@@ -173,7 +184,8 @@ impl<'q, T: Float> SlaveRig<'q, T> {
             .jacobian(&q, &p)
             .map(|j| (0..3).map(|i| j.row(i).abs().sum()).fold(0.0, f64::max))
             .map_err(SlaveError::Plant)?;
-        let force = kerf::app::control_period(&mut self.supervisor, &mut self.plant);
+        let force =
+            kerf::app::control_period(&mut self.supervisor, &mut self.clock, &mut self.plant);
         if let Some(e) = self.plant.error {
             return Err(SlaveError::Plant(e));
         }
@@ -239,6 +251,8 @@ pub struct SlaveOutcome {
     pub fault: Option<DeltaFault>,
     /// Largest |force| from the fault on, N (must be 0).
     pub force_after_fault_n: f64,
+    /// Control periods that started late (must be 0 in simulation).
+    pub late_periods: u32,
     sum_sq_m2: f64,
 }
 
@@ -281,6 +295,7 @@ pub fn run_slave<T: Float>(
     let mut after_fault = 0;
     for _ in 0..limit {
         let period = rig.step()?;
+        outcome.late_periods = rig.clock().late_periods();
         outcome.add(&period);
         each(&period);
         match operator.poll(&mut receive, &mut send) {
