@@ -76,6 +76,9 @@ pub enum AxisFault {
     Sensor(HallFault),
     /// The reference was NaN or infinite: nothing sensible can be commanded.
     ReferenceNotFinite,
+    /// A value inside the loop became NaN or infinite (a finite reference so far off
+    /// that the PD terms overflow, a non-finite home): zero force in the same period.
+    NotFinite,
 }
 
 /// Where an axis is in its own start-up.
@@ -179,9 +182,14 @@ impl<T: Real> AxisState<T> {
         self.status
     }
 
-    /// Measured position, m (the last good one on a fault).
+    /// Measured position, m (the last good one on a fault; zero when none was
+    /// finite, as with a non-finite home).
     pub fn position_m(&self) -> T {
-        self.position_m
+        if self.position_m.is_finite() {
+            self.position_m
+        } else {
+            T::ZERO
+        }
     }
 
     /// Velocity estimate, m/s.
@@ -196,10 +204,11 @@ impl<T: Real> AxisState<T> {
         self.applied_acceleration = T::ZERO;
     }
 
+    /// Zero force; the position held (zero when it never was finite).
     fn safe_output(&self) -> AxisOutput<T> {
         AxisOutput {
             force_n: T::ZERO,
-            position_m: self.position_m,
+            position_m: self.position_m(),
             velocity_m_s: T::ZERO,
             disturbance_n: T::ZERO,
             status: self.status,
@@ -242,7 +251,11 @@ impl<T: Real> AxisLaw<T> {
             return state.safe_output();
         }
         let velocity = match self.sense(sensor, state, hall_counts) {
-            Ok(velocity) => velocity,
+            Ok(velocity) if velocity.is_finite() => velocity,
+            Ok(_) => {
+                state.status = AxisStatus::Fault(AxisFault::NotFinite);
+                return state.safe_output();
+            }
             Err(fault) => {
                 state.status = AxisStatus::Fault(fault);
                 return state.safe_output();
@@ -250,6 +263,16 @@ impl<T: Real> AxisLaw<T> {
         };
         let acceleration = self.pd.acceleration(reference, state.position_m, velocity);
         let out = self.dob.update(&mut state.dob, acceleration, velocity);
+        // The saturation passes NaN, and a saturated ±inf hides an overflow: any
+        // non-finite value here latches a fault before the force leaves the period.
+        if !(acceleration.is_finite()
+            && out.force_n.is_finite()
+            && state.dob.estimate_n.is_finite()
+            && state.position_m.is_finite())
+        {
+            state.status = AxisStatus::Fault(AxisFault::NotFinite);
+            return state.safe_output();
+        }
         // With the DOB active the axis follows An·q̈ = F − F̂dis, so this is the
         // acceleration the observer should predict with (zero when saturated away).
         state.applied_acceleration = self.dob.applied_acceleration(&out);
@@ -277,7 +300,11 @@ impl<T: Real> AxisLaw<T> {
         // No force: the nominal plant's acceleration is zero.
         state.applied_acceleration = T::ZERO;
         match self.sense(sensor, state, hall_counts) {
-            Ok(_) => Ok(()),
+            Ok(_) if state.position_m.is_finite() => Ok(()),
+            Ok(_) => {
+                state.status = AxisStatus::Fault(AxisFault::NotFinite);
+                Err(AxisFault::NotFinite)
+            }
             Err(fault) => {
                 state.status = AxisStatus::Fault(fault);
                 Err(fault)
@@ -459,5 +486,80 @@ mod tests {
             law.step(&sensor, &mut axis, counts(0.2), &r).status,
             AxisStatus::Running
         );
+    }
+
+    fn all_finite(out: &AxisOutput<f32>) -> bool {
+        out.force_n.is_finite()
+            && out.position_m.is_finite()
+            && out.velocity_m_s.is_finite()
+            && out.disturbance_n.is_finite()
+    }
+
+    /// A finite reference far outside any travel overflows Kp e + Kd ė in f32 (−inf
+    /// plus +inf): the axis latches a fault with zero force in that period, and every
+    /// output stays finite from then on.
+    #[test]
+    fn huge_finite_reference_latches_a_fault_not_a_nan_force() {
+        let law = AxisLaw::<f32>::new(&AxisConfig::LM1247_SLAVE, 1e-4).unwrap();
+        let sensor = HallAxis::<f32>::new(&HallConfig::LM1247_16BIT).unwrap();
+        let mut axis = AxisState::<f32>::homed_at(0.0);
+        let rest = Reference {
+            position: 0.0f32,
+            velocity: 0.0,
+            acceleration: 0.0,
+        };
+        assert_eq!(
+            law.step(&sensor, &mut axis, counts(0.2), &rest).status,
+            AxisStatus::Running
+        );
+        let huge = Reference {
+            position: -1e34f32,
+            velocity: 1e36,
+            acceleration: 0.0,
+        };
+        let out = law.step(&sensor, &mut axis, counts(0.2), &huge);
+        assert_eq!(out.status, AxisStatus::Fault(AxisFault::NotFinite));
+        assert_eq!(out.force_n, 0.0);
+        assert!(all_finite(&out), "{out:?}");
+        for _ in 0..1000 {
+            let out = law.step(&sensor, &mut axis, counts(0.2), &rest);
+            assert_eq!(out.force_n, 0.0);
+            assert!(all_finite(&out), "{out:?}");
+        }
+        // One overflowing term alone (+inf acceleration) is a fault too, not a
+        // silently saturated full force.
+        let mut axis = AxisState::<f32>::homed_at(0.0);
+        law.step(&sensor, &mut axis, counts(0.2), &rest);
+        let far = Reference {
+            position: 1e36f32,
+            ..rest
+        };
+        let out = law.step(&sensor, &mut axis, counts(0.2), &far);
+        assert_eq!(out.status, AxisStatus::Fault(AxisFault::NotFinite));
+        assert_eq!(out.force_n, 0.0);
+    }
+
+    /// A NaN home makes every position NaN: the first period faults, outputs finite.
+    #[test]
+    fn non_finite_home_latches_a_fault_in_the_first_period() {
+        let law = AxisLaw::<f32>::new(&AxisConfig::LM1247_SLAVE, 1e-4).unwrap();
+        let sensor = HallAxis::<f32>::new(&HallConfig::LM1247_16BIT).unwrap();
+        for home in [f32::NAN, f32::INFINITY] {
+            let mut axis = AxisState::<f32>::homed_at(home);
+            let rest = Reference {
+                position: 0.0f32,
+                velocity: 0.0,
+                acceleration: 0.0,
+            };
+            let out = law.step(&sensor, &mut axis, counts(0.2), &rest);
+            assert_eq!(out.status, AxisStatus::Fault(AxisFault::NotFinite));
+            assert!(all_finite(&out), "{out:?}");
+            let mut idle = AxisState::<f32>::homed_at(home);
+            assert_eq!(
+                law.monitor(&sensor, &mut idle, counts(0.2)),
+                Err(AxisFault::NotFinite)
+            );
+            assert!(idle.position_m().is_finite());
+        }
     }
 }
