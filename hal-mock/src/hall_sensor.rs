@@ -42,7 +42,7 @@ impl HallSensorParams {
     /// scale, gains ±5 %, channel phase errors up to 1.5°, a 2 % third harmonic that
     /// differs slightly per channel (1.8–2.2 %), and `noise_lsb` RMS noise.
     pub fn lm1247_imperfect(adc_bits: u8, noise_lsb: f64) -> Self {
-        let full_scale = f64::from(1u32 << adc_bits);
+        let full_scale = libm::exp2(f64::from(adc_bits));
         let mid = 0.5 * full_scale;
         let amplitude = 0.4 * full_scale;
         let degree = PI / 180.0;
@@ -106,7 +106,7 @@ impl HallSensor {
     /// Samples the three channels at slider position `position_m`.
     pub fn sample(&mut self, position_m: f64) -> [u16; 3] {
         let p = self.params;
-        let full_scale = ((1u32 << p.adc_bits) - 1) as f64;
+        let full_scale = libm::exp2(f64::from(p.adc_bits)) - 1.0;
         let phi = 2.0 * PI * position_m / p.pitch_m;
         let mut out = [0u16; 3];
         for (k, count) in out.iter_mut().enumerate() {

@@ -493,8 +493,14 @@ impl CorrectionLearner {
         // near half a pitch cannot wrap individual samples to the other side.
         let difference = decoded_phase.wrapping_sub(reference_phase);
         let offset = *self.offset.get_or_insert(difference);
-        self.sum[index] += i64::from(difference.wrapping_sub(offset) as i32);
-        self.count[index] += 1;
+        // A full entry stops learning: 2^32 samples of at most 2^31 each still fit the
+        // i64 sum, and the mean is long settled.
+        if let (Some(sum), Some(count)) = (self.sum.get_mut(index), self.count.get_mut(index)) {
+            if *count < u32::MAX {
+                *sum += i64::from(difference.wrapping_sub(offset) as i32);
+                *count += 1;
+            }
+        }
     }
 
     /// Averages each entry and removes the mean (a constant offset is homing's job).
@@ -507,8 +513,10 @@ impl CorrectionLearner {
             *entry = (sum / i64::from(count)) as i32;
         }
         let mean = error_q32.iter().map(|&e| i64::from(e)).sum::<i64>() / CORRECTION_ENTRIES as i64;
+        // Phase errors are modulo one pitch (applied with wrapping arithmetic), so the
+        // removal of the mean wraps too.
         for e in &mut error_q32 {
-            *e -= mean as i32;
+            *e = e.wrapping_sub(mean as i32);
         }
         Ok(HallCorrection { error_q32 })
     }

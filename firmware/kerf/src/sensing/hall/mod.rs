@@ -82,9 +82,12 @@ pub struct HallConfig {
 impl HallConfig {
     /// Faulhaber LM1247 Hall outputs on an ADC of `adc_bits`: mid-scale offsets,
     /// amplitude 40 % of full scale, ideal demodulation (calibrate for better),
-    /// magnitude band 0.7–1.3, sum limit 0.5 A, integer arithmetic.
+    /// magnitude band 0.7–1.3, sum limit 0.5 A, integer arithmetic. Widths the decoder
+    /// does not support (outside 8–16 bits) give a configuration it rejects by name.
     pub const fn lm1247(adc_bits: u8) -> Self {
-        let full_scale = (1u32 << adc_bits) as f64;
+        // 63 at most: the shift cannot overflow; `adc_bits` is kept for the check.
+        let shift = if adc_bits > 63 { 63 } else { adc_bits };
+        let full_scale = (1u64 << shift) as f64;
         let amplitude = 0.4 * full_scale;
         Self {
             pitch_m: 0.018,
@@ -129,6 +132,10 @@ pub enum HallFault {
     MagnitudeOutOfBand,
     /// The phase moved more than a quarter pitch away from its prediction.
     ImplausibleJump,
+    /// The predicted step is half a pitch per sample or more: no phase can be
+    /// unwrapped against it (the velocity estimate is wrong, or the motion is faster
+    /// than the sensor can follow at this sample rate).
+    SpeedBeyondUnwrap,
 }
 
 /// One decoded sample.
@@ -293,6 +300,11 @@ impl HallDecoder {
             Some(table) => table.apply(phase),
             None => phase,
         };
+        // Beyond half a pitch per sample the unwrapping is ambiguous (and a wild
+        // prediction would move the pitch count by its own size).
+        if predicted_step.unsigned_abs() >= 1 << 31 {
+            return Err(HallFault::SpeedBeyondUnwrap);
+        }
         let accumulator = match state.accumulator {
             Some(last) => {
                 let predicted = last.wrapping_add(predicted_step);

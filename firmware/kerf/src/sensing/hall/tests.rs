@@ -382,3 +382,62 @@ fn correction_table_removes_a_periodic_phase_error() {
         Some(CalibrationError::NotEnoughMotion)
     );
 }
+
+/// A preset asked for an impossible ADC width must not overflow its shift; the
+/// decoder then names the field.
+#[test]
+fn adc_width_beyond_the_shift_is_a_config_error_not_an_overflow() {
+    for bits in [32u8, 40, 64, 255] {
+        let config = HallConfig::lm1247(bits);
+        assert_eq!(
+            HallDecoder::new(&config).err(),
+            Some(ConfigError::out_of_range("adc_bits")),
+            "{bits}"
+        );
+    }
+}
+
+/// Reference and decoded phases that differ by about half a pitch, either way: the
+/// learner's sums, counts and mean removal must not overflow.
+#[test]
+fn correction_learner_survives_half_pitch_differences() {
+    let mut learner = CorrectionLearner::default();
+    // The first pair sets the offset (difference 0); then 129 entries at −½ pitch
+    // and 127 at +½: the mean is about −0.006 pitch, and the largest entry minus the
+    // mean is beyond i32.
+    learner.add(0, 0);
+    for entry in 0..256u32 {
+        let decoded = entry << 24;
+        let difference = if entry < 129 {
+            0x8000_0000
+        } else {
+            0x7FFF_FFFF
+        };
+        learner.add(decoded, decoded.wrapping_sub(difference));
+    }
+    assert!(learner.finish().is_ok());
+}
+
+/// A prediction of a thousand pitches in one sample cannot be unwrapped (more than
+/// half a pitch per sample): a typed fault, and the count does not move.
+#[test]
+fn a_prediction_beyond_half_a_pitch_per_sample_is_a_fault() {
+    let config = HallConfig::LM1247_16BIT;
+    let decoder = HallDecoder::new(&config).unwrap();
+    let raw = Channels::ideal(&config).sample(0.3);
+    let mut state = HallState::default();
+    let first = decoder.update(&mut state, raw, 0).unwrap();
+    for step in [1000i64 << 32, -(1000i64 << 32), 1 << 31, i64::MIN, i64::MAX] {
+        assert_eq!(
+            decoder.update(&mut state, raw, step),
+            Err(HallFault::SpeedBeyondUnwrap),
+            "{step}"
+        );
+    }
+    // 0.45 pitch per sample, predicted, is still decoded: one pitch count further.
+    let moved = Channels::ideal(&config).sample(0.3 + 0.45 * 2.0 * PI);
+    let step = (0.45 * 4_294_967_296.0) as i64;
+    let next = decoder.update(&mut state, moved, step).unwrap();
+    let advance = (next.accumulator - first.accumulator) as f64 / 4_294_967_296.0;
+    assert!((advance - 0.45).abs() < 1e-4, "{advance}");
+}
