@@ -12,6 +12,7 @@
 use heapless::Vec;
 
 use crate::noise::Noise;
+use kerf::hal::{FrameLink, LinkBusy};
 
 /// Link behaviour. Delays are in ticks.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -159,6 +160,61 @@ impl<T, const CAP: usize> Link<T, CAP> {
     /// Packets currently in flight.
     pub fn in_flight(&self) -> usize {
         self.in_flight.len()
+    }
+}
+
+/// One end of a simulated link as kerf's [`FrameLink`]: frames of at most `FRAME`
+/// bytes, at most `CAP` in flight, on the caller's clock ([`FrameEnd::set_now`]).
+#[derive(Clone, Debug)]
+pub struct FrameEnd<const FRAME: usize, const CAP: usize> {
+    /// The link underneath (its counts of sent and lost frames).
+    pub link: Link<Vec<u8, FRAME>, CAP>,
+    now: u64,
+    oversized: u64,
+}
+
+impl<const FRAME: usize, const CAP: usize> FrameEnd<FRAME, CAP> {
+    /// A link end with `config`, at tick 0.
+    pub fn new(config: &LinkConfig) -> Result<Self, LinkError> {
+        Ok(Self {
+            link: Link::new(config)?,
+            now: 0,
+            oversized: 0,
+        })
+    }
+
+    /// Moves the link's clock to tick `now`: frames due by then can be received.
+    pub fn set_now(&mut self, now: u64) {
+        self.now = now;
+    }
+
+    /// Frames dropped at the receiver because they did not fit its buffer.
+    pub fn oversized(&self) -> u64 {
+        self.oversized
+    }
+}
+
+impl<const FRAME: usize, const CAP: usize> FrameLink for FrameEnd<FRAME, CAP> {
+    /// A frame the link loses counts as sent: the sender cannot know.
+    fn send(&mut self, frame: &[u8]) -> Result<(), LinkBusy> {
+        let frame = Vec::from_slice(frame).map_err(|_| LinkBusy)?;
+        self.link
+            .send(self.now, frame)
+            .map(|_| ())
+            .map_err(|_| LinkBusy)
+    }
+
+    fn receive(&mut self, buf: &mut [u8]) -> Option<usize> {
+        loop {
+            let frame = self.link.poll(self.now)?;
+            match buf.get_mut(..frame.len()) {
+                Some(dst) => {
+                    dst.copy_from_slice(&frame);
+                    return Some(frame.len());
+                }
+                None => self.oversized += 1,
+            }
+        }
     }
 }
 

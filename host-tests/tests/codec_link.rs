@@ -1,13 +1,16 @@
-//! Encoder → simulated link → decoder (SPEC `codec::sdct`, T 7.2.3): reconstruction over
+//! The app's signal stream (SDCT encoder → packets) → simulated link → receiver
+//! (SPEC `codec::sdct`, T 7.2.3): reconstruction over
 //! a clean link, and over a lossy, reordering one where every lost or late packet must
 //! show up as a sequence gap or a `SequenceBackwards` rejection, never be used late.
 
 use std::collections::BTreeSet;
 
-use hal_mock::link::{Link, LinkConfig, Sent};
+use hal_mock::link::{FrameEnd, LinkConfig};
 use host_tests::signals::{self, snr_db};
-use kerf::codec::packet::{self, PacketDecoder, PacketError, MAX_PACKET_LEN};
-use kerf::codec::sdct::{SdctConfig, SdctDecoder, SdctEncoder, Selection};
+use kerf::app::stream::{SignalReceiver, SignalSender};
+use kerf::codec::packet::{self, PacketError, MAX_PACKET_LEN};
+use kerf::codec::sdct::{SdctConfig, SdctDecoder, Selection};
+use kerf::hal::{FrameLink, LinkBusy};
 
 const N: usize = 32;
 const M: usize = 8;
@@ -23,15 +26,48 @@ struct Outcome {
     direct: Vec<f64>,
 }
 
+/// The simulated link end, recording what went in: each frame's sequence number,
+/// whether the link lost it, and its block decoded directly (no link).
+struct Tap {
+    end: FrameEnd<MAX_PACKET_LEN, 64>,
+    lost: BTreeSet<u16>,
+    direct: Vec<f64>,
+}
+
+impl FrameLink for Tap {
+    fn send(&mut self, frame: &[u8]) -> Result<(), LinkBusy> {
+        let p = packet::parse(frame).unwrap();
+        let mut y = [0.0f32; N];
+        SdctDecoder::<N>::new()
+            .unwrap()
+            .decode(&p.to_block().unwrap(), &mut y);
+        self.direct.extend(y.iter().map(|&v| f64::from(v)));
+        let lost_before = self.end.link.lost();
+        self.end.send(frame)?;
+        if self.end.link.lost() > lost_before {
+            self.lost.insert(p.sequence);
+        }
+        Ok(())
+    }
+    fn receive(&mut self, buf: &mut [u8]) -> Option<usize> {
+        self.end.receive(buf)
+    }
+}
+
+/// The signal through the app's stream ends over the simulated link, one tick per
+/// sample.
 fn stream(x: &[f64], config: &LinkConfig) -> Outcome {
-    let enc = SdctEncoder::<N>::new(&SdctConfig {
+    let mut sender = SignalSender::<N>::new(&SdctConfig {
         m: M,
         selection: Selection::Largest,
     })
     .unwrap();
-    let dec = SdctDecoder::<N>::new().unwrap();
-    let mut link = Link::<Vec<u8>, 64>::new(config).unwrap();
-    let mut rx = PacketDecoder::new();
+    let mut receiver = SignalReceiver::<N>::new().unwrap();
+    let mut link = Tap {
+        end: FrameEnd::new(config).unwrap(),
+        lost: BTreeSet::new(),
+        direct: Vec::new(),
+    };
     let mut out = Outcome {
         samples: vec![f64::NAN; x.len()],
         accepted: Vec::new(),
@@ -41,35 +77,21 @@ fn stream(x: &[f64], config: &LinkConfig) -> Outcome {
         direct: Vec::new(),
     };
     let blocks = x.len() / N;
-    // One tick per sample; a block is sent when its last sample exists.
     for tick in 0..(x.len() as u64 + 1000) {
-        let t = tick as usize;
-        if t % N == 0 && t > 0 && t / N <= blocks {
-            let k = t / N - 1;
-            let samples: [f32; N] = core::array::from_fn(|i| x[k * N + i] as f32);
-            let block = enc.encode(&samples).unwrap();
-            let mut buf = [0u8; MAX_PACKET_LEN];
-            let len = packet::encode(&block, k as u16, (k * N) as u32, &mut buf).unwrap();
-            // The reconstruction without a link, quantized the same way.
-            let mut y = [0.0f32; N];
-            dec.decode(
-                &packet::parse(&buf[..len]).unwrap().to_block().unwrap(),
-                &mut y,
-            );
-            out.direct.extend(y.iter().map(|&v| f64::from(v)));
-            if link.send(tick, buf[..len].to_vec()).unwrap() == Sent::Lost {
-                out.lost.insert(k as u16);
-            }
+        link.end.set_now(tick);
+        if let Some(&sample) = x
+            .get(tick as usize)
+            .filter(|_| (tick as usize) < blocks * N)
+        {
+            sender.push(sample as f32, &mut link).unwrap();
         }
-        while let Some(bytes) = link.poll(tick) {
-            match rx.decode(&bytes) {
-                Ok(received) => {
-                    out.gaps += u64::from(received.gap);
-                    let p = &received.packet;
-                    out.accepted.push(p.sequence);
-                    let mut y = [0.0f32; N];
-                    dec.decode(&p.to_block().unwrap(), &mut y);
-                    let start = p.timestamp as usize;
+        let mut y = [0.0f32; N];
+        while let Some(result) = receiver.poll(&mut link, &mut y) {
+            match result {
+                Ok(block) => {
+                    out.gaps += u64::from(block.gap);
+                    out.accepted.push(block.sequence);
+                    let start = block.first_sample as usize;
                     for (dst, &v) in out.samples[start..start + N].iter_mut().zip(&y) {
                         *dst = f64::from(v);
                     }
@@ -81,7 +103,10 @@ fn stream(x: &[f64], config: &LinkConfig) -> Outcome {
             }
         }
     }
-    assert_eq!(link.in_flight(), 0);
+    assert_eq!(link.end.link.in_flight(), 0);
+    assert_eq!(sender.dropped(), 0);
+    out.lost = link.lost;
+    out.direct = link.direct;
     out
 }
 

@@ -1,5 +1,5 @@
 //! What the application needs from a board: one period's inputs sampled together,
-//! one period's outputs written together, and a monotonic tick.
+//! one period's outputs written together, a monotonic tick, and a link for frames.
 //!
 //! A board implements these with its ADC DMA buffer (every Hall channel of every axis
 //! converted on the same timer trigger) and its current-loop or PWM outputs; `hal-mock`
@@ -29,3 +29,20 @@ pub trait Monotonic {
     /// The present tick.
     fn now(&mut self) -> u64;
 }
+
+/// A link that carries whole frames, one packet each, and never blocks: a UART or USB
+/// CDC endpoint with framing, a network socket. [`crate::app::stream`] sends a
+/// machine's signals over it.
+pub trait FrameLink {
+    /// Sends `frame`, or refuses it at once when the link cannot take it now.
+    fn send(&mut self, frame: &[u8]) -> Result<(), LinkBusy>;
+    /// Copies the next received frame into `buf` and returns its length. A frame
+    /// longer than `buf` is dropped (the link counts it).
+    fn receive(&mut self, buf: &mut [u8]) -> Option<usize>;
+}
+
+/// The link could not take a frame now (its queue is full, or the frame is longer
+/// than it carries).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LinkBusy;

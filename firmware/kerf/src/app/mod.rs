@@ -11,6 +11,7 @@ pub mod axis;
 pub mod calibrate;
 pub mod delta_slave;
 pub mod joints;
+pub mod stream;
 pub mod supervisor;
 
 use crate::error::{positive, ConfigError};
