@@ -251,11 +251,7 @@ impl<T: Real> AxisLaw<T> {
             return state.safe_output();
         }
         let velocity = match self.sense(sensor, state, hall_counts) {
-            Ok(velocity) if velocity.is_finite() => velocity,
-            Ok(_) => {
-                state.status = AxisStatus::Fault(AxisFault::NotFinite);
-                return state.safe_output();
-            }
+            Ok(velocity) => velocity,
             Err(fault) => {
                 state.status = AxisStatus::Fault(fault);
                 return state.safe_output();
@@ -265,11 +261,12 @@ impl<T: Real> AxisLaw<T> {
         let out = self.dob.update(&mut state.dob, acceleration, velocity);
         // The saturation passes NaN, and a saturated ±inf hides an overflow: any
         // non-finite value here latches a fault before the force leaves the period.
-        if !(acceleration.is_finite()
-            && out.force_n.is_finite()
-            && state.dob.estimate_n.is_finite()
-            && state.position_m.is_finite())
-        {
+        // One test on the sum sees them all (NaN or ±inf in any term makes the sum
+        // NaN or ±inf); a sum of finite terms overflows only beyond 1e38 (f32), which
+        // is no sane state either.
+        let health =
+            acceleration + out.force_n + state.dob.estimate_n + state.position_m + velocity;
+        if !health.is_finite() {
             state.status = AxisStatus::Fault(AxisFault::NotFinite);
             return state.safe_output();
         }
