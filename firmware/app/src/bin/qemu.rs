@@ -2,88 +2,116 @@
 //! DOB, f32) against the simulated LM1247 axis with imperfect Hall sensors (offsets,
 //! gains, mounting errors, third harmonic, noise), at 10 kHz.
 //!
-//! The machine app (`Joints<f32, 1>` under the supervisor) and the simulated axis are
-//! the scenario's `Rig`; the scenario's `Operator` is the slower context: it sends
-//! `Calibrate`, fits the streamed samples, sends the decoders, loads the 1 s tracking
-//! profile and starts it, all through the command queue. The run prints the fit and a
-//! one-line summary and exits non-zero when a bound is missed or the axis faulted.
+//! The image has the shape of a board image:
+//! - the control period runs in the SysTick exception, the highest priority in the
+//!   image: the scenario's `Rig` samples the simulated axis, steps the supervisor
+//!   (`Joints<f32, 1>`) and writes the force — what a board's ADC-complete interrupt
+//!   does with its HAL;
+//! - the slower context is an embassy task on an `InterruptExecutor` at a lower
+//!   priority (a spare NVIC line, dispatched from `DefaultHandler`): the scenario's
+//!   `Operator` sends `Calibrate`, fits the streamed samples (the fit takes many control
+//!   periods and is preempted by each), sends the decoders, loads the 1 s tracking
+//!   profile and starts it, all through the command queue. It wakes once per period;
+//! - `main` sets the priorities, starts both and sleeps in `wfi`.
+//!
+//! The run prints the fit and a one-line summary and exits non-zero when a bound is
+//! missed or the axis faulted. Run it with `-icount` (scripts/smoke does) so that the
+//! interleaving of the two contexts, and with it the output, is the same every time.
 #![no_std]
 #![no_main]
 
+use core::cell::RefCell;
+use core::future::poll_fn;
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use core::task::{Poll, Waker};
+use cortex_m::interrupt::{InterruptNumber, Mutex};
+use cortex_m::peripheral::scb::SystemHandler;
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::hprintln;
-use embassy_executor::Spawner;
+use embassy_executor::InterruptExecutor;
 use hal_mock::hall_sensor::HallSensorParams;
-use heapless::spsc::Queue;
+use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::joints::Joints;
 use kerf::app::supervisor::{Command, Report};
 use kerf_app::exit;
 use kerf_sim::scenario::{
-    OperatorState, Outcome, Rig, Scenario, COMMAND_CAPACITY, MAX_ERROR_BOUND_M, REPORT_CAPACITY,
-    RMS_ERROR_BOUND_M, TS_S,
+    AxisOperator, OperatorState, Outcome, Rig, Scenario, COMMAND_CAPACITY, MAX_ERROR_BOUND_M,
+    REPORT_CAPACITY, RMS_ERROR_BOUND_M, TS_S,
 };
 
 type Machine = Joints<f32, 1>;
 
-#[embassy_executor::task]
-async fn smoke(scenario: Scenario) {
-    let (Some(commands), Some(reports)) = (
-        cortex_m::singleton!(: Queue<Command<Machine>, COMMAND_CAPACITY> = Queue::new()),
-        cortex_m::singleton!(: Queue<Report<Machine>, REPORT_CAPACITY> = Queue::new()),
-    ) else {
-        exit(false)
-    };
-    let (mut send, from_sender) = commands.split();
-    let (to_operator, mut receive) = reports.split();
-    let mut rig = match Rig::<f32>::new(&scenario, from_sender, to_operator) {
-        Ok(rig) => rig,
-        Err(e) => {
-            hprintln!("kerf qemu smoke: configuration rejected: {} -> FAIL", e);
-            exit(false)
-        }
-    };
-    let mut operator = match scenario.operator::<f32>() {
-        Ok(operator) => operator,
-        Err(e) => {
-            hprintln!("kerf qemu smoke: configuration rejected: {} -> FAIL", e);
-            exit(false)
-        }
-    };
-    operator.start(&mut send);
-    let mut outcome = Outcome::with_window(f64::INFINITY, f64::INFINITY);
-    let mut printed_fit = false;
-    let limit = 4 * scenario.periods + 20_000;
-    let mut state = OperatorState::Calibrating;
-    for _ in 0..limit {
-        let period = rig.step();
-        if period.in_job() {
-            outcome.add(&period);
-        }
-        state = operator.poll(&mut receive, &mut send);
-        if let (Some(fit), false) = (operator.fit(), printed_fit) {
-            printed_fit = true;
-            let c = &fit.model.channels;
-            hprintln!(
-                "kerf qemu smoke: calibrated: offsets {:.0} {:.0} {:.0} counts, gains {:.0} {:.0} {:.0} counts, third harmonic {:.2} {:.2} {:.2} %",
-                c[0].offset_counts,
-                c[1].offset_counts,
-                c[2].offset_counts,
-                c[0].amplitude_counts,
-                c[1].amplitude_counts,
-                c[2].amplitude_counts,
-                c[0].harmonic3 * 100.0,
-                c[1].harmonic3 * 100.0,
-                c[2].harmonic3 * 100.0
-            );
-        }
-        match state {
-            OperatorState::Finished | OperatorState::Failed(_) => break,
-            _ => {}
-        }
-        if outcome.periods >= scenario.periods {
-            break;
-        }
+/// SysTick reload in core clock cycles (instructions under `-icount shift=0`). The
+/// guest's timer period is not the machine's 100 µs: the simulated plant (f64 in
+/// software, ten substeps) runs inside the same handler, and the handler must end well
+/// before the next tick or the slower context starves.
+const SYSTICK_RELOAD: u32 = 200_000;
+
+/// NVIC priorities (upper bits count; QEMU's M4 implements 3): SysTick highest, the
+/// operator's executor below it.
+const CONTROL_PRIORITY: u8 = 0x00;
+const OPERATOR_PRIORITY: u8 = 0xE0;
+
+/// A device interrupt line nothing on mps2-an386 raises; the operator's executor runs
+/// on it.
+#[derive(Copy, Clone)]
+struct OperatorIrq;
+
+// SAFETY: 30 is a valid device interrupt number of the Cortex-M4 model (< 240).
+unsafe impl InterruptNumber for OperatorIrq {
+    fn number(self) -> u16 {
+        30
     }
-    let ok = state == OperatorState::Finished
+}
+
+static OPERATOR_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
+
+/// What the control interrupt owns: the machine and plant, and the run's statistics.
+struct Control {
+    rig: Rig<'static, f32>,
+    outcome: Outcome,
+    periods: u32,
+    limit: u32,
+    job_periods: u32,
+}
+
+static CONTROL: Mutex<RefCell<Option<Control>>> = Mutex::new(RefCell::new(None));
+/// Control periods run so far: the operator task waits for it to change.
+static PERIODS: AtomicU32 = AtomicU32::new(0);
+static PERIOD_WAKER: Mutex<RefCell<Option<Waker>>> = Mutex::new(RefCell::new(None));
+/// The operator's verdict once it has one: finished (true) or failed.
+static OPERATOR_DONE: AtomicBool = AtomicBool::new(false);
+static OPERATOR_FINISHED: AtomicBool = AtomicBool::new(false);
+
+#[exception]
+fn SysTick() {
+    let summary = cortex_m::interrupt::free(|cs| {
+        let mut control = CONTROL.borrow(cs).borrow_mut();
+        let control = control.as_mut()?;
+        let period = control.rig.step();
+        if period.in_job() && control.outcome.periods < control.job_periods {
+            control.outcome.add(&period);
+        }
+        control.periods += 1;
+        // The operator decides when the job is over (it sees the supervisor's
+        // reports); the limit only ends a run that hangs.
+        let over = OPERATOR_DONE.load(Ordering::Acquire) || control.periods >= control.limit;
+        over.then_some(control.outcome)
+    });
+    if let Some(outcome) = summary {
+        finish(&outcome);
+    }
+    PERIODS.fetch_add(1, Ordering::Release);
+    if let Some(waker) = cortex_m::interrupt::free(|cs| PERIOD_WAKER.borrow(cs).take()) {
+        // Pends the operator's executor interrupt; it runs when this handler returns.
+        waker.wake();
+    }
+}
+
+/// Prints the summary and ends the run.
+fn finish(outcome: &Outcome) -> ! {
+    let ok = OPERATOR_FINISHED.load(Ordering::Acquire)
         && outcome.fault_period.is_none()
         && outcome.rms_error_m < RMS_ERROR_BOUND_M
         && outcome.max_error_m < MAX_ERROR_BOUND_M;
@@ -102,8 +130,80 @@ async fn smoke(scenario: Scenario) {
     exit(ok)
 }
 
-#[embassy_executor::main]
-async fn main(spawner: Spawner) {
+/// Resolves once the control interrupt has run a period after `seen`.
+async fn next_period(seen: u32) -> u32 {
+    poll_fn(|cx| {
+        let now = PERIODS.load(Ordering::Acquire);
+        if now != seen {
+            return Poll::Ready(now);
+        }
+        cortex_m::interrupt::free(|cs| {
+            PERIOD_WAKER.borrow(cs).replace(Some(cx.waker().clone()));
+        });
+        // A period may have ended between the load and the registration.
+        let now = PERIODS.load(Ordering::Acquire);
+        if now != seen {
+            Poll::Ready(now)
+        } else {
+            Poll::Pending
+        }
+    })
+    .await
+}
+
+/// The slower context: the operator, woken once per control period.
+#[embassy_executor::task]
+async fn operator_task(
+    mut operator: AxisOperator<f32>,
+    mut send: Producer<'static, Command<Machine>>,
+    mut receive: Consumer<'static, Report<Machine>>,
+) {
+    let mut printed_fit = false;
+    let mut seen = PERIODS.load(Ordering::Acquire);
+    operator.start(&mut send);
+    loop {
+        seen = next_period(seen).await;
+        let state = operator.poll(&mut receive, &mut send);
+        if let (Some(fit), false) = (operator.fit(), printed_fit) {
+            printed_fit = true;
+            let c = &fit.model.channels;
+            hprintln!(
+                "kerf qemu smoke: calibrated: offsets {:.0} {:.0} {:.0} counts, gains {:.0} {:.0} {:.0} counts, third harmonic {:.2} {:.2} {:.2} %",
+                c[0].offset_counts,
+                c[1].offset_counts,
+                c[2].offset_counts,
+                c[0].amplitude_counts,
+                c[1].amplitude_counts,
+                c[2].amplitude_counts,
+                c[0].harmonic3 * 100.0,
+                c[1].harmonic3 * 100.0,
+                c[2].harmonic3 * 100.0
+            );
+        }
+        match state {
+            OperatorState::Finished => {
+                OPERATOR_FINISHED.store(true, Ordering::Release);
+                OPERATOR_DONE.store(true, Ordering::Release);
+            }
+            OperatorState::Failed(e) => {
+                hprintln!("kerf qemu smoke: operator gave up: {:?}", e);
+                OPERATOR_DONE.store(true, Ordering::Release);
+            }
+            _ => {}
+        }
+    }
+}
+
+#[exception]
+unsafe fn DefaultHandler(irqn: i16) {
+    if irqn == OperatorIrq.number() as i16 {
+        // SAFETY: the executor was started on this line before it was unmasked.
+        unsafe { OPERATOR_EXECUTOR.on_interrupt() }
+    }
+}
+
+#[entry]
+fn main() -> ! {
     let mut scenario = Scenario::TRACKING;
     scenario.sensor = HallSensorParams::lm1247_imperfect(16, 4.0);
     scenario.calibrate = true;
@@ -112,5 +212,54 @@ async fn main(spawner: Spawner) {
         // Deliberately detuned: 1 % of the position gain must miss the bounds.
         scenario.machine.axis.pd.kp_per_s2 *= 0.01;
     }
-    spawner.spawn(smoke(scenario).unwrap());
+    let (Some(commands), Some(reports)) = (
+        cortex_m::singleton!(: Queue<Command<Machine>, COMMAND_CAPACITY> = Queue::new()),
+        cortex_m::singleton!(: Queue<Report<Machine>, REPORT_CAPACITY> = Queue::new()),
+    ) else {
+        exit(false)
+    };
+    let (send, from_sender) = commands.split();
+    let (to_operator, receive) = reports.split();
+    let (rig, operator) = match (
+        Rig::<f32>::new(&scenario, from_sender, to_operator),
+        scenario.operator::<f32>(),
+    ) {
+        (Ok(rig), Ok(operator)) => (rig, operator),
+        (Err(e), _) | (_, Err(e)) => {
+            hprintln!("kerf qemu smoke: configuration rejected: {} -> FAIL", e);
+            exit(false)
+        }
+    };
+    cortex_m::interrupt::free(|cs| {
+        CONTROL.borrow(cs).replace(Some(Control {
+            rig,
+            outcome: Outcome::with_window(f64::INFINITY, f64::INFINITY),
+            periods: 0,
+            // Calibration (1.26 s), the wait for the fit, then the job.
+            limit: 4 * scenario.periods + 20_000,
+            job_periods: scenario.periods,
+        }))
+    });
+
+    let Some(mut core) = cortex_m::Peripherals::take() else {
+        exit(false)
+    };
+    // SAFETY: priorities are set before the executor starts and before SysTick runs.
+    unsafe {
+        core.SCB.set_priority(SystemHandler::SysTick, CONTROL_PRIORITY);
+        core.NVIC.set_priority(OperatorIrq, OPERATOR_PRIORITY);
+    }
+    let spawner = OPERATOR_EXECUTOR.start(OperatorIrq);
+    match operator_task(operator, send, receive) {
+        Ok(task) => spawner.spawn(task),
+        Err(_) => exit(false),
+    }
+    core.SYST.set_clock_source(SystClkSource::Core);
+    core.SYST.set_reload(SYSTICK_RELOAD - 1);
+    core.SYST.clear_current();
+    core.SYST.enable_interrupt();
+    core.SYST.enable_counter();
+    loop {
+        cortex_m::asm::wfi();
+    }
 }
