@@ -246,7 +246,8 @@ fn main() -> ! {
     };
     // SAFETY: priorities are set before the executor starts and before SysTick runs.
     unsafe {
-        core.SCB.set_priority(SystemHandler::SysTick, CONTROL_PRIORITY);
+        core.SCB
+            .set_priority(SystemHandler::SysTick, CONTROL_PRIORITY);
         core.NVIC.set_priority(OperatorIrq, OPERATOR_PRIORITY);
     }
     let spawner = OPERATOR_EXECUTOR.start(OperatorIrq);
