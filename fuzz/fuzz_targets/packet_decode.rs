@@ -4,13 +4,13 @@
 //! flag byte is set, the packet's last two bytes are overwritten with its correct CRC
 //! first, so that random mutations get past the CRC and reach the header and index-set
 //! checks. An accepted packet is also turned into blocks of every supported N and
-//! decoded.
+//! decoded, and every decoded sample must be finite and within `MAX_SAMPLE_ABS`.
 //!
 //! Run (nightly, `cargo install cargo-fuzz`):
 //! `cd fuzz && cargo +nightly fuzz run packet_decode -- -max_total_time=660`
 #![no_main]
 
-use kerf::codec::packet::{parse, PacketDecoder};
+use kerf::codec::packet::{parse, PacketDecoder, MAX_SAMPLE_ABS};
 use kerf::codec::sdct::SdctDecoder;
 use libfuzzer_sys::fuzz_target;
 
@@ -22,6 +22,12 @@ fn reconstruct<const N: usize>(packet: &kerf::codec::packet::Packet) {
         let mut out = [0.0f32; N];
         dec.decode(&block, &mut out);
         assert_eq!(block.m(), usize::from(packet.m));
+        // Every accepted packet decodes to finite samples inside the declared range.
+        assert!(
+            out.iter()
+                .all(|x| x.is_finite() && x.abs() <= MAX_SAMPLE_ABS),
+            "{out:?}"
+        );
     }
 }
 
@@ -41,12 +47,9 @@ fuzz_target!(|data: &[u8]| {
         // Prime the sequence state with a valid empty packet, then decode the rest.
         let mut primer = [0u8; 32];
         let block = kerf::codec::sdct::Block::<8>::from_parts(0, [0.0; 8]);
-        if let Ok(len) = kerf::codec::packet::encode(
-            &block,
-            u16::from_le_bytes([*s0, *s1]),
-            0,
-            &mut primer,
-        ) {
+        if let Ok(len) =
+            kerf::codec::packet::encode(&block, u16::from_le_bytes([*s0, *s1]), 0, &mut primer)
+        {
             assert!(decoder.decode(&primer[..len]).is_ok());
         }
         let stateless = parse(rest);

@@ -8,7 +8,7 @@
 //! | 1 | 1 | N, block length (8, 16, 32 or 64) |
 //! | 2 | 1 | m, number of coefficients sent (0..=N) |
 //! | 3 | 1 | index form: 0 = prefix, 1 = bit mask, 2 = packed list ([`IndexForm`]) |
-//! | 4 | 1 | e, block-floating-point exponent (i8) |
+//! | 4 | 1 | e, block-floating-point exponent (i8, [`MIN_EXPONENT`]..=[`MAX_EXPONENT`]) |
 //! | 5 | 2 | sequence number (u16, wraps) |
 //! | 7 | 4 | timestamp of the block's first sample, in sample periods (u32, wraps) |
 //! | 11 | I | index set (I = 0, N/8 or ⌈m·log2 N / 8⌉ bytes, see [`IndexForm`]) |
@@ -26,9 +26,14 @@
 //! so out-of-range indices are unrepresentable on the wire; the encoder still rejects
 //! an index set with bits at or above N.
 //!
+//! Legal ranges: e in −64..=64, so every coefficient is below 2^64 in magnitude and
+//! every decoded sample below [`MAX_SAMPLE_ABS`] (2^68); a packed index list in
+//! strictly ascending order (the values follow in that order). The encoder refuses a
+//! block whose largest coefficient is 2^64 or more instead of clamping its exponent.
+//!
 //! The decoder checks, in this order: minimum length, version, N, m ≤ N, index form,
-//! exact length, CRC, index set (duplicates, count, zero padding), and last the
-//! sequence number against the previous accepted packet.
+//! exponent range, exact length, CRC, index set (order, duplicates, count, zero
+//! padding), and last the sequence number against the previous accepted packet.
 //!
 //! # Example
 //!
@@ -72,6 +77,13 @@ pub const VERSION: u8 = 1;
 pub const HEADER_LEN: usize = 11;
 /// Bytes of the trailing CRC.
 pub const CRC_LEN: usize = 2;
+/// Smallest block exponent a packet may carry.
+pub const MIN_EXPONENT: i8 = -64;
+/// Largest block exponent a packet may carry: every coefficient is below 2^64.
+pub const MAX_EXPONENT: i8 = 64;
+/// Bound on a decoded sample: an orthonormal inverse DCT of N coefficients below
+/// 2^MAX_EXPONENT gives |x| ≤ √(2N) · 2^64 < 16 · 2^64 = 2^68 for N ≤ 64.
+pub const MAX_SAMPLE_ABS: f32 = 2.951_479_1e20;
 /// Largest packet: N = 64, m = 64 sent with a bit mask.
 pub const MAX_PACKET_LEN: usize = HEADER_LEN + MAX_N / 8 + 2 * MAX_N + CRC_LEN;
 
@@ -154,6 +166,12 @@ pub enum PacketError {
     BufferTooSmall,
     /// A coefficient to send is NaN or infinite.
     NotFinite,
+    /// The block exponent is outside [`MIN_EXPONENT`]..=[`MAX_EXPONENT`] (on the wire),
+    /// or a coefficient to send is 2^`MAX_EXPONENT` or larger (encoder side).
+    ExponentOutOfRange(i8),
+    /// The packed list names an index at or below the one before it (the values
+    /// follow in ascending index order).
+    UnsortedIndex(u8),
 }
 
 /// A validated packet: header fields and the coefficient mantissas at their indices.
@@ -250,11 +268,19 @@ pub fn encode_parts(
 
     // frexp: max_abs = f · 2^p with f in [0.5, 1), so max_abs < 2^p and the largest
     // mantissa lands in [16384, 32768). Zero blocks use e = 0.
+    // Exponents below the range are raised to it (the block is then quantized in
+    // steps of 2^(MIN_EXPONENT − 15), 8e-25: below any physical signal's resolution);
+    // above it the block cannot be sent.
     let exponent = if max_abs > 0.0 {
-        libm::frexpf(max_abs).1.clamp(-128, 127)
+        libm::frexpf(max_abs).1.max(i32::from(MIN_EXPONENT))
     } else {
         0
     };
+    if exponent > i32::from(MAX_EXPONENT) {
+        return Err(PacketError::ExponentOutOfRange(
+            i8::try_from(exponent).unwrap_or(i8::MAX),
+        ));
+    }
     let (body, crc_bytes) = out.split_at_mut(total - CRC_LEN);
     let (header, rest) = body.split_at_mut(HEADER_LEN);
     header.copy_from_slice(&header_bytes(
@@ -367,6 +393,10 @@ fn read_index_list(n: usize, m: usize, bytes: &[u8]) -> Result<(u64, [u8; MAX_N]
         if mask >> k & 1 == 1 {
             return Err(PacketError::DuplicateIndex(k));
         }
+        // Ascending: no set bit at or above k yet.
+        if mask >> k != 0 {
+            return Err(PacketError::UnsortedIndex(k));
+        }
         mask |= 1 << k;
         if let Some(slot) = slots.next() {
             *slot = k;
@@ -397,6 +427,10 @@ pub fn parse(bytes: &[u8]) -> Result<Packet, PacketError> {
         return Err(PacketError::TooManyCoefficients);
     }
     let form = IndexForm::from_byte(form_byte).ok_or(PacketError::UnknownIndexForm(form_byte))?;
+    let exponent = i8::from_le_bytes([e]);
+    if !(MIN_EXPONENT..=MAX_EXPONENT).contains(&exponent) {
+        return Err(PacketError::ExponentOutOfRange(exponent));
+    }
     let index_len = form.len(n, m);
     let total = HEADER_LEN + index_len + 2 * m + CRC_LEN;
     if bytes.len() < total {
@@ -451,7 +485,7 @@ pub fn parse(bytes: &[u8]) -> Result<Packet, PacketError> {
     Ok(Packet {
         n: n_byte,
         m: m_byte,
-        exponent: i8::from_le_bytes([e]),
+        exponent,
         sequence: u16::from_le_bytes([s0, s1]),
         timestamp: u32::from_le_bytes([t0, t1, t2, t3]),
         mask,
@@ -726,5 +760,80 @@ mod tests {
                 prop_assert!((a - b).abs() <= step, "k {} {} vs {}", k, a, b);
             }
         }
+    }
+
+    /// A valid-CRC packet at the largest i8 exponent with full-scale mantissas: every
+    /// coefficient is about 2^127, and the inverse DCT's sum of 64 of them is +inf in
+    /// f32. The exponent is outside the declared range and must be refused.
+    #[test]
+    fn an_exponent_outside_the_declared_range_is_refused() {
+        let block = Block::<64>::from_parts(u64::MAX, [0.75; 64]);
+        let mut buf = [0u8; MAX_PACKET_LEN];
+        let len = encode(&block, 0, 0, &mut buf).unwrap();
+        for e in [127i8, MAX_EXPONENT + 1, MIN_EXPONENT - 1, -128] {
+            buf[4] = e.to_le_bytes()[0];
+            fix_crc(&mut buf[..len]);
+            assert_eq!(
+                parse(&buf[..len]),
+                Err(PacketError::ExponentOutOfRange(e)),
+                "{e}"
+            );
+        }
+        for e in [MIN_EXPONENT, 0, MAX_EXPONENT] {
+            buf[4] = e.to_le_bytes()[0];
+            fix_crc(&mut buf[..len]);
+            let block = parse(&buf[..len]).unwrap().to_block::<64>().unwrap();
+            let mut y = [0.0f32; 64];
+            crate::codec::sdct::SdctDecoder::<64>::new()
+                .unwrap()
+                .decode(&block, &mut y);
+            assert!(
+                y.iter().all(|v| v.is_finite() && v.abs() <= MAX_SAMPLE_ABS),
+                "{e}"
+            );
+        }
+    }
+
+    /// A coefficient beyond 2^MAX_EXPONENT is an error, not a silently clamped
+    /// exponent that brings a full-scale value back 50 % off.
+    #[test]
+    fn the_encoder_refuses_coefficients_beyond_the_range() {
+        let mut buf = [0u8; MAX_PACKET_LEN];
+        for big in [
+            3.0e38f32,
+            1.0e30,
+            libm::ldexpf(1.0, i32::from(MAX_EXPONENT)),
+        ] {
+            let block = Block::<8>::from_parts(0b11, [1.0, big, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+            assert!(
+                matches!(
+                    encode(&block, 0, 0, &mut buf),
+                    Err(PacketError::ExponentOutOfRange(_))
+                ),
+                "{big}"
+            );
+        }
+        // Just inside: comes back to Q15 precision.
+        let inside = libm::ldexpf(0.99, i32::from(MAX_EXPONENT));
+        let block = Block::<8>::from_parts(0b1, [inside, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let len = encode(&block, 0, 0, &mut buf).unwrap();
+        let back = parse(&buf[..len]).unwrap().coefficient(0);
+        assert!((back / inside - 1.0).abs() < 1e-4, "{back} vs {inside}");
+    }
+
+    /// A packed list must name its indices in ascending order (the order the values
+    /// follow); a list out of order would put values at the wrong coefficients.
+    #[test]
+    fn an_unsorted_index_list_is_refused() {
+        // N = 64, indices 3, 40, 63: a 3 × 6-bit list. Swap the first two.
+        let (buf, len) = encoded(1 << 3 | 1 << 40 | 1 << 63, 0);
+        assert_eq!(buf[3], IndexForm::List as u8);
+        let mut swapped = buf;
+        let list = u32::from_le_bytes([buf[11], buf[12], buf[13], 0]);
+        let (a, b) = (list & 0x3F, list >> 6 & 0x3F);
+        let list = (list & !0xFFF) | b | a << 6;
+        swapped[11..14].copy_from_slice(&list.to_le_bytes()[..3]);
+        fix_crc(&mut swapped[..len]);
+        assert_eq!(parse(&swapped[..len]), Err(PacketError::UnsortedIndex(3)));
     }
 }
