@@ -83,7 +83,7 @@ pub const MIN_EXPONENT: i8 = -64;
 pub const MAX_EXPONENT: i8 = 64;
 /// Bound on a decoded sample: an orthonormal inverse DCT of N coefficients below
 /// 2^MAX_EXPONENT gives |x| ≤ √(2N) · 2^64 < 16 · 2^64 = 2^68 for N ≤ 64.
-pub const MAX_SAMPLE_ABS: f32 = 2.951_479_1e20;
+pub const MAX_SAMPLE_ABS: f32 = (1u128 << 68) as f32;
 /// Largest packet: N = 64, m = 64 sent with a bit mask.
 pub const MAX_PACKET_LEN: usize = HEADER_LEN + MAX_N / 8 + 2 * MAX_N + CRC_LEN;
 
