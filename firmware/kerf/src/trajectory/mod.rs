@@ -36,8 +36,7 @@ pub enum ContourError {
     RepeatedPoint(usize),
     /// All points coincide: the contour has no length.
     ZeroLength,
-    /// More harmonics than the capacity, or than the points determine:
-    /// 4n + 2 coefficients need 2n + 1 ≤ M points (T 3.2.2).
+    /// No harmonics asked for, or more than the capacity N.
     TooManyHarmonics,
     /// The result does not fit the fixed capacity.
     Capacity,
