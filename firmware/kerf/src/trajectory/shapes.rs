@@ -70,7 +70,7 @@ pub fn cam() -> [[f64; 2]; CAM_POINTS] {
 }
 
 /// Regular octagon of circumradius [`OCTAGON_RADIUS_M`], first vertex on +x, 8 points
-/// per side (vertices included) so that 30 harmonics are allowed.
+/// per side (vertices included): points on the edges for the resampling and fit tests.
 pub fn octagon() -> [[f64; 2]; OCTAGON_POINTS] {
     regular_polygon(8, OCTAGON_RADIUS_M)
 }
