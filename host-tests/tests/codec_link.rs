@@ -190,3 +190,76 @@ fn lost_and_reordered_packets_are_reported_not_used() {
         }
     }
 }
+
+/// The master restarts after 100 blocks (a new sender: sequence numbers and sample
+/// indices from 0 again) while the slave's receiver keeps running, on a delayed,
+/// jittery link. The receiver takes the new sequence within the stated number of
+/// packets and every later block is accepted.
+#[test]
+fn a_restarted_sender_is_accepted_again_within_the_stated_bound() {
+    use kerf::codec::packet::RESTART_ACCEPTED_WITHIN;
+    let x = &signals::all()[0].samples;
+    let config = LinkConfig {
+        delay_ticks: 40,
+        random_delay_ticks: 30,
+        jitter_ticks: 5.0,
+        seed: 3,
+        ..LinkConfig::IDEAL
+    };
+    let sdct = SdctConfig {
+        m: M,
+        selection: Selection::Largest,
+    };
+    let mut link = FrameEnd::<MAX_PACKET_LEN, 64>::new(&config).unwrap();
+    let mut receiver = SignalReceiver::<N>::new().unwrap();
+    let mut y = [0.0f32; N];
+    // (sequences seen so far, sequence, resynchronised) of every accepted block: the
+    // receiver's own view, counting a new sequence at each resynchronisation.
+    let mut accepted: Vec<(u32, u16, bool)> = Vec::new();
+    let mut sequences = 0u32;
+    let mut tick = 0u64;
+    for _restart in 0..2 {
+        let mut sender = SignalSender::<N>::new(&sdct).unwrap();
+        for &sample in &x[..100 * N] {
+            tick += 1;
+            link.set_now(tick);
+            sender.push(sample as f32, &mut link).unwrap();
+            while let Some(result) = receiver.poll(&mut link, &mut y) {
+                if let Ok(block) = result {
+                    sequences += u32::from(block.resynchronised);
+                    accepted.push((sequences, block.sequence, block.resynchronised));
+                }
+            }
+        }
+    }
+    for _ in 0..1000 {
+        tick += 1;
+        link.set_now(tick);
+        while let Some(result) = receiver.poll(&mut link, &mut y) {
+            if let Ok(block) = result {
+                sequences += u32::from(block.resynchronised);
+                accepted.push((sequences, block.sequence, block.resynchronised));
+            }
+        }
+    }
+    assert_eq!(sequences, 1, "one restart, one resynchronisation");
+    // Until the restart, all 100 blocks; after it, the first accepted block of the new
+    // sender is the resynchronising one, at most RESTART_ACCEPTED_WITHIN − 1 in.
+    let before: Vec<u16> = accepted.iter().filter(|a| a.0 == 0).map(|a| a.1).collect();
+    assert_eq!(before, (0..100).collect::<Vec<u16>>());
+    let after: Vec<(u16, bool)> = accepted
+        .iter()
+        .filter(|a| a.0 == 1)
+        .map(|a| (a.1, a.2))
+        .collect();
+    let (first, resync) = after[0];
+    assert!(resync, "{after:?}");
+    assert!(usize::from(first) < RESTART_ACCEPTED_WITHIN, "{first}");
+    // From there on every block, in order.
+    let rest: Vec<u16> = after.iter().map(|a| a.0).collect();
+    assert_eq!(rest, (first..100).collect::<Vec<u16>>());
+    println!(
+        "restarted sender: accepted again at its packet {} (bound {RESTART_ACCEPTED_WITHIN})",
+        first + 1
+    );
+}

@@ -139,6 +139,8 @@ pub struct ReceivedBlock {
     pub first_sample: u32,
     /// Blocks skipped since the previous accepted one (lost, dropped, or late).
     pub gap: u16,
+    /// The block starts a new sequence: the sender restarted (its sample index too).
+    pub resynchronised: bool,
 }
 
 /// The receiving end: validates packets and their order, reconstructs blocks.
@@ -174,6 +176,7 @@ impl<const N: usize> SignalReceiver<N> {
                 sequence: received.packet.sequence,
                 first_sample: received.packet.timestamp,
                 gap: received.gap,
+                resynchronised: received.resynchronised,
             })
         }))
     }

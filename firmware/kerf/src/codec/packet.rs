@@ -501,12 +501,29 @@ pub struct Received {
     /// Sequence numbers skipped since the previous accepted packet (lost or still in
     /// flight); 0 for the first packet and for consecutive ones.
     pub gap: u16,
+    /// This packet starts a new sequence (see [`PacketDecoder::decode`]): the sender
+    /// restarted, or the link was out for longer than half the sequence space.
+    pub resynchronised: bool,
 }
+
+/// How late (in sequence numbers) a genuine packet may arrive after a later one was
+/// accepted, on a link that reorders: such packets are only ever rejected.
+pub const REORDER_WINDOW: u16 = 16;
+/// Consecutive packets further behind than [`REORDER_WINDOW`] after which the decoder
+/// takes them as a new sequence (a restarted sender, an outage longer than half the
+/// sequence space, or a forged packet that jumped the state ahead).
+pub const RESYNC_PACKETS: u8 = 3;
+/// A restarted sender's packets are accepted again by this one at the latest:
+/// REORDER_WINDOW + RESYNC_PACKETS + 1.
+pub const RESTART_ACCEPTED_WITHIN: usize = REORDER_WINDOW as usize + RESYNC_PACKETS as usize + 1;
 
 /// Receiver state: validates packets and their order on the link.
 #[derive(Clone, Debug, Default)]
 pub struct PacketDecoder {
     last_sequence: Option<u16>,
+    /// A run of consecutive packets further behind than the reorder window: its last
+    /// sequence number and length.
+    candidate: Option<(u16, u8)>,
 }
 
 impl PacketDecoder {
@@ -514,6 +531,7 @@ impl PacketDecoder {
     pub const fn new() -> Self {
         Self {
             last_sequence: None,
+            candidate: None,
         }
     }
 
@@ -522,27 +540,52 @@ impl PacketDecoder {
         self.last_sequence
     }
 
-    /// Validates `bytes` (see [`parse`]) and its sequence number. A packet whose
-    /// sequence number is not after the last accepted one is rejected with
-    /// [`PacketError::SequenceBackwards`]; a jump forward is accepted and reported as
-    /// [`Received::gap`]. Rejected packets leave the state unchanged.
+    /// Validates `bytes` (see [`parse`]) and its sequence number.
+    ///
+    /// A packet after the last accepted one is accepted, a jump forward reported as
+    /// [`Received::gap`]. A packet at most [`REORDER_WINDOW`] behind is late (or
+    /// repeated) and rejected with [`PacketError::SequenceBackwards`]. Packets further
+    /// behind are rejected the same way until [`RESYNC_PACKETS`] of them arrive with
+    /// consecutive sequence numbers: the last of those is accepted as the start of a
+    /// new sequence ([`Received::resynchronised`]). So a sender that restarts is
+    /// accepted again within [`RESTART_ACCEPTED_WITHIN`] packets (the worst case is a
+    /// restart just outside the window: its run is cut by the window, and it is
+    /// accepted when it passes the old sequence), and one forged packet that jumped
+    /// the state ahead costs RESYNC_PACKETS − 1 genuine ones. Rejected packets leave
+    /// the accepted state unchanged.
     pub fn decode(&mut self, bytes: &[u8]) -> Result<Received, PacketError> {
         let packet = parse(bytes)?;
         let got = packet.sequence;
-        let gap = match self.last_sequence {
-            None => 0,
+        let (gap, resynchronised) = match self.last_sequence {
+            None => (0, false),
             Some(last) => {
                 // Serial-number arithmetic (RFC 1982): forward when the wrapping
                 // difference is in 1..=32767.
                 let step = got.wrapping_sub(last) as i16;
-                if step <= 0 {
+                if step > 0 {
+                    ((step - 1) as u16, false)
+                } else if last.wrapping_sub(got) <= REORDER_WINDOW {
                     return Err(PacketError::SequenceBackwards { last, got });
+                } else {
+                    let run = match self.candidate {
+                        Some((previous, n)) if got == previous.wrapping_add(1) => n + 1,
+                        _ => 1,
+                    };
+                    if run < RESYNC_PACKETS {
+                        self.candidate = Some((got, run));
+                        return Err(PacketError::SequenceBackwards { last, got });
+                    }
+                    (0, true)
                 }
-                (step - 1) as u16
             }
         };
+        self.candidate = None;
         self.last_sequence = Some(got);
-        Ok(Received { packet, gap })
+        Ok(Received {
+            packet,
+            gap,
+            resynchronised,
+        })
     }
 }
 
@@ -698,7 +741,7 @@ mod tests {
             bytes in proptest::collection::vec(any::<u8>(), 0..200),
             last in any::<u16>(),
         ) {
-            let mut dec = PacketDecoder { last_sequence: Some(last) };
+            let mut dec = PacketDecoder { last_sequence: Some(last), candidate: None };
             let _ = dec.decode(&bytes);
         }
 
@@ -835,5 +878,91 @@ mod tests {
         swapped[11..14].copy_from_slice(&list.to_le_bytes()[..3]);
         fix_crc(&mut swapped[..len]);
         assert_eq!(parse(&swapped[..len]), Err(PacketError::UnsortedIndex(3)));
+    }
+
+    fn feed(
+        decoder: &mut PacketDecoder,
+        sequences: impl IntoIterator<Item = u16>,
+    ) -> std::vec::Vec<bool> {
+        sequences
+            .into_iter()
+            .map(|seq| {
+                decoder
+                    .decode(&encoded(0b1, seq).0[..encoded(0b1, seq).1])
+                    .is_ok()
+            })
+            .collect()
+    }
+
+    /// A sender that restarts at 0 after 500 packets: accepted again at its
+    /// RESYNC_PACKETS-th packet, and in order from there.
+    #[test]
+    fn a_restarted_sender_is_accepted_within_the_resync_count() {
+        let mut decoder = PacketDecoder::new();
+        assert!(feed(&mut decoder, 0..500).iter().all(|&ok| ok));
+        let accepted = feed(&mut decoder, 0..10);
+        let first = accepted.iter().position(|&ok| ok).unwrap();
+        assert_eq!(first + 1, usize::from(RESYNC_PACKETS), "{accepted:?}");
+        assert!(accepted[first..].iter().all(|&ok| ok));
+        assert_eq!(decoder.last_sequence(), Some(9));
+    }
+
+    /// The worst case over every restart point up to 40 behind the last accepted
+    /// packet: a restart just outside the reorder window starts a run that the window
+    /// then interrupts, and the sender is accepted when it passes the old sequence.
+    #[test]
+    fn the_worst_restart_costs_the_stated_bound() {
+        let packets_until_accepted = |behind: u16| {
+            let mut decoder = PacketDecoder::new();
+            feed(&mut decoder, 0..=1000);
+            let accepted = feed(&mut decoder, 1000 - behind..1100);
+            accepted.iter().position(|&ok| ok).unwrap() + 1
+        };
+        let worst = (0..=40).map(packets_until_accepted).max().unwrap();
+        assert_eq!(
+            worst,
+            usize::from(REORDER_WINDOW) + usize::from(RESYNC_PACKETS) + 1
+        );
+        assert_eq!(worst, RESTART_ACCEPTED_WITHIN);
+        // Far behind: the resync count.
+        assert_eq!(packets_until_accepted(40), usize::from(RESYNC_PACKETS));
+    }
+
+    /// An outage longer than half the sequence space makes genuine packets look old.
+    #[test]
+    fn a_gap_beyond_half_the_sequence_space_resynchronises() {
+        let mut decoder = PacketDecoder::new();
+        feed(&mut decoder, 0..=10);
+        let resumed = 10u16.wrapping_add(40_000);
+        let accepted = feed(&mut decoder, (0..5).map(|k| resumed.wrapping_add(k)));
+        assert_eq!(accepted, [false, false, true, true, true]);
+    }
+
+    /// One forged packet far ahead (valid CRC) blocks genuine traffic for only
+    /// RESYNC_PACKETS − 1 packets.
+    #[test]
+    fn a_forged_packet_far_ahead_blocks_only_briefly() {
+        let mut decoder = PacketDecoder::new();
+        feed(&mut decoder, 0..=10);
+        assert_eq!(feed(&mut decoder, [30_010]), [true]);
+        let accepted = feed(&mut decoder, 11..20);
+        assert_eq!(
+            accepted.iter().filter(|&&ok| !ok).count(),
+            usize::from(RESYNC_PACKETS) - 1
+        );
+        assert!(accepted[usize::from(RESYNC_PACKETS) - 1..]
+            .iter()
+            .all(|&ok| ok));
+    }
+
+    /// Late packets inside the reorder window are never used, even in a consecutive
+    /// run: resynchronising on them would deliver old data.
+    #[test]
+    fn late_packets_inside_the_window_never_resynchronise() {
+        let mut decoder = PacketDecoder::new();
+        feed(&mut decoder, [100]);
+        let late = 100 - REORDER_WINDOW..100;
+        assert!(feed(&mut decoder, late).iter().all(|&ok| !ok));
+        assert_eq!(decoder.last_sequence(), Some(100));
     }
 }
