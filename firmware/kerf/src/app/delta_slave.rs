@@ -101,6 +101,11 @@ pub enum DeltaJobError {
     OtherMachine,
     /// At `Start`: the approach from where the carriages are is too fast.
     Approach(JobError),
+    /// A move lasts 2^32 control periods or more (about 5 days at 10 kHz).
+    TooLong {
+        /// Move index.
+        segment: u8,
+    },
 }
 
 /// A planned job: a start point, the approach time to reach it, and straight moves.
@@ -218,6 +223,11 @@ impl DeltaJob {
         for (index, segment) in moves.iter().enumerate() {
             if !finite(&segment.target_m) {
                 return Err(not_finite(index));
+            }
+            if segment.duration_s / limits.period_s >= f64::from(u32::MAX) {
+                return Err(DeltaJobError::TooLong {
+                    segment: index as u8,
+                });
             }
             let line = Line::<f64>::new(from, segment.target_m, segment.duration_s)
                 .map_err(|_| not_finite(index))?;

@@ -94,6 +94,12 @@ pub enum JobError {
         /// Axis index.
         axis: u8,
     },
+    /// A segment lasts 2^32 control periods or more (about 5 days at 10 kHz): split
+    /// it (a week-long dwell is two segments).
+    TooLong {
+        /// Segment index.
+        segment: u8,
+    },
 }
 
 /// Which axis stopped the machine, and why.
@@ -408,6 +414,11 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
                     segment: segment_index,
                 });
             }
+            if segment.duration_s / self.period_s >= f64::from(u32::MAX) {
+                return Err(JobError::TooLong {
+                    segment: segment_index,
+                });
+            }
             for (axis, (target, [lo, hi])) in segment
                 .target_m
                 .iter()
@@ -560,5 +571,98 @@ impl<T: Real, const N: usize> HallMachine<N> for Joints<T, N> {
         samples: &CalibrationFit<N>,
     ) -> Result<([HallAxis<T>; N], [SelfCalibration; N]), CalibrationFailure> {
         fit_sensors(hall, samples)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sensing::hall::HallConfig;
+    use core::f64::consts::PI;
+
+    /// Nominal Hall counts at phase `phi` (rad) of the pitch.
+    fn counts(phi: f64) -> [[u16; 3]; 1] {
+        let c = HallConfig::LM1247_16BIT;
+        let ch = |k: usize, s: f64| {
+            (f64::from(c.calibration.offset_counts[k]) + c.amplitude_counts * libm::sin(phi + s))
+                as u16
+        };
+        [[ch(0, 0.0), ch(1, 2.0 * PI / 3.0), ch(2, -2.0 * PI / 3.0)]]
+    }
+
+    fn job(segments: &[(f64, f64)]) -> JointJob<1> {
+        segments
+            .iter()
+            .map(|&(target, duration_s)| Segment {
+                target_m: [target],
+                duration_s,
+            })
+            .collect()
+    }
+
+    /// A segment of 2^32 periods or more would overflow the period counter (and end
+    /// early, jumping the reference): refused; a week-long job is two segments.
+    #[test]
+    fn a_segment_beyond_the_period_counter_is_refused() {
+        let machine = Joints::<f32, 1>::new(&JointsConfig::LM1247).unwrap();
+        let home = JointsConfig::LM1247.home_m[0];
+        let day_s = 86_400.0;
+        assert_eq!(
+            machine.check_job(&job(&[(home, 6.0 * day_s)])),
+            Err(JobError::TooLong { segment: 0 })
+        );
+        assert_eq!(
+            machine.check_job(&job(&[(home, 3.5 * day_s), (home, 3.5 * day_s)])),
+            Ok(())
+        );
+    }
+
+    /// A 7-day job (two 3.5-day dwells, then a 10 mm move), fast-forwarded to the end
+    /// of each segment: the period counter crosses 3e9 without a fault, the reference
+    /// is continuous at each boundary, and the job ends.
+    #[test]
+    fn a_week_long_job_fast_forwarded_across_its_segments() {
+        let mut machine = Joints::<f32, 1>::new(&JointsConfig::LM1247).unwrap();
+        let home = JointsConfig::LM1247.home_m[0];
+        let day_s = 86_400.0;
+        let week = job(&[(home, 3.5 * day_s), (home, 3.5 * day_s), (home + 0.01, 0.2)]);
+        assert_eq!(machine.check_job(&week), Ok(()));
+        let at = counts(0.3);
+        machine.monitor(&at).unwrap();
+        machine.begin_job(&week).unwrap();
+        let mut last = machine.reference()[0].position;
+        let mut boundaries = 0;
+        for _ in 0..3 {
+            // Jump to three periods before the segment's end, then step across it.
+            let run = machine.run.as_mut().unwrap();
+            assert!(
+                run.periods > 3_000_000_000 || run.segment == 2,
+                "{}",
+                run.periods
+            );
+            run.period = run.periods - 3;
+            let segment = run.segment;
+            for step in 0..6 {
+                match machine.run(&at).unwrap() {
+                    Step::Continue(_) => {}
+                    Step::Done(_) => {
+                        assert_eq!(segment, 2);
+                        boundaries += 1;
+                        break;
+                    }
+                }
+                let now = machine.reference()[0].position;
+                // Dwells hold; the move's start is at rest: no jump at a boundary (the
+                // first step after the fast-forward lands wherever it was sent).
+                assert!(step == 0 || (now - last).abs() < 1e-6, "{last} -> {now}");
+                last = now;
+                if machine.run.as_ref().map(|r| r.segment) != Some(segment) {
+                    boundaries += 1;
+                    break;
+                }
+            }
+        }
+        assert_eq!(boundaries, 3);
+        assert!((f64::from(last) - (home + 0.01)).abs() < 1e-6, "{last}");
     }
 }

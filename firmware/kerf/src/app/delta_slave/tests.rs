@@ -107,6 +107,11 @@ fn plans_that_do_not_fit_are_refused_with_the_move_that_fails() {
         DeltaJob::plan(&config, c, f64::INFINITY, &[at([0.0; 3], 0.1)]),
         Err(DeltaJobError::NotFinite { segment: 0 })
     );
+    // A 6-day dwell: more periods than the counter holds.
+    assert_eq!(
+        plan(&[at([0.0; 3], 6.0 * 86_400.0)]),
+        Err(DeltaJobError::TooLong { segment: 0 })
+    );
     // 0.2 m sideways is far out of reach of 70 mm arms; the start point too.
     assert!(matches!(
         plan(&[at([0.01, 0.0, 0.0], 0.5), at([0.2, 0.0, 0.0], 5.0)]),
