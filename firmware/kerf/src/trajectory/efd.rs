@@ -41,12 +41,36 @@ pub struct Efd<T: Float, const N: usize> {
     perimeter_m: f64,
 }
 
+/// Whether every point lies within rounding (1e-12 of the perimeter) of the line from
+/// the first point to the point farthest from it.
+fn collinear(points: &[[f64; 2]], perimeter: f64) -> bool {
+    let Some(&[x0, y0]) = points.first() else {
+        return true;
+    };
+    let far = points.iter().fold([0.0, 0.0], |best: [f64; 2], p| {
+        let d = [p[0] - x0, p[1] - y0];
+        if libm::hypot(d[0], d[1]) > libm::hypot(best[0], best[1]) {
+            d
+        } else {
+            best
+        }
+    });
+    let length = libm::hypot(far[0], far[1]);
+    if length == 0.0 {
+        return true;
+    }
+    points.iter().all(|p| {
+        let off = ((p[0] - x0) * far[1] - (p[1] - y0) * far[0]) / length;
+        libm::fabs(off) <= 1e-12 * perimeter
+    })
+}
+
 impl<T: Float, const N: usize> Efd<T, N> {
     /// Kuhl–Giardina coefficients of the closed polygon `points` (m) up to `harmonics`.
     ///
     /// Zero-length segments (repeated points, a repeated closing point) are dropped.
-    /// Errors: a non-finite point, fewer than 3 distinct points, all points equal, or
-    /// `harmonics` outside 1..=N. The polygon is the curve, so its coefficients exist
+    /// Errors: a non-finite point, fewer than 3 distinct points, all points equal, all
+    /// points on one line, or `harmonics` outside 1..=N. The polygon is the curve, so its coefficients exist
     /// for every n (T 3.2.2 counts 4n + 2 coefficients against 2M numbers for a fit
     /// through the points; here they are the exact series of the polygon itself).
     pub fn from_polygon(points: &[[f64; 2]], harmonics: usize) -> Result<Self, ContourError> {
@@ -71,6 +95,9 @@ impl<T: Float, const N: usize> Efd<T, N> {
         }
         if distinct < 3 {
             return Err(ContourError::TooFewPoints);
+        }
+        if collinear(points, perimeter) {
+            return Err(ContourError::Collinear);
         }
         if harmonics == 0 || harmonics > N {
             return Err(ContourError::TooManyHarmonics);
@@ -556,5 +583,26 @@ mod tests {
             let d = (p.x - v[0]).hypot(p.y - v[1]);
             assert!(d < 0.01 * radius, "vertex {k}: {d}");
         }
+    }
+
+    /// A closed polygon whose points lie on one line is a back-and-forth stroke with
+    /// cusps (infinite curvature at the ends): no contour to follow. Typed error, also
+    /// when the points are off the line only by rounding.
+    #[test]
+    fn a_collinear_polygon_is_refused() {
+        type E = Efd<f64, 10>;
+        let line = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]];
+        assert_eq!(
+            E::from_polygon(&line, 5).err(),
+            Some(ContourError::Collinear)
+        );
+        let slanted = [[0.0, 0.0], [0.1, 0.3], [0.3, 0.9], [0.2, 0.6]];
+        assert_eq!(
+            E::from_polygon(&slanted, 5).err(),
+            Some(ContourError::Collinear)
+        );
+        // A sliver 1e-9 of its length wide is still a contour.
+        let sliver = [[0.0, 0.0], [1.0, 0.0], [0.5, 1e-9]];
+        assert!(E::from_polygon(&sliver, 3).is_ok());
     }
 }

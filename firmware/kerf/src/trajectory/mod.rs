@@ -36,6 +36,9 @@ pub enum ContourError {
     RepeatedPoint(usize),
     /// All points coincide: the contour has no length.
     ZeroLength,
+    /// Every point of a closed contour lies on one line (within rounding): a
+    /// back-and-forth stroke with cusps, not a contour to follow.
+    Collinear,
     /// No harmonics asked for, or more than the capacity N.
     TooManyHarmonics,
     /// The result does not fit the fixed capacity.
