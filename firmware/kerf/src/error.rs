@@ -263,6 +263,23 @@ pub(crate) fn coefficient<T: Real>(name: &'static str, value: f64) -> Result<T, 
     }
 }
 
+/// `value` (a position, distance, speed, time in SI units; zero allowed) in the target
+/// scalar: finite there, and within 1/16 of itself or within 1e-9 absolute (what the
+/// scalar cannot resolve, such as f32 underflow or Q32's 2^-32 step, is that small).
+/// Overflow to ±inf (f32) or saturation (Q32) is `NotRepresentable`.
+pub(crate) fn representable<T: Real>(name: &'static str, value: f64) -> Result<T, ConfigError> {
+    if !value.is_finite() {
+        return Err(ConfigError::not_finite(name));
+    }
+    let converted = T::from_f64(value);
+    let error = libm::fabs(converted.to_f64() - value);
+    if converted.is_finite() && (error <= libm::fabs(value) / 16.0 || error <= 1e-9) {
+        Ok(converted)
+    } else {
+        Err(ConfigError::not_representable(name))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

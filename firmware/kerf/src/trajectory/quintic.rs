@@ -3,7 +3,7 @@
 //! Peak velocity 1.875 D/T, peak acceleration 5.7735 D/T².
 
 use crate::control::pd::Reference;
-use crate::error::{positive, ConfigError};
+use crate::error::{positive, representable, ConfigError};
 use crate::scalar::Real;
 
 /// A single rest-to-rest move, coefficients precomputed so evaluation is `+ − *` only.
@@ -26,12 +26,14 @@ impl<T: Real> Quintic<T> {
         if !distance_m.is_finite() {
             return Err(ConfigError::not_finite("distance_m"));
         }
+        // Every derived value in the target scalar: f64-valid extremes can overflow f32.
+        let scaled = |value: f64| representable("distance_m", value);
         Ok(Self {
-            start: T::from_f64(start_m),
-            distance: T::from_f64(distance_m),
-            inv_duration: T::from_f64(1.0 / duration),
-            velocity_scale: T::from_f64(distance_m / duration),
-            acceleration_scale: T::from_f64(distance_m / (duration * duration)),
+            start: representable("start_m", start_m)?,
+            distance: representable("distance_m", distance_m)?,
+            inv_duration: representable("duration_s", 1.0 / duration)?,
+            velocity_scale: scaled(distance_m / duration)?,
+            acceleration_scale: scaled(distance_m / (duration * duration))?,
         })
     }
 
@@ -101,5 +103,28 @@ mod tests {
             Quintic::<f32>::new(f64::NAN, 0.03, 1.0).err(),
             Some(ConfigError::not_finite("start_m"))
         );
+    }
+
+    /// Valid in f64, overflowing in f32: a typed error, not a curve of infinities.
+    #[test]
+    fn f32_extremes_are_refused_by_name() {
+        let cases = [
+            ((1e39, 0.03, 1.0), "start_m"),
+            ((0.0, 1e39, 1.0), "distance_m"),
+            ((0.0, 0.03, 1e-39), "duration_s"),
+            ((0.0, 1e30, 1e-10), "distance_m"),
+        ];
+        for ((start, distance, duration), field) in cases {
+            assert_eq!(
+                Quintic::<f32>::new(start, distance, duration).err(),
+                Some(ConfigError::not_representable(field)),
+                "{start} {distance} {duration}"
+            );
+        }
+        // The same in f64 are fine, and an f32 curve from them samples finite.
+        assert!(Quintic::<f64>::new(1e39, 0.03, 1.0).is_ok());
+        let q = Quintic::<f32>::new(0.0, 0.03, 1e-6).unwrap();
+        let r = q.sample(5e-7);
+        assert!(r.position.is_finite() && r.velocity.is_finite() && r.acceleration.is_finite());
     }
 }
