@@ -20,7 +20,7 @@
 
 use super::efd::{gauss3, Efd, EfdSample};
 use super::{lit, to_f64, ContourError, Float};
-use crate::error::{positive, ConfigError};
+use crate::error::{positive, representable, ConfigError};
 use core::f64::consts::PI;
 use nalgebra::Vector2;
 
@@ -95,9 +95,10 @@ impl<T: Float> SpeedRamp<T> {
         let a_used = v / ((n_jerk + n_flat) * ts);
         let j_used = a_used / (n_jerk * ts);
         Ok(Self {
-            speed: lit(v),
-            jerk: lit(j_used),
-            ts: lit(ts),
+            // In the target scalar: f64-valid extremes can overflow f32.
+            speed: representable("speed_m_s", v)?,
+            jerk: representable("jerk_m_s3", j_used)?,
+            ts: representable("ts_s", ts)?,
             n_jerk: n_jerk as u32,
             n_flat: n_flat as u32,
             phase: Phase::Rest,
@@ -748,5 +749,35 @@ mod tests {
             )))
         );
         assert!(ContourFollower::new(efd, &config(0.01, 10.0), f64::NAN).is_err());
+    }
+
+    /// Valid in f64, overflowing f32 (a speed beyond f32's range, a jerk so large its
+    /// per-period value overflows): typed errors, not a ramp of infinities.
+    #[test]
+    fn speed_ramp_f32_extremes_are_refused() {
+        let ok = SpeedRampConfig {
+            speed_m_s: 0.01,
+            accel_m_s2: 1.0,
+            jerk_m_s3: 100.0,
+            ts_s: 1e-4,
+        };
+        assert!(SpeedRamp::<f32>::new(&ok).is_ok());
+        let huge_speed = SpeedRampConfig {
+            speed_m_s: 1e39,
+            accel_m_s2: 1e39,
+            jerk_m_s3: 1e39,
+            ..ok
+        };
+        assert!(SpeedRamp::<f64>::new(&huge_speed).is_ok());
+        assert_eq!(
+            SpeedRamp::<f32>::new(&huge_speed).err(),
+            Some(ConfigError::not_representable("speed_m_s"))
+        );
+        let tiny_period = SpeedRampConfig { ts_s: 1e-46, ..ok };
+        assert!(matches!(
+            SpeedRamp::<f32>::new(&tiny_period),
+            Err(e) if e.kind == crate::error::ConfigErrorKind::NotRepresentable
+                || e.kind == crate::error::ConfigErrorKind::OutOfRange
+        ));
     }
 }
