@@ -381,8 +381,9 @@ impl<T: Float, const N: usize> MotionConstraint<T, N> {
     }
 
     /// φ and Jφ at end-effector position `x` (m, same frame as the data) with height
-    /// reference `z_ref` (m).
-    pub fn evaluate(&self, x: Vector3<T>, z_ref: T) -> ConstraintValue<T> {
+    /// reference `z_ref` (m). Errors: [`ContourError::FarFromContour`] for a
+    /// non-finite `x` or `z_ref`, or a point so far away that the scalar overflows.
+    pub fn evaluate(&self, x: Vector3<T>, z_ref: T) -> Result<ConstraintValue<T>, ContourError> {
         let p = Vector2::new(x.x, x.y) - self.origin;
         // Nearest data segment and the fraction u along it.
         let mut best = (T::max_value().unwrap_or(T::one()), 0usize, T::ZERO);
@@ -397,18 +398,26 @@ impl<T: Float, const N: usize> MotionConstraint<T, N> {
                 best = (dist2, i, u);
             }
         }
-        let (_, i, u) = best;
+        let (best_distance, i, u) = best;
         let (fit0, dir0) = self.fit_window(i);
         let (fit1, dir1) = self.fit_window((i + 1) % self.points.len().max(1));
         let (phi0, g0) = Self::distance(&fit0, &dir0, p);
         let (phi1, g1) = Self::distance(&fit1, &dir1, p);
         let w = T::one() - u;
         let (phi, g) = (phi0 * w + phi1 * u, g0 * w + g1 * u);
-        ConstraintValue {
+        let value = ConstraintValue {
             phi: Vector2::new(phi, z_ref - x.z),
             jacobian: Matrix2x3::new(g.x, g.y, T::ZERO, T::ZERO, T::ZERO, -T::one()),
             fit: if u < lit(0.5) { fit0 } else { fit1 },
             segment: i,
+        };
+        // NaN or ±inf anywhere (a non-finite point, or one so far away that its
+        // squared distance overflows the scalar) fails here: one test on the sum.
+        let health = value.phi.x + value.phi.y + g.x + g.y + best_distance;
+        if health.is_finite() {
+            Ok(value)
+        } else {
+            Err(ContourError::FarFromContour)
         }
     }
 }
@@ -551,7 +560,7 @@ mod tests {
             let t = (b - a).normalize();
             for s in 0..steps {
                 let p = a + (b - a) * (s as f64 / steps as f64) + Vector2::new(-t.y, t.x) * offset;
-                let v = c.evaluate(Vector3::new(p.x, p.y, -0.1), -0.1);
+                let v = c.evaluate(Vector3::new(p.x, p.y, -0.1), -0.1).unwrap();
                 // On a straight side, φ₁ is exactly the offset from the data line.
                 worst = worst.max((v.phi.x - offset).abs());
                 if let Some(q) = prev {
@@ -610,7 +619,7 @@ mod tests {
         let c =
             MotionConstraint::<f64, 64>::new(&pts, &ConstraintConfig::closed_contour()).unwrap();
         let x = Vector3::new(6.3e-3, 0.2e-3, 0.0);
-        let v = c.evaluate(x, 0.0);
+        let v = c.evaluate(x, 0.0).unwrap();
         let Fit::Circle { radius, .. } = v.fit else {
             panic!("circle expected")
         };
@@ -643,7 +652,7 @@ mod tests {
             );
             let t = (b - a).normalize();
             let p = (a + b) / 2.0 + Vector2::new(-t.y, t.x) * 30e-6;
-            let v = c.evaluate(Vector3::new(p.x, p.y, 0.0), 0.0);
+            let v = c.evaluate(Vector3::new(p.x, p.y, 0.0), 0.0).unwrap();
             // Sign first; the size within the data's chord sagitta (≈ 4 µm at R = 4 mm,
             // 0.35 mm segments) plus the fit error of windows spanning the inflection.
             assert!(
@@ -704,8 +713,8 @@ mod tests {
                                 a + (b - a) * (s as f64 / 16.0) + Vector2::new(-t.y, t.x) * offset;
                             let x32 = Vector3::new(p.x as f32, p.y as f32, -0.1f32);
                             let x64 = x32.map(f64::from);
-                            let v = c64.evaluate(x64, -0.1);
-                            let w = c32.evaluate(x32, -0.1);
+                            let v = c64.evaluate(x64, -0.1).unwrap();
+                            let w = c32.evaluate(x32, -0.1).unwrap();
                             let q = (x64.xy() - c64.origin()).norm();
                             let c = match v.fit {
                                 Fit::Circle { centre, .. } => centre.norm(),
@@ -761,5 +770,27 @@ mod tests {
             ..cfg
         };
         assert!(C::new(&shapes::octagon(), &bad).is_err());
+    }
+
+    /// Far from the contour in f32 (|p|² overflows), or a non-finite point: a typed
+    /// error, never a NaN constraint.
+    #[test]
+    fn far_or_non_finite_points_are_typed_errors() {
+        let pts: [[f64; 2]; 64] = shapes::ellipse(6e-3, 6e-3);
+        let c =
+            MotionConstraint::<f32, 64>::new(&pts, &ConstraintConfig::closed_contour()).unwrap();
+        assert!(c.evaluate(Vector3::new(6.3e-3, 0.2e-3, 0.0), 0.0).is_ok());
+        for x in [
+            Vector3::new(1e20f32, 1e20, 0.0),
+            Vector3::new(-3e38f32, 0.0, 0.0),
+            Vector3::new(f32::NAN, 0.0, 0.0),
+            Vector3::new(0.0, 0.0, f32::INFINITY),
+        ] {
+            assert_eq!(
+                c.evaluate(x, 0.0).err(),
+                Some(ContourError::FarFromContour),
+                "{x:?}"
+            );
+        }
     }
 }

@@ -36,6 +36,9 @@ pub enum ContourError {
     RepeatedPoint(usize),
     /// All points coincide: the contour has no length.
     ZeroLength,
+    /// The point is not finite, or so far from the contour that the constraint
+    /// overflows the scalar.
+    FarFromContour,
     /// Every point of a closed contour lies on one line (within rounding): a
     /// back-and-forth stroke with cusps, not a contour to follow.
     Collinear,
