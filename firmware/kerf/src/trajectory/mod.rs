@@ -31,8 +31,9 @@ pub enum ContourError {
     NotFinitePoint(usize),
     /// Fewer than 3 distinct points (a contour needs at least a triangle or a bend).
     TooFewPoints,
-    /// Point `index` repeats point `index − 1` (open contours and constraint data need
-    /// a direction on every segment).
+    /// Point `index` repeats point `index − 1`, or lies so close to it (or so far from
+    /// it) that the segment has no length in the scalar: open contours and constraint
+    /// data need a direction on every segment.
     RepeatedPoint(usize),
     /// All points coincide: the contour has no length.
     ZeroLength,

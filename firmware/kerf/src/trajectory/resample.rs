@@ -94,8 +94,9 @@ pub struct ArcResampler<'a, T: Float> {
 }
 
 impl<'a, T: Float> ArcResampler<'a, T> {
-    /// Starts at the first point. Errors: fewer than 3 points, non-finite or repeated
-    /// consecutive points.
+    /// Starts at the first point. Errors: fewer than 3 points, non-finite points, or
+    /// consecutive points that repeat or whose segment has no length in `T` (underflow
+    /// or overflow of the scalar).
     pub fn new(points: &'a [[T; 2]]) -> Result<Self, ContourError> {
         // Validate in f64 (repeats and NaN are the same in either scalar).
         for (i, w) in points.windows(2).enumerate() {
@@ -113,6 +114,16 @@ impl<'a, T: Float> ArcResampler<'a, T> {
         }
         if points.len() < 3 {
             return Err(ContourError::TooFewPoints);
+        }
+        // Every segment needs a length, and with it a direction, in the scalar itself:
+        // distinct points can still underflow (or overflow) it.
+        for (i, w) in points.windows(2).enumerate() {
+            if let [a, b] = w {
+                let len = (Vector2::new(b[0], b[1]) - Vector2::new(a[0], a[1])).norm();
+                if !(len > T::ZERO && len.is_finite()) {
+                    return Err(ContourError::RepeatedPoint(i + 1));
+                }
+            }
         }
         Ok(Self {
             points,
@@ -293,5 +304,26 @@ mod tests {
             ArcResampler::<f32>::new(&[[0.0, 0.0], [0.0, 0.0], [1.0, 0.0]]).err(),
             Some(ContourError::RepeatedPoint(1))
         );
+    }
+
+    /// Points distinct in value but so close that the segment's length underflows f32
+    /// (or so far apart that it overflows): no direction, so a typed error at
+    /// construction instead of NaN samples.
+    #[test]
+    fn segments_without_a_length_in_the_scalar_are_refused() {
+        let under = [[0.0f32, 0.0], [1e-30, 0.0], [1.0, 0.0]];
+        assert_eq!(
+            ArcResampler::new(&under).err(),
+            Some(ContourError::RepeatedPoint(1))
+        );
+        let over = [[0.0f32, 0.0], [1.0, 0.0], [3e38, 3e38]];
+        assert_eq!(
+            ArcResampler::new(&over).err(),
+            Some(ContourError::RepeatedPoint(2))
+        );
+        let fine = [[0.0f32, 0.0], [1e-6, 0.0], [1.0, 0.0]];
+        let mut walk = ArcResampler::new(&fine).unwrap();
+        let s = walk.advance(0.0).unwrap();
+        assert!(s.position.x.is_finite() && s.direction.x.is_finite());
     }
 }
