@@ -6,12 +6,18 @@
 //! - the control period runs in the SysTick exception, the highest priority in the
 //!   image: the scenario's `Rig` samples the simulated axis, steps the supervisor
 //!   (`Joints<f32, 1>`) and writes the force — what a board's ADC-complete interrupt
-//!   does with its HAL;
+//!   does with its HAL. The handler owns the `Rig` (handed over once by `main`), keeps
+//!   the job's statistics and ends the run; the period runs outside any critical
+//!   section;
 //! - the slower context is an embassy task on an `InterruptExecutor` at a lower
 //!   priority (a spare NVIC line, dispatched from `DefaultHandler`): the scenario's
-//!   `Operator` sends `Calibrate`, fits the streamed samples (the fit takes many control
-//!   periods and is preempted by each), sends the decoders, loads the 1 s tracking
-//!   profile and starts it, all through the command queue. It wakes once per period;
+//!   `Operator` sends `Calibrate`, fits the streamed samples (the fit takes about 180
+//!   control periods and is preempted by each), sends the decoders, loads the 1 s
+//!   tracking profile and starts it, all through the command queue. It sleeps until
+//!   the SysTick handler wakes it (which pends the executor's line) after each period,
+//!   and reaches the control side only through the lock-free queues and atomics. Its
+//!   only critical section is the waker's hand-over (a few instructions) and it prints
+//!   without one, so it never holds the control period off;
 //! - `main` sets the priorities, starts both and sleeps in `wfi`.
 //!
 //! The run prints the fit and a one-line summary and exits non-zero when a bound is
@@ -21,6 +27,7 @@
 #![no_main]
 
 use core::cell::RefCell;
+use core::fmt::Write;
 use core::future::poll_fn;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use core::task::{Poll, Waker};
@@ -28,7 +35,7 @@ use cortex_m::interrupt::{InterruptNumber, Mutex};
 use cortex_m::peripheral::scb::SystemHandler;
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{entry, exception};
-use cortex_m_semihosting::hprintln;
+use cortex_m_semihosting::{hio, hprintln};
 use embassy_executor::InterruptExecutor;
 use hal_mock::hall_sensor::HallSensorParams;
 use heapless::spsc::{Consumer, Producer, Queue};
@@ -42,14 +49,22 @@ use kerf_sim::scenario::{
 
 type Machine = Joints<f32, 1>;
 
-/// SysTick reload in core clock cycles (instructions under `-icount shift=0`). The
-/// guest's timer period is not the machine's 100 µs: the simulated plant (f64 in
-/// software, ten substeps) runs inside the same handler, and the handler must end well
-/// before the next tick or the slower context starves.
+/// SysTick reload in ticks of the 25 MHz model clock: 8 ms of guest time. Under
+/// `-icount shift=0` one instruction takes 1 ns, so a tick is 40 instructions and a
+/// period 8 M instructions. The guest's timer period is not the machine's 100 µs
+/// (`TS_S`): the simulated plant (f64 in software, ten substeps) runs inside the same
+/// handler, which costs 1 280 ticks on average (51 k instructions) and 1 525 at most
+/// over the run, so at 100 µs (2 500 ticks) it would take half of the CPU or more.
+/// With this reload the handler takes under 1 % and the operator gets the rest, as on a
+/// board, where the control step alone (the axis law is about 400 instructions,
+/// BENCHMARKS.md) leaves the slower context most of the 100 µs. The plant only sees
+/// periods, never guest time: the reload changes nothing but how many periods the
+/// operator's work spans (and with it the period the job starts in).
 const SYSTICK_RELOAD: u32 = 200_000;
 
-/// NVIC priorities (upper bits count; QEMU's M4 implements 3): SysTick highest, the
-/// operator's executor below it.
+/// Exception priorities, upper bits significant: SysTick highest, the operator's
+/// executor below it. 0xE0 needs 3 implemented bits, which every Cortex-M4 has (the
+/// STM32G4 implements 4; QEMU 7.2 keeps all 8).
 const CONTROL_PRIORITY: u8 = 0x00;
 const OPERATOR_PRIORITY: u8 = 0xE0;
 
@@ -76,6 +91,8 @@ struct Control {
     job_periods: u32,
 }
 
+/// The control state on its way from `main` to the SysTick handler, which takes it on
+/// its first run and from then on owns it alone.
 static CONTROL: Mutex<RefCell<Option<Control>>> = Mutex::new(RefCell::new(None));
 /// Control periods run so far: the operator task waits for it to change.
 static PERIODS: AtomicU32 = AtomicU32::new(0);
@@ -86,21 +103,24 @@ static OPERATOR_FINISHED: AtomicBool = AtomicBool::new(false);
 
 #[exception]
 fn SysTick() {
-    let summary = cortex_m::interrupt::free(|cs| {
-        let mut control = CONTROL.borrow(cs).borrow_mut();
-        let control = control.as_mut()?;
-        let period = control.rig.step();
-        if period.in_job() && control.outcome.periods < control.job_periods {
-            control.outcome.add(&period);
-        }
-        control.periods += 1;
-        // The operator decides when the job is over (it sees the supervisor's
-        // reports); the limit only ends a run that hangs.
-        let over = OPERATOR_DONE.load(Ordering::Acquire) || control.periods >= control.limit;
-        over.then_some(control.outcome)
-    });
-    if let Some(outcome) = summary {
-        finish(&outcome);
+    // cortex-m-rt hands this handler the only reference to OWNED: the control period
+    // runs without a critical section, so it masks nothing.
+    static mut OWNED: Option<Control> = None;
+    if OWNED.is_none() {
+        *OWNED = cortex_m::interrupt::free(|cs| CONTROL.borrow(cs).take());
+    }
+    let Some(control) = OWNED.as_mut() else {
+        return;
+    };
+    let period = control.rig.step();
+    if period.in_job() && control.outcome.periods < control.job_periods {
+        control.outcome.add(&period);
+    }
+    control.periods += 1;
+    // The operator decides when the job is over (it sees the supervisor's reports);
+    // the limit only ends a run that hangs.
+    if OPERATOR_DONE.load(Ordering::Acquire) || control.periods >= control.limit {
+        finish(&control.outcome);
     }
     PERIODS.fetch_add(1, Ordering::Release);
     if let Some(waker) = cortex_m::interrupt::free(|cs| PERIOD_WAKER.borrow(cs).take()) {
@@ -151,6 +171,25 @@ async fn next_period(seen: u32) -> u32 {
     .await
 }
 
+/// The slower context's output: a semihosting handle of its own. `hprintln!` formats
+/// inside a critical section, which would hold the control interrupt off while floats
+/// are formatted; these writes mask nothing (each is one semihosting call, which an
+/// interrupt cannot split).
+struct Console(Option<hio::HostStream>);
+
+impl Console {
+    fn open() -> Self {
+        Self(hio::hstdout().ok())
+    }
+
+    fn line(&mut self, args: core::fmt::Arguments<'_>) {
+        if let Some(out) = self.0.as_mut() {
+            // Nothing to do about a host that stopped listening.
+            let _ = out.write_fmt(args).and_then(|()| out.write_str("\n"));
+        }
+    }
+}
+
 /// The slower context: the operator, woken once per control period.
 #[embassy_executor::task]
 async fn operator_task(
@@ -158,6 +197,7 @@ async fn operator_task(
     mut send: Producer<'static, Command<Machine>>,
     mut receive: Consumer<'static, Report<Machine>>,
 ) {
+    let mut console = Console::open();
     let mut printed_fit = false;
     let mut seen = PERIODS.load(Ordering::Acquire);
     operator.start(&mut send);
@@ -167,7 +207,7 @@ async fn operator_task(
         if let (Some(fit), false) = (operator.fit(), printed_fit) {
             printed_fit = true;
             let c = &fit.model.channels;
-            hprintln!(
+            console.line(format_args!(
                 "kerf qemu smoke: calibrated: offsets {:.0} {:.0} {:.0} counts, gains {:.0} {:.0} {:.0} counts, third harmonic {:.2} {:.2} {:.2} %",
                 c[0].offset_counts,
                 c[1].offset_counts,
@@ -178,7 +218,7 @@ async fn operator_task(
                 c[0].harmonic3 * 100.0,
                 c[1].harmonic3 * 100.0,
                 c[2].harmonic3 * 100.0
-            );
+            ));
         }
         match state {
             OperatorState::Finished => {
@@ -186,7 +226,7 @@ async fn operator_task(
                 OPERATOR_DONE.store(true, Ordering::Release);
             }
             OperatorState::Failed(e) => {
-                hprintln!("kerf qemu smoke: operator gave up: {:?}", e);
+                console.line(format_args!("kerf qemu smoke: operator gave up: {:?}", e));
                 OPERATOR_DONE.store(true, Ordering::Release);
             }
             _ => {}
@@ -199,6 +239,10 @@ unsafe fn DefaultHandler(irqn: i16) {
     if irqn == OperatorIrq.number() as i16 {
         // SAFETY: the executor was started on this line before it was unmasked.
         unsafe { OPERATOR_EXECUTOR.on_interrupt() }
+    } else {
+        // Only the operator's line is enabled: anything else is a bug, not a hang.
+        hprintln!("kerf qemu smoke: unexpected exception {} -> FAIL", irqn);
+        exit(false)
     }
 }
 
