@@ -59,7 +59,9 @@ type Machine = Joints<f32, 1>;
 /// board, where the control step alone (the axis law is about 400 instructions,
 /// BENCHMARKS.md) leaves the slower context most of the 100 µs. The plant only sees
 /// periods, never guest time: the reload changes nothing but how many periods the
-/// operator's work spans (and with it the period the job starts in).
+/// operator's work spans, and with it the period the job starts in. That moves the
+/// summary's error figures all the same, since the job then meets another stretch of
+/// the sensor noise (the plant draws it per period).
 const SYSTICK_RELOAD: u32 = 200_000;
 
 /// Exception priorities, upper bits significant: SysTick highest, the operator's
