@@ -71,11 +71,12 @@ const CONTROL_PRIORITY: u8 = 0x00;
 const OPERATOR_PRIORITY: u8 = 0xE0;
 
 /// A device interrupt line nothing on mps2-an386 raises; the operator's executor runs
-/// on it.
+/// on it. QEMU gives the board 32 lines and wires devices to 0–5, 8–13, 18–22 and 24
+/// (hw/arm/mps2.c).
 #[derive(Copy, Clone)]
 struct OperatorIrq;
 
-// SAFETY: 30 is a valid device interrupt number of the Cortex-M4 model (< 240).
+// SAFETY: 30 is below the model's 32 external lines, and no device drives it.
 unsafe impl InterruptNumber for OperatorIrq {
     fn number(self) -> u16 {
         30
