@@ -45,10 +45,11 @@ pub const PLAN_SAMPLES: usize = 64;
 /// Everything the delta slave needs, in SI units.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct DeltaSlaveConfig {
-    /// The three carriages: period, control law, Hall decoders, homes, travel and the
-    /// joint speed and acceleration limits.
+    /// The three carriages: period, control law, Hall decoders, homes and the joint
+    /// speed and acceleration limits. Its `travel_m` is not used: the carriages' travel
+    /// is the delta actuators' (stated once, in `delta`).
     pub joints: JointsConfig<3>,
-    /// The delta's geometry.
+    /// The delta's geometry, with each actuator's travel.
     pub delta: DeltaConfig,
 }
 
@@ -69,6 +70,15 @@ impl DeltaSlaveConfig {
         },
         delta: DeltaConfig::SLAVE_KEOPS,
     };
+
+    /// The carriages' configuration with the delta actuators' travel.
+    fn joints_config(&self) -> JointsConfig<3> {
+        let [a0, a1, a2] = self.delta.actuators;
+        JointsConfig {
+            travel_m: [a0, a1, a2].map(|a| [a.travel_min_m, a.travel_max_m]),
+            ..self.joints
+        }
+    }
 }
 
 /// Why a job cannot be planned, or started. `segment` indexes the job's moves.
@@ -123,7 +133,6 @@ pub struct DeltaJob {
 #[derive(Copy, Clone, Debug, PartialEq)]
 struct Limits {
     delta: DeltaConfig,
-    travel_m: [[f64; 2]; 3],
     speed_limit_m_s: f64,
     accel_limit_m_s2: f64,
     period_s: f64,
@@ -133,7 +142,6 @@ impl Limits {
     fn of(config: &DeltaSlaveConfig) -> Self {
         Self {
             delta: config.delta,
-            travel_m: config.joints.travel_m,
             speed_limit_m_s: config.joints.speed_limit_m_s,
             accel_limit_m_s2: config.joints.accel_limit_m_s2,
             period_s: config.joints.period_s,
@@ -240,14 +248,8 @@ impl DeltaJob {
                         error,
                     }
                 })?;
-                for (axis, (r, [lo, hi])) in joints.iter().zip(limits.travel_m.iter()).enumerate() {
-                    let outside = r.position < *lo || r.position > *hi;
-                    if outside {
-                        return Err(DeltaJobError::Unreachable {
-                            segment: index as u8,
-                            error: KinematicsError::OutsideTravel(axis as u8),
-                        });
-                    }
+                // The inverse kinematics has checked reach and travel.
+                for (axis, r) in joints.iter().enumerate() {
                     if libm::fabs(r.velocity) > limits.speed_limit_m_s
                         || libm::fabs(r.acceleration) > limits.accel_limit_m_s2
                     {
@@ -333,21 +335,9 @@ impl<T: Float> DeltaSlave<T> {
     /// Validates `config`; a bad field is named with its path
     /// (`joints.axis.dob.bandwidth_rad_s`, `delta.actuators[1].theta_rad`).
     pub fn new(config: &DeltaSlaveConfig) -> Result<Self, ConfigError> {
-        let joints = Joints::new(&config.joints).within("joints")?;
         let geometry = DeltaGeometry::new(&config.delta).within("delta")?;
-        for (k, (home, actuator)) in config
-            .joints
-            .home_m
-            .iter()
-            .zip(config.delta.actuators.iter())
-            .enumerate()
-        {
-            if *home < actuator.travel_min_m || *home > actuator.travel_max_m {
-                return Err(ConfigError::out_of_range("home_m")
-                    .indexed(k)
-                    .within("joints"));
-            }
-        }
+        // Homes are checked against the actuators' travel there.
+        let joints = Joints::new(&config.joints_config()).within("joints")?;
         Ok(Self {
             joints,
             geometry,
