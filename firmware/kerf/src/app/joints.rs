@@ -169,6 +169,23 @@ fn too_fast(speed_limit_m_s: f64, accel_limit_m_s2: f64, distance_m: f64, durati
         || 5.7735 * d > accel_limit_m_s2 * duration_s * duration_s
 }
 
+/// Runs `each(k, sensor, state, counts)` on every axis in order; the first fault
+/// stops the rest and is named with its axis.
+fn each_axis<T: Real, const N: usize>(
+    axes: &mut [AxisState<T>; N],
+    sensors: &[HallAxis<T>; N],
+    inputs: &[[u16; 3]; N],
+    mut each: impl FnMut(usize, &HallAxis<T>, &mut AxisState<T>, [u16; 3]) -> Result<(), AxisFault>,
+) -> Result<(), JointFault> {
+    for (k, ((axis, sensor), counts)) in axes.iter_mut().zip(sensors).zip(inputs).enumerate() {
+        each(k, sensor, axis, *counts).map_err(|fault| JointFault {
+            axis: k as u8,
+            fault,
+        })?;
+    }
+    Ok(())
+}
+
 fn rest<T: Real>(position: T) -> Reference<T> {
     Reference {
         position,
@@ -257,26 +274,24 @@ impl<T: Real, const N: usize> Joints<T, N> {
     /// Steps every axis with `self.reference`; the first fault stops all of them.
     fn control(&mut self, inputs: &[[u16; 3]; N]) -> Result<[T; N], JointFault> {
         let mut forces = [T::ZERO; N];
-        for (k, ((axis, sensor), counts)) in self
-            .axes
-            .iter_mut()
-            .zip(self.sensors.iter())
-            .zip(inputs.iter())
-            .enumerate()
-        {
-            let reference = self.reference.get(k).copied().unwrap_or(rest(T::ZERO));
-            let out = self.law.step(sensor, axis, *counts, &reference);
-            if let crate::app::axis::AxisStatus::Fault(fault) = out.status {
-                return Err(JointFault {
-                    axis: k as u8,
-                    fault,
-                });
-            }
-            if let (Some(force), Some(last)) = (forces.get_mut(k), self.last.get_mut(k)) {
-                *force = out.force_n;
-                *last = out;
-            }
-        }
+        let (law, reference, last) = (&self.law, &self.reference, &mut self.last);
+        each_axis(
+            &mut self.axes,
+            &self.sensors,
+            inputs,
+            |k, sensor, axis, counts| {
+                let r = reference.get(k).copied().unwrap_or(rest(T::ZERO));
+                let out = law.step(sensor, axis, counts, &r);
+                if let crate::app::axis::AxisStatus::Fault(fault) = out.status {
+                    return Err(fault);
+                }
+                if let (Some(force), Some(last)) = (forces.get_mut(k), last.get_mut(k)) {
+                    *force = out.force_n;
+                    *last = out;
+                }
+                Ok(())
+            },
+        )?;
         Ok(forces)
     }
 
@@ -345,20 +360,13 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
     }
 
     fn monitor(&mut self, inputs: &[[u16; 3]; N]) -> Result<(), JointFault> {
-        for (k, ((axis, sensor), counts)) in self
-            .axes
-            .iter_mut()
-            .zip(self.sensors.iter())
-            .zip(inputs.iter())
-            .enumerate()
-        {
-            self.law
-                .monitor(sensor, axis, *counts)
-                .map_err(|fault| JointFault {
-                    axis: k as u8,
-                    fault,
-                })?;
-        }
+        let law = &self.law;
+        each_axis(
+            &mut self.axes,
+            &self.sensors,
+            inputs,
+            |_, sensor, axis, counts| law.monitor(sensor, axis, counts),
+        )?;
         self.reference = self.axes.map(|a| rest(a.position_m()));
         Ok(())
     }
