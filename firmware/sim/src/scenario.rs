@@ -146,6 +146,12 @@ impl Scenario {
         calibrate: false,
     };
 
+    /// Periods after which a run that has not finished counts as hung: the
+    /// calibration (1.26 s), the wait for the fit, then the job, with margin.
+    pub fn period_limit(&self) -> u32 {
+        4 * self.periods + 20_000
+    }
+
     /// The slower context for this scenario: calibrates when `calibrate` is set,
     /// otherwise installs the configured decoder (with `correction`) as a stored
     /// calibration; then loads and starts the motion's job.
@@ -421,9 +427,7 @@ pub fn run_with<T: Real>(
         Rig::<T>::new(scenario, from_sender, to_operator).map_err(ScenarioError::Config)?;
     let mut operator = scenario.operator::<T>().map_err(ScenarioError::Config)?;
     operator.start(&mut send);
-    // Calibration (1.26 s), the wait for the fit, then the job.
-    let limit = 4 * scenario.periods + 20_000;
-    for _ in 0..limit {
+    for _ in 0..scenario.period_limit() {
         let period = rig.step();
         if period.in_job() {
             outcome.add(&period);

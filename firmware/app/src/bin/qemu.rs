@@ -282,8 +282,7 @@ fn main() -> ! {
             rig,
             outcome: Outcome::with_window(f64::INFINITY, f64::INFINITY),
             periods: 0,
-            // Calibration (1.26 s), the wait for the fit, then the job.
-            limit: 4 * scenario.periods + 20_000,
+            limit: scenario.period_limit(),
             job_periods: scenario.periods,
         }))
     });
