@@ -7,6 +7,18 @@
 //! supervision. Laws are generic over [`scalar::Real`] (f32, f64, fixed point).
 #![no_std]
 #![forbid(unsafe_code)]
+// Panic-free control path: no unwrap/expect/panic and no unchecked indexing outside
+// tests (fixed-size patterns, iterators and `get` instead). The link check image
+// (`firmware/app/src/bin/panic_check.rs`) proves the result for the entry points.
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )
+)]
 
 #[cfg(test)]
 extern crate std;

@@ -162,11 +162,16 @@ fn joint_references<T: Float>(
     let q_dot = jx_inv * p_dot;
     let jx_dot = geometry.jacobian_derivative(&q, p, &q_dot)?;
     let q_ddot = jx_inv * (p_ddot - jx_dot * q_dot);
-    Ok([0, 1, 2].map(|k| Reference {
-        position: q[k],
-        velocity: q_dot[k],
-        acceleration: q_ddot[k],
-    }))
+    let reference = |position, velocity, acceleration| Reference {
+        position,
+        velocity,
+        acceleration,
+    };
+    Ok([
+        reference(q.x, q_dot.x, q_ddot.x),
+        reference(q.y, q_dot.y, q_ddot.y),
+        reference(q.z, q_dot.z, q_ddot.z),
+    ])
 }
 
 /// One straight move: the effector at `from + line · s(t)` with s a minimum-jerk 0 → 1.

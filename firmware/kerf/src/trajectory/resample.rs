@@ -17,9 +17,12 @@ use heapless::Vec;
 use nalgebra::Vector2;
 
 fn mix(w: [f64; 3], p: [[f64; 2]; 3]) -> [f64; 2] {
-    let [a, b, c] = p;
-    let f = |i: usize| (w[0] * a[i] + w[1] * b[i] + w[2] * c[i]) / 8.0;
-    [f(0), f(1)]
+    let [[ax, ay], [bx, by], [cx, cy]] = p;
+    let [wa, wb, wc] = w;
+    [
+        (wa * ax + wb * bx + wc * cx) / 8.0,
+        (wa * ay + wb * by + wc * cy) / 8.0,
+    ]
 }
 
 /// Densifies open-contour `points` with `passes` quadratic passes into capacity `CAP`.

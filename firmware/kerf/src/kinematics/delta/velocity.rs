@@ -120,15 +120,17 @@ impl<T: Float> DeltaGeometry<T> {
             p_dot + act2.rail * q_dot.y,
             p_dot + act3.rail * q_dot.z,
         ];
-        // M = J̇1 + Ġ Jx: row i is ġiᵀ Jx plus ḟdi on the diagonal.
-        let mut m = Matrix3::from_fn(|i, j| dot3(&g_dot[i], &jx.column(j).into_owned()));
-        m[(0, 0)] += dot3(&act1.rail, &g_dot[0]);
-        m[(1, 1)] += dot3(&act2.rail, &g_dot[1]);
-        m[(2, 2)] += dot3(&act3.rail, &g_dot[2]);
+        // M = J̇1 + Ġ Jx: row i is ġiᵀ Jx plus ḟdi = wi · ġi on the diagonal.
+        let [gd1, gd2, gd3] = &g_dot;
+        let g_dot_rows = Matrix3::from_rows(&[gd1.transpose(), gd2.transpose(), gd3.transpose()]);
+        let fd_dot = Vector3::new(
+            dot3(&act1.rail, gd1),
+            dot3(&act2.rail, gd2),
+            dot3(&act3.rail, gd3),
+        );
+        let m = g_dot_rows * jx + Matrix3::from_diagonal(&fd_dot);
         let [c1, c2, c3] = &terms.adj;
-        Ok(Matrix3::from_fn(|k, j| {
-            (c1[k] * m[(0, j)] + c2[k] * m[(1, j)] + c3[k] * m[(2, j)]) * terms.inv_det_j2
-        }))
+        Ok(Matrix3::from_columns(&[*c1, *c2, *c3]) * m * terms.inv_det_j2)
     }
 }
 
