@@ -123,12 +123,11 @@ impl Real for Q32 {
     const ZERO: Self = Q32(I32F32::ZERO);
     #[inline]
     fn from_f64(v: f64) -> Self {
-        // NaN maps to zero; out-of-range values saturate.
-        Q32(I32F32::saturating_from_num(if v.is_nan() {
-            0.0
-        } else {
-            v
-        }))
+        // v · 2^32 is exact (a power-of-two scale); `rint` rounds it to the nearest
+        // integer, ties to even, as `fixed`'s conversion does; `as` saturates out-of-range
+        // values and maps NaN to zero. Done here rather than by `saturating_from_num`,
+        // whose NaN branch panics and stays linked even behind a NaN test.
+        Q32(I32F32::from_bits(libm::rint(v * 4_294_967_296.0) as i64))
     }
     #[inline]
     fn to_f64(self) -> f64 {
@@ -326,6 +325,39 @@ mod tests {
         assert_eq!((big * big).0, I32F32::MAX);
         assert_eq!(Q32::from_f64(f64::NAN), Q32::ZERO);
         assert_eq!(Q32::from_f64(1e300).0, I32F32::MAX);
+    }
+
+    #[test]
+    fn q32_from_f64_rounds_and_saturates_as_fixed_does() {
+        // Reference: `fixed`'s own conversion (round to nearest, ties to even, saturating).
+        let mut values = std::vec![
+            0.0,
+            -0.0,
+            1.5 / 4_294_967_296.0,
+            2.5 / 4_294_967_296.0,
+            -2.5 / 4_294_967_296.0,
+            0.5 / 4_294_967_296.0,
+            2_147_483_647.999_999_999,
+            -2_147_483_648.0,
+            -2_147_483_648.5,
+            2_147_483_648.0,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+            f64::MAX,
+        ];
+        let mut x = 0.123_456_789_f64;
+        for _ in 0..2000 {
+            x = (x * 7.31 + 0.77).fract();
+            values.push((x - 0.5) * 1e4);
+            values.push((x - 0.5) * 1e-6);
+        }
+        for v in values {
+            assert_eq!(Q32::from_f64(v).0, I32F32::saturating_from_num(v), "{v:e}");
+        }
+        assert_eq!(Q32::from_f64(f64::NAN), Q32::ZERO);
     }
 
     #[test]

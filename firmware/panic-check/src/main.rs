@@ -1,0 +1,341 @@
+//! Panic-free, proven at link time.
+//!
+//! This image calls every control-period entry point of kerf — each machine's
+//! per-period methods and its supervisor step, the axis law, Hall decoding,
+//! velocity observation, delta kinematics, the contour references, the DCT/SDCT codec
+//! and the packet format with its stream ends — and the constructors and planners that
+//! feed them, on inputs the optimiser cannot see through (`core::hint::black_box`).
+//! Its panic handler calls a symbol that no object defines, so the image links only if
+//! the optimised, LTO-linked code contains no path to a panic: a bounds check, an
+//! `unwrap`, an arithmetic overflow check or a `panic!` that survives optimisation
+//! anywhere below these calls is a link error naming `kerf_panic_is_reachable`.
+//!
+//! It is linked for the board (thumbv7em-none-eabihf, `memory.x`) by `scripts/test`
+//! and never run. To find the call that still panics, build it with
+//! `KERF_PANIC_CHECK_FIND=1 scripts/panic-check`, which defines the symbol and
+//! disassembles the callers.
+#![no_std]
+#![no_main]
+
+use core::hint::black_box;
+use cortex_m_rt::entry;
+use heapless::spsc::Queue;
+use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
+use kerf::app::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
+use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
+use kerf::app::stream::{SignalReceiver, SignalSender};
+use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
+use kerf::codec::dct::Dct;
+use kerf::codec::packet::{self, PacketDecoder, MAX_PACKET_LEN};
+use kerf::codec::sdct::{SdctConfig, SdctDecoder, SdctEncoder, Selection};
+use kerf::control::dob::{Dob, DobState};
+use kerf::control::pd::{Pd, Reference};
+use kerf::hal::{FrameLink, LinkBusy};
+use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
+use kerf::kinematics::Vector3;
+use kerf::sensing::hall::{HallConfig, HallDecoder, HallState};
+use kerf::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
+use kerf::trajectory::constraint::{ConstraintConfig, MotionConstraint};
+use kerf::trajectory::efd::Efd;
+use kerf::trajectory::resample::ArcResampler;
+use kerf::trajectory::tangential::{ContourFollower, FollowerConfig, SpeedRamp, SpeedRampConfig};
+use kerf::{Real, Q32};
+
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    extern "Rust" {
+        // Defined nowhere: referencing it makes any reachable panic a link error.
+        fn kerf_panic_is_reachable() -> !;
+    }
+    // SAFETY: never executed in an image that links; the call exists to be resolved.
+    unsafe { kerf_panic_is_reachable() }
+}
+
+/// A value the optimiser must treat as unknown.
+#[inline(always)]
+fn opaque<T>(value: T) -> T {
+    black_box(value)
+}
+
+/// Keeps a result alive so that the call producing it is not removed.
+#[inline(always)]
+fn sink<T>(value: T) {
+    black_box(value);
+}
+
+#[entry]
+fn main() -> ! {
+    loop {
+        match opaque(0u8) {
+            0 => joints_machine(),
+            1 => delta_machine(),
+            2 => axis_law::<f32>(),
+            3 => axis_law::<Q32>(),
+            4 => hall_and_observer(),
+            5 => kinematics(),
+            6 => contours(),
+            7 => codec::<32>(),
+            8 => codec::<64>(),
+            _ => stream(),
+        }
+    }
+}
+
+/// Every per-period method of a machine, and a supervisor stepping it with a command.
+fn periods<M: Machine>(machine: M, inputs: M::Inputs, job: M::Job, calibration: M::Calibration)
+where
+    M::Coefficients: Clone,
+    M::Calibration: Clone,
+{
+    let mut machine = opaque(machine);
+    let inputs = opaque(inputs);
+    match opaque(0u8) {
+        0 => sink(machine.monitor(&inputs)),
+        1 => machine.begin_calibration(),
+        2 => sink(machine.calibrate(&inputs, &mut |axis, counts| sink((axis, counts)))),
+        3 => machine.finish_calibration(opaque(calibration.clone())),
+        4 => sink(machine.check_job(&opaque(job.clone()))),
+        5 => sink(machine.begin_job(&opaque(job.clone()))),
+        6 => sink(machine.run(&inputs)),
+        7 => machine.begin_stop(),
+        8 => sink(machine.stop(&inputs)),
+        9 => machine.reset(),
+        10 => sink(machine.safe_outputs()),
+        _ => sink(machine.telemetry()),
+    }
+    let mut commands = Queue::<Command<M>, 4>::new();
+    let mut reports = Queue::<Report<M>, 8>::new();
+    let (mut command_in, command_out) = commands.split();
+    let (report_in, mut report_out) = reports.split();
+    let command = match opaque(0u8) {
+        0 => Command::Calibrate,
+        1 => Command::FinishCalibration(opaque(calibration)),
+        2 => Command::LoadJob(opaque(job)),
+        3 => Command::Start,
+        4 => Command::Stop,
+        _ => Command::ResetFault,
+    };
+    sink(command_in.enqueue(command).is_ok());
+    let mut supervisor = opaque(Supervisor::new(machine, command_out, report_in));
+    sink(supervisor.step(&inputs));
+    sink(supervisor.mode());
+    sink(report_out.dequeue());
+}
+
+fn joints_machine() {
+    let config = opaque(JointsConfig::LM1247);
+    let (Ok(machine), Ok(axis)) = (
+        Joints::<f32, 1>::new(&config),
+        HallAxis::<f32>::new(&opaque(HallConfig::LM1247_16BIT)),
+    ) else {
+        return;
+    };
+    let mut job = JointJob::<1>::new();
+    sink(job.push(opaque(Segment {
+        target_m: [0.01],
+        duration_s: 0.5,
+    })));
+    if let Ok(law) = AxisLaw::<f32>::new(&config.axis, config.period_s) {
+        let mut changed = opaque(machine.clone());
+        changed.set_coefficients(law);
+        sink(changed);
+    }
+    periods(machine, [[0u16; 3]; 1], job, [axis]);
+}
+
+fn delta_machine() {
+    let config = opaque(DeltaSlaveConfig::KEOPS);
+    let (Ok(machine), Ok(axis)) = (
+        DeltaSlave::<f32>::new(&config),
+        HallAxis::<f32>::new(&opaque(HallConfig::LM1247_16BIT)),
+    ) else {
+        return;
+    };
+    let moves = [opaque(Segment {
+        target_m: [0.0, 0.005, -0.2],
+        duration_s: 0.5,
+    })];
+    let Ok(job) = DeltaJob::plan(&config, opaque([0.0; 3]), opaque(0.5), &moves) else {
+        return;
+    };
+    periods(
+        machine,
+        [[0u16; 3]; 3],
+        job,
+        [axis.clone(), axis.clone(), axis],
+    );
+}
+
+fn axis_law<T: Real>() {
+    let config = opaque(AxisConfig::LM1247_SLAVE);
+    let (Ok(law), Ok(sensor)) = (
+        AxisLaw::<T>::new(&config, opaque(1e-4)),
+        HallAxis::<T>::new(&opaque(HallConfig::LM1247_16BIT)),
+    ) else {
+        return;
+    };
+    let mut state = opaque(AxisState::homed_at(T::from_f64(opaque(0.004))));
+    let reference = opaque(Reference {
+        position: T::from_f64(opaque(0.005)),
+        velocity: T::from_f64(opaque(0.1)),
+        acceleration: T::from_f64(opaque(1.0)),
+    });
+    sink(law.step(&sensor, &mut state, opaque([0u16; 3]), &reference));
+    sink(state.position_m());
+    // The laws on their own (Q32 constructors included).
+    if let (Ok(pd), Ok(dob)) = (
+        Pd::<T>::new(&config.pd),
+        Dob::<T>::new(&config.dob, opaque(1e-4)),
+    ) {
+        let mut dob_state = opaque(DobState::at(T::from_f64(opaque(0.0))));
+        let a = pd.acceleration(
+            &reference,
+            opaque(reference.position),
+            opaque(reference.velocity),
+        );
+        sink(dob.update(&mut dob_state, a, opaque(reference.velocity)));
+    }
+}
+
+fn hall_and_observer() {
+    let Ok(decoder) = HallDecoder::new(&opaque(HallConfig::LM1247_16BIT)) else {
+        return;
+    };
+    let mut state = opaque(HallState::default());
+    sink(decoder.update(&mut state, opaque([0u16; 3]), opaque(0i64)));
+    let Ok(observer) = TrackingObserver::<f32>::new(
+        &opaque(TrackingObserverConfig {
+            bandwidth_rad_s: 2000.0,
+        }),
+        opaque(1e-4),
+    ) else {
+        return;
+    };
+    let mut observed = opaque(TrackingObserverState::at_rest(opaque(0.0f32)));
+    sink(observer.predicted_step(&observed, opaque(0.0)));
+    sink(observer.update(&mut observed, opaque(0.001), opaque(0.0)));
+}
+
+fn kinematics() {
+    let Ok(geometry) = DeltaGeometry::<f32>::new(&opaque(DeltaConfig::SLAVE_KEOPS)) else {
+        return;
+    };
+    let q = opaque(Vector3::new(0.02f32, 0.02, 0.02));
+    let p = opaque(Vector3::new(0.0f32, 0.0, -0.2));
+    let q_dot = opaque(Vector3::new(0.01f32, -0.02, 0.0));
+    sink(geometry.forward(&q));
+    sink(geometry.inverse(&p));
+    sink(geometry.jacobian(&q, &p));
+    sink(geometry.jacobian_inverse(&q, &p));
+    sink(geometry.jacobian_derivative(&q, &p, &q_dot));
+}
+
+fn contours() {
+    let polygon = opaque([[0.0, 0.0], [0.01, 0.0], [0.01, 0.01], [0.0, 0.01]]);
+    if let Ok(efd) = Efd::<f32, 10>::from_polygon(&polygon, opaque(10)) {
+        sink(efd.evaluate(opaque(0.3)));
+        let config = opaque(FollowerConfig {
+            ramp: SpeedRampConfig {
+                speed_m_s: 0.01,
+                accel_m_s2: 0.1,
+                jerk_m_s3: 10.0,
+                ts_s: 1e-4,
+            },
+            accel_limit_m_s2: 1.0,
+        });
+        if let Ok(follower) = ContourFollower::new(efd, &config, opaque(0.0)) {
+            let mut follower = opaque(follower);
+            follower.start();
+            sink(follower.step());
+        }
+        if let Ok(ramp) = SpeedRamp::<f32>::new(&config.ramp) {
+            let mut ramp = opaque(ramp);
+            sink(ramp.step());
+        }
+    }
+    if let Ok(constraint) =
+        MotionConstraint::<f32, 8>::new(&polygon, &opaque(ConstraintConfig::closed_contour()))
+    {
+        sink(constraint.evaluate(opaque(Vector3::new(0.0, 0.0, 0.0)), opaque(0.0)));
+    }
+    let points = opaque([[0.0f32, 0.0], [0.01, 0.0], [0.01, 0.01]]);
+    if let Ok(resampler) = ArcResampler::new(&points) {
+        let mut resampler = opaque(resampler);
+        sink(resampler.advance(opaque(0.001)));
+    }
+}
+
+fn codec<const N: usize>() {
+    let config = opaque(SdctConfig {
+        m: 8,
+        selection: Selection::Largest,
+    });
+    let (Ok(dct), Ok(encoder), Ok(decoder)) = (
+        Dct::<N>::new(),
+        SdctEncoder::<N>::new(&config),
+        SdctDecoder::<N>::new(),
+    ) else {
+        return;
+    };
+    let mut x = opaque([0.0f32; N]);
+    dct.forward(&mut x);
+    dct.inverse(&mut x);
+    let mut q = [0i32; N];
+    dct.forward_q15(&opaque([0i16; N]), &mut q);
+    let mut back = [0i16; N];
+    dct.inverse_q15(&opaque(q), &mut back);
+    sink(back);
+    let mut bytes = [0u8; MAX_PACKET_LEN];
+    if let Ok(block) = encoder.encode(&x) {
+        decoder.decode(&block, &mut x);
+        sink(packet::encode(&block, opaque(0), opaque(0), &mut bytes));
+    }
+    let bytes = opaque(bytes);
+    let len = opaque(0usize);
+    if let Some(frame) = bytes.get(..len) {
+        sink(packet::parse(frame));
+        let mut packets = opaque(PacketDecoder::new());
+        if let Ok(received) = packets.decode(frame) {
+            sink(received.packet.to_block::<N>());
+        }
+    }
+    sink(x);
+}
+
+/// A link whose frames and readiness the optimiser cannot predict.
+struct OpaqueLink;
+
+impl FrameLink for OpaqueLink {
+    fn send(&mut self, frame: &[u8]) -> Result<(), LinkBusy> {
+        sink(frame);
+        if opaque(false) {
+            Err(LinkBusy)
+        } else {
+            Ok(())
+        }
+    }
+
+    fn receive(&mut self, buf: &mut [u8]) -> Option<usize> {
+        for b in buf.iter_mut() {
+            *b = opaque(0);
+        }
+        opaque(Some(buf.len()))
+    }
+}
+
+fn stream() {
+    let config = opaque(SdctConfig {
+        m: 8,
+        selection: Selection::Largest,
+    });
+    if let Ok(sender) = SignalSender::<32>::new(&config) {
+        let mut sender = opaque(sender);
+        sink(sender.push(opaque(0.0), &mut OpaqueLink));
+    }
+    if let Ok(receiver) = SignalReceiver::<32>::new() {
+        let mut receiver = opaque(receiver);
+        let mut out = [0.0f32; 32];
+        sink(receiver.poll(&mut OpaqueLink, &mut out));
+        sink(out);
+    }
+}
