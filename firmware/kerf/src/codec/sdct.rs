@@ -81,9 +81,11 @@ impl<const N: usize> Block<N> {
     }
 }
 
-/// Mask of the `m` largest |c\[k\]|, ties to the lower index. O(N) on average and no
-/// allocation: a quickselect finds the m-th largest magnitude T, then every |c| > T is
-/// kept and the remaining slots go to the lowest indices with |c| = T.
+/// Mask of the `m` largest |c\[k\]|, ties to the lower index. No allocation and no
+/// panic path: one pass keeps the m largest magnitudes in a sorted buffer (most values
+/// fail the first comparison once it is full), whose last entry is the m-th largest T;
+/// then every |c| > T is kept and the remaining slots go to the lowest indices with
+/// |c| = T. (The standard library's quickselect keeps bounds checks that can panic.)
 pub fn select_largest<const N: usize>(c: &[f32; N], m: usize) -> u64 {
     if m == 0 {
         return 0;
@@ -94,9 +96,19 @@ pub fn select_largest<const N: usize>(c: &[f32; N], m: usize) -> u64 {
     // For non-negative floats the IEEE bit pattern orders like the value, so the
     // selection runs on integers. NaN is rejected before the transform.
     let bits = c.map(|v| v.abs().to_bits());
-    let mut sorted = bits;
-    // 0 < m < N, so index m − 1 is in the slice.
-    let (_, &mut threshold, _) = sorted.select_nth_unstable_by(m - 1, |a, b| b.cmp(a));
+    // The m largest so far, descending, in the first m slots. Zeros stand in until m
+    // values have arrived: magnitudes are ≥ 0, so a stand-in never outranks a real one.
+    let mut top = [0u32; N];
+    for &b in &bits {
+        if top.get(m - 1).is_some_and(|&smallest| b > smallest) {
+            // Insert before the first smaller entry; the rest move down, the last drops.
+            let mut carry = b;
+            for slot in top.iter_mut().take(m).skip_while(|t| **t >= b) {
+                core::mem::swap(slot, &mut carry);
+            }
+        }
+    }
+    let threshold = top.get(m - 1).copied().unwrap_or(0);
     let mut mask = 0u64;
     // At most m − 1 magnitudes are strictly above the m-th largest, so `left` stays ≥ 1
     // through the first pass.
@@ -226,6 +238,32 @@ mod tests {
         assert_eq!(select_largest(&c, 20), 0xFF);
         assert_eq!(select_largest(&[0.0f32; 8], 3), 0b111); // all tied
         assert_eq!(select(&c, 3, Selection::First), 0b111);
+    }
+
+    #[test]
+    fn selection_matches_a_stable_sort_on_random_blocks_with_ties() {
+        // Reference: indices sorted by descending |c| (stable, so ties keep the lower
+        // index), the first m kept. Magnitudes drawn from 6 levels force many ties.
+        let mut seed = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for _ in 0..2000 {
+            let mut c = [0.0f32; 32];
+            for v in c.iter_mut() {
+                let r = next();
+                let level = (r % 6) as f32 * 0.25;
+                *v = if r & 64 == 0 { level } else { -level };
+            }
+            let m = (next() % 33) as usize;
+            let mut order: std::vec::Vec<usize> = (0..32).collect();
+            order.sort_by(|&a, &b| c[b].abs().total_cmp(&c[a].abs()));
+            let expect = order.iter().take(m).fold(0u64, |mask, &k| mask | 1 << k);
+            assert_eq!(select_largest(&c, m), expect, "m = {m}, {c:?}");
+        }
     }
 
     #[test]
