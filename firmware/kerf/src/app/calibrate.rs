@@ -97,7 +97,8 @@ impl<T: Real, const N: usize> CalibrationSweep<T, N> {
         counts: &[[u16; 3]; N],
         record: &mut dyn FnMut(u8, [u16; 3]),
     ) -> bool {
-        if self.period % self.decimation == 0 {
+        // `decimation` is at least 1 (`new`); `checked_rem` says so without a panic path.
+        if self.period.checked_rem(self.decimation) == Some(0) {
             for (axis, c) in counts.iter().enumerate() {
                 record(axis as u8, *c);
             }

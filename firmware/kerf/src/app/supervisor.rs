@@ -361,10 +361,7 @@ impl<'q, M: Machine> Supervisor<'q, M> {
                 let reports = &mut self.reports;
                 let dropped = &mut self.dropped_reports;
                 let mut record = |axis: u8, counts: [u16; 3]| {
-                    if reports
-                        .enqueue(Report::CalibrationSample { axis, counts })
-                        .is_err()
-                    {
+                    if !enqueue(reports, Report::CalibrationSample { axis, counts }) {
                         *dropped = dropped.saturating_add(1);
                     }
                 };
@@ -484,10 +481,19 @@ impl<'q, M: Machine> Supervisor<'q, M> {
     }
 
     fn report(&mut self, report: Report<M>) {
-        if self.reports.enqueue(report).is_err() {
+        if !enqueue(&mut self.reports, report) {
             self.dropped_reports = self.dropped_reports.saturating_add(1);
         }
     }
+}
+
+/// Enqueues `item`; `false` when the queue is full or has no storage at all. The queue
+/// behind a producer is a view whose storage length is only known at run time, and
+/// `enqueue` advances its index modulo that length: testing the length first (a queue
+/// without storage reports a capacity of `usize::MAX`, the wrapped `0 − 1`) leaves no
+/// division by zero, and so no panic, in the control period.
+fn enqueue<T>(producer: &mut Producer<'_, T>, item: T) -> bool {
+    producer.capacity() != usize::MAX && producer.enqueue(item).is_ok()
 }
 
 #[cfg(test)]

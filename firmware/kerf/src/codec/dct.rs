@@ -61,6 +61,9 @@ mod tables {
 }
 use tables::{COS_F32, COS_PERIOD, COS_Q15};
 
+// The twiddle table steps by shifts of COS_PERIOD (`Dct::new`).
+const _: () = assert!(COS_PERIOD.is_power_of_two());
+
 /// cos(2πj/256), f32. `j % COS_PERIOD` is always in the table.
 #[inline(always)]
 fn cos_f32(j: usize) -> f32 {
@@ -120,9 +123,12 @@ impl<const N: usize> Dct<N> {
         let mut twiddle = [0.0f32; N];
         for (i, t) in twiddle.iter_mut().enumerate().skip(1) {
             // Slot i belongs to the stage with L/2 ≤ i < L, as its entry i − L/2.
-            let half = 1usize << i.ilog2();
-            let len = 2 * half;
-            let j = (2 * (i - half) + 1) * (COS_PERIOD / (4 * len));
+            // len = 2^(log2 half + 1), so the table step COS_PERIOD / (4·len) is a shift
+            // (COS_PERIOD = 256), which has no division by zero to check.
+            let half_log2 = i.ilog2();
+            let half = 1usize << half_log2;
+            let step = COS_PERIOD.checked_shr(half_log2 + 3).unwrap_or(0);
+            let j = (2 * (i - half) + 1) * step;
             *t = 0.5 / cos_f32(j);
         }
         let (s0, s) = scales(N);
