@@ -3,6 +3,7 @@
 #![no_std]
 
 pub mod bench;
+pub mod stack;
 
 use cortex_m_semihosting::debug;
 

@@ -152,7 +152,7 @@ fn delta_machine() {
         return;
     };
     let moves = [opaque(Segment {
-        target_m: [0.0, 0.005, -0.2],
+        target_m: [0.0, 0.005, 0.05],
         duration_s: 0.5,
     })];
     let Ok(job) = DeltaJob::plan(&config, opaque([0.0; 3]), opaque(0.5), &moves) else {

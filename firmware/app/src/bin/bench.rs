@@ -7,7 +7,11 @@
 use core::f32::consts::PI;
 use core::hint::black_box;
 use cortex_m_semihosting::hprintln;
+use heapless::spsc::Queue;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
+use kerf::app::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
+use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
+use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
 use kerf::codec::dct::{Dct, NaiveDct};
 use kerf::codec::sdct::{SdctConfig, SdctDecoder, SdctEncoder, Selection};
 use kerf::control::dob::{Dob, DobState};
@@ -20,6 +24,7 @@ use kerf::trajectory::shapes;
 use kerf::{Real, Q32};
 use kerf_app::bench::Counter;
 use kerf_app::exit;
+use kerf_app::stack::Painted;
 
 /// Number of distinct inputs cycled through (a power of two).
 const INPUTS: usize = 64;
@@ -201,7 +206,107 @@ fn main() -> ! {
     efd_rows(&mut counter);
     codec_rows::<32>(&mut counter, 8);
     codec_rows::<64>(&mut counter, 16);
+    machine_stacks();
     exit(true)
+}
+
+/// Control-period stack of each machine: one supervisor step per command and mode, from
+/// Idle through calibration, a job and its stop, measured by painting. Printed as list
+/// lines for the Stack section of BENCHMARKS.md.
+fn machine_stacks() {
+    let delta_config = DeltaSlaveConfig::KEOPS;
+    let (Ok(joints), Ok(axis), Ok(delta)) = (
+        Joints::<f32, 1>::new(&JointsConfig::LM1247),
+        HallAxis::<f32>::new(&HallConfig::LM1247_16BIT),
+        DeltaSlave::<f32>::new(&delta_config),
+    ) else {
+        exit(false)
+    };
+    let mut joint_job = JointJob::<1>::new();
+    let segment = Segment {
+        target_m: [0.01],
+        duration_s: 0.5,
+    };
+    let move_ = Segment {
+        target_m: [0.0, 0.005, 0.05],
+        duration_s: 0.5,
+    };
+    if joint_job.push(segment).is_err() {
+        exit(false)
+    }
+    let delta_job = match DeltaJob::plan(&delta_config, [0.0, 0.0, 0.05], 0.5, &[move_]) {
+        Ok(job) => job,
+        Err(e) => {
+            hprintln!("delta job rejected: {:?}", e);
+            exit(false)
+        }
+    };
+    let counts = hall_inputs()[0];
+    machine_stack(
+        "Joints<f32, 1>",
+        joints,
+        [counts],
+        [axis.clone()],
+        joint_job,
+    );
+    let axes = [axis.clone(), axis.clone(), axis];
+    machine_stack("DeltaSlave<f32>", delta, [counts; 3], axes, delta_job);
+}
+
+/// Peak stack of one supervisor step after each command of a whole session.
+fn machine_stack<M: Machine>(
+    name: &str,
+    machine: M,
+    inputs: M::Inputs,
+    calibration: M::Calibration,
+    job: M::Job,
+) {
+    let mut commands = Queue::<Command<M>, 4>::new();
+    let mut reports = Queue::<Report<M>, 16>::new();
+    let (mut send, command_out) = commands.split();
+    let (report_in, mut receive) = reports.split();
+    let mut supervisor = Supervisor::new(machine, command_out, report_in);
+    let (mut calibration, mut job) = (Some(calibration), Some(job));
+    let mut deepest = 0;
+    for phase in 0..8 {
+        let command = match phase {
+            0 => Some(Command::Calibrate),
+            2 => calibration.take().map(Command::FinishCalibration),
+            3 => job.take().map(Command::LoadJob),
+            4 => Some(Command::Start),
+            6 => Some(Command::Stop),
+            _ => None,
+        };
+        if let Some(command) = command {
+            if send.enqueue(command).is_err() {
+                exit(false)
+            }
+        }
+        let mut period = || {
+            black_box(supervisor.step(black_box(&inputs)));
+        };
+        deepest = deepest.max(stack_of(&mut period).unwrap_or(usize::MAX));
+        while receive.dequeue().is_some() {}
+    }
+    hprintln!(
+        "- {} control period, deepest over a session: {} bytes",
+        name,
+        deepest
+    );
+}
+
+/// Stack painted below a measured call, bytes.
+const STACK_PAINT: usize = 16 * 1024;
+
+/// Peak stack of one call of `body`, bytes, measured by painting; `None` if it used the
+/// whole painted stretch.
+fn stack_of(body: &mut dyn FnMut()) -> Option<usize> {
+    // Through an opaque trait object, so that none of `body` is inlined into this frame
+    // (which exists before the painting and would not be counted).
+    let body: &mut dyn FnMut() = black_box(body);
+    let painted = Painted::below_sp(STACK_PAINT);
+    body();
+    painted.used()
 }
 
 /// SDCT block codec (f32): the fast transforms, encode (transform + selection of m)

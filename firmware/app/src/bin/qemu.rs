@@ -40,8 +40,9 @@ use embassy_executor::InterruptExecutor;
 use hal_mock::hall_sensor::HallSensorParams;
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::joints::Joints;
-use kerf::app::supervisor::{Command, Report};
+use kerf::app::supervisor::{Command, Mode, Report};
 use kerf_app::exit;
+use kerf_app::stack::Painted;
 use kerf_sim::scenario::{
     AxisOperator, OperatorState, Outcome, Rig, Scenario, COMMAND_CAPACITY, MAX_ERROR_BOUND_M,
     REPORT_CAPACITY, RMS_ERROR_BOUND_M, TS_S,
@@ -92,6 +93,34 @@ struct Control {
     periods: u32,
     limit: u32,
     job_periods: u32,
+    /// Deepest stack of a period in each mode, bytes below the handler's stack pointer.
+    stack_by_mode: [usize; MODES],
+}
+
+/// Modes in the stack report, in `mode_index` order.
+const MODES: usize = 6;
+const MODE_NAMES: [&str; MODES] = [
+    "idle",
+    "calibrating",
+    "ready",
+    "running",
+    "stopping",
+    "fault",
+];
+/// Stack painted below the control handler's stack pointer each period, bytes: four
+/// times the 2 KB budget of the control interrupt, so that a period over budget shows
+/// its real depth.
+const CONTROL_STACK_PAINT: usize = 8 * 1024;
+
+fn mode_index<F>(mode: Mode<F>) -> usize {
+    match mode {
+        Mode::Idle => 0,
+        Mode::Calibrating => 1,
+        Mode::Ready => 2,
+        Mode::Running => 3,
+        Mode::Stopping => 4,
+        Mode::Fault(_) => 5,
+    }
 }
 
 /// The control state on its way from `main` to the SysTick handler, which takes it on
@@ -115,7 +144,15 @@ fn SysTick() {
     let Some(control) = OWNED.as_mut() else {
         return;
     };
-    let period = control.rig.step();
+    // The stack below this handler is free while it runs (nothing preempts it), so
+    // it is painted every period and read back after the step: the period's depth.
+    let painted = Painted::below_sp(CONTROL_STACK_PAINT);
+    let mode = mode_index(control.rig.supervisor().mode());
+    let period = step(&mut control.rig);
+    let used = painted.used().unwrap_or(usize::MAX);
+    if let Some(deepest) = control.stack_by_mode.get_mut(mode) {
+        *deepest = (*deepest).max(used);
+    }
     if period.in_job() && control.outcome.periods < control.job_periods {
         control.outcome.add(&period);
     }
@@ -123,7 +160,7 @@ fn SysTick() {
     // The operator decides when the job is over (it sees the supervisor's reports);
     // the limit only ends a run that hangs.
     if OPERATOR_DONE.load(Ordering::Acquire) || control.periods >= control.limit {
-        finish(&control.outcome);
+        finish(&control.outcome, &control.stack_by_mode);
     }
     PERIODS.fetch_add(1, Ordering::Release);
     if let Some(waker) = cortex_m::interrupt::free(|cs| PERIOD_WAKER.borrow(cs).take()) {
@@ -132,8 +169,27 @@ fn SysTick() {
     }
 }
 
+/// One control period, kept out of the handler so that all of its stack lies below the
+/// painted mark.
+#[inline(never)]
+fn step(rig: &mut Rig<'static, f32>) -> kerf_sim::scenario::Period {
+    rig.step()
+}
+
 /// Prints the summary and ends the run.
-fn finish(outcome: &Outcome) -> ! {
+fn finish(outcome: &Outcome, stack_by_mode: &[usize; MODES]) -> ! {
+    hprintln!("kerf qemu smoke: control period stack, deepest per mode (bytes below the SysTick handler's frame, simulated plant included; 0 = mode not entered):");
+    for (name, bytes) in MODE_NAMES.iter().zip(stack_by_mode) {
+        if *bytes == usize::MAX {
+            hprintln!(
+                "  {}: over {} (painted stretch used up)",
+                name,
+                CONTROL_STACK_PAINT
+            );
+        } else {
+            hprintln!("  {}: {}", name, bytes);
+        }
+    }
     let ok = OPERATOR_FINISHED.load(Ordering::Acquire)
         && outcome.fault_period.is_none()
         && outcome.rms_error_m < RMS_ERROR_BOUND_M
@@ -284,6 +340,7 @@ fn main() -> ! {
             periods: 0,
             limit: scenario.period_limit(),
             job_periods: scenario.periods,
+            stack_by_mode: [0; MODES],
         }))
     });
 
