@@ -40,7 +40,7 @@ use kerf::trajectory::efd::Efd;
 use kerf::trajectory::quintic::Quintic;
 use kerf::trajectory::resample::{self, ArcResampler};
 use kerf::trajectory::shapes;
-use kerf::trajectory::spline::JointSpline;
+use kerf::trajectory::spline::{JointSpline, KnotTiming};
 use kerf::trajectory::tangential::{
     max_speed_m_s, ContourFollower, FollowerConfig, SpeedRamp, SpeedRampConfig,
 };
@@ -956,7 +956,7 @@ fn trajectory_sites<T: Float>(s: &mut Sweep, scalar: &str) {
     let evaluate_all = |sp: &JointSpline<T, 32>| {
         let mut out = Out::Finite;
         for k in 0..=40 {
-            let r = sp.evaluate(re::<T>(sp.duration_s() * k as f64 / 40.0));
+            let r = sp.evaluate(sp.periods() * k / 40);
             out = out.and(finite(
                 v3(&r.q)
                     .into_iter()
@@ -977,9 +977,10 @@ fn trajectory_sites<T: Float>(s: &mut Sweep, scalar: &str) {
         |v| {
             let mut t = task.clone();
             t[5].y = v;
-            refused_or(JointSpline::<T, 32>::fit(&t, 0.01, z, z, id), |sp| {
-                evaluate_all(&sp)
-            })
+            refused_or(
+                JointSpline::<T, 32>::fit(&t, timing(1e-3), z, z, id),
+                |sp| evaluate_all(&sp),
+            )
         },
     );
     s.site(
@@ -989,20 +990,22 @@ fn trajectory_sites<T: Float>(s: &mut Sweep, scalar: &str) {
         Kind::Config,
         |v| {
             let t: Vec<_> = task.iter().map(|p| p * v).collect();
-            refused_or(JointSpline::<T, 32>::fit(&t, 0.01, z, z, id), |sp| {
-                evaluate_all(&sp)
-            })
+            refused_or(
+                JointSpline::<T, 32>::fit(&t, timing(1e-3), z, z, id),
+                |sp| evaluate_all(&sp),
+            )
         },
     );
     s.site(
         M,
-        "JointSpline::fit(knot_period_s) + evaluate",
+        "JointSpline::fit(timing.period_s) + evaluate",
         scalar,
         Kind::Config,
         |v| {
-            refused_or(JointSpline::<T, 32>::fit(&task, v, z, z, id), |sp| {
-                evaluate_all(&sp)
-            })
+            refused_or(
+                JointSpline::<T, 32>::fit(&task, timing(v), z, z, id),
+                |sp| evaluate_all(&sp),
+            )
         },
     );
     s.site(
@@ -1012,7 +1015,7 @@ fn trajectory_sites<T: Float>(s: &mut Sweep, scalar: &str) {
         Kind::Config,
         |v| {
             refused_or(
-                JointSpline::<T, 32>::fit(&task, 0.01, Vector3::new(v, 0.0, 0.0), z, id),
+                JointSpline::<T, 32>::fit(&task, timing(1e-3), Vector3::new(v, 0.0, 0.0), z, id),
                 |sp| evaluate_all(&sp),
             )
         },
@@ -1024,22 +1027,45 @@ fn trajectory_sites<T: Float>(s: &mut Sweep, scalar: &str) {
         Kind::Config,
         |v| {
             let map = |p: Vector3<f64>| Ok::<_, ()>(Vector3::new(p.x, v, p.z));
-            refused_or(JointSpline::<T, 32>::fit(&task, 0.01, z, z, map), |sp| {
-                evaluate_all(&sp)
-            })
+            refused_or(
+                JointSpline::<T, 32>::fit(&task, timing(1e-3), z, z, map),
+                |sp| evaluate_all(&sp),
+            )
         },
     );
-    let spline = JointSpline::<T, 32>::fit(&task, 0.01, z, z, id).unwrap();
-    s.site(M, "JointSpline::evaluate(t_s)", scalar, Kind::Kernel, |v| {
-        let r = spline.evaluate(re::<T>(v));
-        finite(
-            v3(&r.q)
-                .into_iter()
-                .chain(v3(&r.qd))
-                .chain(v3(&r.qdd))
-                .chain(v3(&r.qddd)),
-        )
-    });
+    let spline = JointSpline::<T, 32>::fit(&task, timing(1e-3), z, z, id).unwrap();
+    s.site(
+        M,
+        "JointSpline::evaluate(period = v)",
+        scalar,
+        Kind::Step,
+        |v| {
+            let r = spline.evaluate(v as u64);
+            finite(
+                v3(&r.q)
+                    .into_iter()
+                    .chain(v3(&r.qd))
+                    .chain(v3(&r.qdd))
+                    .chain(v3(&r.qddd)),
+            )
+        },
+    );
+    s.site(
+        M,
+        "JointSpline::evaluate_at(knot 3, offset_s)",
+        scalar,
+        Kind::Step,
+        |v| {
+            let r = spline.evaluate_at(3, re::<T>(v));
+            finite(
+                v3(&r.q)
+                    .into_iter()
+                    .chain(v3(&r.qd))
+                    .chain(v3(&r.qdd))
+                    .chain(v3(&r.qddd)),
+            )
+        },
+    );
     // MotionConstraint and the circle fits
     let cam = shapes::cam();
     let constraint_probe = |c: MotionConstraint<T, 512>, scale: f64| {
@@ -1164,6 +1190,15 @@ fn trajectory_sites<T: Float>(s: &mut Sweep, scalar: &str) {
             a.and(b).and(c)
         },
     );
+}
+
+/// Knots every 10 control periods of `period_s`, from period 0.
+fn timing(period_s: f64) -> KnotTiming {
+    KnotTiming {
+        period_s,
+        periods_per_knot: 10,
+        first_period: 0,
+    }
 }
 
 /// Shapes are f64 test data (no scalar).
