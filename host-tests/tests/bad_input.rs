@@ -642,7 +642,9 @@ fn follow<T: Float, const N: usize>(mut f: ContourFollower<T, N>, periods: usize
     f.start();
     let mut previous: Option<Vector2<T>> = None;
     for _ in 0..periods {
-        let r = f.step();
+        let Ok(r) = f.step() else {
+            return Out::Refused;
+        };
         let out = finite(
             v2(&r.position)
                 .into_iter()
@@ -797,7 +799,9 @@ fn trajectory_sites<T: Float>(s: &mut Sweep, scalar: &str) {
                     f.start();
                     let mut out = Out::Finite;
                     for _ in 0..300 {
-                        let r = f.step();
+                        let Ok(r) = f.step() else {
+                            return Out::Refused;
+                        };
                         out = out.and(finite(
                             v2(&r.position)
                                 .into_iter()

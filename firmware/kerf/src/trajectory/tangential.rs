@@ -252,6 +252,17 @@ pub struct ContourReference<T: Float> {
     pub theta: T,
 }
 
+/// Every component finite.
+trait FiniteAll {
+    fn is_finite_all(&self) -> bool;
+}
+
+impl<T: Float> FiniteAll for Vector2<T> {
+    fn is_finite_all(&self) -> bool {
+        self.x.is_finite() && self.y.is_finite()
+    }
+}
+
 /// Newton corrections per period (the first guess is already second-order accurate).
 const NEWTON_STEPS: usize = 2;
 
@@ -283,10 +294,10 @@ const NEWTON_STEPS: usize = 2;
 /// let mut follower = ContourFollower::new(efd, &config, 0.0).unwrap();
 /// follower.start();
 ///
-/// let mut previous = follower.step().position;
+/// let mut previous = follower.step().unwrap().position;
 /// let mut steps = [0.0; 300];
 /// for step in steps.iter_mut() {
-///     let reference = follower.step();
+///     let reference = follower.step().unwrap();
 ///     *step = (reference.position - previous).norm();
 ///     previous = reference.position;
 /// }
@@ -308,6 +319,8 @@ pub struct ContourFollower<T: Float, const N: usize> {
     /// 2π − (2π rounded to T), rad: the wrap of θ moves the curve by this much.
     wrap_error: T,
     two_pi: T,
+    /// Set when a step could not be solved: the follower holds from then on.
+    lost: bool,
 }
 
 impl<T: Float, const N: usize> ContourFollower<T, N> {
@@ -349,6 +362,7 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
             carry: T::ZERO,
             wrap_error: lit(2.0 * PI - to_f64(two_pi)),
             two_pi,
+            lost: false,
         })
     }
 
@@ -402,8 +416,23 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
         dth
     }
 
+    /// Whether a step has failed (see [`ContourFollower::step`]): the follower holds.
+    pub fn is_lost(&self) -> bool {
+        self.lost
+    }
+
     /// Advances one control period and returns the reference at its end.
-    pub fn step(&mut self) -> ContourReference<T> {
+    ///
+    /// Errors: [`ContourError::LostContour`] when the arc-length step cannot be solved
+    /// on this curve: Δθ not finite or beyond half a turn, a reference not finite, or
+    /// a step whose chord is longer than the arc commanded (θ ran past where the
+    /// curve nearly stops, as at the ends of a nearly collinear contour, T 3.2.2 asks
+    /// for |C(θk+1) − C(θk)| = V·Ts). The follower then holds at its last good θ and
+    /// keeps returning the error: nothing is integrated past a step it could not take.
+    pub fn step(&mut self) -> Result<ContourReference<T>, ContourError> {
+        if self.lost {
+            return Err(ContourError::LostContour);
+        }
         let sp = self.ramp.step();
         let target = sp.ds + self.carry;
         let dth = self.solve_step(target);
@@ -413,11 +442,29 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
         let mut wrap = T::ZERO;
         if theta >= self.two_pi {
             theta -= self.two_pi;
-            self.laps = self.laps.wrapping_add(1);
             wrap = self.wrap_error;
         }
+        let sample = self.efd.evaluate(theta);
+        // The chord can only be shorter than the arc; allow the rounding of the two
+        // positions (a few ulps of their size) and 1 % of the step.
+        let chord = (sample.position - self.sample.position).norm();
+        let rounding = (sample.position.norm() + self.sample.position.norm())
+            * lit::<T>(8.0)
+            * T::default_epsilon();
+        let solved = dth.is_finite()
+            && dth < lit(PI)
+            && sample.position.is_finite_all()
+            && sample.d1.is_finite_all()
+            && chord <= target.max(T::ZERO) * lit(1.01) + rounding;
+        if !solved {
+            self.lost = true;
+            return Err(ContourError::LostContour);
+        }
+        if wrap != T::ZERO {
+            self.laps = self.laps.wrapping_add(1);
+        }
         self.theta = theta;
-        self.sample = self.efd.evaluate(theta);
+        self.sample = sample;
         let s = &self.sample;
         let sigma = s.d1.norm();
         self.carry = if target > T::ZERO {
@@ -442,7 +489,7 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
         } else {
             (T::ZERO, T::ZERO, T::ZERO)
         };
-        ContourReference {
+        let reference = ContourReference {
             position: s.position,
             velocity: s.d1 * th_dot,
             acceleration: s.d2 * (th_dot * th_dot) + s.d1 * th_ddot,
@@ -451,6 +498,13 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
                 + s.d1 * th_dddot,
             speed: v,
             theta,
+        };
+        let derivatives = [reference.velocity, reference.acceleration, reference.jerk];
+        if derivatives.iter().all(|d| d.is_finite_all()) {
+            Ok(reference)
+        } else {
+            self.lost = true;
+            Err(ContourError::LostContour)
         }
     }
 }
@@ -523,7 +577,7 @@ mod tests {
         let (mut prev, mut unwrapped, mut commanded) = (to_f64(f.theta()), 0.0, 0.0);
         let mut max_step_error: f64 = 0.0;
         for _ in 0..steps {
-            let r = f.step();
+            let r = f.step().unwrap();
             let ds = ramp.step().ds;
             let th = to_f64(r.theta);
             let mut dth = th - prev;
@@ -638,7 +692,8 @@ mod tests {
         let efd = Efd::<f64, 30>::from_polygon(&shapes::cam(), 30).unwrap();
         let mut f = ContourFollower::new(efd, &config(0.02, 10.0), 0.0).unwrap();
         f.start();
-        let refs: std::vec::Vec<ContourReference<f64>> = (0..3000).map(|_| f.step()).collect();
+        let refs: std::vec::Vec<ContourReference<f64>> =
+            (0..3000).map(|_| f.step().unwrap()).collect();
         let max_jerk = refs.iter().map(|r| r.jerk.norm()).fold(0.0, f64::max);
         let (mut ev, mut ea, mut ej): (f64, f64, f64) = (0.0, 0.0, 0.0);
         for w in refs.windows(4) {
@@ -712,7 +767,7 @@ mod tests {
                 let lap = f.efd().arc_length(0.0, 2.0 * PI, 2000);
                 let steps = (lap / (v * TS) * 1.2) as usize + f.ramp().ramp_periods() as usize;
                 for _ in 0..steps {
-                    let r = f.step();
+                    let r = f.step().unwrap();
                     if f.ramp().is_cruising() {
                         worst = worst.max(r.acceleration.norm());
                     }
@@ -779,5 +834,39 @@ mod tests {
             Err(e) if e.kind == crate::error::ConfigErrorKind::NotRepresentable
                 || e.kind == crate::error::ConfigErrorKind::OutOfRange
         ));
+    }
+
+    /// A nearly collinear contour (the octagon flattened 10⁴ times: it passes the
+    /// collinearity check, but |C′| nearly vanishes at its two ends). With a high
+    /// enough acceleration limit it is accepted; where a step cannot be solved the
+    /// follower must not jump along the curve: every step it takes is at most the arc
+    /// commanded, and once lost it holds and keeps saying so.
+    #[test]
+    fn a_nearly_collinear_contour_is_never_jumped_along() {
+        let flat = shapes::octagon().map(|[x, y]| [x, y * 1e-4]);
+        let efd = Efd::<f64, 30>::from_polygon(&flat, 30).unwrap();
+        // Start half-way along a long side (θ = 0 is the stroke's end).
+        let mut f = ContourFollower::new(efd, &config(0.01, 1e12), 1.2).unwrap();
+        f.start();
+        let mut previous = f.step().unwrap();
+        let mut lost_at = None;
+        for k in 0..4000 {
+            match f.step() {
+                Ok(r) => {
+                    assert!(lost_at.is_none());
+                    let chord = (r.position - previous.position).norm();
+                    assert!(chord <= 0.01 * TS * 1.01 + 1e-15, "{k}: {chord}");
+                    previous = r;
+                }
+                Err(e) => {
+                    assert_eq!(e, ContourError::LostContour);
+                    lost_at.get_or_insert(k);
+                    assert!(f.is_lost() && f.theta() == previous.theta);
+                }
+            }
+        }
+        println!("flattened octagon: lost at step {lost_at:?}");
+        // It does reach an end of the stroke within the 4 s (a lap is ~60 mm at 10 mm/s).
+        assert!(lost_at.is_some());
     }
 }
