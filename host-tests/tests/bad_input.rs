@@ -771,9 +771,7 @@ fn trajectory_sites<T: Float>(s: &mut Sweep, scalar: &str) {
         },
     );
     s.site(M, "max_speed_m_s(accel_limit)", scalar, Kind::Config, |v| {
-        let speed = max_speed_m_s(&efd, v);
-        // +inf is the documented answer for a straight curve only.
-        finite_f64([speed])
+        refused_or(max_speed_m_s(&efd, v), |speed| finite_f64([speed]))
     });
     // ContourFollower
     type Edit = fn(&mut FollowerConfig, f64);

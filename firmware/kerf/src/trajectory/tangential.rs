@@ -216,14 +216,21 @@ impl<T: Float> SpeedRamp<T> {
 }
 
 /// Highest constant tangential speed an EFD curve allows under `accel_limit_m_s2`:
-/// √(A/κmax), with κmax from [`Efd::max_curvature`] over `64·n` samples.
-pub fn max_speed_m_s<T: Float, const N: usize>(efd: &Efd<T, N>, accel_limit_m_s2: f64) -> f64 {
+/// √(A/κmax), with κmax from [`Efd::max_curvature`] over `64·n` samples (+∞ only
+/// for a curve without curvature, which no closed contour is).
+///
+/// Errors: a limit that is not finite and positive (its square root would be NaN).
+pub fn max_speed_m_s<T: Float, const N: usize>(
+    efd: &Efd<T, N>,
+    accel_limit_m_s2: f64,
+) -> Result<f64, ConfigError> {
+    let limit = positive("accel_limit_m_s2", accel_limit_m_s2)?;
     let kappa = to_f64(efd.max_curvature(64 * efd.harmonics().max(16)));
-    if kappa > 0.0 {
-        libm::sqrt(accel_limit_m_s2 / kappa)
+    Ok(if kappa > 0.0 {
+        libm::sqrt(limit / kappa)
     } else {
         f64::INFINITY
-    }
+    })
 }
 
 /// Follower configuration.
@@ -342,7 +349,7 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
         if config.ramp.speed_m_s * config.ramp.ts_s >= length {
             return Err(ContourError::StepLongerThanContour);
         }
-        let v_max = max_speed_m_s(&efd, limit);
+        let v_max = max_speed_m_s(&efd, limit)?;
         if config.ramp.speed_m_s > v_max {
             return Err(ContourError::SpeedAboveCurvatureLimit {
                 max_speed_m_s: v_max,
@@ -748,7 +755,7 @@ mod tests {
         for (name, pts) in cases {
             for n in [10usize, 30] {
                 let efd = Efd::<f64, 30>::from_polygon(pts, n).unwrap();
-                let v_max = max_speed_m_s(&efd, limit);
+                let v_max = max_speed_m_s(&efd, limit).unwrap();
                 let kappa = limit / (v_max * v_max);
                 println!("{name:>8} {n:>4} {kappa:>12.1} {:>12.2}", v_max * 1e3);
                 // Just above the limit is rejected with the limit in the error ...
@@ -803,7 +810,12 @@ mod tests {
                 "accel_m_s2"
             )))
         );
-        assert!(ContourFollower::new(efd, &config(0.01, 10.0), f64::NAN).is_err());
+        assert!(ContourFollower::new(efd.clone(), &config(0.01, 10.0), f64::NAN).is_err());
+        // A negative, zero or NaN limit has no speed (√ of it would be NaN).
+        for bad in [-1.0, 0.0, f64::NAN] {
+            assert!(max_speed_m_s(&efd, bad).is_err(), "{bad}");
+        }
+        assert!(max_speed_m_s(&efd, 1.0).unwrap().is_finite());
     }
 
     /// Valid in f64, overflowing f32 (a speed beyond f32's range, a jerk so large its
