@@ -94,6 +94,18 @@ impl<T: Float> SpeedRamp<T> {
         }
         let a_used = v / ((n_jerk + n_flat) * ts);
         let j_used = a_used / (n_jerk * ts);
+        // `step` forms Ts², A·Ts² and J·Ts³ in T: each must be finite there (a period
+        // of 1e30 s in f32, or near f64::MAX in f64, overflows them).
+        let per_period = |value: f64| {
+            if value.is_finite() {
+                representable::<T>("ts_s", value)
+            } else {
+                Err(ConfigError::not_representable("ts_s"))
+            }
+        };
+        per_period(ts * ts)?;
+        per_period(a_used * ts * ts)?;
+        per_period(j_used * ts * ts * ts)?;
         Ok(Self {
             // In the target scalar: f64-valid extremes can overflow f32.
             speed: representable("speed_m_s", v)?,
@@ -840,6 +852,15 @@ mod tests {
             SpeedRamp::<f32>::new(&huge_speed).err(),
             Some(ConfigError::not_representable("speed_m_s"))
         );
+        // A period so long that Ts² (f32) or Ts³ (f64) overflows.
+        for (ts_s, f64_too) in [(1e30, false), (f64::MAX, true)] {
+            let long = SpeedRampConfig { ts_s, ..ok };
+            assert_eq!(
+                SpeedRamp::<f32>::new(&long).err(),
+                Some(ConfigError::not_representable("ts_s"))
+            );
+            assert_eq!(SpeedRamp::<f64>::new(&long).is_err(), f64_too);
+        }
         let tiny_period = SpeedRampConfig { ts_s: 1e-46, ..ok };
         assert!(matches!(
             SpeedRamp::<f32>::new(&tiny_period),
