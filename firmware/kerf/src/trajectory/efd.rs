@@ -237,6 +237,10 @@ impl<T: Float, const N: usize> Efd<T, N> {
     }
 
     /// Position relative to the centre and its first three θ-derivatives.
+    ///
+    /// A NaN or ±∞ θ passes through to the sample (a pure kernel; the follower checks
+    /// its own steps). Every finite θ gives a finite sample: the constructors refuse
+    /// coefficients whose derivatives would overflow `T`.
     pub fn evaluate(&self, theta: T) -> EfdSample<T> {
         let (s1, c1) = theta.fsin_cos();
         let (mut ck, mut sk) = (c1, s1);
@@ -278,7 +282,9 @@ impl<T: Float, const N: usize> Efd<T, N> {
     }
 
     /// Arc length of the EFD curve from θ0 to θ1 (m) by `intervals` panels of 3-point
-    /// Gauss–Legendre quadrature (exact for polynomials of degree 5 per panel).
+    /// Gauss–Legendre quadrature (exact for polynomials of degree 5 per panel). A
+    /// non-finite θ, or a finite one so large that the span's length overflows,
+    /// passes through to the result.
     pub fn arc_length(&self, theta0: T, theta1: T, intervals: usize) -> T {
         let n = intervals.max(1);
         let h = (theta1 - theta0) / lit(n as f64);
@@ -290,7 +296,8 @@ impl<T: Float, const N: usize> Efd<T, N> {
         sum
     }
 
-    /// Signed curvature κ(θ) = (x′y″ − y′x″)/|C′|³ (1/m); zero where |C′| = 0.
+    /// Signed curvature κ(θ) = (x′y″ − y′x″)/|C′|³ (1/m); zero where |C′| = 0; a
+    /// non-finite θ passes through (see [`Efd::evaluate`]).
     pub fn curvature(&self, theta: T) -> T {
         let s = self.evaluate(theta);
         let speed = s.d1.norm();

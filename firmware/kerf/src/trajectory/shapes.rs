@@ -77,6 +77,7 @@ pub fn octagon() -> [[f64; 2]; OCTAGON_POINTS] {
 
 /// Regular `sides`-gon of circumradius `radius_m`, first vertex on +x, counter-clockwise,
 /// with `P / sides` equally spaced points per side (P must be a multiple of `sides`).
+/// A non-finite radius gives non-finite points (refused by every contour constructor).
 /// `sides` = 0 is taken as 1 (every point on the circle's first vertex: no 2π/0).
 pub fn regular_polygon<const P: usize>(sides: usize, radius_m: f64) -> [[f64; 2]; P] {
     let sides = sides.max(1);
@@ -94,7 +95,8 @@ pub fn regular_polygon<const P: usize>(sides: usize, radius_m: f64) -> [[f64; 2]
 }
 
 /// Ellipse with semi-axes `a_m` (x) and `b_m` (y) sampled at `P` equal parameter steps
-/// (a circle when `a_m == b_m`).
+/// (a circle when `a_m == b_m`). Non-finite semi-axes give non-finite points: this is
+/// test data, and every contour constructor refuses them.
 pub fn ellipse<const P: usize>(a_m: f64, b_m: f64) -> [[f64; 2]; P] {
     core::array::from_fn(|i| {
         let t = 2.0 * PI * i as f64 / P as f64;
