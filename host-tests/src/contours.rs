@@ -28,13 +28,13 @@ pub fn cam_at_10_mm_s(ts_s: f64, cruise_s: f64, multiple_of: usize) -> Vec<Conto
     let mut follower = ContourFollower::new(efd, &config, 0.0).expect("follower config");
     follower.start();
     let mut references: Vec<_> = (0..(cruise_s / ts_s) as usize)
-        .map(|_| follower.step())
+        .map(|_| follower.step().expect("cam step"))
         .collect();
     follower.stop();
     while references.len() % multiple_of.max(1) != 1 % multiple_of.max(1)
         || references.last().is_some_and(|r| r.speed > 0.0)
     {
-        references.push(follower.step());
+        references.push(follower.step().expect("cam step"));
     }
     references
 }

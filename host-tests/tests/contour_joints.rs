@@ -6,7 +6,7 @@
 use host_tests::contours::{cam_at_10_mm_s, CUT_Z_M};
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
-use kerf::trajectory::spline::JointSpline;
+use kerf::trajectory::spline::{JointSpline, KnotTiming};
 
 #[test]
 fn cam_contour_joint_spline_matches_ik_and_inverse_jacobian() {
@@ -23,7 +23,11 @@ fn cam_contour_joint_spline_matches_ik_and_inverse_jacobian() {
         .collect();
     let spline = JointSpline::<f64, 512>::fit(
         &knots,
-        TS_S * KNOT_EVERY as f64,
+        KnotTiming {
+            period_s: TS_S,
+            periods_per_knot: KNOT_EVERY as u32,
+            first_period: 0,
+        },
         Vector3::zeros(),
         Vector3::zeros(),
         |p| delta.inverse(&p),
@@ -42,7 +46,7 @@ fn cam_contour_joint_spline_matches_ik_and_inverse_jacobian() {
     let (mut worst_q, mut worst_qd, mut peak_qd) = (0.0f64, 0.0f64, 0.0f64);
     let last_knot = (knots.len() - 1) * KNOT_EVERY;
     for (k, r) in references.iter().enumerate().take(last_knot + 1) {
-        let reference = spline.evaluate(k as f64 * TS_S);
+        let reference = spline.evaluate(k as u64);
         let p = task(k);
         let q = delta.inverse(&p).unwrap();
         let p_dot = Vector3::new(r.velocity.x, r.velocity.y, 0.0);

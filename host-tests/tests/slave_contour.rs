@@ -12,7 +12,7 @@ use kerf::control::pd::Reference;
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
 use kerf::sensing::hall::HallConfig;
-use kerf::trajectory::spline::JointSpline;
+use kerf::trajectory::spline::{JointSpline, KnotTiming};
 use kerf_sim::scenario::{MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M};
 
 #[test]
@@ -27,8 +27,16 @@ fn keops_slave_follows_the_cam_contour_through_hall_sensors() {
         .iter()
         .map(|r| Vector3::new(r.position.x, r.position.y, CUT_Z_M))
         .collect();
+    // Knots every 10 periods; the spline starts when the hold ends.
+    const HOLD_S: f64 = 0.2;
+    let hold = (HOLD_S / TS_S) as usize;
+    let timing = KnotTiming {
+        period_s: TS_S,
+        periods_per_knot: (KNOT_S / TS_S).round() as u32,
+        first_period: hold as u64,
+    };
     let spline =
-        JointSpline::<f64, 4096>::fit(&task, KNOT_S, Vector3::zeros(), Vector3::zeros(), |p| {
+        JointSpline::<f64, 4096>::fit(&task, timing, Vector3::zeros(), Vector3::zeros(), |p| {
             delta.inverse(&p)
         })
         .unwrap();
@@ -49,13 +57,11 @@ fn keops_slave_follows_the_cam_contour_through_hall_sensors() {
 
     // The loops first hold the start pose for 0.2 s: gravity loads the carriages from the
     // first period, and the DOB takes that up like a load step before the cut starts.
-    const HOLD_S: f64 = 0.2;
-    let hold = (HOLD_S / TS_S) as usize;
     let periods = hold + ((task.len() - 1) as f64 * KNOT_S / TS_S) as usize;
     let (mut sum_sq, mut worst, mut worst_gain) = (0.0, 0.0f64, 0.0f64);
     for n in 0..periods {
         let t = (n as f64 * TS_S - HOLD_S).max(0.0);
-        let reference = spline.evaluate(t);
+        let reference = spline.evaluate(n as u64);
         let mut force = Vector3::zeros();
         for k in 0..3 {
             let r = Reference {
@@ -77,7 +83,7 @@ fn keops_slave_follows_the_cam_contour_through_hall_sensors() {
             continue;
         }
         // Effector error against the task reference at this instant.
-        let p_ref = delta.forward(&spline.evaluate(t + TS_S).q).unwrap();
+        let p_ref = delta.forward(&spline.evaluate(n as u64 + 1).q).unwrap();
         let p = plant.effector_m().unwrap();
         let e = (p - p_ref).norm();
         sum_sq += e * e;

@@ -174,6 +174,9 @@ impl<const N: usize> Dct<N> {
     }
 
     /// In-place orthonormal DCT-II: `x` holds the samples on entry and c[0..N) on return.
+    ///
+    /// NaN or ±∞ samples, and samples near `f32::MAX` whose sums overflow, pass through
+    /// to the coefficients (a pure kernel: `SdctEncoder::encode` refuses them first).
     pub fn forward(&self, x: &mut [f32; N]) {
         let mut scratch = [0.0f32; N];
         let (mut src, mut dst): (&mut [f32], &mut [f32]) = (x, &mut scratch);
@@ -221,6 +224,9 @@ impl<const N: usize> Dct<N> {
 
     /// In-place orthonormal DCT-III (inverse of [`forward`](Self::forward)): `c` holds
     /// the coefficients on entry and the samples on return.
+    ///
+    /// Non-finite or overflowing coefficients pass through to the samples (a pure
+    /// kernel: the packet decoder bounds what reaches it below 2^68).
     pub fn inverse(&self, c: &mut [f32; N]) {
         // The stages below compute the plain sum Σk X[k] cos(…); fold the orthonormal
         // scales into X first.

@@ -188,6 +188,9 @@ impl<const N: usize> SdctDecoder<N> {
     }
 
     /// Reconstructs the N samples of `block` (oldest first) into `out`.
+    ///
+    /// A block made with [`Block::from_parts`] from non-finite or overflowing
+    /// coefficients decodes to non-finite samples (blocks from a parsed packet cannot).
     pub fn decode(&self, block: &Block<N>, out: &mut [f32; N]) {
         *out = block.coeffs;
         self.dct.inverse(out);

@@ -101,6 +101,8 @@ impl<T: Real> Dob<T> {
     /// Force command for the desired acceleration, then the observer update with the
     /// force actually applied and the present velocity estimate.
     ///
+    /// NaN or ±∞ in (or finite input so large that the arithmetic overflows) passes through to the output: a pure kernel of the period, it does not test; the machine's step does (`AxisLaw::step` latches a fault). The saturation passes NaN.
+    ///
     /// With z = LPF(F + g An v) and F̂ = z − g An v (module docs), one ZOH step
     /// z ← z + k (F + g An v − z) is, in terms of the estimate and the last velocity v₋,
     /// F̂ ← F̂ + k (F − F̂) + (1 − k) g An (v₋ − v).

@@ -51,6 +51,8 @@ impl<T: Real> Pd<T> {
     }
 
     /// Desired acceleration in m/s² from the reference and the measured state.
+    ///
+    /// NaN or ±∞ in (or finite input so large that the arithmetic overflows) passes through to the output: a pure kernel of the period, it does not test; the machine's step does (`AxisLaw::step` latches a fault).
     #[inline]
     pub fn acceleration(&self, reference: &Reference<T>, position: T, velocity: T) -> T {
         reference.acceleration

@@ -72,6 +72,8 @@ impl<T: Real> TrackingObserver<T> {
 
     /// Feeds one position sample and the acceleration applied over the last period
     /// (`T::ZERO` when unknown); returns the velocity estimate.
+    ///
+    /// NaN or ±∞ in (or finite input so large that the arithmetic overflows) passes through to the output: a pure kernel of the period, it does not test; the machine's step does (`AxisLaw::step` latches a fault).
     #[inline]
     pub fn update(&self, state: &mut TrackingObserverState<T>, measured: T, acceleration: T) -> T {
         let predicted = state.position + self.predicted_step(state, acceleration);

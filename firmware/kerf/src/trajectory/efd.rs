@@ -15,6 +15,7 @@
 //! instead of 2n), whose error grows only linearly in k.
 
 use super::{check_finite, lit, to_f64, ContourError, Float};
+use crate::error::{representable, ConfigError};
 use core::f64::consts::PI;
 use nalgebra::Vector2;
 
@@ -70,7 +71,8 @@ impl<T: Float, const N: usize> Efd<T, N> {
     ///
     /// Zero-length segments (repeated points, a repeated closing point) are dropped.
     /// Errors: a non-finite point, fewer than 3 distinct points, all points equal, all
-    /// points on one line, or `harmonics` outside 1..=N. The polygon is the curve, so its coefficients exist
+    /// points on one line, `harmonics` outside 1..=N, or points so large that the
+    /// perimeter or a coefficient overflows `f64` or `T` (`NotRepresentable("points")`). The polygon is the curve, so its coefficients exist
     /// for every n (T 3.2.2 counts 4n + 2 coefficients against 2M numbers for a fit
     /// through the points; here they are the exact series of the polygon itself).
     pub fn from_polygon(points: &[[f64; 2]], harmonics: usize) -> Result<Self, ContourError> {
@@ -85,6 +87,10 @@ impl<T: Float, const N: usize> Efd<T, N> {
                 .filter(|&(_, _, len)| len > 0.0)
         };
         let perimeter: f64 = segments().map(|(_, _, len)| len).sum();
+        if !perimeter.is_finite() {
+            // Finite points so far apart that their distances overflow f64.
+            return Err(ConfigError::not_representable("points").into());
+        }
         let distinct = segments().count();
         if distinct == 0 || perimeter <= 0.0 {
             return Err(if points.len() < 3 {
@@ -102,6 +108,14 @@ impl<T: Float, const N: usize> Efd<T, N> {
         if harmonics == 0 || harmonics > N {
             return Err(ContourError::TooManyHarmonics);
         }
+        // Derived from finite points: what is not finite overflowed f64 on the way.
+        let derived = |value: f64| {
+            if value.is_finite() {
+                representable::<T>("points", value)
+            } else {
+                Err(ConfigError::not_representable("points"))
+            }
+        };
         // Centre: the curve's mean over t; each segment contributes its midpoint × length.
         let (mut sx, mut sy) = (0.0, 0.0);
         for (a, d, len) in segments() {
@@ -127,20 +141,25 @@ impl<T: Float, const N: usize> Efd<T, N> {
             }
             let scale = perimeter / (2.0 * PI * PI * k * k);
             for (out, sum) in row.iter_mut().zip(sums) {
-                *out = lit(scale * sum);
+                *out = derived(scale * sum)?;
             }
         }
-        Ok(Self {
-            centre: Vector2::new(lit(sx / perimeter), lit(sy / perimeter)),
+        let efd = Self {
+            centre: Vector2::new(derived(sx / perimeter)?, derived(sy / perimeter)?),
             coefficients,
             harmonics,
             perimeter_m: perimeter,
-        })
+        };
+        if !efd.derivatives_fit() {
+            return Err(ConfigError::not_representable("points").into());
+        }
+        Ok(efd)
     }
 
     /// A curve from known coefficients (ak, bk, ck, dk), k = 1.. (for example stored
     /// in flash), with centre `centre_m`. The perimeter is recomputed from the curve.
-    /// Errors: no or more than `N` harmonics, or a non-finite value.
+    /// Errors: no or more than `N` harmonics, a non-finite value, or values (or the
+    /// curve's perimeter) beyond the scalar `T` (`NotRepresentable`).
     pub fn from_coefficients(
         centre_m: [f64; 2],
         coefficients: &[[f64; 4]],
@@ -159,20 +178,42 @@ impl<T: Float, const N: usize> Efd<T, N> {
         let mut c = [[T::ZERO; 4]; N];
         for (row, src) in c.iter_mut().zip(coefficients) {
             for (o, v) in row.iter_mut().zip(src) {
-                *o = lit(*v);
+                *o = representable("coefficients", *v)?;
             }
         }
         let mut efd = Self {
-            centre: Vector2::new(lit(centre_m[0]), lit(centre_m[1])),
+            centre: Vector2::new(
+                representable("centre_m", centre_m[0])?,
+                representable("centre_m", centre_m[1])?,
+            ),
             coefficients: c,
             harmonics: n,
             perimeter_m: 0.0,
         };
         efd.perimeter_m = to_f64(efd.arc_length(T::ZERO, lit(2.0 * PI), 64 * n));
+        if !(efd.perimeter_m.is_finite() && efd.derivatives_fit()) {
+            // Each coefficient fits T, but the curve's derivatives (k·coefficient) or
+            // their norm do not.
+            return Err(ConfigError::not_representable("coefficients").into());
+        }
         if efd.perimeter_m <= 0.0 {
             return Err(ContourError::ZeroLength);
         }
         Ok(efd)
+    }
+
+    /// Whether [`Efd::evaluate`] stays finite in `T` at every θ: Σk k³ (|ak| + |bk| +
+    /// |ck| + |dk|), which bounds every component of the position and its first three
+    /// derivatives, is finite.
+    fn derivatives_fit(&self) -> bool {
+        let mut bound = T::ZERO;
+        let mut k = T::ZERO;
+        for row in self.coefficients.iter().take(self.harmonics) {
+            k += T::one();
+            let size = row.iter().fold(T::ZERO, |sum, c| sum + c.abs());
+            bound += size * k * k * k;
+        }
+        bound.is_finite()
     }
 
     /// Number of harmonics n in use.
@@ -196,6 +237,10 @@ impl<T: Float, const N: usize> Efd<T, N> {
     }
 
     /// Position relative to the centre and its first three θ-derivatives.
+    ///
+    /// A NaN or ±∞ θ passes through to the sample (a pure kernel; the follower checks
+    /// its own steps). Every finite θ gives a finite sample: the constructors refuse
+    /// coefficients whose derivatives would overflow `T`.
     pub fn evaluate(&self, theta: T) -> EfdSample<T> {
         let (s1, c1) = theta.fsin_cos();
         let (mut ck, mut sk) = (c1, s1);
@@ -237,7 +282,9 @@ impl<T: Float, const N: usize> Efd<T, N> {
     }
 
     /// Arc length of the EFD curve from θ0 to θ1 (m) by `intervals` panels of 3-point
-    /// Gauss–Legendre quadrature (exact for polynomials of degree 5 per panel).
+    /// Gauss–Legendre quadrature (exact for polynomials of degree 5 per panel). A
+    /// non-finite θ, or a finite one so large that the span's length overflows,
+    /// passes through to the result.
     pub fn arc_length(&self, theta0: T, theta1: T, intervals: usize) -> T {
         let n = intervals.max(1);
         let h = (theta1 - theta0) / lit(n as f64);
@@ -249,7 +296,8 @@ impl<T: Float, const N: usize> Efd<T, N> {
         sum
     }
 
-    /// Signed curvature κ(θ) = (x′y″ − y′x″)/|C′|³ (1/m); zero where |C′| = 0.
+    /// Signed curvature κ(θ) = (x′y″ − y′x″)/|C′|³ (1/m); zero where |C′| = 0; a
+    /// non-finite θ passes through (see [`Efd::evaluate`]).
     pub fn curvature(&self, theta: T) -> T {
         let s = self.evaluate(theta);
         let speed = s.d1.norm();
@@ -604,5 +652,45 @@ mod tests {
         // A sliver 1e-9 of its length wide is still a contour.
         let sliver = [[0.0, 0.0], [1.0, 0.0], [0.5, 1e-9]];
         assert!(E::from_polygon(&sliver, 3).is_ok());
+    }
+
+    /// Finite in f64, beyond f32 (or beyond f64 once summed): typed errors, not a
+    /// curve of infinities.
+    #[test]
+    fn coefficients_beyond_the_scalar_are_refused() {
+        let not_representable =
+            |field| Some(ContourError::Config(ConfigError::not_representable(field)));
+        let ok = [[0.01, 0.0, 0.0, 0.01]];
+        assert_eq!(
+            Efd::<f32, 4>::from_coefficients([0.0, 0.0], &[[0.01, 3.5e38, 0.0, 0.01]]).err(),
+            not_representable("coefficients")
+        );
+        assert_eq!(
+            Efd::<f32, 4>::from_coefficients([1e39, 0.0], &ok).err(),
+            not_representable("centre_m")
+        );
+        // Each coefficient fits f32, the derivative of the second harmonic does not.
+        assert_eq!(
+            Efd::<f32, 4>::from_coefficients(
+                [0.0, 0.0],
+                &[[0.01, 0.0, 0.0, 0.01], [3e38, 0.0, 0.0, 3e38]]
+            )
+            .err(),
+            not_representable("coefficients")
+        );
+        assert!(Efd::<f64, 4>::from_coefficients([1e39, 0.0], &ok).is_ok());
+        // Radius 10 mm × 1e41: coefficients beyond f32.
+        let huge = shapes::octagon().map(|[x, y]| [x * 1e41, y * 1e41]);
+        assert_eq!(
+            Efd::<f32, 10>::from_polygon(&huge, 10).err(),
+            not_representable("points")
+        );
+        assert!(Efd::<f64, 10>::from_polygon(&huge, 10).is_ok());
+        // The third derivative, k³ times a coefficient, overflows f64.
+        let beyond = shapes::octagon().map(|[x, y]| [x * f64::MAX, y * f64::MAX]);
+        assert_eq!(
+            Efd::<f64, 10>::from_polygon(&beyond, 10).err(),
+            not_representable("points")
+        );
     }
 }

@@ -43,6 +43,9 @@ pub enum ContourError {
     /// Every point of a closed contour lies on one line (within rounding): a
     /// back-and-forth stroke with cusps, not a contour to follow.
     Collinear,
+    /// The contour follower could not solve a step on this curve (it nearly stops
+    /// there, as at the ends of a nearly collinear contour): it holds where it was.
+    LostContour,
     /// No harmonics asked for, or more than the capacity N.
     TooManyHarmonics,
     /// The result does not fit the fixed capacity.

@@ -49,6 +49,11 @@ impl<T: Real> Quintic<T> {
     }
 
     /// Reference at `t_s` seconds after the start (held at the ends outside [0, T]).
+    ///
+    /// `t_s` is the move's own time, k·Ts from an integer period count (as `Joints`
+    /// computes it), never an accumulated sum: f32 time summed period by period drifts
+    /// by a period within seconds. A NaN `t_s` passes through to the reference (a pure
+    /// kernel; the axis step latches a fault on it).
     pub fn sample(&self, t_s: T) -> Reference<T> {
         let one = T::from_f64(1.0);
         let mut tau = t_s * self.inv_duration;

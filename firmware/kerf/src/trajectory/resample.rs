@@ -27,8 +27,9 @@ fn mix(w: [f64; 3], p: [[f64; 2]; 3]) -> [f64; 2] {
 
 /// Densifies open-contour `points` with `passes` quadratic passes into capacity `CAP`.
 ///
-/// Errors: fewer than 3 points, a non-finite or repeated consecutive point, or a result
-/// of more than `CAP` points.
+/// Errors: fewer than 3 points, a non-finite or repeated consecutive point, a result
+/// of more than `CAP` points, or points so large that an inserted one overflows `f64`
+/// (`NotRepresentable("points")`).
 pub fn densify<const CAP: usize>(
     points: &[[f64; 2]],
     passes: u32,
@@ -61,6 +62,11 @@ pub fn densify<const CAP: usize>(
             }
         }
         current = next;
+    }
+    // Each inserted point weighs its neighbours by up to 10/8: finite points near
+    // f64::MAX can overflow.
+    if current.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(crate::ConfigError::not_representable("points").into());
     }
     Ok(current)
 }
@@ -273,6 +279,17 @@ mod tests {
         }
         assert_eq!(crossings, 1);
         assert!(walk.advance(step).is_none());
+    }
+
+    #[test]
+    fn points_whose_midpoints_overflow_are_refused() {
+        let pts = [[0.0, 0.0], [1e-3, 0.0], [f64::MAX, 1e-3], [2e-3, 0.0]];
+        assert_eq!(
+            densify::<64>(&pts, 2),
+            Err(ContourError::Config(crate::ConfigError::not_representable(
+                "points"
+            )))
+        );
     }
 
     #[test]

@@ -77,8 +77,11 @@ pub fn octagon() -> [[f64; 2]; OCTAGON_POINTS] {
 
 /// Regular `sides`-gon of circumradius `radius_m`, first vertex on +x, counter-clockwise,
 /// with `P / sides` equally spaced points per side (P must be a multiple of `sides`).
+/// A non-finite radius gives non-finite points (refused by every contour constructor).
+/// `sides` = 0 is taken as 1 (every point on the circle's first vertex: no 2π/0).
 pub fn regular_polygon<const P: usize>(sides: usize, radius_m: f64) -> [[f64; 2]; P] {
-    let per_side = (P / sides.max(1)).max(1);
+    let sides = sides.max(1);
+    let per_side = (P / sides).max(1);
     core::array::from_fn(|i| {
         let side = (i / per_side) as f64;
         let u = (i % per_side) as f64 / per_side as f64;
@@ -92,7 +95,8 @@ pub fn regular_polygon<const P: usize>(sides: usize, radius_m: f64) -> [[f64; 2]
 }
 
 /// Ellipse with semi-axes `a_m` (x) and `b_m` (y) sampled at `P` equal parameter steps
-/// (a circle when `a_m == b_m`).
+/// (a circle when `a_m == b_m`). Non-finite semi-axes give non-finite points: this is
+/// test data, and every contour constructor refuses them.
 pub fn ellipse<const P: usize>(a_m: f64, b_m: f64) -> [[f64; 2]; P] {
     core::array::from_fn(|i| {
         let t = 2.0 * PI * i as f64 / P as f64;
@@ -180,5 +184,11 @@ mod tests {
         }
         // The 's' joins at the origin.
         assert!(dist(letter_s()[12], [0.0, 0.0]) < 1e-12);
+    }
+
+    #[test]
+    fn a_polygon_of_no_sides_is_finite() {
+        let p: [[f64; 2]; 12] = regular_polygon(0, 0.01);
+        assert!(p.iter().flatten().all(|v| v.is_finite()));
     }
 }

@@ -94,6 +94,18 @@ impl<T: Float> SpeedRamp<T> {
         }
         let a_used = v / ((n_jerk + n_flat) * ts);
         let j_used = a_used / (n_jerk * ts);
+        // `step` forms Ts², A·Ts² and J·Ts³ in T: each must be finite there (a period
+        // of 1e30 s in f32, or near f64::MAX in f64, overflows them).
+        let per_period = |value: f64| {
+            if value.is_finite() {
+                representable::<T>("ts_s", value)
+            } else {
+                Err(ConfigError::not_representable("ts_s"))
+            }
+        };
+        per_period(ts * ts)?;
+        per_period(a_used * ts * ts)?;
+        per_period(j_used * ts * ts * ts)?;
         Ok(Self {
             // In the target scalar: f64-valid extremes can overflow f32.
             speed: representable("speed_m_s", v)?,
@@ -216,14 +228,21 @@ impl<T: Float> SpeedRamp<T> {
 }
 
 /// Highest constant tangential speed an EFD curve allows under `accel_limit_m_s2`:
-/// √(A/κmax), with κmax from [`Efd::max_curvature`] over `64·n` samples.
-pub fn max_speed_m_s<T: Float, const N: usize>(efd: &Efd<T, N>, accel_limit_m_s2: f64) -> f64 {
+/// √(A/κmax), with κmax from [`Efd::max_curvature`] over `64·n` samples (+∞ only
+/// for a curve without curvature, which no closed contour is).
+///
+/// Errors: a limit that is not finite and positive (its square root would be NaN).
+pub fn max_speed_m_s<T: Float, const N: usize>(
+    efd: &Efd<T, N>,
+    accel_limit_m_s2: f64,
+) -> Result<f64, ConfigError> {
+    let limit = positive("accel_limit_m_s2", accel_limit_m_s2)?;
     let kappa = to_f64(efd.max_curvature(64 * efd.harmonics().max(16)));
-    if kappa > 0.0 {
-        libm::sqrt(accel_limit_m_s2 / kappa)
+    Ok(if kappa > 0.0 {
+        libm::sqrt(limit / kappa)
     } else {
         f64::INFINITY
-    }
+    })
 }
 
 /// Follower configuration.
@@ -250,6 +269,17 @@ pub struct ContourReference<T: Float> {
     pub speed: T,
     /// Curve parameter θ in [0, 2π).
     pub theta: T,
+}
+
+/// Every component finite.
+trait FiniteAll {
+    fn is_finite_all(&self) -> bool;
+}
+
+impl<T: Float> FiniteAll for Vector2<T> {
+    fn is_finite_all(&self) -> bool {
+        self.x.is_finite() && self.y.is_finite()
+    }
 }
 
 /// Newton corrections per period (the first guess is already second-order accurate).
@@ -283,10 +313,10 @@ const NEWTON_STEPS: usize = 2;
 /// let mut follower = ContourFollower::new(efd, &config, 0.0).unwrap();
 /// follower.start();
 ///
-/// let mut previous = follower.step().position;
+/// let mut previous = follower.step().unwrap().position;
 /// let mut steps = [0.0; 300];
 /// for step in steps.iter_mut() {
-///     let reference = follower.step();
+///     let reference = follower.step().unwrap();
 ///     *step = (reference.position - previous).norm();
 ///     previous = reference.position;
 /// }
@@ -308,6 +338,8 @@ pub struct ContourFollower<T: Float, const N: usize> {
     /// 2π − (2π rounded to T), rad: the wrap of θ moves the curve by this much.
     wrap_error: T,
     two_pi: T,
+    /// Set when a step could not be solved: the follower holds from then on.
+    lost: bool,
 }
 
 impl<T: Float, const N: usize> ContourFollower<T, N> {
@@ -329,7 +361,7 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
         if config.ramp.speed_m_s * config.ramp.ts_s >= length {
             return Err(ContourError::StepLongerThanContour);
         }
-        let v_max = max_speed_m_s(&efd, limit);
+        let v_max = max_speed_m_s(&efd, limit)?;
         if config.ramp.speed_m_s > v_max {
             return Err(ContourError::SpeedAboveCurvatureLimit {
                 max_speed_m_s: v_max,
@@ -349,6 +381,7 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
             carry: T::ZERO,
             wrap_error: lit(2.0 * PI - to_f64(two_pi)),
             two_pi,
+            lost: false,
         })
     }
 
@@ -402,8 +435,23 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
         dth
     }
 
+    /// Whether a step has failed (see [`ContourFollower::step`]): the follower holds.
+    pub fn is_lost(&self) -> bool {
+        self.lost
+    }
+
     /// Advances one control period and returns the reference at its end.
-    pub fn step(&mut self) -> ContourReference<T> {
+    ///
+    /// Errors: [`ContourError::LostContour`] when the arc-length step cannot be solved
+    /// on this curve: Δθ not finite or beyond half a turn, a reference not finite, or
+    /// a step whose chord is longer than the arc commanded (θ ran past where the
+    /// curve nearly stops, as at the ends of a nearly collinear contour, T 3.2.2 asks
+    /// for |C(θk+1) − C(θk)| = V·Ts). The follower then holds at its last good θ and
+    /// keeps returning the error: nothing is integrated past a step it could not take.
+    pub fn step(&mut self) -> Result<ContourReference<T>, ContourError> {
+        if self.lost {
+            return Err(ContourError::LostContour);
+        }
         let sp = self.ramp.step();
         let target = sp.ds + self.carry;
         let dth = self.solve_step(target);
@@ -413,11 +461,29 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
         let mut wrap = T::ZERO;
         if theta >= self.two_pi {
             theta -= self.two_pi;
-            self.laps = self.laps.wrapping_add(1);
             wrap = self.wrap_error;
         }
+        let sample = self.efd.evaluate(theta);
+        // The chord can only be shorter than the arc; allow the rounding of the two
+        // positions (a few ulps of their size) and 1 % of the step.
+        let chord = (sample.position - self.sample.position).norm();
+        let rounding = (sample.position.norm() + self.sample.position.norm())
+            * lit::<T>(8.0)
+            * T::default_epsilon();
+        let solved = dth.is_finite()
+            && dth < lit(PI)
+            && sample.position.is_finite_all()
+            && sample.d1.is_finite_all()
+            && chord <= target.max(T::ZERO) * lit(1.01) + rounding;
+        if !solved {
+            self.lost = true;
+            return Err(ContourError::LostContour);
+        }
+        if wrap != T::ZERO {
+            self.laps = self.laps.wrapping_add(1);
+        }
         self.theta = theta;
-        self.sample = self.efd.evaluate(theta);
+        self.sample = sample;
         let s = &self.sample;
         let sigma = s.d1.norm();
         self.carry = if target > T::ZERO {
@@ -442,7 +508,7 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
         } else {
             (T::ZERO, T::ZERO, T::ZERO)
         };
-        ContourReference {
+        let reference = ContourReference {
             position: s.position,
             velocity: s.d1 * th_dot,
             acceleration: s.d2 * (th_dot * th_dot) + s.d1 * th_ddot,
@@ -451,6 +517,13 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
                 + s.d1 * th_dddot,
             speed: v,
             theta,
+        };
+        let derivatives = [reference.velocity, reference.acceleration, reference.jerk];
+        if derivatives.iter().all(|d| d.is_finite_all()) {
+            Ok(reference)
+        } else {
+            self.lost = true;
+            Err(ContourError::LostContour)
         }
     }
 }
@@ -523,7 +596,7 @@ mod tests {
         let (mut prev, mut unwrapped, mut commanded) = (to_f64(f.theta()), 0.0, 0.0);
         let mut max_step_error: f64 = 0.0;
         for _ in 0..steps {
-            let r = f.step();
+            let r = f.step().unwrap();
             let ds = ramp.step().ds;
             let th = to_f64(r.theta);
             let mut dth = th - prev;
@@ -638,7 +711,8 @@ mod tests {
         let efd = Efd::<f64, 30>::from_polygon(&shapes::cam(), 30).unwrap();
         let mut f = ContourFollower::new(efd, &config(0.02, 10.0), 0.0).unwrap();
         f.start();
-        let refs: std::vec::Vec<ContourReference<f64>> = (0..3000).map(|_| f.step()).collect();
+        let refs: std::vec::Vec<ContourReference<f64>> =
+            (0..3000).map(|_| f.step().unwrap()).collect();
         let max_jerk = refs.iter().map(|r| r.jerk.norm()).fold(0.0, f64::max);
         let (mut ev, mut ea, mut ej): (f64, f64, f64) = (0.0, 0.0, 0.0);
         for w in refs.windows(4) {
@@ -693,7 +767,7 @@ mod tests {
         for (name, pts) in cases {
             for n in [10usize, 30] {
                 let efd = Efd::<f64, 30>::from_polygon(pts, n).unwrap();
-                let v_max = max_speed_m_s(&efd, limit);
+                let v_max = max_speed_m_s(&efd, limit).unwrap();
                 let kappa = limit / (v_max * v_max);
                 println!("{name:>8} {n:>4} {kappa:>12.1} {:>12.2}", v_max * 1e3);
                 // Just above the limit is rejected with the limit in the error ...
@@ -712,7 +786,7 @@ mod tests {
                 let lap = f.efd().arc_length(0.0, 2.0 * PI, 2000);
                 let steps = (lap / (v * TS) * 1.2) as usize + f.ramp().ramp_periods() as usize;
                 for _ in 0..steps {
-                    let r = f.step();
+                    let r = f.step().unwrap();
                     if f.ramp().is_cruising() {
                         worst = worst.max(r.acceleration.norm());
                     }
@@ -748,7 +822,12 @@ mod tests {
                 "accel_m_s2"
             )))
         );
-        assert!(ContourFollower::new(efd, &config(0.01, 10.0), f64::NAN).is_err());
+        assert!(ContourFollower::new(efd.clone(), &config(0.01, 10.0), f64::NAN).is_err());
+        // A negative, zero or NaN limit has no speed (√ of it would be NaN).
+        for bad in [-1.0, 0.0, f64::NAN] {
+            assert!(max_speed_m_s(&efd, bad).is_err(), "{bad}");
+        }
+        assert!(max_speed_m_s(&efd, 1.0).unwrap().is_finite());
     }
 
     /// Valid in f64, overflowing f32 (a speed beyond f32's range, a jerk so large its
@@ -773,11 +852,54 @@ mod tests {
             SpeedRamp::<f32>::new(&huge_speed).err(),
             Some(ConfigError::not_representable("speed_m_s"))
         );
+        // A period so long that Ts² (f32) or Ts³ (f64) overflows.
+        for (ts_s, f64_too) in [(1e30, false), (f64::MAX, true)] {
+            let long = SpeedRampConfig { ts_s, ..ok };
+            assert_eq!(
+                SpeedRamp::<f32>::new(&long).err(),
+                Some(ConfigError::not_representable("ts_s"))
+            );
+            assert_eq!(SpeedRamp::<f64>::new(&long).is_err(), f64_too);
+        }
         let tiny_period = SpeedRampConfig { ts_s: 1e-46, ..ok };
         assert!(matches!(
             SpeedRamp::<f32>::new(&tiny_period),
             Err(e) if e.kind == crate::error::ConfigErrorKind::NotRepresentable
                 || e.kind == crate::error::ConfigErrorKind::OutOfRange
         ));
+    }
+
+    /// A nearly collinear contour (the octagon flattened 10⁴ times: it passes the
+    /// collinearity check, but |C′| nearly vanishes at its two ends). With a high
+    /// enough acceleration limit it is accepted; where a step cannot be solved the
+    /// follower must not jump along the curve: every step it takes is at most the arc
+    /// commanded, and once lost it holds and keeps saying so.
+    #[test]
+    fn a_nearly_collinear_contour_is_never_jumped_along() {
+        let flat = shapes::octagon().map(|[x, y]| [x, y * 1e-4]);
+        let efd = Efd::<f64, 30>::from_polygon(&flat, 30).unwrap();
+        // Start half-way along a long side (θ = 0 is the stroke's end).
+        let mut f = ContourFollower::new(efd, &config(0.01, 1e12), 1.2).unwrap();
+        f.start();
+        let mut previous = f.step().unwrap();
+        let mut lost_at = None;
+        for k in 0..4000 {
+            match f.step() {
+                Ok(r) => {
+                    assert!(lost_at.is_none());
+                    let chord = (r.position - previous.position).norm();
+                    assert!(chord <= 0.01 * TS * 1.01 + 1e-15, "{k}: {chord}");
+                    previous = r;
+                }
+                Err(e) => {
+                    assert_eq!(e, ContourError::LostContour);
+                    lost_at.get_or_insert(k);
+                    assert!(f.is_lost() && f.theta() == previous.theta);
+                }
+            }
+        }
+        println!("flattened octagon: lost at step {lost_at:?}");
+        // It does reach an end of the stroke within the 4 s (a lap is ~60 mm at 10 mm/s).
+        assert!(lost_at.is_some());
     }
 }

@@ -67,7 +67,7 @@ impl Root {
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum KinematicsError {
-    /// An input was NaN or infinite.
+    /// An input was NaN or infinite, or so large that the map overflows the scalar.
     NotFinite,
     /// No pose / displacement exists (negative discriminant). For inverse kinematics the
     /// field is the actuator index `0..3`; forward kinematics reports actuator 0.

@@ -25,6 +25,18 @@ impl<T: Float> VelocityTerms<T> {
     }
 }
 
+/// `m`, or [`KinematicsError::NotFinite`] when an entry overflowed the scalar: finite
+/// inputs far outside the travel (|q| near `f32::MAX`) pass the singularity tests but
+/// not the products after them. One test on the sum of the entries times zero.
+#[inline]
+fn finite_matrix<T: Float>(m: Matrix3<T>) -> Result<Matrix3<T>, KinematicsError> {
+    if m.iter().fold(T::zero(), |sum, x| sum + zero_if_finite(*x)) == T::zero() {
+        Ok(m)
+    } else {
+        Err(KinematicsError::NotFinite)
+    }
+}
+
 impl<T: Float> DeltaGeometry<T> {
     /// J2 = −G, J1 = diag(fdi) and J2⁻¹ = adj G / det J2 (SPEC velocity,
     /// T eqs. 138–145), with the singularity checks. Inlined so that each map keeps
@@ -74,7 +86,7 @@ impl<T: Float> DeltaGeometry<T> {
 
     /// Jx = J2⁻¹ J1 at the consistent pair (q, p), so that ṗ = Jx q̇ (T eq. 146).
     pub fn jacobian(&self, q: &Vector3<T>, p: &Vector3<T>) -> Result<Matrix3<T>, KinematicsError> {
-        Ok(self.velocity_terms(q, p)?.jacobian())
+        finite_matrix(self.velocity_terms(q, p)?.jacobian())
     }
 
     /// Jx⁻¹ = J1⁻¹ J2 at (q, p), so that q̇ = Jx⁻¹ ṗ: row i is fi / fdi = −gi / fdi.
@@ -85,7 +97,7 @@ impl<T: Float> DeltaGeometry<T> {
     ) -> Result<Matrix3<T>, KinematicsError> {
         let VelocityTerms { g, fd, .. } = self.velocity_terms(q, p)?;
         let [g1, g2, g3] = g;
-        Ok(Matrix3::from_rows(&[
+        finite_matrix(Matrix3::from_rows(&[
             (-g1 / fd.x).transpose(),
             (-g2 / fd.y).transpose(),
             (-g3 / fd.z).transpose(),
@@ -130,7 +142,7 @@ impl<T: Float> DeltaGeometry<T> {
         );
         let m = g_dot_rows * jx + Matrix3::from_diagonal(&fd_dot);
         let [c1, c2, c3] = &terms.adj;
-        Ok(Matrix3::from_columns(&[*c1, *c2, *c3]) * m * terms.inv_det_j2)
+        finite_matrix(Matrix3::from_columns(&[*c1, *c2, *c3]) * m * terms.inv_det_j2)
     }
 }
 
@@ -212,5 +224,24 @@ mod tests {
             }
             assert!(compared > 20, "{name}: {compared}");
         }
+    }
+
+    /// Finite inputs so far outside the travel that the Jacobians' products overflow:
+    /// NotFinite, not a matrix of infinities.
+    #[test]
+    fn overflowing_jacobians_are_refused() {
+        use crate::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
+        use nalgebra::Vector3;
+        let g = DeltaGeometry::<f32>::new(&DeltaConfig::SLAVE_KEOPS).unwrap();
+        let q = Vector3::new(0.02f32, 0.02, 0.02);
+        let p = g.forward(&q).unwrap();
+        let far = Vector3::new(p.x, f32::MAX, p.z);
+        assert_eq!(g.jacobian(&q, &far), Err(KinematicsError::NotFinite));
+        let fast = Vector3::new(f32::MAX, 0.0, 0.0);
+        assert_eq!(
+            g.jacobian_derivative(&q, &p, &fast),
+            Err(KinematicsError::NotFinite)
+        );
+        assert!(g.jacobian(&q, &p).is_ok() && g.jacobian_inverse(&q, &p).is_ok());
     }
 }
