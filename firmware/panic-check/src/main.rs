@@ -1,10 +1,10 @@
 //! Panic-free, proven at link time.
 //!
 //! This image calls every control-period entry point of kerf — each machine's
-//! per-period methods and its supervisor step, the axis law, Hall decoding,
-//! velocity observation, delta kinematics, the contour references, the DCT/SDCT codec
-//! and the packet format with its stream ends — and the constructors and planners that
-//! feed them, on inputs the optimiser cannot see through (`core::hint::black_box`).
+//! per-period methods and its supervisor step, the axis law, Hall decoding, velocity
+//! observation, delta kinematics, the contour and joint references, the DCT/SDCT
+//! codec and the packet format with its stream ends — and the constructors and
+//! planners that feed them, on inputs the optimiser cannot see through (`core::hint::black_box`).
 //! Its panic handler calls a symbol that no object defines, so the image links only if
 //! the optimised, LTO-linked code contains no path to a panic: a bounds check, an
 //! `unwrap`, an arithmetic overflow check or a `panic!` that survives optimisation
@@ -38,6 +38,7 @@ use kerf::sensing::velocity::{TrackingObserver, TrackingObserverConfig, Tracking
 use kerf::trajectory::constraint::{ConstraintConfig, MotionConstraint};
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::resample::ArcResampler;
+use kerf::trajectory::spline::{JointSpline, KnotTiming};
 use kerf::trajectory::tangential::{ContourFollower, FollowerConfig, SpeedRamp, SpeedRampConfig};
 use kerf::{Real, Q32};
 
@@ -257,6 +258,21 @@ fn contours() {
         MotionConstraint::<f32, 8>::new(&polygon, &opaque(ConstraintConfig::closed_contour()))
     {
         sink(constraint.evaluate(opaque(Vector3::new(0.0, 0.0, 0.0)), opaque(0.0)));
+    }
+    let task = opaque([
+        Vector3::new(0.0, 0.0, 0.05),
+        Vector3::new(0.001, 0.0, 0.05),
+        Vector3::new(0.002, 0.001, 0.05),
+    ]);
+    let timing = opaque(KnotTiming {
+        period_s: 1e-4,
+        periods_per_knot: 10,
+        first_period: 0,
+    });
+    let zero = Vector3::zeros();
+    if let Ok(spline) = JointSpline::<f32, 8>::fit(&task, timing, zero, zero, |p| Ok::<_, ()>(p)) {
+        sink(spline.evaluate(opaque(0u64)));
+        sink(spline.evaluate_at(opaque(0usize), opaque(0.0)));
     }
     let points = opaque([[0.0f32, 0.0], [0.01, 0.0], [0.01, 0.01]]);
     if let Ok(resampler) = ArcResampler::new(&points) {
