@@ -270,7 +270,7 @@ fn contours() {
         first_period: 0,
     });
     let zero = Vector3::zeros();
-    if let Ok(spline) = JointSpline::<f32, 8>::fit(&task, timing, zero, zero, |p| Ok::<_, ()>(p)) {
+    if let Ok(spline) = JointSpline::<f32, 8>::fit(&task, timing, zero, zero, Ok::<_, ()>) {
         sink(spline.evaluate(opaque(0u64)));
         sink(spline.evaluate_at(opaque(0usize), opaque(0.0)));
     }
