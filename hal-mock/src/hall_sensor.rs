@@ -1,6 +1,9 @@
 //! Three analog Hall sensors 120° apart over one magnetic pitch, digitized by an ADC.
 //!
-//! uᵢ = offsetᵢ + Aᵢ sin(2π x/τ + shiftᵢ) + noise, rounded and clipped to the ADC range.
+//! uᵢ = offsetᵢ + Aᵢ (sin aᵢ + h3ᵢ sin(3aᵢ + ψ3ᵢ) + h5ᵢ sin(5aᵢ + ψ5ᵢ)) + noise with
+//! aᵢ = 2π x/τ + shiftᵢ, rounded and clipped to the ADC range. Real linear-motor Hall
+//! sensors show 3rd and 5th harmonics whose amplitude and phase differ from channel to
+//! channel (magnet shape, sensor placement over the magnet's edge).
 
 use crate::noise::Noise;
 use core::f64::consts::PI;
@@ -19,8 +22,22 @@ pub struct HallSensorParams {
     /// Phase of each channel in rad (0, +2π/3, −2π/3 for an ideal sensor).
     pub phase_rad: [f64; 3],
     /// Third-harmonic amplitude of each channel relative to its fundamental
-    /// (uᵢ ∝ sin aᵢ + hᵢ sin 3aᵢ, aᵢ the channel's own phase).
+    /// (uᵢ ∝ sin aᵢ + h3ᵢ sin(3aᵢ + ψ3ᵢ), aᵢ the channel's own phase).
     pub harmonic3: [f64; 3],
+    /// Phase ψ3ᵢ of each channel's third harmonic against three times its own phase, rad
+    /// (0: the harmonic turns with the channel's mounting, as for an ideal magnet).
+    pub harmonic3_phase_rad: [f64; 3],
+    /// Fifth-harmonic amplitude of each channel relative to its fundamental.
+    pub harmonic5: [f64; 3],
+    /// Phase ψ5ᵢ of each channel's fifth harmonic against five times its own phase, rad.
+    pub harmonic5_phase_rad: [f64; 3],
+    /// Signed error of each channel's gain above mid-scale of its own swing, relative
+    /// (a kink at the channel's zero: a front end whose gain differs for the two signs,
+    /// which no harmonic model describes). 0 for every preset.
+    pub kink: [f64; 3],
+    /// Seventh-harmonic amplitude of each channel relative to its fundamental (beyond
+    /// the decoder's model; 0 for every preset).
+    pub harmonic7: [f64; 3],
     /// Standard deviation of the additive noise in LSB.
     pub noise_lsb: f64,
 }
@@ -35,6 +52,11 @@ impl HallSensorParams {
         amplitude_counts: [26214.0; 3],
         phase_rad: [0.0, 2.0 * PI / 3.0, -2.0 * PI / 3.0],
         harmonic3: [0.0; 3],
+        harmonic3_phase_rad: [0.0; 3],
+        harmonic5: [0.0; 3],
+        harmonic5_phase_rad: [0.0; 3],
+        kink: [0.0; 3],
+        harmonic7: [0.0; 3],
         noise_lsb: 2.0,
     };
 
@@ -61,7 +83,27 @@ impl HallSensorParams {
                 -2.0 * PI / 3.0 - 1.5 * degree,
             ],
             harmonic3: [0.020, 0.022, 0.018],
+            harmonic3_phase_rad: [0.0; 3],
+            harmonic5: [0.0; 3],
+            harmonic5_phase_rad: [0.0; 3],
+            kink: [0.0; 3],
+            harmonic7: [0.0; 3],
             noise_lsb,
+        }
+    }
+
+    /// The worst LM1247 sensors the decoder's model covers (issue 10 item 7): the
+    /// offsets, gains and mounting errors of [`HallSensorParams::lm1247_imperfect`],
+    /// third harmonics of 1–3 % and fifth harmonics of 0.5–1 % per channel, each with
+    /// its own phase up to ±10° away from the channel's mounting.
+    pub fn lm1247_worst(adc_bits: u8, noise_lsb: f64) -> Self {
+        let degree = PI / 180.0;
+        Self {
+            harmonic3: [0.030, 0.010, 0.022],
+            harmonic3_phase_rad: [10.0 * degree, -10.0 * degree, 4.0 * degree],
+            harmonic5: [0.010, 0.005, 0.008],
+            harmonic5_phase_rad: [-10.0 * degree, 7.0 * degree, 10.0 * degree],
+            ..Self::lm1247_imperfect(adc_bits, noise_lsb)
         }
     }
 }
@@ -111,8 +153,15 @@ impl HallSensor {
         let mut out = [0u16; 3];
         for (k, count) in out.iter_mut().enumerate() {
             let a = phi + p.phase_rad[k];
+            let mut shape = libm::sin(a)
+                + p.harmonic3[k] * libm::sin(3.0 * a + p.harmonic3_phase_rad[k])
+                + p.harmonic5[k] * libm::sin(5.0 * a + p.harmonic5_phase_rad[k])
+                + p.harmonic7[k] * libm::sin(7.0 * a);
+            if shape > 0.0 {
+                shape *= 1.0 + p.kink[k];
+            }
             let u = p.offset_counts[k]
-                + p.amplitude_counts[k] * (libm::sin(a) + p.harmonic3[k] * libm::sin(3.0 * a))
+                + p.amplitude_counts[k] * shape
                 + p.noise_lsb * self.noise.normal();
             *count = libm::round(u).clamp(0.0, full_scale) as u16;
         }

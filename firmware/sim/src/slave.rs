@@ -51,6 +51,9 @@ fn rotated(params: HallSensorParams, k: usize) -> HallSensorParams {
     p.offset_counts.rotate_left(k);
     p.amplitude_counts.rotate_left(k);
     p.harmonic3.rotate_left(k);
+    p.harmonic3_phase_rad.rotate_left(k);
+    p.harmonic5.rotate_left(k);
+    p.harmonic5_phase_rad.rotate_left(k);
     p
 }
 
