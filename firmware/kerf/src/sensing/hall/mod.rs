@@ -33,8 +33,8 @@ pub mod calibration;
 
 pub use atan::atan2_turns;
 pub use calibration::{
-    CalibrationError, ChannelModel, CorrectionLearner, HallCalibration, HallCalibrator,
-    HallCorrection, SelfCalibration, SensorModel,
+    CalibrationError, CalibrationWarning, ChannelModel, CorrectionLearner, HallCalibration,
+    HallCalibrator, HallCorrection, SelfCalibration, SensorModel,
 };
 
 use crate::error::{in_range, positive, ConfigError};
@@ -66,7 +66,7 @@ pub struct HallConfig {
     pub adc_bits: u8,
     /// Nominal peak amplitude A of each channel in counts (sets the fault thresholds).
     pub amplitude_counts: f64,
-    /// Offsets and demodulation matrix.
+    /// Offsets, demodulation matrix and phase table.
     pub calibration: HallCalibration,
     /// Accepted band of the demodulated magnitude as a fraction of nominal, e.g. (0.7, 1.3).
     pub magnitude_band: (f64, f64),
@@ -100,9 +100,10 @@ impl HallConfig {
         }
     }
 
-    /// This configuration with a self-calibration installed: its demodulation, and a sum
-    /// limit of twice the largest healthy residual seen during calibration (at least
-    /// 5 % of A), so that a stuck or drifting channel is caught early.
+    /// This configuration with a self-calibration installed in one step: its
+    /// demodulation and phase table, and a sum limit of twice the largest healthy
+    /// residual seen during calibration (at least 5 % of A), so that a stuck or drifting
+    /// channel is caught early.
     pub fn with_self_calibration(&self, fit: &SelfCalibration) -> Self {
         Self {
             calibration: fit.calibration,
@@ -275,13 +276,8 @@ impl HallDecoder {
             magnitude_sq_max: ((hi * nominal / 32.0) * (hi * nominal / 32.0)) as u32,
             magnitude_sq_min_f32: ((lo * nominal) * (lo * nominal)) as f32,
             magnitude_sq_max_f32: ((hi * nominal) * (hi * nominal)) as f32,
-            correction: None,
+            correction: cal.correction,
         })
-    }
-
-    /// Installs (or removes) a learnt phase-error correction table.
-    pub fn set_correction(&mut self, correction: Option<HallCorrection>) {
-        self.correction = correction;
     }
 
     /// Decodes one sample of raw ADC counts `[u1, u2, u3]`.
