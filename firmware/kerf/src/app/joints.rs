@@ -472,14 +472,12 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
 
     fn finish_calibration(&mut self, sensors: [HallAxis<T>; N]) {
         self.sensors = sensors;
-        // The out-and-back sweep ended where it started: re-home there with the
-        // calibrated decoders (the nominal decoders' position error does not carry
-        // over). A stored calibration without a sweep re-homes where the axes are.
-        let home = match self.sweep.take() {
-            Some(_) => self.sweep_start_m,
-            None => self.axes.map(|a| a.position_m()),
-        };
-        self.axes = home.map(AxisState::homed_at);
+        // Re-home where the axes are, with the calibrated decoders. After a sweep they
+        // rest where it started, to within the loop's last error: the nominal decoders
+        // measured that small displacement from the start (their error is the same
+        // at the same phase, so it does not carry over), the start would ignore it.
+        self.sweep = None;
+        self.axes = self.axes.map(|a| AxisState::homed_at(a.position_m()));
     }
 
     fn check_job(&self, job: &JointJob<N>) -> Result<(), JobError> {
