@@ -229,33 +229,36 @@ impl HallDecoder {
         let mut sum_row_q16 = [0i32; 3];
         let unit = f64::from(DEMODULATED_RADIUS)
             * f64::from(1u32 << (COEFFICIENT_SHIFT - COUNT_FRACTION_BITS));
-        for k in 0..3 {
+        let inputs = cal
+            .offset_counts
+            .iter()
+            .zip(&cal.sin_row)
+            .zip(&cal.cos_row)
+            .zip(&cal.sum_row);
+        let outputs = offset_q4
+            .iter_mut()
+            .zip(&mut sin_row_q)
+            .zip(&mut cos_row_q)
+            .zip(&mut sum_row_q16);
+        for ((((offset, sin), cos), sum), (((offset_q, sin_q), cos_q), sum_q)) in
+            inputs.zip(outputs)
+        {
             let offset = in_range(
                 "calibration.offset_counts",
-                f64::from(cal.offset_counts[k]),
+                f64::from(*offset),
                 0.0,
                 full_scale,
             )?;
-            offset_q4[k] = libm::round(offset * f64::from(1u32 << COUNT_FRACTION_BITS)) as i32;
+            *offset_q = libm::round(offset * f64::from(1u32 << COUNT_FRACTION_BITS)) as i32;
             // |coefficient| < 2^30 keeps 3 products of (2^21 counts·Q4) × 2^30 inside i64;
             // it requires amplitudes above ~256 counts (a 10-bit ADC or better).
             let limit = f64::from(1u32 << 30) / unit;
-            let s = in_range(
-                "calibration.sin_row",
-                f64::from(cal.sin_row[k]),
-                -limit,
-                limit,
-            )?;
-            let c = in_range(
-                "calibration.cos_row",
-                f64::from(cal.cos_row[k]),
-                -limit,
-                limit,
-            )?;
-            sin_row_q[k] = libm::round(s * unit) as i32;
-            cos_row_q[k] = libm::round(c * unit) as i32;
-            let w = in_range("calibration.sum_row", f64::from(cal.sum_row[k]), -4.0, 4.0)?;
-            sum_row_q16[k] = libm::round(w * 65536.0) as i32;
+            let s = in_range("calibration.sin_row", f64::from(*sin), -limit, limit)?;
+            let c = in_range("calibration.cos_row", f64::from(*cos), -limit, limit)?;
+            *sin_q = libm::round(s * unit) as i32;
+            *cos_q = libm::round(c * unit) as i32;
+            let w = in_range("calibration.sum_row", f64::from(*sum), -4.0, 4.0)?;
+            *sum_q = libm::round(w * 65536.0) as i32;
         }
         let nominal = f64::from(DEMODULATED_RADIUS);
         Ok(Self {
@@ -324,7 +327,10 @@ impl HallDecoder {
                 return Err(HallFault::AdcRail(channel as u8));
             }
         }
-        let u = [0, 1, 2].map(|k| (i32::from(raw[k]) << COUNT_FRACTION_BITS) - self.offset_q4[k]);
+        let [r0, r1, r2] = raw;
+        let [o0, o1, o2] = self.offset_q4;
+        let u =
+            [(r0, o0), (r1, o1), (r2, o2)].map(|(r, o)| (i32::from(r) << COUNT_FRACTION_BITS) - o);
         let previous = *history;
         let packed = pack(raw);
         *history = [packed, previous[0]];
@@ -364,7 +370,9 @@ impl HallDecoder {
     /// its floating-point register saves); `None` when the magnitude is out of band.
     #[inline(never)]
     fn phase_f32(&self, raw: [u16; 3]) -> Option<u32> {
-        let uf = [0, 1, 2].map(|k| f32::from(raw[k]) - self.offset_f32[k]);
+        let [r0, r1, r2] = raw;
+        let [o0, o1, o2] = self.offset_f32;
+        let uf = [(r0, o0), (r1, o1), (r2, o2)].map(|(r, o)| f32::from(r) - o);
         let s =
             self.sin_row_f32[0] * uf[0] + self.sin_row_f32[1] * uf[1] + self.sin_row_f32[2] * uf[2];
         let c =
