@@ -4,8 +4,8 @@
 
 use hal_mock::hall_sensor::{HallSensor, HallSensorParams};
 use kerf::sensing::hall::{
-    CorrectionLearner, HallCalibrator, HallConfig, HallCorrection, HallDecoder, HallState,
-    SelfCalibration,
+    CalibrationWarning, CorrectionLearner, HallCalibrator, HallConfig, HallCorrection, HallDecoder,
+    HallState, SelfCalibration,
 };
 use kerf::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
 
@@ -14,13 +14,9 @@ const PITCH_M: f64 = 0.018;
 /// Peak and RMS of (decoded − true) over positions spread across two pitches, after
 /// removing the mean (a constant offset is homing, not error). Positions are
 /// decoded without unwrapping history, so only the phase within the pitch matters.
-fn error_over_pitch(
-    config: &HallConfig,
-    correction: Option<HallCorrection>,
-    sensor: &mut HallSensor,
-) -> (f64, f64) {
-    let mut decoder = HallDecoder::new(config).unwrap();
-    decoder.set_correction(correction);
+fn error_over_pitch(config: &HallConfig, sensor: &mut HallSensor) -> (f64, f64) {
+    let decoder = HallDecoder::new(config).unwrap();
+    let correction = config.calibration.correction;
     let n = 20_000;
     let mut errors = Vec::with_capacity(n);
     for k in 0..n {
@@ -39,13 +35,23 @@ fn error_over_pitch(
     (peak, rms)
 }
 
-/// Calibration move: 1.5 pitches, 512 samples.
+/// Calibration as the module docs ask: two coasts (out and back) of 1.5 pitches, 256
+/// samples each at a fixed rate, with the speed changing smoothly along each (a coast
+/// under constant force and viscous friction: x(t) = v∞ t + (v0 − v∞) T (1 − e^(−t/T))).
 fn calibrate(config: &HallConfig, sensor: &mut HallSensor) -> SelfCalibration {
     let mut calibrator = HallCalibrator::<512>::new();
-    for k in 0..512 {
-        calibrator
-            .push(sensor.sample(1.5 * PITCH_M * k as f64 / 512.0))
-            .unwrap();
+    for (start, direction) in [(0.0, 1.0), (1.5 * PITCH_M, -1.0)] {
+        calibrator.new_segment().unwrap();
+        // 0.25 s coast, v from 0.12 to about 0.1 m/s (T = 0.24 s): 1.5 pitches.
+        let (v0, v_end, tau) = (0.12, 0.1, 0.24);
+        let x = |t: f64| v_end * t + (v0 - v_end) * tau * (1.0 - (-t / tau).exp());
+        let scale = 1.5 * PITCH_M / x(0.25);
+        for k in 0..256 {
+            let t = 0.25 * k as f64 / 255.0;
+            calibrator
+                .push(sensor.sample(start + direction * scale * x(t)))
+                .unwrap();
+        }
     }
     calibrator.solve(&config.calibration).unwrap()
 }
@@ -80,26 +86,20 @@ fn calibration_report_at_16_and_12_bits() {
         let mut quiet_sensor = HallSensor::new(quiet, 11);
         let nominal = HallConfig::lm1247(bits);
         let fit = calibrate(&nominal, &mut sensor);
-        let mut calibrated = nominal;
-        calibrated.calibration = fit.calibration;
-        let learnt = learn_correction(&calibrated, &mut sensor);
+        let calibrated = nominal.with_self_calibration(&fit);
+        let mut linear = calibrated;
+        linear.calibration.correction = None;
+        let mut learnt = calibrated;
+        learnt.calibration.correction = Some(learn_correction(&linear, &mut sensor));
         let mut rows = Vec::new();
-        for (stage, config, table) in [
-            ("nominal", nominal, None),
-            ("self-calibrated, linear only", calibrated, None),
-            (
-                "self-calibrated with model table",
-                calibrated,
-                Some(fit.correction),
-            ),
-            (
-                "table learnt against 0.5 um encoder",
-                calibrated,
-                Some(learnt),
-            ),
+        for (stage, config) in [
+            ("nominal", nominal),
+            ("self-calibrated, linear only", linear),
+            ("self-calibrated with model table", calibrated),
+            ("table learnt against 0.5 um encoder", learnt),
         ] {
-            let noisy = error_over_pitch(&config, table, &mut sensor);
-            let clean = error_over_pitch(&config, table, &mut quiet_sensor);
+            let noisy = error_over_pitch(&config, &mut sensor);
+            let clean = error_over_pitch(&config, &mut quiet_sensor);
             println!(
                 "| {bits} bit | {noise_lsb} LSB | {stage} | {:.2} | {:.2} | {:.2} | {:.2} |",
                 noisy.0 * 1e6,
@@ -130,12 +130,10 @@ fn calibration_report_at_16_and_12_bits() {
 fn velocity_estimate_noise_against_finite_difference() {
     let params = HallSensorParams::lm1247_imperfect(16, 4.0);
     let mut sensor = HallSensor::new(params, 5);
-    let mut config = HallConfig::LM1247_16BIT;
+    let config = HallConfig::LM1247_16BIT;
     let fit = calibrate(&config, &mut sensor);
-    config.calibration = fit.calibration;
-    let (mut decoder, mut decoder_state) =
-        (HallDecoder::new(&config).unwrap(), HallState::default());
-    decoder.set_correction(Some(fit.correction));
+    let config = config.with_self_calibration(&fit);
+    let (decoder, mut decoder_state) = (HallDecoder::new(&config).unwrap(), HallState::default());
     let ts = 1e-4;
     let bandwidth = 2.0 * std::f64::consts::PI * 600.0;
     let observer = TrackingObserver::<f64>::new(
@@ -182,4 +180,78 @@ fn velocity_estimate_noise_against_finite_difference() {
     // √(ω Ts) of it (noise bandwidth of the double pole), 0.6 here, plus the residual
     // calibration ripple at 5.6 Hz·... the ratio must be clearly below 1.
     assert!(rms_obs < 0.7 * rms_fd, "{rms_obs} vs {rms_fd}");
+}
+
+/// Issue 10 item 7: the worst sensors of the model (3rd harmonic 1–3 %, 5th 0.5–1 %,
+/// harmonic phases ±10° per channel, offsets, gains and mounting as imperfect) are
+/// calibrated to ≤ 3 µm peak at 16 bits with 4 LSB noise, and their fit does not warn.
+/// The noise-free figure is the calibration's systematic error alone.
+#[test]
+fn worst_sensors_calibrate_to_3_um() {
+    println!("| ADC | noise | peak µm nominal | peak µm calibrated (noisy) | peak µm (noise-free) | fit residual RMS counts | limit |");
+    println!("|---|---|---|---|---|---|---|");
+    for (bits, noise_lsb) in [(16u8, 4.0), (12, 1.0)] {
+        let params = HallSensorParams::lm1247_worst(bits, noise_lsb);
+        let mut quiet = params;
+        quiet.noise_lsb = 0.0;
+        let mut sensor = HallSensor::new(params, 23);
+        let mut quiet_sensor = HallSensor::new(quiet, 23);
+        let nominal = HallConfig::lm1247(bits);
+        let fit = calibrate(&nominal, &mut sensor);
+        let calibrated = nominal.with_self_calibration(&fit);
+        let before = error_over_pitch(&nominal, &mut sensor);
+        let noisy = error_over_pitch(&calibrated, &mut sensor);
+        let clean = error_over_pitch(&calibrated, &mut quiet_sensor);
+        println!(
+            "| {bits} bit | {noise_lsb} LSB | {:.1} | {:.2} | {:.2} | {:.2} | {:.2} |",
+            before.0 * 1e6,
+            noisy.0 * 1e6,
+            clean.0 * 1e6,
+            fit.residual_rms_counts,
+            fit.residual_limit_counts
+        );
+        assert_eq!(fit.warning, None, "{bits} bit: {fit:?}");
+        if bits == 16 {
+            assert!(noisy.0 <= 3e-6, "{noisy:?}");
+        }
+        // The model is exact for these sensors: the systematic part is the table's
+        // interpolation and ADC rounding (0.5 LSB / A rad: 0.05 µm at 16 bits,
+        // 0.9 µm at 12 bits).
+        assert!(clean.0 <= if bits == 16 { 1e-6 } else { 3e-6 }, "{clean:?}");
+    }
+}
+
+/// The fit's residual warns, typed, when a sensor does not fit the model (a 1 %
+/// seventh harmonic at both resolutions; at 16 bits also a channel whose gain is 3 %
+/// higher on one side of its zero) and stays quiet for the worst sensors of the model
+/// (test above). At 12 bits the 8 LSB noise allowance is 0.5 % of A, so that kink
+/// (3.9 counts RMS) stays below it there.
+#[test]
+fn fit_residual_warns_for_sensors_beyond_the_model() {
+    for bits in [16u8, 12] {
+        let mut seventh = HallSensorParams::lm1247_worst(bits, 1.0);
+        seventh.harmonic7 = [0.010, 0.008, 0.012];
+        let mut kinked = HallSensorParams::lm1247_worst(bits, 1.0);
+        kinked.kink = [0.0, 0.03, 0.0];
+        let beyond: &[(&str, HallSensorParams)] = if bits == 16 {
+            &[("7th harmonic", seventh), ("kinked channel", kinked)]
+        } else {
+            &[("7th harmonic", seventh)]
+        };
+        for &(name, params) in beyond {
+            let fit = calibrate(&HallConfig::lm1247(bits), &mut HallSensor::new(params, 3));
+            println!(
+                "{bits} bit, {name}: residual {:.1} counts RMS, limit {:.1}",
+                fit.residual_rms_counts, fit.residual_limit_counts
+            );
+            assert!(
+                matches!(
+                    fit.warning,
+                    Some(CalibrationWarning::ModelMismatch { residual_rms_counts, limit_counts })
+                        if residual_rms_counts > limit_counts
+                ),
+                "{bits} bit, {name}: {fit:?}"
+            );
+        }
+    }
 }

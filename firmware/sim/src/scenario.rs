@@ -12,7 +12,7 @@ use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::app::PeriodClock;
 use kerf::control::pd::Reference;
 use kerf::hal::{Monotonic, SampleInputs, WriteOutputs};
-use kerf::sensing::hall::{HallCorrection, SelfCalibration};
+use kerf::sensing::hall::SelfCalibration;
 use kerf::trajectory::quintic::Quintic;
 use kerf::{ConfigContext, ConfigError, Real};
 
@@ -120,8 +120,6 @@ pub struct Scenario {
     pub periods: u32,
     /// The motion to follow.
     pub motion: Motion,
-    /// Learnt phase correction for the decoder, if any.
-    pub correction: Option<HallCorrection>,
     /// External load step: (time in s, force in N).
     pub load_step: Option<(f64, f64)>,
     /// Inject a sensor fault from this time in s on.
@@ -140,29 +138,27 @@ impl Scenario {
         seed: 0x6b65_7266,
         periods: 10_000,
         motion: Motion::Profile,
-        correction: None,
         load_step: None,
         sensor_fault: None,
         calibrate: false,
     };
 
     /// Periods after which a run that has not finished counts as hung: the
-    /// calibration (1.26 s), the wait for the fit, then the job, with margin.
+    /// calibration (0.8 s), the wait for the fit, then the job, with margin.
     pub fn period_limit(&self) -> u32 {
         4 * self.periods + 20_000
     }
 
     /// The slower context for this scenario: calibrates when `calibrate` is set,
-    /// otherwise installs the configured decoder (with `correction`) as a stored
+    /// otherwise installs the configured decoder (with its calibration) as a stored
     /// calibration; then loads and starts the motion's job.
     pub fn operator<T: Real>(&self) -> Result<AxisOperator<T>, ConfigError> {
         let stored = if self.calibrate {
             None
         } else {
-            let mut sensor = HallAxis::<T>::new(&self.machine.hall[0])
+            let sensor = HallAxis::<T>::new(&self.machine.hall[0])
                 .at(0)
                 .within("hall")?;
-            sensor.set_correction(self.correction);
             Some([sensor])
         };
         Ok(Operator::new(

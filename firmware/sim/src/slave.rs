@@ -293,7 +293,7 @@ pub fn run_slave<T: Float>(
     operator.start(&mut send);
     let mut outcome = SlaveOutcome::default();
     let job_s = scenario.approach_s + 4.0 * scenario.side_s;
-    // Calibration sweep (1.26 s), the job, and a margin.
+    // Calibration sweep (0.8 s), the job, and a margin.
     let limit = ((job_s + 2.0) / scenario.machine.joints.period_s) as u32;
     let mut after_fault = 0;
     for _ in 0..limit {

@@ -32,7 +32,7 @@ use crate::control::dob::{Dob, DobConfig, DobState};
 use crate::control::pd::{Pd, PdConfig, Reference};
 use crate::error::{coefficient, ConfigContext, ConfigError};
 use crate::scalar::Real;
-use crate::sensing::hall::{HallConfig, HallCorrection, HallDecoder, HallFault, HallState};
+use crate::sensing::hall::{HallConfig, HallDecoder, HallFault, HallState};
 use crate::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
 
 /// The control law of one axis, in SI units; [`AxisConfig::LM1247_SLAVE`] is the seed's
@@ -76,6 +76,9 @@ pub enum AxisFault {
     Sensor(HallFault),
     /// The reference was NaN or infinite: nothing sensible can be commanded.
     ReferenceNotFinite,
+    /// A calibration coast (open loop, held force) strayed beyond its bound from the
+    /// cruise it should follow (`app::calibrate::COAST_BOUND_M`).
+    CoastOutOfBound,
     /// A value inside the loop became NaN or infinite (a finite reference so far off
     /// that the PD terms overflow, a non-finite home): zero force in the same period.
     NotFinite,
@@ -135,11 +138,6 @@ impl<T: Real> HallAxis<T> {
             pitch_m: coefficient("pitch_m", config.pitch_m)?,
             pitches_per_m: coefficient("pitch_m", 1.0 / config.pitch_m)?,
         })
-    }
-
-    /// Installs (or removes) the decoder's phase correction table.
-    pub fn set_correction(&mut self, correction: Option<HallCorrection>) {
-        self.decoder.set_correction(correction);
     }
 }
 
@@ -307,6 +305,47 @@ impl<T: Real> AxisLaw<T> {
                 Err(fault)
             }
         }
+    }
+
+    /// One period open loop with a held force `force_n` (a calibration coast): the
+    /// sensors are decoded, checked and tracked as in [`AxisLaw::step`], the loop is
+    /// not. Call [`AxisState::engage`] before stepping closed loop again.
+    pub fn coast(
+        &self,
+        sensor: &HallAxis<T>,
+        state: &mut AxisState<T>,
+        hall_counts: [u16; 3],
+        force_n: T,
+    ) -> Result<AxisOutput<T>, AxisFault> {
+        if let AxisStatus::Fault(fault) = state.status {
+            return Err(fault);
+        }
+        // The held force balances the friction of the cruise: the slider coasts at
+        // nearly constant speed, so the observer predicts with no acceleration.
+        state.applied_acceleration = T::ZERO;
+        let velocity = match self.sense(sensor, state, hall_counts) {
+            Ok(v) if (v + force_n + state.position_m).is_finite() => v,
+            Ok(_) => {
+                state.status = AxisStatus::Fault(AxisFault::NotFinite);
+                return Err(AxisFault::NotFinite);
+            }
+            Err(fault) => {
+                state.status = AxisStatus::Fault(fault);
+                return Err(fault);
+            }
+        };
+        Ok(AxisOutput {
+            force_n,
+            position_m: state.position_m,
+            velocity_m_s: velocity,
+            disturbance_n: state.dob.estimate_n,
+            status: state.status,
+        })
+    }
+
+    /// Latches `fault` (a check outside the law, e.g. a coast's bound).
+    pub fn latch(&self, state: &mut AxisState<T>, fault: AxisFault) {
+        state.status = AxisStatus::Fault(fault);
     }
 
     /// Decode, home on the first good sample, track: the measured part of a period.

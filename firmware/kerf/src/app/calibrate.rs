@@ -1,11 +1,25 @@
 //! Calibration of a machine's Hall sensors, split between the two contexts.
 //!
-//! In the control period, [`CalibrationSweep`] moves every axis together, closed loop
-//! with the nominal decoders, 1.5 magnetic pitches out and back (so every phase is
-//! seen twice and the machine ends where it started), and hands a decimated stream of
-//! raw samples to the slower context. There, [`CalibrationFit`] collects them and runs
-//! the sensor-model fit (`sensing::hall::calibration`), which is far too long for a
-//! control period.
+//! In the control period, [`CalibrationSweep`] moves every axis together 1.5 magnetic
+//! pitches out and back, twice (the machine ends where it started), and hands raw
+//! samples to the slower context. There, [`CalibrationFit`] collects them and runs the
+//! sensor-model fit (`sensing::hall::calibration`), which is far too long for a control
+//! period.
+//!
+//! The fit needs samples taken at a fixed rate while the true motion is smooth in time
+//! whatever the Hall error (see `sensing::hall::calibration`): a loop closed on the
+//! uncalibrated decoders would make the *decoded* motion smooth and put the error into
+//! the true one. So the first out-and-back is closed loop: each way ramps up to a
+//! cruise of [`CRUISE_PITCHES_PER_S`] and measures each axis' mean force over exactly
+//! one pitch of it ([`SweepMode::Settle`]; the loop's force ripple from the decoder's
+//! error is periodic in the pitch and averages out). The second out-and-back ramps up
+//! the same way, then coasts with the force of the same direction held, open loop
+//! ([`SweepMode::Coast`]): the slider moves under a constant force against friction
+//! (Coulomb + viscous, a smooth approach to a speed; on a delta also smooth pose-
+//! dependent gravity and inertia), and only these samples are streamed, one segment per
+//! coast. The loop closes again for the ramp down. A coast whose decoded position strays
+//! more than [`COAST_BOUND_M`] from the cruise reference faults the axis (the held force
+//! was far off: a load, a stall), so the open loop is bounded.
 //!
 //! All axes sweep together rather than one at a time: the sweep takes a third of the
 //! time on three axes, and on a delta equal carriage moves translate the effector
@@ -19,87 +33,213 @@ use crate::scalar::Real;
 use crate::sensing::hall::{
     CalibrationError, HallCalibration, HallCalibrator, HallConfig, SelfCalibration,
 };
-use crate::trajectory::quintic::Quintic;
 
-/// Raw samples kept per axis.
+/// Raw samples kept per axis (two coasts of at most half of it each).
 pub const CALIBRATION_SAMPLES: usize = 512;
-/// Pitches swept: more than one, so every phase is seen, with margin for the ends.
+/// Samples streamed per coast at most.
+pub const SAMPLES_PER_COAST: u32 = (CALIBRATION_SAMPLES / 2) as u32;
+/// Pitches swept each way: more than one, so the coast covers a pitch after the ramp.
 pub const SWEEP_PITCHES: f64 = 1.5;
-/// Duration of each way of the sweep, s (peak speed 1.875 × 27 mm / 0.6 s = 84 mm/s at
-/// an 18 mm pitch).
-pub const SWEEP_DURATION_S: f64 = 0.6;
-/// Rest before the sweep starts, between the two ways, and after it ends, s.
+/// Cruise speed in pitches per second (0.25 m/s at an 18 mm pitch): fast enough that a
+/// coast of a pitch is short (83 ms), so that the error of the held force drifts little
+/// (δF·t²/2m) and the motion stays close to the fit's cubic in time, and that Coulomb
+/// friction never stops the coast; slow enough that ramps and coast fit in the 1.5
+/// pitches of a way (and the Keops delta's 0–40 mm travel from its 10 mm home).
+pub const CRUISE_PITCHES_PER_S: f64 = 125.0 / 9.0;
+/// Duration of the ramp up and of the ramp down, s (peak acceleration 1.5 v/T =
+/// 18.75 m/s² at an 18 mm pitch, within the machines' 20 m/s²).
+pub const RAMP_S: f64 = 0.02;
+/// Closed-loop cruise after a ramp before a settle or a coast starts, s: the loop's
+/// transient from the ramp decays.
+pub const SETTLE_DELAY_S: f64 = 0.005;
+/// Largest distance between the coasting axis' decoded position and the cruise
+/// reference, m, before the axis faults.
+pub const COAST_BOUND_M: f64 = 0.005;
+/// Rest before each way of the sweep, s.
 const REST_S: f64 = 0.02;
+/// Rest after the last coast, closed loop, s: the loop takes up what the coast strayed
+/// (up to a few mm) before the axes re-home.
+const FINAL_REST_S: f64 = 0.2;
+/// Ways of the sweep: out and back closed loop (settles), out and back coasting.
+const WAYS: u32 = 4;
+/// Streamed in place of a sample at the start of each coast: a new segment for the fit
+/// (three channels at zero are never a healthy sample: the decoder rejects the rail).
+pub const SEGMENT_BREAK: [u16; 3] = [0; 3];
+
+/// What the machine does with each axis in the present period of a sweep.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum SweepMode {
+    /// Closed loop on the reference (rests, ramps, the cruise around settles and coasts).
+    Track,
+    /// Closed loop at cruise over exactly one pitch: the mean force of these periods is
+    /// held in the coast the same way.
+    Settle,
+    /// Open loop: the held force, samples streamed.
+    Coast,
+}
 
 /// The control-period half: the out-and-back sweep of N axes and the sample stream.
 #[derive(Clone, Debug)]
 pub struct CalibrationSweep<T, const N: usize> {
-    out: Quintic<T>,
-    back: Quintic<T>,
     start_m: [T; N],
     ts: T,
     rest: T,
+    ramp: T,
+    inv_ramp: T,
+    cruise_end: T,
+    speed: T,
+    distance: T,
     period: u32,
     periods: u32,
-    back_from: u32,
+    way_periods: u32,
+    settle_from: u32,
+    settle_to: u32,
+    coast_from: u32,
+    coast_to: u32,
     decimation: u32,
 }
 
 impl<T: Real, const N: usize> CalibrationSweep<T, N> {
-    /// A sweep of [`SWEEP_PITCHES`] of `pitch_m` from `start_m` (per axis) and back, at
-    /// control period `period_s`.
+    /// The sweep of axes starting (and ending) at `start_m`, for a sensor of `pitch_m`
+    /// and a control period of `period_s`.
     pub fn new(start_m: [T; N], pitch_m: f64, period_s: f64) -> Result<Self, ConfigError> {
         let pitch = positive("pitch_m", pitch_m)?;
         let ts = positive("period_s", period_s)?;
-        let way = SWEEP_DURATION_S + REST_S;
-        let periods = libm::ceil((2.0 * way + REST_S) / ts) as u32;
-        if periods < CALIBRATION_SAMPLES as u32 {
+        let speed = CRUISE_PITCHES_PER_S * pitch;
+        let distance = SWEEP_PITCHES * pitch;
+        // Each ramp covers speed·RAMP_S/2; the cruise the rest.
+        let cruise_s = distance / speed - RAMP_S;
+        let way = REST_S + RAMP_S + cruise_s + RAMP_S;
+        let way_periods = libm::round(way / ts) as u32;
+        let periods = WAYS * way_periods + libm::ceil(FINAL_REST_S / ts) as u32;
+        let settle_from = libm::ceil((REST_S + RAMP_S + SETTLE_DELAY_S) / ts) as u32;
+        // The settle averages the force over exactly one pitch of the cruise: the
+        // loop's force ripple from the nominal decoder's error (periodic in the pitch)
+        // then averages out.
+        let settle_to = settle_from + libm::round(1.0 / CRUISE_PITCHES_PER_S / ts) as u32;
+        let coast_from = settle_from;
+        let coast_to = libm::floor((REST_S + RAMP_S + cruise_s) / ts) as u32;
+        // The fit's segments need samples, and the coast must be a whole pitch.
+        if coast_to < coast_from + 64 || (cruise_s - SETTLE_DELAY_S) * speed < pitch {
             return Err(ConfigError::out_of_range("period_s"));
         }
         Ok(Self {
-            out: Quintic::new(0.0, SWEEP_PITCHES * pitch, SWEEP_DURATION_S)?,
-            back: Quintic::new(
-                SWEEP_PITCHES * pitch,
-                -SWEEP_PITCHES * pitch,
-                SWEEP_DURATION_S,
-            )?,
             start_m,
             ts: T::from_f64(ts),
             rest: T::from_f64(REST_S),
+            ramp: T::from_f64(RAMP_S),
+            inv_ramp: T::from_f64(1.0 / RAMP_S),
+            cruise_end: T::from_f64(RAMP_S + cruise_s),
+            speed: T::from_f64(speed),
+            distance: T::from_f64(distance),
             period: 0,
             periods,
-            back_from: libm::round(way / ts) as u32,
-            // Spread the kept samples over the whole sweep.
-            decimation: periods.div_ceil(CALIBRATION_SAMPLES as u32 - 1),
+            way_periods,
+            settle_from,
+            settle_to: settle_to.min(coast_to),
+            coast_from,
+            coast_to,
+            decimation: (coast_to - coast_from).div_ceil(SAMPLES_PER_COAST),
         })
     }
 
-    /// Reference of every axis for the present period (rest, out, rest, back, rest).
-    pub fn reference(&self) -> [Reference<T>; N] {
-        let (way, k) = if self.period < self.back_from {
-            (&self.out, self.period)
+    /// The way (0 and 2 out, 1 and 3 back; the last rest counts as way 3) and the
+    /// period within it.
+    fn way(&self) -> (u32, u32) {
+        // `way_periods` is positive (`new` checks the coast fits in a way);
+        // `checked_div` says so without a panic path.
+        let way = self
+            .period
+            .checked_div(self.way_periods)
+            .unwrap_or(0)
+            .min(WAYS - 1);
+        (way, self.period.saturating_sub(way * self.way_periods))
+    }
+
+    /// Whether the present way is back towards the start (the direction whose settle
+    /// force a coast holds).
+    pub fn backwards(&self) -> bool {
+        self.way().0 % 2 == 1
+    }
+
+    /// What the machine does this period.
+    pub fn mode(&self) -> SweepMode {
+        let (way, k) = self.way();
+        if way >= 2 && (self.coast_from..self.coast_to).contains(&k) {
+            SweepMode::Coast
+        } else if way < 2 && (self.settle_from..self.settle_to).contains(&k) {
+            SweepMode::Settle
         } else {
-            (&self.back, self.period - self.back_from)
-        };
+            SweepMode::Track
+        }
+    }
+
+    /// Reference of every axis for the present period (rest, ramp, cruise, ramp, and
+    /// the same back, twice, and a last rest). During a coast it is the cruise the
+    /// coast should follow.
+    pub fn reference(&self) -> [Reference<T>; N] {
+        let (way, k) = self.way();
+        let out = way % 2 == 0;
         // t = k·Ts − rest, from the integer period count (no accumulated rounding).
         let t = T::from_q32(i64::from(k) << 32) * self.ts - self.rest;
-        let s = way.sample(t);
+        let (two, three, six) = (T::from_f64(2.0), T::from_f64(3.0), T::from_f64(6.0));
+        let half = T::from_f64(0.5);
+        let v = self.speed;
+        // Smoothstep speed ramps: v(s) = v (3s² − 2s³), x(s) = v T (s³ − s⁴/2).
+        let (x, dx, ddx) = if t <= T::ZERO {
+            (T::ZERO, T::ZERO, T::ZERO)
+        } else if t < self.ramp {
+            let s = t * self.inv_ramp;
+            let (s2, s3) = (s * s, s * s * s);
+            (
+                v * self.ramp * (s3 - half * s3 * s),
+                v * (three * s2 - two * s3),
+                v * six * (s - s2) * self.inv_ramp,
+            )
+        } else if t < self.cruise_end {
+            (v * (t - half * self.ramp), v, T::ZERO)
+        } else if t < self.cruise_end + self.ramp {
+            let s = (t - self.cruise_end) * self.inv_ramp;
+            let (s2, s3) = (s * s, s * s * s);
+            (
+                v * (self.cruise_end - half * self.ramp) + v * self.ramp * (s - s3 + half * s3 * s),
+                v - v * (three * s2 - two * s3),
+                -(v * six * (s - s2) * self.inv_ramp),
+            )
+        } else {
+            (self.distance, T::ZERO, T::ZERO)
+        };
+        let (offset, x, dx, ddx) = if out {
+            (T::ZERO, x, dx, ddx)
+        } else {
+            (self.distance, -x, -dx, -ddx)
+        };
         self.start_m.map(|start| Reference {
-            position: start + s.position,
-            ..s
+            position: start + offset + x,
+            velocity: dx,
+            acceleration: ddx,
         })
     }
 
     /// Passes this period's raw counts of every axis to `record` when they are to be
-    /// kept, and advances; `true` once the sweep is over.
+    /// kept (every `decimation`-th period of a coast, after a [`SEGMENT_BREAK`] at its
+    /// start), and advances; `true` once the sweep is over.
     pub fn advance(
         &mut self,
         counts: &[[u16; 3]; N],
         record: &mut dyn FnMut(u8, [u16; 3]),
     ) -> bool {
+        let (_, k) = self.way();
         // `decimation` is at least 1 (`new`); `checked_rem` says so without a panic path.
-        if self.period.checked_rem(self.decimation) == Some(0) {
+        let kept = k
+            .checked_sub(self.coast_from)
+            .and_then(|into_coast| into_coast.checked_rem(self.decimation))
+            == Some(0);
+        if self.mode() == SweepMode::Coast && kept {
             for (axis, c) in counts.iter().enumerate() {
+                if k == self.coast_from {
+                    record(axis as u8, SEGMENT_BREAK);
+                }
                 record(axis as u8, *c);
             }
         }
@@ -128,9 +268,10 @@ impl<const N: usize> Default for CalibrationFit<N> {
 }
 
 impl<const N: usize> CalibrationFit<N> {
-    /// Keeps one streamed sample of `axis`.
+    /// Keeps one streamed sample of `axis` ([`SEGMENT_BREAK`] starts a new segment).
     pub fn push(&mut self, axis: u8, counts: [u16; 3]) -> Result<(), CalibrationError> {
         match self.calibrators.get_mut(usize::from(axis)) {
+            Some(c) if counts == SEGMENT_BREAK => c.new_segment(),
             Some(c) => c.push(counts),
             None => Err(CalibrationError::TooFewSamples),
         }
@@ -175,9 +316,8 @@ pub fn fit_sensors<T: Real, const N: usize>(
         let fit = samples
             .finish(axis, &hall.calibration)
             .map_err(|error| CalibrationFailure::Fit { axis, error })?;
-        let mut sensor = HallAxis::new(&hall.with_self_calibration(&fit))
+        let sensor = HallAxis::new(&hall.with_self_calibration(&fit))
             .map_err(|e| CalibrationFailure::Config(e.at(axis).within("hall")))?;
-        sensor.set_correction(Some(fit.correction));
         let _ = sensors.push(sensor);
         let _ = fits.push(fit);
     }
@@ -203,26 +343,49 @@ pub trait HallMachine<const N: usize>: Machine {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::vec::Vec;
 
     #[test]
-    fn sweep_goes_out_and_back_and_streams_the_store_without_overflow() {
+    fn sweep_goes_out_and_back_and_streams_two_coasts_at_cruise() {
         for ts in [1e-4, 4.17e-4] {
             let mut sweep = CalibrationSweep::<f64, 2>::new([0.004, -0.01], 0.018, ts).unwrap();
             let mut fit = CalibrationFit::<2>::default();
             let (mut first, mut far) = (None, 0.0f64);
             let mut last;
-            let mut periods = 0;
-            let mut pushed = [0u32; 2];
+            let mut previous: Option<f64> = None;
+            let (mut periods, mut breaks, mut pushed, mut settles) = (0, 0, [0u32; 2], 0);
+            let mut coast_speeds = Vec::new();
             loop {
                 let r = sweep.reference();
                 first.get_or_insert([r[0].position, r[1].position]);
                 far = far.max(r[0].position);
+                // The reference is continuous and its velocity its derivative.
+                if let Some(p) = previous {
+                    let v = (r[0].position - p) / ts;
+                    assert!(
+                        (v - r[0].velocity).abs() < 18.76 * ts / 2.0 + 1e-9,
+                        "{v} {r:?}"
+                    );
+                }
+                previous = Some(r[0].position);
                 last = [r[0].position, r[1].position];
                 assert!((r[1].position - r[0].position + 0.014).abs() < 1e-15);
+                if sweep.mode() == SweepMode::Settle {
+                    settles += 1;
+                    assert_eq!(r[0].velocity.abs(), CRUISE_PITCHES_PER_S * 0.018);
+                }
+                if sweep.mode() == SweepMode::Coast {
+                    coast_speeds.push(r[0].velocity.abs());
+                    assert_eq!(r[0].acceleration, 0.0);
+                }
                 periods += 1;
                 // Any healthy-looking counts: only the bookkeeping is under test here.
                 let done = sweep.advance(&[[30000, 20000, 15000]; 2], &mut |axis, c| {
-                    pushed[usize::from(axis)] += 1;
+                    if c == SEGMENT_BREAK {
+                        breaks += 1;
+                    } else {
+                        pushed[usize::from(axis)] += 1;
+                    }
                     fit.push(axis, c).unwrap();
                 });
                 if done {
@@ -236,11 +399,17 @@ mod tests {
                 "{far}"
             );
             assert!((last[0] - 0.004).abs() < 1e-12, "{last:?}");
-            assert!(
-                pushed[0] > CALIBRATION_SAMPLES as u32 * 9 / 10,
-                "{pushed:?}"
-            );
+            // Two coasts per axis, each a segment of at most SAMPLES_PER_COAST, at the
+            // cruise speed throughout, covering more than a pitch.
+            assert_eq!(breaks, 4);
+            assert!(pushed[0] <= 2 * SAMPLES_PER_COAST, "{pushed:?}");
+            assert!(pushed[0] > 2 * 64, "{pushed:?}");
             assert_eq!(pushed[0], pushed[1]);
+            let speed = CRUISE_PITCHES_PER_S * 0.018;
+            assert!(coast_speeds.iter().all(|v| (v - speed).abs() < 1e-12));
+            assert!(coast_speeds.len() as f64 * ts * speed > 0.018);
+            // Each settle covers one pitch, to a period.
+            assert!((f64::from(settles) * ts * speed - 2.0 * 0.018).abs() < 2.0 * ts * speed);
         }
     }
 
@@ -254,7 +423,7 @@ mod tests {
             CalibrationSweep::<f32, 1>::new([0.0], 0.018, f64::NAN).err(),
             Some(ConfigError::not_finite("period_s"))
         );
-        // Too few periods in the sweep for the sample store.
+        // Too few periods in a coast for the fit's segment.
         assert_eq!(
             CalibrationSweep::<f32, 1>::new([0.0], 0.018, 0.01).err(),
             Some(ConfigError::out_of_range("period_s"))

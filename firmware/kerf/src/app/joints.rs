@@ -12,7 +12,8 @@
 
 use crate::app::axis::{AxisConfig, AxisFault, AxisLaw, AxisOutput, AxisState, HallAxis};
 use crate::app::calibrate::{
-    fit_sensors, CalibrationFailure, CalibrationFit, CalibrationSweep, HallMachine,
+    fit_sensors, CalibrationFailure, CalibrationFit, CalibrationSweep, HallMachine, SweepMode,
+    COAST_BOUND_M,
 };
 use crate::app::supervisor::{Machine, Step};
 use crate::control::pd::Reference;
@@ -155,6 +156,12 @@ pub struct Joints<T, const N: usize> {
     accel_limit_m_s2: f64,
     sweep: Option<CalibrationSweep<T, N>>,
     sweep_start_m: [T; N],
+    /// Sum of each axis' force over the settle of each direction (out, back), N, and
+    /// its periods: the force held during the coast the same way.
+    settle_force_n: [[T; N]; 2],
+    settle_periods: [u32; 2],
+    /// The sweep's mode in the last period (to engage the loop after a coast).
+    sweep_mode: SweepMode,
     run: Option<Run<T, N>>,
     stop: Option<StopRamp<T, N>>,
     reference: [Reference<T>; N],
@@ -239,6 +246,9 @@ impl<T: Real, const N: usize> Joints<T, N> {
             accel_limit_m_s2,
             sweep: None,
             sweep_start_m: home,
+            settle_force_n: [[T::ZERO; N]; 2],
+            settle_periods: [0; 2],
+            sweep_mode: SweepMode::Track,
             run: None,
             stop: None,
             reference,
@@ -287,6 +297,41 @@ impl<T: Real, const N: usize> Joints<T, N> {
                 }
                 if let (Some(force), Some(last)) = (forces.get_mut(k), last.get_mut(k)) {
                     *force = out.force_n;
+                    *last = out;
+                }
+                Ok(())
+            },
+        )?;
+        Ok(forces)
+    }
+
+    /// One coast period of every axis: the settle's mean force held, open loop; an axis
+    /// whose decoded position strays beyond [`COAST_BOUND_M`] from the cruise faults.
+    fn coast(&mut self, inputs: &[[u16; 3]; N], way: usize) -> Result<[T; N], JointFault> {
+        let periods = self.settle_periods.get(way).copied().unwrap_or(0);
+        let mean = T::from_f64(1.0 / f64::from(periods.max(1)));
+        let bound = T::from_f64(COAST_BOUND_M);
+        let held = self
+            .settle_force_n
+            .get(way)
+            .map_or([T::ZERO; N], |sums| sums.map(|sum| sum * mean));
+        let mut forces = [T::ZERO; N];
+        let (law, reference, last) = (&self.law, &self.reference, &mut self.last);
+        each_axis(
+            &mut self.axes,
+            &self.sensors,
+            inputs,
+            |k, sensor, axis, counts| {
+                let target = reference.get(k).map_or(axis.position_m(), |r| r.position);
+                let force = held.get(k).copied().unwrap_or(T::ZERO);
+                let out = law.coast(sensor, axis, counts, force)?;
+                let stray = out.position_m - target;
+                if stray > bound || stray < -bound {
+                    law.latch(axis, AxisFault::CoastOutOfBound);
+                    return Err(AxisFault::CoastOutOfBound);
+                }
+                if let (Some(f), Some(last)) = (forces.get_mut(k), last.get_mut(k)) {
+                    *f = force;
                     *last = out;
                 }
                 Ok(())
@@ -388,8 +433,36 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
             return Ok(Step::Done(self.safe_outputs()));
         };
         self.reference = sweep.reference();
+        let mode = sweep.mode();
+        let way = usize::from(sweep.backwards());
         let done = sweep.advance(inputs, record);
-        let forces = self.control(inputs)?;
+        let previous = core::mem::replace(&mut self.sweep_mode, mode);
+        let forces = match mode {
+            SweepMode::Coast => self.coast(inputs, way)?,
+            SweepMode::Settle | SweepMode::Track => {
+                if previous == SweepMode::Coast {
+                    // Back to closed loop: the disturbance estimate restarts here.
+                    self.engage();
+                }
+                let forces = self.control(inputs)?;
+                if mode == SweepMode::Settle {
+                    if let (Some(sums), Some(periods)) = (
+                        self.settle_force_n.get_mut(way),
+                        self.settle_periods.get_mut(way),
+                    ) {
+                        if previous != SweepMode::Settle {
+                            *sums = [T::ZERO; N];
+                            *periods = 0;
+                        }
+                        for (sum, f) in sums.iter_mut().zip(&forces) {
+                            *sum = *sum + *f;
+                        }
+                        *periods = periods.saturating_add(1);
+                    }
+                }
+                forces
+            }
+        };
         Ok(if done {
             Step::Done(forces)
         } else {
@@ -399,14 +472,12 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
 
     fn finish_calibration(&mut self, sensors: [HallAxis<T>; N]) {
         self.sensors = sensors;
-        // The out-and-back sweep ended where it started: re-home there with the
-        // calibrated decoders (the nominal decoders' position error does not carry
-        // over). A stored calibration without a sweep re-homes where the axes are.
-        let home = match self.sweep.take() {
-            Some(_) => self.sweep_start_m,
-            None => self.axes.map(|a| a.position_m()),
-        };
-        self.axes = home.map(AxisState::homed_at);
+        // Re-home where the axes are, with the calibrated decoders. After a sweep they
+        // rest where it started, to within the loop's last error: the nominal decoders
+        // measured that small displacement from the start (their error is the same
+        // at the same phase, so it does not carry over), the start would ignore it.
+        self.sweep = None;
+        self.axes = self.axes.map(|a| AxisState::homed_at(a.position_m()));
     }
 
     fn check_job(&self, job: &JointJob<N>) -> Result<(), JobError> {

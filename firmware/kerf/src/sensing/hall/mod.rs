@@ -33,8 +33,8 @@ pub mod calibration;
 
 pub use atan::atan2_turns;
 pub use calibration::{
-    CalibrationError, ChannelModel, CorrectionLearner, HallCalibration, HallCalibrator,
-    HallCorrection, SelfCalibration, SensorModel,
+    CalibrationError, CalibrationWarning, ChannelModel, CorrectionLearner, HallCalibration,
+    HallCalibrator, HallCorrection, SelfCalibration, SensorModel,
 };
 
 use crate::error::{in_range, positive, ConfigError};
@@ -66,7 +66,7 @@ pub struct HallConfig {
     pub adc_bits: u8,
     /// Nominal peak amplitude A of each channel in counts (sets the fault thresholds).
     pub amplitude_counts: f64,
-    /// Offsets and demodulation matrix.
+    /// Offsets, demodulation matrix and phase table.
     pub calibration: HallCalibration,
     /// Accepted band of the demodulated magnitude as a fraction of nominal, e.g. (0.7, 1.3).
     pub magnitude_band: (f64, f64),
@@ -100,9 +100,10 @@ impl HallConfig {
         }
     }
 
-    /// This configuration with a self-calibration installed: its demodulation, and a sum
-    /// limit of twice the largest healthy residual seen during calibration (at least
-    /// 5 % of A), so that a stuck or drifting channel is caught early.
+    /// This configuration with a self-calibration installed in one step: its
+    /// demodulation and phase table, and a sum limit of twice the largest healthy
+    /// residual seen during calibration (at least 5 % of A), so that a stuck or drifting
+    /// channel is caught early.
     pub fn with_self_calibration(&self, fit: &SelfCalibration) -> Self {
         Self {
             calibration: fit.calibration,
@@ -228,33 +229,36 @@ impl HallDecoder {
         let mut sum_row_q16 = [0i32; 3];
         let unit = f64::from(DEMODULATED_RADIUS)
             * f64::from(1u32 << (COEFFICIENT_SHIFT - COUNT_FRACTION_BITS));
-        for k in 0..3 {
+        let inputs = cal
+            .offset_counts
+            .iter()
+            .zip(&cal.sin_row)
+            .zip(&cal.cos_row)
+            .zip(&cal.sum_row);
+        let outputs = offset_q4
+            .iter_mut()
+            .zip(&mut sin_row_q)
+            .zip(&mut cos_row_q)
+            .zip(&mut sum_row_q16);
+        for ((((offset, sin), cos), sum), (((offset_q, sin_q), cos_q), sum_q)) in
+            inputs.zip(outputs)
+        {
             let offset = in_range(
                 "calibration.offset_counts",
-                f64::from(cal.offset_counts[k]),
+                f64::from(*offset),
                 0.0,
                 full_scale,
             )?;
-            offset_q4[k] = libm::round(offset * f64::from(1u32 << COUNT_FRACTION_BITS)) as i32;
+            *offset_q = libm::round(offset * f64::from(1u32 << COUNT_FRACTION_BITS)) as i32;
             // |coefficient| < 2^30 keeps 3 products of (2^21 counts·Q4) × 2^30 inside i64;
             // it requires amplitudes above ~256 counts (a 10-bit ADC or better).
             let limit = f64::from(1u32 << 30) / unit;
-            let s = in_range(
-                "calibration.sin_row",
-                f64::from(cal.sin_row[k]),
-                -limit,
-                limit,
-            )?;
-            let c = in_range(
-                "calibration.cos_row",
-                f64::from(cal.cos_row[k]),
-                -limit,
-                limit,
-            )?;
-            sin_row_q[k] = libm::round(s * unit) as i32;
-            cos_row_q[k] = libm::round(c * unit) as i32;
-            let w = in_range("calibration.sum_row", f64::from(cal.sum_row[k]), -4.0, 4.0)?;
-            sum_row_q16[k] = libm::round(w * 65536.0) as i32;
+            let s = in_range("calibration.sin_row", f64::from(*sin), -limit, limit)?;
+            let c = in_range("calibration.cos_row", f64::from(*cos), -limit, limit)?;
+            *sin_q = libm::round(s * unit) as i32;
+            *cos_q = libm::round(c * unit) as i32;
+            let w = in_range("calibration.sum_row", f64::from(*sum), -4.0, 4.0)?;
+            *sum_q = libm::round(w * 65536.0) as i32;
         }
         let nominal = f64::from(DEMODULATED_RADIUS);
         Ok(Self {
@@ -275,13 +279,8 @@ impl HallDecoder {
             magnitude_sq_max: ((hi * nominal / 32.0) * (hi * nominal / 32.0)) as u32,
             magnitude_sq_min_f32: ((lo * nominal) * (lo * nominal)) as f32,
             magnitude_sq_max_f32: ((hi * nominal) * (hi * nominal)) as f32,
-            correction: None,
+            correction: cal.correction,
         })
-    }
-
-    /// Installs (or removes) a learnt phase-error correction table.
-    pub fn set_correction(&mut self, correction: Option<HallCorrection>) {
-        self.correction = correction;
     }
 
     /// Decodes one sample of raw ADC counts `[u1, u2, u3]`.
@@ -328,7 +327,10 @@ impl HallDecoder {
                 return Err(HallFault::AdcRail(channel as u8));
             }
         }
-        let u = [0, 1, 2].map(|k| (i32::from(raw[k]) << COUNT_FRACTION_BITS) - self.offset_q4[k]);
+        let [r0, r1, r2] = raw;
+        let [o0, o1, o2] = self.offset_q4;
+        let u =
+            [(r0, o0), (r1, o1), (r2, o2)].map(|(r, o)| (i32::from(r) << COUNT_FRACTION_BITS) - o);
         let previous = *history;
         let packed = pack(raw);
         *history = [packed, previous[0]];
@@ -368,7 +370,9 @@ impl HallDecoder {
     /// its floating-point register saves); `None` when the magnitude is out of band.
     #[inline(never)]
     fn phase_f32(&self, raw: [u16; 3]) -> Option<u32> {
-        let uf = [0, 1, 2].map(|k| f32::from(raw[k]) - self.offset_f32[k]);
+        let [r0, r1, r2] = raw;
+        let [o0, o1, o2] = self.offset_f32;
+        let uf = [(r0, o0), (r1, o1), (r2, o2)].map(|(r, o)| f32::from(r) - o);
         let s =
             self.sin_row_f32[0] * uf[0] + self.sin_row_f32[1] * uf[1] + self.sin_row_f32[2] * uf[2];
         let c =

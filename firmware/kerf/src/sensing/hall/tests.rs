@@ -287,15 +287,15 @@ fn calibration_recovers_offset_gain_phase_and_harmonic() {
         let c2 = cfg.with_self_calibration(&fit);
         assert!((c2.sum_limit - 2.0 * fit.peak_sum_residual_counts / a).abs() < 1e-12);
         let before = HallDecoder::new(&cfg).unwrap();
-        let mut after = HallDecoder::new(&c2).unwrap();
-        after.set_correction(Some(fit.correction));
+        let after = HallDecoder::new(&c2).unwrap();
+        let correction = fit.calibration.correction.unwrap();
         let (mut e_before, mut e_after) = (Vec::new(), Vec::new());
         for k in 0..4000 {
             let phi = 2.0 * PI * k as f64 / 4000.0;
             let raw = sample(phi);
             e_before.push(wrapped_turns(before.raw_phase(raw).unwrap(), phi));
             e_after.push(wrapped_turns(
-                fit.correction.apply(after.raw_phase(raw).unwrap()),
+                correction.apply(after.raw_phase(raw).unwrap()),
                 phi,
             ));
         }
