@@ -17,7 +17,7 @@
 //!    the channel that stopped changing, named as stuck;
 //! 5. φ = atan2(s, c) by [`atan::atan2_turns`] into a `u32` phase word (one pitch =
 //!    2^32: wrapping arithmetic *is* the modulo), optionally corrected by a learnt
-//!    table ([`calibration::HallCorrection`]);
+//!    table ([`correction::HallCorrection`]);
 //! 6. unwrapping against a predicted phase: the caller passes the expected step
 //!    (from its velocity estimate), so any speed unwraps as long as the prediction is
 //!    within a quarter pitch; a larger innovation is an implausible jump.
@@ -30,12 +30,14 @@
 
 pub mod atan;
 pub mod calibration;
+pub mod correction;
 
 pub use atan::atan2_turns;
 pub use calibration::{
-    CalibrationError, CalibrationWarning, ChannelModel, CorrectionLearner, HallCalibration,
-    HallCalibrator, HallCorrection, SelfCalibration, SensorModel,
+    CalibrationError, CalibrationWarning, ChannelModel, HallCalibration, HallCalibrator,
+    SelfCalibration, SensorModel,
 };
+pub use correction::{CorrectionLearner, HallCorrection, CORRECTION_ENTRIES};
 
 use crate::error::{in_range, positive, ConfigError};
 use crate::scalar::Real;

@@ -1,7 +1,7 @@
 //! Unit tests of the Hall decoder and its calibration, compiled only under
 //! `#[cfg(test)]` (see `mod tests` in `mod.rs`).
 
-use super::calibration::CORRECTION_ENTRIES;
+use super::CORRECTION_ENTRIES;
 use super::*;
 use core::f64::consts::PI;
 use std::vec::Vec;
