@@ -590,14 +590,14 @@ impl<const N: usize> HallCalibrator<N> {
         let mut segment = 0usize;
         for (samples, p) in self.segments().zip(poly) {
             let scale = 2.0 / (samples.len().max(2) - 1) as f64;
-            // This segment's columns of the time unknowns.
-            let mut tau = SVector::<f64, PHASE_UNKNOWNS>::zeros();
+            // A sample's phase depends on its own segment's TERMS time unknowns only:
+            // the products touch that segment's block of columns (and rows) alone, so
+            // they are accumulated there, without full-width temporaries.
+            let columns = segment * TERMS;
             for (i, raw) in samples.iter().enumerate() {
                 let powers = powers(i as f64 * scale - 1.0);
-                tau.fill(0.0);
-                tau.fixed_rows_mut::<TERMS>(segment * TERMS)
-                    .copy_from_slice(&powers);
                 let phi = dot(p, &powers);
+                let powers = SVector::<f64, TERMS>::from(powers);
                 let b = SVector::<f64, BASIS>::from(basis(phi));
                 let db = derivative(phi);
                 gram += b * b.transpose();
@@ -609,10 +609,14 @@ impl<const N: usize> HallCalibrator<N> {
                 {
                     let g = dot(t, &db);
                     let r = f64::from(u) - dot(t, &basis(phi));
-                    *g_acc += b * (g * tau).transpose();
-                    time += (g * g) * (tau * tau.transpose());
+                    let g_powers = powers * g;
+                    let mut coupling_block = g_acc.fixed_view_mut::<BASIS, TERMS>(0, columns);
+                    coupling_block += b * g_powers.transpose();
+                    let mut time_block = time.fixed_view_mut::<TERMS, TERMS>(columns, columns);
+                    time_block += g_powers * g_powers.transpose();
                     rho += b * r;
-                    rho_time += (g * r) * tau;
+                    let mut rho_block = rho_time.fixed_rows_mut::<TERMS>(columns);
+                    rho_block += g_powers * r;
                 }
             }
             segment += 1;
