@@ -1839,7 +1839,7 @@ fn joints_sites<T: Real>(s: &mut Sweep, scalar: &str) {
             return Out::Refused;
         }
         for _ in 0..periods {
-            let r = m.run(&[here]);
+            let r = m.run(&job, &[here]);
             let refused = r.is_err();
             out = out.and(machine_step(r));
             if refused {
@@ -1887,10 +1887,11 @@ fn joints_sites<T: Real>(s: &mut Sweep, scalar: &str) {
         if m.monitor(&[here]).is_err() {
             return Out::NonFinite;
         }
-        m.begin_job(&job(0.0053, 0.05)).unwrap();
-        let mut out = machine_step(m.run(&[here]));
-        out = out.and(machine_step(m.run(&[bad_counts(v)])));
-        out.and(machine_step(m.run(&[here])))
+        let job = job(0.0053, 0.05);
+        m.begin_job(&job).unwrap();
+        let mut out = machine_step(m.run(&job, &[here]));
+        out = out.and(machine_step(m.run(&job, &[bad_counts(v)])));
+        out.and(machine_step(m.run(&job, &[here])))
     });
 }
 
@@ -1927,7 +1928,7 @@ fn delta_slave_sites<T: Float>(s: &mut Sweep, scalar: &str) {
             }
             let mut out = Out::Finite;
             for _ in 0..periods {
-                let r = m.run(&here);
+                let r = m.run(&job, &here);
                 let refused = r.is_err();
                 out = out.and(machine_step(r));
                 if refused {
@@ -2032,7 +2033,7 @@ fn delta_slave_sites<T: Float>(s: &mut Sweep, scalar: &str) {
                 } else {
                     here
                 };
-                let r = m.run(&inputs);
+                let r = m.run(&job, &inputs);
                 let refused = r.is_err();
                 out = out.and(machine_step(r));
                 if refused {

@@ -9,7 +9,8 @@
 #![forbid(unsafe_code)]
 // Panic-free control path: no unwrap/expect/panic and no unchecked indexing outside
 // tests (fixed-size patterns, iterators and `get` instead). The link check image
-// (`firmware/app/src/bin/panic_check.rs`) proves the result for the entry points.
+// (`firmware/panic-check`, run by `scripts/panic-check`) proves the result for the
+// entry points.
 #![cfg_attr(
     not(test),
     deny(

@@ -94,10 +94,10 @@ where
         0 => sink(machine.monitor(&inputs)),
         1 => machine.begin_calibration(),
         2 => sink(machine.calibrate(&inputs, &mut |axis, counts| sink((axis, counts)))),
-        3 => machine.finish_calibration(opaque(calibration.clone())),
+        3 => machine.finish_calibration(&opaque(calibration.clone())),
         4 => sink(machine.check_job(&opaque(job.clone()))),
         5 => sink(machine.begin_job(&opaque(job.clone()))),
-        6 => sink(machine.run(&inputs)),
+        6 => sink(machine.run(&opaque(job.clone()), &inputs)),
         7 => machine.begin_stop(),
         8 => sink(machine.stop(&inputs)),
         9 => machine.reset(),
@@ -138,7 +138,7 @@ fn joints_machine() {
     })));
     if let Ok(law) = AxisLaw::<f32>::new(&config.axis, config.period_s) {
         let mut changed = opaque(machine.clone());
-        changed.set_coefficients(law);
+        changed.set_coefficients(&law);
         sink(changed);
     }
     periods(machine, [[0u16; 3]; 1], job, [axis]);
@@ -159,12 +159,7 @@ fn delta_machine() {
     let Ok(job) = DeltaJob::plan(&config, opaque([0.0; 3]), opaque(0.5), &moves) else {
         return;
     };
-    periods(
-        machine,
-        [[0u16; 3]; 3],
-        job,
-        [axis.clone(), axis.clone(), axis],
-    );
+    periods(machine, [[0u16; 3]; 3], job, [axis, axis, axis]);
 }
 
 fn axis_law<T: Real>() {

@@ -70,15 +70,14 @@ pub fn profile_job() -> JointJob<1> {
         target_m: [target],
         duration_s,
     };
-    [
+    JointJob::from_slice(&[
         at(START_M, 0.05),
         at(START_M + STROKE_M, 0.4),
         at(START_M + STROKE_M, 0.05),
         at(START_M, 0.4),
         at(START_M, 0.1),
-    ]
-    .into_iter()
-    .collect()
+    ])
+    .expect("5 segments fit a job")
 }
 
 /// What the axis is asked to do.
@@ -95,12 +94,11 @@ impl Motion {
     pub fn job(self, periods: u32) -> JointJob<1> {
         match self {
             Motion::Profile => profile_job(),
-            Motion::Hold => [Segment {
+            Motion::Hold => JointJob::from_slice(&[Segment {
                 target_m: [START_M],
                 duration_s: f64::from(periods) * TS_S,
-            }]
-            .into_iter()
-            .collect(),
+            }])
+            .expect("1 segment fits a job"),
         }
     }
 }

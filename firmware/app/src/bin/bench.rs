@@ -7,8 +7,10 @@
 use core::f32::consts::PI;
 use core::hint::black_box;
 use cortex_m_semihosting::hprintln;
+use hal_mock::hall_sensor::{HallSensor, HallSensorParams};
 use heapless::spsc::Queue;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
+use kerf::app::calibrate::{CalibrationFit, HallMachine, SAMPLES_PER_COAST, SEGMENT_BREAK};
 use kerf::app::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
 use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
@@ -207,12 +209,15 @@ fn main() -> ! {
     codec_rows::<32>(&mut counter, 8);
     codec_rows::<64>(&mut counter, 16);
     machine_stacks();
+    fit_stack::<Joints<f32, 1>, 1>("Joints<f32, 1>");
+    fit_stack::<DeltaSlave<f32>, 3>("DeltaSlave<f32>");
     exit(true)
 }
 
 /// Control-period stack of each machine: one supervisor step per command and mode, from
 /// Idle through calibration, a job and its stop, measured by painting. Printed as list
 /// lines for the Stack section of BENCHMARKS.md.
+#[inline(never)]
 fn machine_stacks() {
     let delta_config = DeltaSlaveConfig::KEOPS;
     let (Ok(joints), Ok(axis), Ok(delta)) = (
@@ -242,18 +247,55 @@ fn machine_stacks() {
         }
     };
     let counts = hall_inputs()[0];
-    machine_stack(
-        "Joints<f32, 1>",
-        joints,
-        [counts],
-        [axis.clone()],
-        joint_job,
-    );
-    let axes = [axis.clone(), axis.clone(), axis];
+    machine_stack("Joints<f32, 1>", joints, [counts], [axis], joint_job);
+    let axes = [axis, axis, axis];
     machine_stack("DeltaSlave<f32>", delta, [counts; 3], axes, delta_job);
 }
 
+/// Stack of the slower context's calibration fit (`HallMachine::fit`: the harmonic
+/// fit of every axis and its decoders) on the samples of two simulated coasts per axis
+/// over the worst sensors of the model, 16 bits.
+#[inline(never)]
+fn fit_stack<M: HallMachine<N>, const N: usize>(name: &str) {
+    let config = HallConfig::LM1247_16BIT;
+    let mut samples = CalibrationFit::<N>::default();
+    let mut sensor = HallSensor::new(HallSensorParams::lm1247_worst(16, 4.0), 5);
+    let pitch_m = config.pitch_m;
+    for axis in 0..N as u8 {
+        for (start_m, direction) in [(0.0, 1.0), (1.5 * pitch_m, -1.0)] {
+            // A coast slowing from 0.12 to about 0.1 m/s over 1.5 pitches (time
+            // constant 0.24 s), sampled 256 times, as a sweep streams it.
+            let (v0, v_end, tau_s) = (0.12, 0.1, 0.24);
+            let x = |t: f64| v_end * t + (v0 - v_end) * tau_s * (1.0 - libm::exp(-t / tau_s));
+            let scale = 1.5 * pitch_m / x(0.25);
+            let mut ok = samples.push(axis, SEGMENT_BREAK).is_ok();
+            for k in 0..SAMPLES_PER_COAST {
+                let t = 0.25 * f64::from(k) / f64::from(SAMPLES_PER_COAST - 1);
+                let counts = sensor.sample(start_m + direction * scale * x(t));
+                ok &= samples.push(axis, counts).is_ok();
+            }
+            if !ok {
+                exit(false)
+            }
+        }
+    }
+    let hall = [config; N];
+    let mut fitted = false;
+    let mut fit = || fitted = M::fit(black_box(&hall), black_box(&samples)).is_ok();
+    let used = stack_of(&mut fit);
+    if !fitted {
+        hprintln!("{}: the fit failed", name);
+        exit(false)
+    }
+    hprintln!(
+        "- {} calibration fit (slower context): {} bytes",
+        name,
+        used.unwrap_or(usize::MAX)
+    );
+}
+
 /// Peak stack of one supervisor step after each command of a whole session.
+#[inline(never)]
 fn machine_stack<M: Machine>(
     name: &str,
     machine: M,
@@ -296,7 +338,7 @@ fn machine_stack<M: Machine>(
 }
 
 /// Stack painted below a measured call, bytes.
-const STACK_PAINT: usize = 16 * 1024;
+const STACK_PAINT: usize = 32 * 1024;
 
 /// Peak stack of one call of `body`, bytes, measured by painting; `None` if it used the
 /// whole painted stretch.

@@ -139,7 +139,11 @@ fn SysTick() {
     // runs without a critical section, so it masks nothing.
     static mut OWNED: Option<Control> = None;
     if OWNED.is_none() {
-        *OWNED = cortex_m::interrupt::free(|cs| CONTROL.borrow(cs).take());
+        // Swapped, not moved: `take` would pass the whole control state (kilobytes)
+        // through this handler's stack frame.
+        cortex_m::interrupt::free(|cs| {
+            core::mem::swap(OWNED, &mut CONTROL.borrow(cs).borrow_mut())
+        });
     }
     let Some(control) = OWNED.as_mut() else {
         return;

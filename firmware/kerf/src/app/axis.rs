@@ -122,7 +122,7 @@ pub struct AxisLaw<T> {
 
 /// One axis' sensor coefficients: the Hall decoder (calibrated per sensor set) and the
 /// pitch that turns its phase into metres.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Copy, Clone, Debug, PartialEq)]
 pub struct HallAxis<T> {
     decoder: HallDecoder,
     pitch_m: T,

@@ -26,7 +26,7 @@
 use crate::app::axis::{AxisConfig, AxisLaw, HallAxis};
 use crate::app::calibrate::{fit_sensors, CalibrationFailure, CalibrationFit, HallMachine};
 use crate::app::joints::{
-    JobError, JointFault, JointJob, JointTelemetry, Joints, JointsConfig, Segment, MAX_SEGMENTS,
+    JobError, JointFault, JointJob, JointTelemetry, Joints, JointsConfig, Segment,
 };
 use crate::app::supervisor::{Machine, Step};
 use crate::control::pd::Reference;
@@ -85,7 +85,7 @@ impl DeltaSlaveConfig {
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DeltaJobError {
-    /// The job has no move, or more than [`MAX_SEGMENTS`].
+    /// The job has no move, or more than [`MAX_SEGMENTS`](super::joints::MAX_SEGMENTS).
     Size,
     /// A point or duration is NaN or infinite, or a duration is not positive.
     NotFinite {
@@ -119,14 +119,31 @@ pub enum DeltaJobError {
 }
 
 /// A planned job: a start point, the approach time to reach it, and straight moves.
-/// Only [`DeltaJob::plan`] makes one.
-#[derive(Clone, Debug, PartialEq)]
+/// Only [`DeltaJob::plan`] makes one; `clone_from` copies in place (see [`JointJob`]).
+#[derive(Debug, Default, PartialEq)]
 pub struct DeltaJob {
     start_m: [f64; 3],
     start_joints_m: [f64; 3],
     approach_s: f64,
-    moves: heapless::Vec<Segment<3>, MAX_SEGMENTS>,
-    planned_for: Limits,
+    moves: JointJob<3>,
+    /// `None` only for the empty default job, which every machine refuses.
+    planned_for: Option<Limits>,
+}
+
+impl Clone for DeltaJob {
+    fn clone(&self) -> Self {
+        let mut job = Self::default();
+        job.clone_from(self);
+        job
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.start_m = source.start_m;
+        self.start_joints_m = source.start_joints_m;
+        self.approach_s = source.approach_s;
+        self.moves.clone_from(&source.moves);
+        self.planned_for = source.planned_for;
+    }
 }
 
 /// What a plan was checked against.
@@ -217,7 +234,7 @@ impl DeltaJob {
         let not_finite = |segment: usize| DeltaJobError::NotFinite {
             segment: segment as u8,
         };
-        let moves = heapless::Vec::from_slice(moves).map_err(|_| DeltaJobError::Size)?;
+        let moves = JointJob::from_slice(moves).ok_or(DeltaJobError::Size)?;
         if moves.is_empty() {
             return Err(DeltaJobError::Size);
         }
@@ -272,7 +289,7 @@ impl DeltaJob {
             start_joints_m: start_joints.into(),
             approach_s,
             moves,
-            planned_for: Limits::of(config),
+            planned_for: Some(Limits::of(config)),
         })
     }
 
@@ -331,7 +348,8 @@ pub struct DeltaSlave<T: Float> {
     limits: Limits,
     /// The control period in `T`, s.
     ts: T,
-    job: Option<DeltaJob>,
+    /// The joint-space move to a job's start (built in place at `Start`).
+    approach: JointJob<3>,
     phase: Option<Phase<T>>,
     effector_reference_m: Option<[T; 3]>,
 }
@@ -348,7 +366,7 @@ impl<T: Float> DeltaSlave<T> {
             geometry,
             limits: Limits::of(config),
             ts: lit(config.joints.period_s),
-            job: None,
+            approach: JointJob::new(),
             phase: None,
             effector_reference_m: None,
         })
@@ -364,8 +382,7 @@ impl<T: Float> DeltaSlave<T> {
         &self.geometry
     }
 
-    fn next_move(&mut self, index: usize) -> Option<Phase<T>> {
-        let job = self.job.as_ref()?;
+    fn next_move(&self, job: &DeltaJob, index: usize) -> Option<Phase<T>> {
         let segment = job.moves.get(index)?;
         let from = match index.checked_sub(1) {
             None => job.start_m,
@@ -414,12 +431,12 @@ impl<T: Float> Machine for DeltaSlave<T> {
             .map_err(DeltaFault::Joint)
     }
 
-    fn finish_calibration(&mut self, sensors: [HallAxis<T>; 3]) {
+    fn finish_calibration(&mut self, sensors: &[HallAxis<T>; 3]) {
         self.joints.finish_calibration(sensors);
     }
 
     fn check_job(&self, job: &DeltaJob) -> Result<(), DeltaJobError> {
-        if job.planned_for == self.limits {
+        if job.planned_for == Some(self.limits) {
             Ok(())
         } else {
             Err(DeltaJobError::OtherMachine)
@@ -428,28 +445,30 @@ impl<T: Float> Machine for DeltaSlave<T> {
 
     fn begin_job(&mut self, job: &DeltaJob) -> Result<(), DeltaJobError> {
         self.check_job(job)?;
-        let mut approach = JointJob::new();
+        self.approach.clear();
         // Capacity MAX_SEGMENTS ≥ 1.
-        let _ = approach.push(Segment {
+        let _ = self.approach.push(Segment {
             target_m: job.start_joints_m,
             duration_s: job.approach_s,
         });
         self.joints
-            .begin_job(&approach)
+            .begin_job(&self.approach)
             .map_err(DeltaJobError::Approach)?;
-        self.job = Some(job.clone());
         self.phase = Some(Phase::Approach);
         self.effector_reference_m = None;
         Ok(())
     }
 
-    fn run(&mut self, inputs: &[[u16; 3]; 3]) -> Result<Step<[T; 3]>, DeltaFault> {
+    fn run(&mut self, job: &DeltaJob, inputs: &[[u16; 3]; 3]) -> Result<Step<[T; 3]>, DeltaFault> {
         match self.phase {
             Some(Phase::Approach) => {
-                let step = self.joints.run(inputs).map_err(DeltaFault::Joint)?;
+                let step = self
+                    .joints
+                    .run(&self.approach, inputs)
+                    .map_err(DeltaFault::Joint)?;
                 Ok(match step {
                     Step::Continue(forces) => Step::Continue(forces),
-                    Step::Done(forces) => match self.next_move(0) {
+                    Step::Done(forces) => match self.next_move(job, 0) {
                         Some(phase) => {
                             self.phase = Some(phase);
                             Step::Continue(forces)
@@ -483,7 +502,7 @@ impl<T: Float> Machine for DeltaSlave<T> {
                     });
                     return Ok(Step::Continue(forces));
                 }
-                self.phase = self.next_move(index + 1);
+                self.phase = self.next_move(job, index + 1);
                 // The last move ends at rest: its joint references hold there.
                 Ok(match self.phase {
                     Some(_) => Step::Continue(forces),
@@ -504,7 +523,7 @@ impl<T: Float> Machine for DeltaSlave<T> {
         self.joints.stop(inputs).map_err(DeltaFault::Joint)
     }
 
-    fn set_coefficients(&mut self, law: AxisLaw<T>) {
+    fn set_coefficients(&mut self, law: &AxisLaw<T>) {
         self.joints.set_coefficients(law);
     }
 

@@ -67,8 +67,64 @@ pub struct Segment<const N: usize> {
     pub duration_s: f64,
 }
 
-/// A joint-space job: its segments in order.
-pub type JointJob<const N: usize> = heapless::Vec<Segment<N>, MAX_SEGMENTS>;
+/// A joint-space job: its segments in order (at most [`MAX_SEGMENTS`]), read as a
+/// slice.
+///
+/// `clone_from` copies in place: the supervisor loads a job into the one it keeps
+/// from the control period, where a temporary of the job's size (0.5 KB) would land on
+/// the interrupt's stack.
+#[derive(Debug, Default, PartialEq)]
+pub struct JointJob<const N: usize> {
+    segments: heapless::Vec<Segment<N>, MAX_SEGMENTS>,
+}
+
+impl<const N: usize> JointJob<N> {
+    /// An empty job.
+    pub const fn new() -> Self {
+        Self {
+            segments: heapless::Vec::new(),
+        }
+    }
+
+    /// A job of `segments`; `None` beyond [`MAX_SEGMENTS`].
+    pub fn from_slice(segments: &[Segment<N>]) -> Option<Self> {
+        let mut job = Self::new();
+        job.segments.extend_from_slice(segments).ok()?;
+        Some(job)
+    }
+
+    /// Appends a segment; gives it back when the job is full.
+    pub fn push(&mut self, segment: Segment<N>) -> Result<(), Segment<N>> {
+        self.segments.push(segment)
+    }
+
+    /// Removes every segment.
+    pub fn clear(&mut self) {
+        self.segments.clear();
+    }
+}
+
+impl<const N: usize> core::ops::Deref for JointJob<N> {
+    type Target = [Segment<N>];
+
+    fn deref(&self) -> &[Segment<N>] {
+        &self.segments
+    }
+}
+
+impl<const N: usize> Clone for JointJob<N> {
+    fn clone(&self) -> Self {
+        let mut job = Self::new();
+        job.clone_from(self);
+        job
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.segments.clear();
+        // Same capacity on both sides: every segment fits.
+        let _ = self.segments.extend_from_slice(&source.segments);
+    }
+}
 
 /// Why a job does not fit the machine. `segment` and `axis` index the job.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -122,10 +178,10 @@ pub struct JointTelemetry<T, const N: usize> {
     pub axes: [AxisOutput<T>; N],
 }
 
-/// The job in progress.
-#[derive(Clone, Debug)]
+/// Where the job in progress is (the job itself is lent to each period by the
+/// supervisor, which keeps it).
+#[derive(Copy, Clone, Debug)]
 struct Run<T, const N: usize> {
-    job: JointJob<N>,
     segment: usize,
     moves: [Quintic<T>; N],
     period: u32,
@@ -356,12 +412,17 @@ impl<T: Real, const N: usize> Joints<T, N> {
         }
     }
 
-    fn begin_segment(&mut self, index: usize, from: [f64; N]) -> Result<(), JobError> {
+    fn begin_segment(
+        &mut self,
+        job: &JointJob<N>,
+        index: usize,
+        from: [f64; N],
+    ) -> Result<(), JobError> {
         let (speed_limit, accel_limit) = (self.speed_limit_m_s, self.accel_limit_m_s2);
         let Some(run) = self.run.as_mut() else {
             return Ok(());
         };
-        let Some(segment) = run.job.get(index) else {
+        let Some(segment) = job.get(index) else {
             return Err(JobError::Empty);
         };
         let err = |kind: fn(u8, u8) -> JobError, axis: usize| kind(index as u8, axis as u8);
@@ -470,8 +531,8 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
         })
     }
 
-    fn finish_calibration(&mut self, sensors: [HallAxis<T>; N]) {
-        self.sensors = sensors;
+    fn finish_calibration(&mut self, sensors: &[HallAxis<T>; N]) {
+        self.sensors = *sensors;
         // Re-home where the axes are, with the calibrated decoders. After a sweep they
         // rest where it started, to within the loop's last error: the nominal decoders
         // measured that small displacement from the start (their error is the same
@@ -534,14 +595,13 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
     fn begin_job(&mut self, job: &JointJob<N>) -> Result<(), JobError> {
         let from = self.axes.map(|a| a.position_m().to_f64());
         self.run = Some(Run {
-            job: job.clone(),
             segment: 0,
             // Placeholders until `begin_segment` builds the real moves.
             moves: from.map(|p| Quintic::at_rest(T::from_f64(p))),
             period: 0,
             periods: 0,
         });
-        if let Err(e) = self.begin_segment(0, from) {
+        if let Err(e) = self.begin_segment(job, 0, from) {
             self.run = None;
             return Err(e);
         }
@@ -549,7 +609,11 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
         Ok(())
     }
 
-    fn run(&mut self, inputs: &[[u16; 3]; N]) -> Result<Step<[T; N]>, JointFault> {
+    fn run(
+        &mut self,
+        job: &JointJob<N>,
+        inputs: &[[u16; 3]; N],
+    ) -> Result<Step<[T; N]>, JointFault> {
         let mut done = false;
         if let Some(run) = self.run.as_mut() {
             let t = T::from_q32(i64::from(run.period) << 32) * self.ts;
@@ -557,9 +621,9 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
             run.period += 1;
             if run.period >= run.periods {
                 let next = run.segment + 1;
-                let from = run.job.get(run.segment).map(|s| s.target_m);
-                match (run.job.get(next).is_some(), from) {
-                    (true, Some(from)) => done = self.begin_segment(next, from).is_err(),
+                let from = job.get(run.segment).map(|s| s.target_m);
+                match (job.get(next).is_some(), from) {
+                    (true, Some(from)) => done = self.begin_segment(job, next, from).is_err(),
                     _ => done = true,
                 }
             }
@@ -623,8 +687,8 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
         Ok(Step::Continue(forces))
     }
 
-    fn set_coefficients(&mut self, law: AxisLaw<T>) {
-        self.law = law;
+    fn set_coefficients(&mut self, law: &AxisLaw<T>) {
+        self.law = *law;
     }
 
     fn reset(&mut self) {
@@ -670,13 +734,35 @@ mod tests {
     }
 
     fn job(segments: &[(f64, f64)]) -> JointJob<1> {
-        segments
+        let segments: std::vec::Vec<_> = segments
             .iter()
             .map(|&(target, duration_s)| Segment {
                 target_m: [target],
                 duration_s,
             })
-            .collect()
+            .collect();
+        JointJob::from_slice(&segments).unwrap()
+    }
+
+    /// `clone_from` (the supervisor's in-place load) leaves exactly the source's
+    /// segments, whatever was there before; a job holds at most MAX_SEGMENTS.
+    #[test]
+    fn a_job_cloned_in_place_is_the_source() {
+        let long = job(&[(0.01, 0.1), (0.02, 0.1), (0.03, 0.1)]);
+        let short = job(&[(0.05, 0.2)]);
+        let mut loaded = long.clone();
+        assert_eq!(loaded, long);
+        loaded.clone_from(&short);
+        assert_eq!(loaded, short);
+        assert_eq!(&loaded[..], &short[..]);
+        loaded.clone_from(&long);
+        assert_eq!(loaded.len(), 3);
+        let full = [Segment {
+            target_m: [0.0],
+            duration_s: 0.1,
+        }; MAX_SEGMENTS + 1];
+        assert!(JointJob::from_slice(&full[..MAX_SEGMENTS]).is_some());
+        assert!(JointJob::from_slice(&full).is_none());
     }
 
     /// A segment of 2^32 periods or more would overflow the period counter (and end
@@ -722,7 +808,7 @@ mod tests {
             run.period = run.periods - 3;
             let segment = run.segment;
             for step in 0..6 {
-                match machine.run(&at).unwrap() {
+                match machine.run(&week, &at).unwrap() {
                     Step::Continue(_) => {}
                     Step::Done(_) => {
                         assert_eq!(segment, 2);

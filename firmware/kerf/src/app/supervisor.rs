@@ -3,7 +3,11 @@
 //! Commands come from a slower context (a task, the host link) through a bounded
 //! lock-free queue ([`heapless::spsc`]); the supervisor takes at most the queue's
 //! capacity of them at the start of a period, and each is a few copies and
-//! comparisons, so nothing a command does can block or lengthen the period. Anything
+//! comparisons, so nothing a command does can block or lengthen the period. A command
+//! is handled where it lies in the queue, and its payload (a calibration of kilobytes,
+//! a job) is copied once, into its place: nothing of its size passes through the
+//! control interrupt's stack (BENCHMARKS.md, Stack). The supervisor keeps the one copy
+//! of the loaded job and lends it to [`Machine::run`] each period. Anything
 //! expensive — validating a configuration into coefficients, fitting a calibration —
 //! is done by the sender, which enqueues the finished result. What the supervisor has
 //! to say (command replies, mode changes, calibration samples, per-period telemetry)
@@ -51,13 +55,13 @@
 //! #     fn monitor(&mut self, ok: &bool) -> Result<(), ()> { if *ok { Ok(()) } else { Err(()) } }
 //! #     fn begin_calibration(&mut self) {}
 //! #     fn calibrate(&mut self, ok: &bool, _: &mut dyn FnMut(u8, [u16; 3])) -> Result<Step<f32>, ()> { self.monitor(ok)?; Ok(Step::Done(0.0)) }
-//! #     fn finish_calibration(&mut self, _: ()) {}
+//! #     fn finish_calibration(&mut self, _: &()) {}
 //! #     fn check_job(&self, job: &u32) -> Result<(), ()> { if *job > 0 { Ok(()) } else { Err(()) } }
 //! #     fn begin_job(&mut self, job: &u32) -> Result<(), ()> { self.left = *job; Ok(()) }
-//! #     fn run(&mut self, ok: &bool) -> Result<Step<f32>, ()> { self.monitor(ok)?; self.left -= 1; Ok(if self.left == 0 { Step::Done(1.0) } else { Step::Continue(1.0) }) }
+//! #     fn run(&mut self, _: &u32, ok: &bool) -> Result<Step<f32>, ()> { self.monitor(ok)?; self.left -= 1; Ok(if self.left == 0 { Step::Done(1.0) } else { Step::Continue(1.0) }) }
 //! #     fn begin_stop(&mut self) {}
 //! #     fn stop(&mut self, ok: &bool) -> Result<Step<f32>, ()> { self.monitor(ok)?; Ok(Step::Done(0.5)) }
-//! #     fn set_coefficients(&mut self, _: ()) {}
+//! #     fn set_coefficients(&mut self, _: &()) {}
 //! #     fn reset(&mut self) {}
 //! #     fn telemetry(&self) -> u32 { self.left }
 //! # }
@@ -111,8 +115,10 @@ pub trait Machine {
     type Inputs;
     /// One period's outputs, written together.
     type Outputs: Copy;
-    /// What `Running` follows.
-    type Job: Clone;
+    /// What `Running` follows. `Default` is the empty job the supervisor holds before
+    /// the first `LoadJob`; `clone_from` should copy in place (it runs in the control
+    /// period, and a temporary of a job's size would land on the interrupt's stack).
+    type Job: Clone + Default;
     /// Why a job does not fit the machine.
     type JobError: Copy + core::fmt::Debug + PartialEq;
     /// Validated coefficients that replace the running ones bumplessly.
@@ -137,21 +143,27 @@ pub trait Machine {
         inputs: &Self::Inputs,
         record: &mut dyn FnMut(u8, [u16; 3]),
     ) -> Result<Step<Self::Outputs>, Self::Fault>;
-    /// Installs a finished calibration.
-    fn finish_calibration(&mut self, calibration: Self::Calibration);
+    /// Installs a finished calibration (copied from the command queue's slot).
+    fn finish_calibration(&mut self, calibration: &Self::Calibration);
     /// Whether `job` fits the machine (limits, workspace, capacity).
     fn check_job(&self, job: &Self::Job) -> Result<(), Self::JobError>;
     /// Prepares `job` from the present state (for example: it must start where the
     /// machine is).
     fn begin_job(&mut self, job: &Self::Job) -> Result<(), Self::JobError>;
-    /// One period of the job.
-    fn run(&mut self, inputs: &Self::Inputs) -> Result<Step<Self::Outputs>, Self::Fault>;
+    /// One period of `job`: the job [`Machine::begin_job`] prepared, lent by the
+    /// supervisor, which keeps the one copy of it (no `LoadJob` while it runs).
+    fn run(
+        &mut self,
+        job: &Self::Job,
+        inputs: &Self::Inputs,
+    ) -> Result<Step<Self::Outputs>, Self::Fault>;
     /// Starts the controlled ramp to rest from the present motion.
     fn begin_stop(&mut self);
     /// One period of the ramp to rest.
     fn stop(&mut self, inputs: &Self::Inputs) -> Result<Step<Self::Outputs>, Self::Fault>;
-    /// Replaces the coefficients, keeping every state.
-    fn set_coefficients(&mut self, coefficients: Self::Coefficients);
+    /// Replaces the coefficients (copied from the command queue's slot), keeping every
+    /// state.
+    fn set_coefficients(&mut self, coefficients: &Self::Coefficients);
     /// Leaves a fault: states restart (position sensing is re-homed).
     fn reset(&mut self);
     /// This period's telemetry.
@@ -281,12 +293,20 @@ pub enum Report<M: Machine> {
 
 /// Runs a [`Machine`] through the modes, one [`Supervisor::step`] per control period.
 pub struct Supervisor<'q, M: Machine> {
+    commands: Consumer<'q, Command<M>>,
+    core: Core<'q, M>,
+}
+
+/// Everything but the command queue, so that a command can be handled where it lies in
+/// the queue (borrowed from it) while the rest changes.
+struct Core<'q, M: Machine> {
     machine: M,
     mode: Mode<M::Fault>,
     /// Whether the calibration sweep is over (Calibrating waits for the fit).
     swept: bool,
-    job: Option<M::Job>,
-    commands: Consumer<'q, Command<M>>,
+    /// The loaded job (the one copy: lent to the machine each period while it runs).
+    job: M::Job,
+    job_loaded: bool,
     reports: Producer<'q, Report<M>>,
     period: u64,
     dropped_reports: u32,
@@ -302,52 +322,66 @@ impl<'q, M: Machine> Supervisor<'q, M> {
         reports: Producer<'q, Report<M>>,
     ) -> Self {
         Self {
-            machine,
-            mode: Mode::Idle,
-            swept: false,
-            job: None,
             commands,
-            reports,
-            period: 0,
-            dropped_reports: 0,
-            telemetry_decimation: 1,
+            core: Core {
+                machine,
+                mode: Mode::Idle,
+                swept: false,
+                job: M::Job::default(),
+                job_loaded: false,
+                reports,
+                period: 0,
+                dropped_reports: 0,
+                telemetry_decimation: 1,
+            },
         }
     }
 
     /// Telemetry every `every` periods (0: none).
     pub fn set_telemetry_decimation(&mut self, every: u32) {
-        self.telemetry_decimation = every;
+        self.core.telemetry_decimation = every;
     }
 
     /// The present mode.
     pub fn mode(&self) -> Mode<M::Fault> {
-        self.mode
+        self.core.mode
     }
 
     /// The machine (for inspection).
     pub fn machine(&self) -> &M {
-        &self.machine
+        &self.core.machine
     }
 
     /// Control periods stepped (a `u64`: 58 million years at 10 kHz).
     pub fn period(&self) -> u64 {
-        self.period
+        self.core.period
     }
 
     /// Reports dropped because the report queue was full.
     pub fn dropped_reports(&self) -> u32 {
-        self.dropped_reports
+        self.core.dropped_reports
     }
 
     /// One control period: commands, then the mode's step; returns the outputs to write.
     pub fn step(&mut self, inputs: &M::Inputs) -> M::Outputs {
         // At most the queue's capacity: bounded, and each command is O(1).
         for _ in 0..self.commands.capacity() {
-            match self.commands.dequeue() {
-                Some(command) => self.handle(command),
-                None => break,
-            }
+            // Handled where it lies: a calibration or a job is kilobytes, and moving it
+            // out of the queue would put a copy of it on the interrupt's stack.
+            let Some(command) = self.commands.peek() else {
+                break;
+            };
+            self.core.handle(command);
+            // Frees the slot (the payload is plain data: nothing to drop or use).
+            let _ = self.commands.dequeue();
         }
+        self.core.step(inputs)
+    }
+}
+
+impl<M: Machine> Core<'_, M> {
+    /// The present mode's step, after the commands.
+    fn step(&mut self, inputs: &M::Inputs) -> M::Outputs {
         let result = match self.mode {
             Mode::Idle | Mode::Ready | Mode::Fault(_) => self
                 .machine
@@ -367,7 +401,8 @@ impl<'q, M: Machine> Supervisor<'q, M> {
                 };
                 self.machine.calibrate(inputs, &mut record)
             }
-            Mode::Running => self.machine.run(inputs),
+            // `Start` needs a loaded job, and no `LoadJob` replaces it while it runs.
+            Mode::Running => self.machine.run(&self.job, inputs),
             Mode::Stopping => self.machine.stop(inputs),
         };
         let outputs = match (self.mode, result) {
@@ -404,7 +439,7 @@ impl<'q, M: Machine> Supervisor<'q, M> {
         outputs
     }
 
-    fn handle(&mut self, command: Command<M>) {
+    fn handle(&mut self, command: &Command<M>) {
         let kind = command.kind();
         let report = match self.apply(command) {
             Ok(()) => Report::Accepted(kind),
@@ -417,7 +452,7 @@ impl<'q, M: Machine> Supervisor<'q, M> {
     }
 
     /// One row of the transition table, or the refusal.
-    fn apply(&mut self, command: Command<M>) -> Result<(), CommandError<M::JobError>> {
+    fn apply(&mut self, command: &Command<M>) -> Result<(), CommandError<M::JobError>> {
         match (self.mode, command) {
             (Mode::Idle | Mode::Ready, Command::Calibrate) => {
                 self.machine.begin_calibration();
@@ -440,18 +475,20 @@ impl<'q, M: Machine> Supervisor<'q, M> {
                 Ok(())
             }
             (Mode::Idle | Mode::Ready, Command::LoadJob(job)) => {
-                self.machine.check_job(&job).map_err(CommandError::Job)?;
-                self.job = Some(job);
+                self.machine.check_job(job).map_err(CommandError::Job)?;
+                // Copied over the old job in place (no temporary of its size).
+                self.job.clone_from(job);
+                self.job_loaded = true;
                 Ok(())
             }
-            (Mode::Ready, Command::Start) => match &self.job {
-                None => Err(CommandError::NoJob),
-                Some(job) => {
-                    self.machine.begin_job(job).map_err(CommandError::Job)?;
-                    self.enter(Mode::Running);
-                    Ok(())
-                }
-            },
+            (Mode::Ready, Command::Start) if !self.job_loaded => Err(CommandError::NoJob),
+            (Mode::Ready, Command::Start) => {
+                self.machine
+                    .begin_job(&self.job)
+                    .map_err(CommandError::Job)?;
+                self.enter(Mode::Running);
+                Ok(())
+            }
             (Mode::Running, Command::Stop) => {
                 self.machine.begin_stop();
                 self.enter(Mode::Stopping);

@@ -2,6 +2,7 @@
 //! inverse kinematics (a different computation from the Jacobian route).
 
 use super::*;
+use crate::app::joints::MAX_SEGMENTS;
 use std::format;
 use std::string::ToString;
 
@@ -79,6 +80,26 @@ fn a_square_at_the_centre_plans() {
     assert!((job.duration_s() - 2.3).abs() < 1e-12);
     let slave = DeltaSlave::<f32>::new(&config).unwrap();
     assert_eq!(slave.check_job(&job), Ok(()));
+}
+
+/// A job copied over another in place (how the supervisor loads one) is the job, and
+/// the empty default job is refused by every machine.
+#[test]
+fn a_job_cloned_in_place_replaces_the_old_one_and_the_empty_job_is_refused() {
+    let config = DeltaSlaveConfig::KEOPS;
+    let four = square(0.02, 0.5);
+    let long = DeltaJob::plan(&config, four[3].target_m, 0.3, &four).unwrap();
+    let short = DeltaJob::plan(&config, four[3].target_m, 0.2, &four[..1]).unwrap();
+    let mut loaded = long.clone();
+    assert_eq!(loaded, long);
+    loaded.clone_from(&short);
+    assert_eq!(loaded, short);
+    assert_eq!(loaded.moves().len(), 1);
+    let slave = DeltaSlave::<f32>::new(&config).unwrap();
+    assert_eq!(
+        slave.check_job(&DeltaJob::default()),
+        Err(DeltaJobError::OtherMachine)
+    );
 }
 
 #[test]

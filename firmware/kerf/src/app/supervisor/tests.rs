@@ -62,7 +62,7 @@ impl Machine for Toy {
             Step::Continue(SWEEP)
         })
     }
-    fn finish_calibration(&mut self, calibration: u32) {
+    fn finish_calibration(&mut self, &calibration: &u32) {
         self.calibrated = Some(calibration);
     }
     fn check_job(&self, job: &u32) -> Result<(), &'static str> {
@@ -76,7 +76,7 @@ impl Machine for Toy {
         self.left = *job;
         Ok(())
     }
-    fn run(&mut self, ok: &bool) -> Result<Step<u8>, &'static str> {
+    fn run(&mut self, _: &u32, ok: &bool) -> Result<Step<u8>, &'static str> {
         self.monitor(ok)?;
         self.left -= 1;
         Ok(if self.left == 0 {
@@ -89,12 +89,12 @@ impl Machine for Toy {
         self.left = 2;
     }
     fn stop(&mut self, ok: &bool) -> Result<Step<u8>, &'static str> {
-        self.run(ok).map(|s| match s {
+        self.run(&0, ok).map(|s| match s {
             Step::Continue(_) => Step::Continue(RAMP),
             Step::Done(_) => Step::Done(RAMP),
         })
     }
-    fn set_coefficients(&mut self, gain: u32) {
+    fn set_coefficients(&mut self, &gain: &u32) {
         self.gain = gain;
     }
     fn reset(&mut self) {

@@ -170,7 +170,7 @@ impl HallPosition {
 /// Decoder coefficients of one sensor set: offsets, demodulation rows, fault limits
 /// and the optional phase correction, fixed once validated. The running part is a
 /// [`HallState`].
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Copy, Clone, Debug, PartialEq)]
 pub struct HallDecoder {
     arithmetic: HallArithmetic,
     rail_high: u16,
