@@ -247,9 +247,19 @@ fn machine_stacks() {
         }
     };
     let counts = hall_inputs()[0];
-    machine_stack("Joints<f32, 1>", joints, [counts], [axis], joint_job);
+    let Ok(law) = AxisLaw::<f32>::new(&AxisConfig::LM1247_SLAVE, 1e-4) else {
+        exit(false)
+    };
+    let session = (law, joint_job);
+    machine_stack("Joints<f32, 1>", joints, [counts], [axis], session);
     let axes = [axis, axis, axis];
-    machine_stack("DeltaSlave<f32>", delta, [counts; 3], axes, delta_job);
+    machine_stack(
+        "DeltaSlave<f32>",
+        delta,
+        [counts; 3],
+        axes,
+        (law, delta_job),
+    );
 }
 
 /// Stack of the slower context's calibration fit (`HallMachine::fit`: the harmonic
@@ -294,29 +304,40 @@ fn fit_stack<M: HallMachine<N>, const N: usize>(name: &str) {
     );
 }
 
-/// Peak stack of one supervisor step after each command of a whole session.
+/// The control interrupt's stack budget, bytes: the supervisor's period plus the
+/// 104-byte exception frame with FPU context must fit; the bench fails otherwise.
+const CONTROL_STACK_BUDGET: usize = 2048;
+/// Exception entry with FPU context: 8 core and 18 FPU words.
+const EXCEPTION_FRAME: usize = 104;
+
+/// Peak stack of one supervisor step after each command of a whole session (each
+/// machine's coefficients and job in `session`); fails the run above the budget.
 #[inline(never)]
 fn machine_stack<M: Machine>(
     name: &str,
     machine: M,
     inputs: M::Inputs,
     calibration: M::Calibration,
-    job: M::Job,
+    session: (M::Coefficients, M::Job),
 ) {
+    let (coefficients, job) = session;
     let mut commands = Queue::<Command<M>, 4>::new();
     let mut reports = Queue::<Report<M>, 16>::new();
     let (mut send, command_out) = commands.split();
     let (report_in, mut receive) = reports.split();
     let mut supervisor = Supervisor::new(machine, command_out, report_in);
     let (mut calibration, mut job) = (Some(calibration), Some(job));
+    let mut coefficients = Some(coefficients);
     let mut deepest = 0;
-    for phase in 0..8 {
+    for phase in 0..10 {
         let command = match phase {
             0 => Some(Command::Calibrate),
             2 => calibration.take().map(Command::FinishCalibration),
             3 => job.take().map(Command::LoadJob),
             4 => Some(Command::Start),
-            6 => Some(Command::Stop),
+            5 => coefficients.take().map(Command::ChangeSettings),
+            7 => Some(Command::Stop),
+            9 => Some(Command::ResetFault),
             _ => None,
         };
         if let Some(command) = command {
@@ -335,6 +356,10 @@ fn machine_stack<M: Machine>(
         name,
         deepest
     );
+    if deepest.saturating_add(EXCEPTION_FRAME) > CONTROL_STACK_BUDGET {
+        hprintln!("{}: the control period is over its stack budget", name);
+        exit(false)
+    }
 }
 
 /// Stack painted below a measured call, bytes.
