@@ -13,5 +13,6 @@
 //!
 //! The scenario tests record every signal's peak and check these ranges.
 
+pub mod contouring;
 pub mod dob;
 pub mod pd;

@@ -15,6 +15,7 @@
 //! J̈_O e = ψ̈ (e_n, −e_t) − ψ̇² (e_t, e_n).
 
 use crate::scalar::{Float, Real};
+use core::cmp::Ordering;
 use nalgebra::Vector3;
 
 /// Why there is no frame.
@@ -59,8 +60,12 @@ impl<T: Float> ContourFrame<T> {
         if inputs.iter().any(|v| !<T as Real>::is_finite(*v)) {
             return Err(ContourFrameError::NotFinite);
         }
-        // `!(a >= b)` also refuses a NaN minimum.
-        if !(speed_sq >= min_speed_m_s * min_speed_m_s) || speed_sq <= T::zero() {
+        // Unordered (a NaN minimum) refuses too.
+        let below_minimum = !matches!(
+            speed_sq.partial_cmp(&(min_speed_m_s * min_speed_m_s)),
+            Some(Ordering::Greater | Ordering::Equal)
+        );
+        if below_minimum || speed_sq <= T::zero() {
             return Err(ContourFrameError::SpeedTooLow);
         }
         let inv_speed_sq = T::one() / speed_sq;
