@@ -303,8 +303,11 @@ impl HallDecoder {
                 2.0 * full_scale,
             )?;
             // Exact 0 and full scale stay rails whatever the range says.
-            *low = libm::ceil(lo - margin).clamp(1.0, full_scale - 1.0) as u16;
-            *high = libm::floor(hi + margin).clamp(f64::from(*low), full_scale - 1.0) as u16;
+            // max/min rather than clamp, which panics on crossed bounds.
+            *low = libm::ceil(lo - margin).max(1.0).min(full_scale - 1.0) as u16;
+            *high = libm::floor(hi + margin)
+                .min(full_scale - 1.0)
+                .max(f64::from(*low)) as u16;
         }
         let mut offset_q4 = [0i32; 3];
         let mut sin_row_q = [0i32; 3];
