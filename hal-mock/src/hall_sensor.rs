@@ -117,6 +117,12 @@ pub enum ChannelFault {
     Stuck(usize, u16),
     /// Channel frozen at whatever it read last (a hung ADC conversion).
     Frozen(usize),
+    /// Broken wire left floating: the channel reads the level (counts) plus the
+    /// sensor's noise.
+    Floating(usize, f64),
+    /// The channel's swing around its offset scaled by a gain (a failing sensor supply
+    /// or front end; 0 leaves the offset alone), noise unchanged.
+    Gain(usize, f64),
 }
 
 /// Sensor instance with its noise source and optional fault.
@@ -151,6 +157,7 @@ impl HallSensor {
         let full_scale = libm::exp2(f64::from(p.adc_bits)) - 1.0;
         let phi = 2.0 * PI * position_m / p.pitch_m;
         let mut out = [0u16; 3];
+        let fault = self.fault;
         for (k, count) in out.iter_mut().enumerate() {
             let a = phi + p.phase_rad[k];
             let mut shape = libm::sin(a)
@@ -160,9 +167,18 @@ impl HallSensor {
             if shape > 0.0 {
                 shape *= 1.0 + p.kink[k];
             }
-            let u = p.offset_counts[k]
-                + p.amplitude_counts[k] * shape
+            let gain = match fault {
+                Some(ChannelFault::Gain(ch, g)) if ch == k => g,
+                _ => 1.0,
+            };
+            let mut u = p.offset_counts[k]
+                + gain * p.amplitude_counts[k] * shape
                 + p.noise_lsb * self.noise.normal();
+            if let Some(ChannelFault::Floating(ch, level)) = fault {
+                if ch == k {
+                    u += level - p.offset_counts[k] - gain * p.amplitude_counts[k] * shape;
+                }
+            }
             *count = libm::round(u).clamp(0.0, full_scale) as u16;
         }
         match self.fault {

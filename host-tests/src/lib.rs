@@ -1,4 +1,5 @@
 //! Shared helpers for the host scenario tests.
 
 pub mod contours;
+pub mod hall;
 pub mod signals;

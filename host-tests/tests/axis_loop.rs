@@ -2,7 +2,7 @@
 
 use hal_mock::hall_sensor::{ChannelFault, HallSensorParams};
 use kerf::app::axis::AxisFault;
-use kerf::sensing::hall::HallFault;
+use kerf::sensing::hall::{HallDecoder, HallFault};
 use kerf::Q32;
 use kerf_sim::scenario::{
     run, run_into, run_with, Motion, Outcome, Scenario, MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M,
@@ -100,7 +100,10 @@ fn sensor_faults_latch_zero_force() {
     let o = run::<f32>(&s).unwrap();
     assert_eq!(
         (o.fault_period, o.fault),
-        (Some(3000), Some(AxisFault::Sensor(HallFault::SumOutOfBand))),
+        (
+            Some(3000),
+            Some(AxisFault::Sensor(HallFault::ResidualOutOfBand))
+        ),
         "{o:?}"
     );
     // Channel 1 freezes at its last value at 0.3 s while the axis moves at ~0.14 m/s
@@ -173,16 +176,19 @@ fn self_calibration_then_tracking_on_imperfect_sensors() {
     assert!(tracked.rms_error_m < RMS_ERROR_BOUND_M, "{tracked:?}");
     assert!(tracked.max_error_m < MAX_ERROR_BOUND_M, "{tracked:?}");
 
-    // With the calibrated health row the channel-sum check is tight: the learnt limit is
-    // twice the healthy residual, which is the common-mode harmonic (Σ hk Ak ≈ 0.06 A),
-    // so 0.12 A. A channel that freezes mid-move is caught once it is 0.06–0.18 A off,
-    // about half the travel the nominal 0.5 A limit needs (157 periods above).
-    let limit = s.machine.hall[0].with_self_calibration(&fit).sum_limit;
+    // With the healthy-residual table the residual check is tight: its limit follows
+    // from the 20 µm fault-error budget (about 0.5 % of A for these sensors), so a
+    // channel that freezes mid-move is caught once it is about 0.006 A off: within
+    // 22 periods at this speed (4.9 mrad per period) even when it froze at its peak
+    // (1 − cos nδ = 0.006), against 157 with the nominal 0.5 A limit (above).
+    let config = s.machine.hall[0].with_self_calibration(&fit);
+    let amplitude = config.amplitude_counts;
+    let limit = HallDecoder::new(&config).unwrap().residual_limit_counts() / amplitude;
     println!(
-        "learnt sum limit {:.3} A (peak healthy residual {:.1} counts)",
+        "residual limit {:.4} A (peak checked residual during calibration {:.1} counts)",
         limit, fit.peak_sum_residual_counts
     );
-    assert!(limit < 0.2, "{limit}");
+    assert!(limit < 0.01, "{limit}");
     let mut frozen = calibrated;
     frozen.sensor_fault = Some((0.3, ChannelFault::Frozen(1)));
     let o = run::<f32>(&frozen).unwrap();
@@ -196,7 +202,7 @@ fn self_calibration_then_tracking_on_imperfect_sensors() {
         Some(AxisFault::Sensor(HallFault::StuckChannel(1))),
         "{o:?}"
     );
-    assert!((3000..3100).contains(&period), "{o:?}");
+    assert!((3000..3030).contains(&period), "{o:?}");
     assert_eq!(o.force_after_fault_n, 0.0);
 }
 

@@ -289,8 +289,9 @@ fn bad_counts(v: f64) -> [u16; 3] {
 fn hall_sites(s: &mut Sweep) {
     const M: &str = "sensing";
     type Edit = fn(&mut HallConfig, f64);
-    let edits: [(&str, Edit); 9] = [
+    let edits: [(&str, Edit); 10] = [
         ("pitch_m", |c, v| c.pitch_m = v),
+        ("fault_error_budget_m", |c, v| c.fault_error_budget_m = v),
         ("amplitude_counts", |c, v| c.amplitude_counts = v),
         ("magnitude_band.0", |c, v| c.magnitude_band.0 = v),
         ("magnitude_band.1", |c, v| c.magnitude_band.1 = v),

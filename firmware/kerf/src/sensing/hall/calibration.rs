@@ -54,7 +54,7 @@
 //! that were not taken as required).
 //! This runs in f64 once, in a calibration mode, not in the control period.
 
-use super::{HallCorrection, CORRECTION_ENTRIES};
+use super::{HallCorrection, ResidualTable, CORRECTION_ENTRIES};
 use core::f64::consts::PI;
 use nalgebra::{Matrix3, SMatrix, SVector};
 
@@ -78,6 +78,10 @@ const MIN_SEGMENT_SAMPLES: usize = 2 * TERMS;
 /// norm of a demodulation row), so 1e-3 A costs about 2.3 µm RMS at an 18 mm pitch:
 /// beyond the 3 µm peak goal of item 7.
 pub const MISMATCH_LIMIT: f64 = 1e-3;
+/// Reach of an uncalibrated channel around its nominal offset, in nominal amplitudes:
+/// the LM1247 class's offsets (±3 % of full scale, 7.5 % of A at A = 40 % FS), gains
+/// (±5 %) and harmonics (up to 4 % at a peak) stay within 1.15 A.
+pub const UNCALIBRATED_RANGE: f64 = 1.15;
 /// Noise the fit tolerates in its residual before it warns, LSB RMS: twice the 4 LSB
 /// of the 16-bit goal. Noise averages out of the fit; model mismatch does not.
 pub const NOISE_ALLOWANCE_LSB: f64 = 8.0;
@@ -102,12 +106,27 @@ pub struct HallCalibration {
     /// the fitted model, or a table learnt against a reference encoder); `None` for
     /// none.
     pub correction: Option<HallCorrection>,
+    /// What the health row reads on the healthy sensor over the pitch, and the figures
+    /// the fault limit is derived from (see [`super::residual`]); `None` for sensors
+    /// without a fitted model, which are checked against `HallConfig::sum_limit`.
+    pub residual: Option<ResidualTable>,
+    /// Lowest and highest count each channel reaches when healthy. The decoder flags
+    /// counts more than [`RAIL_MARGIN`](super::RAIL_MARGIN) of A beyond them as a rail
+    /// fault (a wire or front end pulled towards 0 or full scale), not only exact rails.
+    pub range_counts: [[f32; 2]; 3],
 }
 
 impl HallCalibration {
     /// Ideal sensors: equal offsets and amplitudes, exact 120° spacing; the rows are the
     /// Clarke transform sin φ = (2u1 − u2 − u3)/(3A), cos φ = (u2 − u3)/(√3 A).
+    /// The healthy range is offset ± [`UNCALIBRATED_RANGE`] A: the nominal decoder runs
+    /// on sensors it does not know.
     pub const fn ideal(offset_counts: f64, amplitude_counts: f64) -> Self {
+        let reach = UNCALIBRATED_RANGE * amplitude_counts;
+        let range = [
+            (offset_counts - reach) as f32,
+            (offset_counts + reach) as f32,
+        ];
         let inv = 1.0 / amplitude_counts;
         let inv_sqrt3 = 0.577_350_269_189_625_8 * inv;
         Self {
@@ -120,11 +139,23 @@ impl HallCalibration {
             cos_row: [0.0, inv_sqrt3 as f32, -inv_sqrt3 as f32],
             sum_row: [1.0; 3],
             correction: None,
+            residual: None,
+            range_counts: [range; 3],
         }
     }
 
+    /// The demodulation rows applied to offset-free channel values, f64.
+    pub(super) fn demodulate_centred(&self, u: [f64; 3]) -> (f64, f64) {
+        u.iter()
+            .zip(&self.sin_row)
+            .zip(&self.cos_row)
+            .fold((0.0, 0.0), |(s, c), ((u, sin), cos)| {
+                (s + f64::from(*sin) * u, c + f64::from(*cos) * u)
+            })
+    }
+
     /// sin φ and cos φ of channel values in f64 (the calibration's own decoder).
-    fn demodulate_f64(&self, raw: [f64; 3]) -> (f64, f64) {
+    pub(super) fn demodulate_f64(&self, raw: [f64; 3]) -> (f64, f64) {
         let (mut s, mut c) = (0.0, 0.0);
         for (((value, offset), sin), cos) in raw
             .iter()
@@ -309,7 +340,23 @@ impl SensorModel {
             cos_row: cos_row.map(|v| v as f32),
             sum_row,
             correction: None,
+            residual: None,
+            range_counts: self.range_counts(),
         })
+    }
+
+    /// Lowest and highest value of each channel over the pitch (1024 phases; a sample
+    /// between them is at most (2π/1024)²/8 · 26 A = 1e-4 A beyond).
+    fn range_counts(&self) -> [[f32; 2]; 3] {
+        let mut range = [[f32::MAX, f32::MIN]; 3];
+        for i in 0..1024 {
+            let u = self.predict(2.0 * PI * f64::from(i) / 1024.0);
+            for ([lo, hi], u) in range.iter_mut().zip(u) {
+                *lo = lo.min(u as f32);
+                *hi = hi.max(u as f32);
+            }
+        }
+        range
     }
 
     /// What `calibration`'s linear rows get wrong on this model, as a table over the
@@ -341,13 +388,14 @@ impl SensorModel {
         let linear = self.linear_calibration()?;
         Ok(HallCalibration {
             correction: Some(self.correction(&linear)),
+            residual: Some(self.residual_table(&linear)),
             ..linear
         })
     }
 }
 
 /// Wraps an angle to (−π, π].
-fn wrap_rad(a: f64) -> f64 {
+pub(super) fn wrap_rad(a: f64) -> f64 {
     a - 2.0 * PI * libm::round(a / (2.0 * PI))
 }
 
@@ -360,8 +408,10 @@ pub struct SelfCalibration {
     pub calibration: HallCalibration,
     /// The fitted model, for diagnosis.
     pub model: SensorModel,
-    /// Largest |health row · (u − o)| over the calibration samples, counts: the healthy
-    /// band of the channel-sum check for this sensor.
+    /// Largest checked residual over the calibration samples, counts: |health row ·
+    /// (u − o)| minus the healthy-residual table at the sample's linear phase (noise,
+    /// ADC rounding and what the model misses; compare
+    /// [`ResidualTable::healthy_band_counts`]).
     pub peak_sum_residual_counts: f64,
     /// RMS of u − model over every sample and channel, counts (noise, quantization and
     /// whatever the model does not describe).
@@ -492,13 +542,20 @@ impl<const N: usize> HallCalibrator<N> {
         let model = SensorModel {
             channels: theta.map(|t| ChannelModel::from_coefficients(&t)),
         };
-        let calibration = model.calibration()?;
+        let mut calibration = model.calibration()?;
         let residual = |raw: &[u16; 3]| -> f64 {
-            raw.iter()
+            let sum: f64 = raw
+                .iter()
                 .zip(&calibration.sum_row)
                 .zip(&calibration.offset_counts)
                 .map(|((&u, &w), &o)| f64::from(w) * (f64::from(u) - f64::from(o)))
-                .sum()
+                .sum();
+            let turns = calibration.linear_phase(raw) / (2.0 * PI);
+            let word = ((turns - libm::floor(turns)) * 4_294_967_296.0) as u64 as u32;
+            let healthy = calibration
+                .residual
+                .map_or(0.0, |t| f64::from(t.at(word)) / 16.0);
+            sum - healthy
         };
         let peak_sum_residual_counts = self
             .samples
@@ -515,6 +572,10 @@ impl<const N: usize> HallCalibrator<N> {
             }
         });
         let residual_rms_counts = libm::sqrt(square_sum / count.max(1) as f64);
+        // The healthy band allows for the noise the fit measured.
+        if let Some(table) = calibration.residual.as_mut() {
+            table.noise_rms_counts = residual_rms_counts as f32;
+        }
         let mismatch = MISMATCH_LIMIT * model.mean_amplitude_counts();
         let residual_limit_counts = libm::hypot(mismatch, NOISE_ALLOWANCE_LSB);
         let warning = (residual_rms_counts > residual_limit_counts).then_some(

@@ -6,21 +6,38 @@
 //! (which is common-mode across 120° channels: sin 3(φ ± 2π/3) = sin 3φ). The pipeline,
 //! integer from ADC counts to the unwrapped phase accumulator:
 //!
-//! 1. rail check on the raw counts (open wire, short, clipped front end);
+//! 1. rail check on the raw counts: beyond each channel's healthy range by more than
+//!    [`RAIL_MARGIN`] of A (open wire, short, clipped front end, a channel stuck near a
+//!    rail);
 //! 2. offset removal per channel (counts, Q4);
 //! 3. a calibrated 2×3 demodulation matrix (the generalized Clarke transform, rows of
 //!    the 3×3 inverse of the channel model — see [`calibration`]) giving
 //!    s = R sin φ, c = R cos φ with R = 2^19 (sub-count resolution for the atan2);
-//! 4. health checks: the channel-sum residual (the plain sum u1 + u2 + u3 for nominal
-//!    sensors; after calibration the sum minus its fitted fundamental part, the health
-//!    row), the vector magnitude √(s² + c²) against its band, and on a failed check
-//!    the channel that stopped changing, named as stuck;
-//! 5. φ = atan2(s, c) by [`atan::atan2_turns`] into a `u32` phase word (one pitch =
-//!    2^32: wrapping arithmetic *is* the modulo), optionally corrected by a learnt
+//! 4. ψ = atan2(s, c) by [`atan::atan2_turns`] into a `u32` phase word (one pitch =
+//!    2^32: wrapping arithmetic *is* the modulo);
+//! 5. health checks: the residual (the plain sum u1 + u2 + u3 for nominal sensors;
+//!    after calibration the health row, which sees none of the fitted fundamentals,
+//!    minus its healthy value at ψ from a [`residual::ResidualTable`]) against a limit,
+//!    the vector magnitude √(s² + c²) against its band, and on a failed check the
+//!    channel that stopped changing, named as stuck; then the phase is corrected by a
 //!    table ([`correction::HallCorrection`]);
 //! 6. unwrapping against a predicted phase: the caller passes the expected step
 //!    (from its velocity estimate), so any speed unwraps as long as the prediction is
 //!    within a quarter pitch; a larger innovation is an implausible jump.
+//!
+//! # Detection guarantee (issue 10 item 6)
+//!
+//! With a self-calibration installed, every single-channel failure (frozen, stuck at
+//! any level, open wire floating or pulled to a rail, gain collapse) is flagged before
+//! the position error it causes exceeds [`HallConfig::fault_error_budget_m`] (20 µm by
+//! default): the residual limit is derived from the budget through the decoder's own
+//! demodulation columns (the inequality in [`residual`]), and a budget the healthy
+//! noise does not fit under is refused at [`HallDecoder::new`]. A channel that fails
+//! while the axis stands still is harmless until the axis moves (a frozen channel
+//! holds the right value); it is caught within the same distance once motion starts.
+//! Without a calibration the decoder cannot know the sensors' harmonics and uses the
+//! loose [`HallConfig::sum_limit`]: a frozen channel can then cost about 1 mm before
+//! it is flagged.
 //!
 //! The pitch count is the upper half of an `i64` accumulator in units of 2^-32 pitch.
 //! On any fault the accumulator holds. A floating-point path ([`HallArithmetic::F32`])
@@ -31,19 +48,26 @@
 pub mod atan;
 pub mod calibration;
 pub mod correction;
+pub mod residual;
 
 pub use atan::atan2_turns;
 pub use calibration::{
     CalibrationError, CalibrationWarning, ChannelModel, HallCalibration, HallCalibrator,
-    SelfCalibration, SensorModel,
+    SelfCalibration, SensorModel, UNCALIBRATED_RANGE,
 };
 pub use correction::{CorrectionLearner, HallCorrection, CORRECTION_ENTRIES};
+pub use residual::{ResidualTable, NOISE_SIGMAS, RESIDUAL_ENTRIES};
 
 use crate::error::{in_range, positive, ConfigError};
 use crate::scalar::Real;
 
 /// Radius of the demodulated vector (s, c) in the integer path.
 pub const DEMODULATED_RADIUS: i32 = 1 << 19;
+/// Margin beyond a channel's healthy range (`HallCalibration::range_counts`), as a
+/// fraction of A, before a count is a rail fault: room for temperature drift of gain
+/// and offset and for noise (6σ of 4 LSB is 0.1 % of A at 16 bits), while a channel
+/// pulled to within a few percent of a rail is still named as such.
+pub const RAIL_MARGIN: f64 = 0.05;
 /// Fraction bits of offset-free counts in the integer path.
 const COUNT_FRACTION_BITS: u32 = 4;
 /// Right shift after the integer demodulation sum: coefficients are row × R × 2^20
@@ -72,11 +96,17 @@ pub struct HallConfig {
     pub calibration: HallCalibration,
     /// Accepted band of the demodulated magnitude as a fraction of nominal, e.g. (0.7, 1.3).
     pub magnitude_band: (f64, f64),
-    /// Largest accepted channel-sum residual (`calibration.sum_row` applied to the
-    /// offset-free counts; the plain sum u1 + u2 + u3 for nominal sensors) as a fraction
-    /// of A. Uncalibrated sensors need room for offsets and gain mismatch (0.5);
-    /// [`HallConfig::with_self_calibration`] sets it from the calibration data.
+    /// Largest accepted channel-sum residual of a decoder without a healthy-residual
+    /// table (`calibration.residual` is `None`): the plain sum u1 + u2 + u3 for nominal
+    /// sensors, as a fraction of A. Uncalibrated sensors need room for offsets and gain
+    /// mismatch (0.5). Ignored once a self-calibration is installed: the limit then
+    /// follows from `fault_error_budget_m`.
     pub sum_limit: f64,
+    /// Position error in metres that a single-channel failure may cause before the
+    /// decoder flags it, for a calibrated decoder (20 µm by default). A larger budget
+    /// gives a larger residual limit; one the healthy sensor's noise does not fit under
+    /// is refused by [`HallDecoder::new`] (see [`residual`]).
+    pub fault_error_budget_m: f64,
     /// Integer or f32 angle computation.
     pub arithmetic: HallArithmetic,
 }
@@ -84,7 +114,8 @@ pub struct HallConfig {
 impl HallConfig {
     /// Faulhaber LM1247 Hall outputs on an ADC of `adc_bits`: mid-scale offsets,
     /// amplitude 40 % of full scale, ideal demodulation (calibrate for better),
-    /// magnitude band 0.7–1.3, sum limit 0.5 A, integer arithmetic. Widths the decoder
+    /// magnitude band 0.7–1.3, sum limit 0.5 A, a 20 µm fault-error budget once
+    /// calibrated, integer arithmetic. Widths the decoder
     /// does not support (outside 8–16 bits) give a configuration it rejects by name.
     pub const fn lm1247(adc_bits: u8) -> Self {
         // 63 at most: the shift cannot overflow; `adc_bits` is kept for the check.
@@ -98,20 +129,32 @@ impl HallConfig {
             calibration: HallCalibration::ideal(0.5 * full_scale, amplitude),
             magnitude_band: (0.7, 1.3),
             sum_limit: 0.5,
+            fault_error_budget_m: 20e-6,
             arithmetic: HallArithmetic::Integer,
         }
     }
 
     /// This configuration with a self-calibration installed in one step: its
-    /// demodulation and phase table, and a sum limit of twice the largest healthy
-    /// residual seen during calibration (at least 5 % of A), so that a stuck or drifting
-    /// channel is caught early.
+    /// demodulation, phase table, healthy-residual table and channel ranges. The
+    /// residual limit then follows from [`HallConfig::fault_error_budget_m`] and the
+    /// noise the fit measured ([`HallDecoder::new`] refuses a budget it cannot keep).
     pub fn with_self_calibration(&self, fit: &SelfCalibration) -> Self {
         Self {
             calibration: fit.calibration,
-            sum_limit: (2.0 * fit.peak_sum_residual_counts / self.amplitude_counts).max(0.05),
             ..*self
         }
+    }
+
+    /// The smallest `fault_error_budget_m` the installed calibration can keep without
+    /// false alarms (where the budget's own limit meets the healthy band, see
+    /// [`residual`]); `None` without a healthy-residual table. A budget below it is
+    /// refused by [`HallDecoder::new`].
+    pub fn smallest_fault_error_budget_m(&self) -> Option<f64> {
+        let table = self.calibration.residual?;
+        let slope = residual::correction_slope(&self.calibration);
+        // The budget's limit is proportional to the budget.
+        let per_pitch = table.budget_limit_counts(2.0 * core::f64::consts::PI, slope);
+        Some(table.healthy_band_counts() / per_pitch * self.pitch_m)
     }
 
     /// [`HallConfig::lm1247`] on a 16-bit ADC.
@@ -124,13 +167,18 @@ impl HallConfig {
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum HallFault {
-    /// Channel `0..3` reads 0 or full scale (open wire, short or clipped front end).
+    /// Channel `0..3` reads beyond its healthy range by more than [`RAIL_MARGIN`] of A,
+    /// 0 and full scale included (open wire, short, clipped front end, a channel stuck
+    /// near a rail).
     AdcRail(u8),
     /// Channel `0..3` has not changed while the others moved and the channels no
     /// longer agree (frozen ADC input, broken multiplexer).
     StuckChannel(u8),
-    /// |u1 + u2 + u3| beyond its limit: the three signals no longer sum to zero.
-    SumOutOfBand,
+    /// The channels no longer agree with each other: the health row (the plain sum
+    /// u1 + u2 + u3 for nominal sensors) minus its healthy value at the decoded phase is
+    /// beyond its limit. Any single-channel failure (a value frozen or stuck mid-range,
+    /// a floating wire, a gain collapse) ends here unless it is named more precisely.
+    ResidualOutOfBand,
     /// √(s² + c²) left the configured band (lost magnet, dead channel, gain fault).
     MagnitudeOutOfBand,
     /// The phase moved more than a quarter pitch away from its prediction.
@@ -173,7 +221,8 @@ impl HallPosition {
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct HallDecoder {
     arithmetic: HallArithmetic,
-    rail_high: u16,
+    rail_low: [u16; 3],
+    rail_high: [u16; 3],
     offset_q4: [i32; 3],
     sin_row_q: [i32; 3],
     cos_row_q: [i32; 3],
@@ -181,7 +230,8 @@ pub struct HallDecoder {
     sin_row_f32: [f32; 3],
     cos_row_f32: [f32; 3],
     sum_row_q16: [i32; 3],
-    sum_limit_q4: i32,
+    residual: Option<ResidualTable>,
+    residual_limit_q4: i32,
     magnitude_sq_min: u32,
     magnitude_sq_max: u32,
     magnitude_sq_min_f32: f32,
@@ -224,7 +274,41 @@ impl HallDecoder {
         in_range("magnitude_band", hi, lo, 1.99)?;
         let sum_limit = positive("sum_limit", config.sum_limit)?;
         in_range("sum_limit", sum_limit, 0.0, 3.0)?;
+        let budget_m = positive("fault_error_budget_m", config.fault_error_budget_m)?;
+        in_range("fault_error_budget_m", budget_m, 0.0, config.pitch_m)?;
         let cal = &config.calibration;
+        let limit_counts = match &cal.residual {
+            Some(table) => residual_limit_counts(table, cal, budget_m / config.pitch_m)?,
+            None => sum_limit * amplitude,
+        };
+        let mut rail_low = [0u16; 3];
+        let mut rail_high = [0u16; 3];
+        for (([lo, hi], low), high) in cal
+            .range_counts
+            .iter()
+            .zip(&mut rail_low)
+            .zip(&mut rail_high)
+        {
+            let margin = RAIL_MARGIN * amplitude;
+            let lo = in_range(
+                "calibration.range_counts",
+                f64::from(*lo),
+                -full_scale,
+                full_scale,
+            )?;
+            let hi = in_range(
+                "calibration.range_counts",
+                f64::from(*hi),
+                lo,
+                2.0 * full_scale,
+            )?;
+            // Exact 0 and full scale stay rails whatever the range says.
+            // max/min rather than clamp, which panics on crossed bounds.
+            *low = libm::ceil(lo - margin).max(1.0).min(full_scale - 1.0) as u16;
+            *high = libm::floor(hi + margin)
+                .min(full_scale - 1.0)
+                .max(f64::from(*low)) as u16;
+        }
         let mut offset_q4 = [0i32; 3];
         let mut sin_row_q = [0i32; 3];
         let mut cos_row_q = [0i32; 3];
@@ -265,7 +349,8 @@ impl HallDecoder {
         let nominal = f64::from(DEMODULATED_RADIUS);
         Ok(Self {
             arithmetic: config.arithmetic,
-            rail_high: full_scale as u16,
+            rail_low,
+            rail_high,
             offset_q4,
             sin_row_q,
             cos_row_q,
@@ -273,9 +358,9 @@ impl HallDecoder {
             sin_row_f32: cal.sin_row.map(|v| v * RADIUS_F32),
             cos_row_f32: cal.cos_row.map(|v| v * RADIUS_F32),
             sum_row_q16,
-            sum_limit_q4: libm::round(
-                sum_limit * amplitude * f64::from(1u32 << COUNT_FRACTION_BITS),
-            ) as i32,
+            residual: cal.residual,
+            residual_limit_q4: libm::round(limit_counts * f64::from(1u32 << COUNT_FRACTION_BITS))
+                as i32,
             // In the integer path's 2^-5 scale (see `phase`).
             magnitude_sq_min: ((lo * nominal / 32.0) * (lo * nominal / 32.0)) as u32,
             magnitude_sq_max: ((hi * nominal / 32.0) * (hi * nominal / 32.0)) as u32,
@@ -321,11 +406,25 @@ impl HallDecoder {
         Ok(HallPosition { accumulator })
     }
 
-    /// Checks the sample and returns its phase word (no unwrapping).
+    /// The residual limit in counts: the budget-derived limit of a calibrated decoder
+    /// (see [`residual`]), `sum_limit · A` without a healthy-residual table.
+    pub fn residual_limit_counts(&self) -> f64 {
+        f64::from(self.residual_limit_q4) / f64::from(1u32 << COUNT_FRACTION_BITS)
+    }
+
+    /// The lowest and highest count of each channel that is not a rail fault.
+    pub fn rail_band_counts(&self) -> [[u16; 2]; 3] {
+        let [l0, l1, l2] = self.rail_low;
+        let [h0, h1, h2] = self.rail_high;
+        [[l0, h0], [l1, h1], [l2, h2]]
+    }
+
+    /// Checks the sample and returns its phase word (no unwrapping, no correction).
     fn phase(&self, history: &mut [u64; 2], raw: [u16; 3]) -> Result<u32, HallFault> {
-        for (channel, &count) in raw.iter().enumerate() {
-            // 0 wraps to u16::MAX: one comparison catches both rails.
-            if count.wrapping_sub(1) >= self.rail_high - 1 {
+        let bands = self.rail_low.iter().zip(&self.rail_high);
+        for ((channel, &count), (&low, &high)) in raw.iter().enumerate().zip(bands) {
+            // Below `low` wraps to a large value: one comparison catches both sides.
+            if count.wrapping_sub(low) > high - low {
                 return Err(HallFault::AdcRail(channel as u8));
             }
         }
@@ -338,51 +437,82 @@ impl HallDecoder {
         *history = [packed, previous[0]];
         let history = previous;
         let stuck = || stuck_channel(packed, &history);
-        let residual = (i64::from(self.sum_row_q16[0]) * i64::from(u[0])
-            + i64::from(self.sum_row_q16[1]) * i64::from(u[1])
-            + i64::from(self.sum_row_q16[2]) * i64::from(u[2]))
-            >> 16;
-        if residual.abs() > i64::from(self.sum_limit_q4) {
-            return Err(stuck().unwrap_or(HallFault::SumOutOfBand));
-        }
-        let magnitude_fault = || Err(stuck().unwrap_or(HallFault::MagnitudeOutOfBand));
-        match self.arithmetic {
+        let (phase, in_band) = match self.arithmetic {
             HallArithmetic::Integer => {
                 let (s, c) = (dot_q(&self.sin_row_q, &u), dot_q(&self.cos_row_q, &u));
                 // Only |s|, |c| < 2^20 can pass the band (hi < 2); below that the squares
                 // in a 2^-5 scale fit a u32 sum.
                 let (s_abs, c_abs) = (s.unsigned_abs(), c.unsigned_abs());
                 if (s_abs | c_abs) >= 1 << 20 {
-                    return magnitude_fault();
+                    (atan::atan2_turns(s, c), false)
+                } else {
+                    let magnitude_sq = (s_abs >> 5) * (s_abs >> 5) + (c_abs >> 5) * (c_abs >> 5);
+                    (
+                        atan::atan2_turns_below_2_20(s < 0, c < 0, s_abs, c_abs),
+                        magnitude_sq >= self.magnitude_sq_min
+                            && magnitude_sq <= self.magnitude_sq_max,
+                    )
                 }
-                let magnitude_sq = (s_abs >> 5) * (s_abs >> 5) + (c_abs >> 5) * (c_abs >> 5);
-                if magnitude_sq < self.magnitude_sq_min || magnitude_sq > self.magnitude_sq_max {
-                    return magnitude_fault();
-                }
-                Ok(atan::atan2_turns_below_2_20(s < 0, c < 0, s_abs, c_abs))
             }
-            HallArithmetic::F32 => match self.phase_f32(raw) {
-                Some(phase) => Ok(phase),
-                None => magnitude_fault(),
-            },
+            HallArithmetic::F32 => self.phase_f32(raw),
+        };
+        // The residual is checked first: it sees every single-channel failure, and its
+        // limit is the one derived from the error budget. The table is read at the
+        // faulty phase; that shift is part of the derivation (see `residual`).
+        let [w0, w1, w2] = self.sum_row_q16;
+        let [u0, u1, u2] = u;
+        let sum = (i64::from(w0) * i64::from(u0)
+            + i64::from(w1) * i64::from(u1)
+            + i64::from(w2) * i64::from(u2))
+            >> 16;
+        let healthy = self.residual.as_ref().map_or(0, |t| t.at(phase));
+        if (sum - i64::from(healthy)).abs() > i64::from(self.residual_limit_q4) {
+            return Err(stuck().unwrap_or(HallFault::ResidualOutOfBand));
         }
+        if !in_band {
+            return Err(stuck().unwrap_or(HallFault::MagnitudeOutOfBand));
+        }
+        Ok(phase)
     }
 
-    /// The f32 path of steps 2–5 (kept out of line so the integer path does not carry
-    /// its floating-point register saves); `None` when the magnitude is out of band.
+    /// The f32 path of steps 2–4 (kept out of line so the integer path does not carry
+    /// its floating-point register saves): the phase word and whether the magnitude is
+    /// in band.
     #[inline(never)]
-    fn phase_f32(&self, raw: [u16; 3]) -> Option<u32> {
+    fn phase_f32(&self, raw: [u16; 3]) -> (u32, bool) {
         let [r0, r1, r2] = raw;
         let [o0, o1, o2] = self.offset_f32;
         let uf = [(r0, o0), (r1, o1), (r2, o2)].map(|(r, o)| f32::from(r) - o);
-        let s =
-            self.sin_row_f32[0] * uf[0] + self.sin_row_f32[1] * uf[1] + self.sin_row_f32[2] * uf[2];
-        let c =
-            self.cos_row_f32[0] * uf[0] + self.cos_row_f32[1] * uf[1] + self.cos_row_f32[2] * uf[2];
+        let dot = |row: &[f32; 3]| row.iter().zip(&uf).map(|(w, u)| w * u).sum::<f32>();
+        let (s, c) = (dot(&self.sin_row_f32), dot(&self.cos_row_f32));
         let magnitude_sq = s * s + c * c;
-        (magnitude_sq >= self.magnitude_sq_min_f32 && magnitude_sq <= self.magnitude_sq_max_f32)
-            .then(|| turns_from_rad(libm::atan2f(s, c)))
+        (
+            turns_from_rad(libm::atan2f(s, c)),
+            magnitude_sq >= self.magnitude_sq_min_f32 && magnitude_sq <= self.magnitude_sq_max_f32,
+        )
     }
+}
+
+/// The residual limit of a calibrated decoder, counts: halfway between the healthy
+/// band H and the largest residual T_budget a fault shows while within the budget
+/// (`budget_pitches` of a pitch), so that noise needs as many standard deviations for
+/// a false alarm as for a missed budget; `fault_error_budget_m` is refused when
+/// H > T_budget (see [`residual`]).
+fn residual_limit_counts(
+    table: &ResidualTable,
+    calibration: &HallCalibration,
+    budget_pitches: f64,
+) -> Result<f64, ConfigError> {
+    let budget_rad = 2.0 * core::f64::consts::PI * budget_pitches;
+    let budget = table.budget_limit_counts(budget_rad, residual::correction_slope(calibration));
+    let healthy = table.healthy_band_counts();
+    if !(budget.is_finite() && healthy.is_finite()) {
+        return Err(ConfigError::not_finite("calibration.residual"));
+    }
+    if budget < healthy {
+        return Err(ConfigError::out_of_range("fault_error_budget_m"));
+    }
+    Ok(0.5 * (healthy + budget))
 }
 
 /// Three 16-bit channels in one word.

@@ -160,7 +160,7 @@ fn faults_are_named_and_hold_the_position() {
     // A channel far off with no history of being frozen: the sum no longer vanishes.
     assert_eq!(
         dec.update(&mut dec_state, [good[0], 32768, good[2]], 0),
-        Err(HallFault::SumOutOfBand)
+        Err(HallFault::ResidualOutOfBand)
     );
     // All channels scaled down by half: sum fine, magnitude out of band.
     let half = good.map(|c| ((i32::from(c) + 32768) / 2) as u16);
@@ -275,17 +275,20 @@ fn calibration_recovers_offset_gain_phase_and_harmonic() {
             (models[1].amplitude_counts / ch.amplitude[1] - 1.0).abs() < 0.01,
             "{models:?}"
         );
-        // The health row leaves the harmonic: peak Σk hk Ak (phases within 3° of each
-        // other, so the peaks nearly coincide), give or take ADC rounding.
+        // The health row leaves the harmonic (peak Σk hk Ak, phases within 3° of each
+        // other); the healthy-residual table takes it out again, down to ADC rounding:
+        // |w_eff · q| ≤ |w_eff|₂ · 0.5 √3 for rounding errors q of at most 0.5 LSB.
         let harmonic_sum: f64 = (0..3).map(|k| ch.harmonic3[k] * ch.amplitude[k]).sum();
-        let ratio = fit.peak_sum_residual_counts / harmonic_sum;
+        let table = fit.calibration.residual.unwrap();
+        let rounding = f64::from(table.noise_gain) * 0.5 * 3f64.sqrt();
         assert!(
-            (0.97..1.02).contains(&ratio),
-            "{} bit: residual {ratio} of the harmonic",
-            cfg.adc_bits
+            fit.peak_sum_residual_counts
+                <= rounding + f64::from(table.systematic_counts) + 0.01 * harmonic_sum,
+            "{} bit: checked residual {} counts against a harmonic of {harmonic_sum}",
+            cfg.adc_bits,
+            fit.peak_sum_residual_counts,
         );
         let c2 = cfg.with_self_calibration(&fit);
-        assert!((c2.sum_limit - 2.0 * fit.peak_sum_residual_counts / a).abs() < 1e-12);
         let before = HallDecoder::new(&cfg).unwrap();
         let after = HallDecoder::new(&c2).unwrap();
         let correction = fit.calibration.correction.unwrap();
@@ -440,4 +443,146 @@ fn a_prediction_beyond_half_a_pitch_per_sample_is_a_fault() {
     let next = decoder.update(&mut state, moved, step).unwrap();
     let advance = (next.accumulator - first.accumulator) as f64 / 4_294_967_296.0;
     assert!((advance - 0.45).abs() < 1e-4, "{advance}");
+}
+
+/// Calibrated noise-free sensors with per-channel harmonics at `cfg`'s resolution.
+fn calibrated(cfg: &HallConfig) -> (Channels, SelfCalibration) {
+    let a = cfg.amplitude_counts;
+    let o = f64::from(cfg.calibration.offset_counts[0]);
+    let ch = Channels {
+        offset: [o + 0.03 * a, o - 0.02 * a, o + 0.01 * a],
+        amplitude: [1.05 * a, 0.96 * a, 1.0 * a],
+        phase_error: [0.0, 0.01, -0.015],
+        harmonic3: [0.030, 0.010, 0.022],
+    };
+    let mut cal = HallCalibrator::<512>::new();
+    for k in 0..512 {
+        cal.push(ch.sample(2.0 * PI * 1.3 * k as f64 / 512.0))
+            .unwrap();
+    }
+    (ch, cal.solve(&cfg.calibration).unwrap())
+}
+
+/// Counts one LSB inside either rail are rail faults, for the nominal decoder (its
+/// range is offset ± 1.15 A, plus the 5 % margin) and for a calibrated one (the fitted
+/// range plus the margin); healthy samples over a pitch are not.
+#[test]
+fn counts_near_a_rail_are_rail_faults() {
+    for cfg in [HallConfig::LM1247_16BIT, HallConfig::LM1247_12BIT] {
+        let (ch, fit) = calibrated(&cfg);
+        let full_scale = ((1u32 << cfg.adc_bits) - 1) as u16;
+        for config in [cfg, cfg.with_self_calibration(&fit)] {
+            let decoder = HallDecoder::new(&config).unwrap();
+            let good = ch.sample(0.4);
+            for k in 0..3 {
+                for level in [0, 1, full_scale - 1, full_scale] {
+                    let mut raw = good;
+                    raw[k] = level;
+                    assert_eq!(
+                        decoder.raw_phase_checked(raw),
+                        Err(HallFault::AdcRail(k as u8)),
+                        "{} bit, channel {k} at {level}",
+                        cfg.adc_bits
+                    );
+                }
+            }
+            for j in 0..1000 {
+                let raw = ch.sample(2.0 * PI * j as f64 / 1000.0);
+                assert!(decoder.raw_phase_checked(raw).is_ok(), "{j}: {raw:?}");
+            }
+            // The band is the healthy range plus 5 % of A, inside the rails.
+            let band = decoder.rail_band_counts();
+            assert!(band.iter().all(|&[lo, hi]| lo > 1 && hi < full_scale - 1));
+        }
+    }
+}
+
+/// The calibrated limit follows the budget: it grows with it, lies between the
+/// healthy band and the budget's own limit, and a budget below the healthy band (0.1
+/// µm) is refused by name; without a table the limit is `sum_limit · A`.
+#[test]
+fn the_residual_limit_follows_the_budget() {
+    for cfg in [HallConfig::LM1247_16BIT, HallConfig::LM1247_12BIT] {
+        let (_, fit) = calibrated(&cfg);
+        let calibrated = cfg.with_self_calibration(&fit);
+        let table = calibrated.calibration.residual.unwrap();
+        let slope = residual::correction_slope(&calibrated.calibration);
+        let mut last = 0.0;
+        for budget_m in [20e-6, 40e-6, 80e-6] {
+            let config = HallConfig {
+                fault_error_budget_m: budget_m,
+                ..calibrated
+            };
+            let limit = HallDecoder::new(&config).unwrap().residual_limit_counts();
+            let own = table.budget_limit_counts(2.0 * PI * budget_m / cfg.pitch_m, slope);
+            let healthy = table.healthy_band_counts();
+            // Halfway, to Q4 rounding.
+            assert!(
+                (limit - 0.5 * (own + healthy)).abs() <= 1.0 / 32.0,
+                "{limit}"
+            );
+            assert!(limit > last);
+            last = limit;
+        }
+        let tiny = HallConfig {
+            fault_error_budget_m: 0.1e-6,
+            ..calibrated
+        };
+        assert_eq!(
+            HallDecoder::new(&tiny).err(),
+            Some(ConfigError::out_of_range("fault_error_budget_m"))
+        );
+        let smallest = calibrated.smallest_fault_error_budget_m().unwrap();
+        let just = HallConfig {
+            fault_error_budget_m: smallest * 1.001,
+            ..calibrated
+        };
+        let below = HallConfig {
+            fault_error_budget_m: smallest * 0.999,
+            ..calibrated
+        };
+        assert!(HallDecoder::new(&just).is_ok());
+        assert!(HallDecoder::new(&below).is_err());
+        let nominal = HallDecoder::new(&cfg).unwrap().residual_limit_counts();
+        assert!((nominal - 0.5 * cfg.amplitude_counts).abs() < 0.1);
+    }
+}
+
+/// The healthy-residual table predicts the health row of noise-free calibrated
+/// channels to within ADC rounding at every phase, while the row itself swings by the
+/// harmonics: a channel moved by just over the limit is flagged, one moved by less is
+/// not, at phases spread over the pitch.
+#[test]
+fn a_channel_off_by_the_limit_is_flagged_at_every_phase() {
+    let cfg = HallConfig::LM1247_16BIT;
+    let (ch, fit) = calibrated(&cfg);
+    let config = cfg.with_self_calibration(&fit);
+    let decoder = HallDecoder::new(&config).unwrap();
+    let w = config.calibration.sum_row;
+    let limit = decoder.residual_limit_counts();
+    for j in 0..200 {
+        let raw = ch.sample(2.0 * PI * j as f64 / 200.0);
+        assert!(decoder.raw_phase_checked(raw).is_ok(), "{j}");
+        for k in 0..3 {
+            // The residual moves by w_k·e plus the table's shift (at most 25 % here).
+            let big = (1.6 * limit / f64::from(w[k])) as i32;
+            for sign in [-1, 1] {
+                let mut bad = raw;
+                bad[k] = (i32::from(raw[k]) + sign * big) as u16;
+                assert_eq!(
+                    decoder.raw_phase_checked(bad),
+                    Err(HallFault::ResidualOutOfBand),
+                    "{j}, channel {k}, {}",
+                    sign * big
+                );
+            }
+        }
+    }
+}
+
+impl HallDecoder {
+    /// The checks of one sample without history or unwrapping.
+    fn raw_phase_checked(&self, raw: [u16; 3]) -> Result<u32, HallFault> {
+        self.phase(&mut [0; 2], raw)
+    }
 }
