@@ -1,0 +1,112 @@
+//! Jobs, the period counter across a week, and in-place job copies.
+
+use super::*;
+use crate::sensing::hall::HallConfig;
+use core::f64::consts::PI;
+
+/// Nominal Hall counts at phase `phi` (rad) of the pitch.
+fn counts(phi: f64) -> [[u16; 3]; 1] {
+    let c = HallConfig::LM1247_16BIT;
+    let ch = |k: usize, s: f64| {
+        (f64::from(c.calibration.offset_counts[k]) + c.amplitude_counts * libm::sin(phi + s)) as u16
+    };
+    [[ch(0, 0.0), ch(1, 2.0 * PI / 3.0), ch(2, -2.0 * PI / 3.0)]]
+}
+
+fn job(segments: &[(f64, f64)]) -> JointJob<1> {
+    let segments: std::vec::Vec<_> = segments
+        .iter()
+        .map(|&(target, duration_s)| Segment {
+            target_m: [target],
+            duration_s,
+        })
+        .collect();
+    JointJob::from_slice(&segments).unwrap()
+}
+
+/// `clone_from` (the supervisor's in-place load) leaves exactly the source's
+/// segments, whatever was there before; a job holds at most MAX_SEGMENTS.
+#[test]
+fn a_job_cloned_in_place_is_the_source() {
+    let long = job(&[(0.01, 0.1), (0.02, 0.1), (0.03, 0.1)]);
+    let short = job(&[(0.05, 0.2)]);
+    let mut loaded = long.clone();
+    assert_eq!(loaded, long);
+    loaded.clone_from(&short);
+    assert_eq!(loaded, short);
+    assert_eq!(&loaded[..], &short[..]);
+    loaded.clone_from(&long);
+    assert_eq!(loaded.len(), 3);
+    let full = [Segment {
+        target_m: [0.0],
+        duration_s: 0.1,
+    }; MAX_SEGMENTS + 1];
+    assert!(JointJob::from_slice(&full[..MAX_SEGMENTS]).is_some());
+    assert!(JointJob::from_slice(&full).is_none());
+}
+
+/// A segment of 2^32 periods or more would overflow the period counter (and end
+/// early, jumping the reference): refused; a week-long job is two segments.
+#[test]
+fn a_segment_beyond_the_period_counter_is_refused() {
+    let machine = Joints::<f32, 1>::new(&JointsConfig::LM1247).unwrap();
+    let home = JointsConfig::LM1247.home_m[0];
+    let day_s = 86_400.0;
+    assert_eq!(
+        machine.check_job(&job(&[(home, 6.0 * day_s)])),
+        Err(JobError::TooLong { segment: 0 })
+    );
+    assert_eq!(
+        machine.check_job(&job(&[(home, 3.5 * day_s), (home, 3.5 * day_s)])),
+        Ok(())
+    );
+}
+
+/// A 7-day job (two 3.5-day dwells, then a 10 mm move), fast-forwarded to the end
+/// of each segment: the period counter crosses 3e9 without a fault, the reference
+/// is continuous at each boundary, and the job ends.
+#[test]
+fn a_week_long_job_fast_forwarded_across_its_segments() {
+    let mut machine = Joints::<f32, 1>::new(&JointsConfig::LM1247).unwrap();
+    let home = JointsConfig::LM1247.home_m[0];
+    let day_s = 86_400.0;
+    let week = job(&[(home, 3.5 * day_s), (home, 3.5 * day_s), (home + 0.01, 0.2)]);
+    assert_eq!(machine.check_job(&week), Ok(()));
+    let at = counts(0.3);
+    machine.monitor(&at).unwrap();
+    machine.begin_job(&week).unwrap();
+    let mut last = machine.reference()[0].position;
+    let mut boundaries = 0;
+    for _ in 0..3 {
+        // Jump to three periods before the segment's end, then step across it.
+        let run = machine.run.as_mut().unwrap();
+        assert!(
+            run.periods > 3_000_000_000 || run.segment == 2,
+            "{}",
+            run.periods
+        );
+        run.period = run.periods - 3;
+        let segment = run.segment;
+        for step in 0..6 {
+            match machine.run(&week, &at).unwrap() {
+                Step::Continue(_) => {}
+                Step::Done(_) => {
+                    assert_eq!(segment, 2);
+                    boundaries += 1;
+                    break;
+                }
+            }
+            let now = machine.reference()[0].position;
+            // Dwells hold; the move's start is at rest: no jump at a boundary (the
+            // first step after the fast-forward lands wherever it was sent).
+            assert!(step == 0 || (now - last).abs() < 1e-6, "{last} -> {now}");
+            last = now;
+            if machine.run.as_ref().map(|r| r.segment) != Some(segment) {
+                boundaries += 1;
+                break;
+            }
+        }
+    }
+    assert_eq!(boundaries, 3);
+    assert!((f64::from(last) - (home + 0.01)).abs() < 1e-6, "{last}");
+}
