@@ -108,6 +108,27 @@ impl HallSensorParams {
     }
 }
 
+/// Pitches covered by one [`calibration_coast_m`].
+pub const COAST_PITCHES: f64 = 1.5;
+
+/// Slider positions of one calibration coast as the Hall fit asks for them: `samples`
+/// at a fixed rate over 0.25 s, covering [`COAST_PITCHES`] of `pitch_m` from `start_m`
+/// in `direction` (+1 or −1), the speed easing smoothly from 0.12 to about 0.1 m/s (a
+/// coast under constant force against viscous friction, time constant 0.24 s:
+/// x(t) = v∞ t + (v0 − v∞) T (1 − e^(−t/T)), scaled to the distance).
+pub fn calibration_coast_m(
+    start_m: f64,
+    direction: f64,
+    pitch_m: f64,
+    samples: u32,
+) -> impl Iterator<Item = f64> {
+    let (v0, v_end, tau_s, duration_s) = (0.12, 0.1, 0.24, 0.25);
+    let x = move |t: f64| v_end * t + (v0 - v_end) * tau_s * (1.0 - libm::exp(-t / tau_s));
+    let scale = COAST_PITCHES * pitch_m / x(duration_s);
+    let last = f64::from(samples.max(2) - 1);
+    (0..samples).map(move |k| start_m + direction * scale * x(duration_s * f64::from(k) / last))
+}
+
 /// A fault injected into one channel.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub enum ChannelFault {

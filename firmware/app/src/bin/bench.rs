@@ -7,7 +7,7 @@
 use core::f32::consts::PI;
 use core::hint::black_box;
 use cortex_m_semihosting::hprintln;
-use hal_mock::hall_sensor::{HallSensor, HallSensorParams};
+use hal_mock::hall_sensor::{calibration_coast_m, HallSensor, HallSensorParams, COAST_PITCHES};
 use heapless::spsc::Queue;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
 use kerf::app::calibrate::{CalibrationFit, HallMachine, SAMPLES_PER_COAST, SEGMENT_BREAK};
@@ -303,17 +303,10 @@ fn fit_stack<M: HallMachine<N>, const N: usize>(name: &str) {
     let mut sensor = HallSensor::new(HallSensorParams::lm1247_worst(16, 4.0), 5);
     let pitch_m = config.pitch_m;
     for axis in 0..N as u8 {
-        for (start_m, direction) in [(0.0, 1.0), (1.5 * pitch_m, -1.0)] {
-            // A coast slowing from 0.12 to about 0.1 m/s over 1.5 pitches (time
-            // constant 0.24 s), sampled 256 times, as a sweep streams it.
-            let (v0, v_end, tau_s) = (0.12, 0.1, 0.24);
-            let x = |t: f64| v_end * t + (v0 - v_end) * tau_s * (1.0 - libm::exp(-t / tau_s));
-            let scale = 1.5 * pitch_m / x(0.25);
+        for (start_m, direction) in [(0.0, 1.0), (COAST_PITCHES * pitch_m, -1.0)] {
             let mut ok = samples.push(axis, SEGMENT_BREAK).is_ok();
-            for k in 0..SAMPLES_PER_COAST {
-                let t = 0.25 * f64::from(k) / f64::from(SAMPLES_PER_COAST - 1);
-                let counts = sensor.sample(start_m + direction * scale * x(t));
-                ok &= samples.push(axis, counts).is_ok();
+            for x in calibration_coast_m(start_m, direction, pitch_m, SAMPLES_PER_COAST) {
+                ok &= samples.push(axis, sensor.sample(x)).is_ok();
             }
             if !ok {
                 exit(false)
