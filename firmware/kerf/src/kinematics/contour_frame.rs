@@ -127,7 +127,7 @@ impl<T: Float> ContourFrame<T> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use nalgebra::Matrix3;
 
@@ -147,6 +147,27 @@ mod tests {
                 -27.0 * h * w * w * w * c3,
             ),
         ]
+    }
+
+    /// The SPEC's frame matrices built literally for a reference moving at `v` and
+    /// turning at ψ̇, ψ̈: J_O = (1/v)[[ẋ, ẏ], [−ẏ, ẋ]] ⊕ 1, J̇_O = ψ̇ R′(ψ)ᵀ ⊕ 0 and
+    /// J̈_O = (ψ̈ R′(ψ)ᵀ − ψ̇² R(ψ)ᵀ) ⊕ 0, with ψ from atan2 (the reference the frame's
+    /// matrix-free maps are checked against, here and in `control::contouring`).
+    pub(crate) fn literal_frame_matrices(
+        v: &Vector3<f64>,
+        turn_rate: f64,
+        turn_accel: f64,
+    ) -> [Matrix3<f64>; 3] {
+        let speed = (v.x * v.x + v.y * v.y).sqrt();
+        let (ct, st) = (v.x / speed, v.y / speed);
+        let jo = Matrix3::new(ct, st, 0.0, -st, ct, 0.0, 0.0, 0.0, 1.0);
+        let psi = libm::atan2(v.y, v.x);
+        let (s, c) = (libm::sin(psi), libm::cos(psi));
+        let r_prime_t = Matrix3::new(-s, c, 0.0, -c, -s, 0.0, 0.0, 0.0, 0.0);
+        let r_t = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 0.0);
+        let jo_dot = r_prime_t * turn_rate;
+        let jo_ddot = r_prime_t * turn_accel - r_t * (turn_rate * turn_rate);
+        [jo, jo_dot, jo_ddot]
     }
 
     fn frame_at(t: f64) -> ContourFrame<f64> {
@@ -193,25 +214,8 @@ mod tests {
             let t = 0.07 * k as f64;
             let [_, v, _, _] = ellipse(t);
             let f = frame_at(t);
-            let speed = (v.x * v.x + v.y * v.y).sqrt();
-            let jo = Matrix3::new(
-                v.x / speed,
-                v.y / speed,
-                0.0,
-                -v.y / speed,
-                v.x / speed,
-                0.0,
-                0.0,
-                0.0,
-                1.0,
-            );
-            let psi = libm::atan2(v.y, v.x);
-            let (s, c) = (libm::sin(psi), libm::cos(psi));
-            let r_prime_t = Matrix3::new(-s, c, 0.0, -c, -s, 0.0, 0.0, 0.0, 0.0);
-            let r_t = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 0.0);
-            let jo_dot = r_prime_t * f.turn_rate_rad_s();
-            let jo_ddot = r_prime_t * f.turn_accel_rad_s2()
-                - r_t * (f.turn_rate_rad_s() * f.turn_rate_rad_s());
+            let [jo, jo_dot, jo_ddot] =
+                literal_frame_matrices(&v, f.turn_rate_rad_s(), f.turn_accel_rad_s2());
             let e_o = f.to_frame(&e);
             assert!((e_o - jo * e).norm() < 1e-15);
             assert!((f.from_frame(&e_o) - e).norm() < 1e-15);

@@ -3,6 +3,7 @@
 //! solution), and the print's joint-space gain matrices built literally.
 
 use super::*;
+use crate::kinematics::contour_frame::tests::literal_frame_matrices;
 use crate::kinematics::delta::DeltaConfig;
 use nalgebra::Matrix3;
 
@@ -46,45 +47,71 @@ fn critically_damped(e0: f64, w: f64, t: f64) -> f64 {
     e0 * (1.0 + w * t) * libm::exp(-w * t)
 }
 
-/// A point mass driven by the law's task acceleration (no kinematics in the way): its
-/// frame errors must follow the designed decoupled responses exactly, however the
-/// circle turns. Integrated by RK4 at 10 µs over 0.3 s; the method's error is below
-/// 1e-12 of the initial error there, so 1e-9 leaves room only for round-off.
-#[test]
-fn frame_errors_follow_the_designed_dynamics_in_closed_loop() {
-    let law = law();
-    let centre = Vector3::new(0.0, 0.0, 0.05);
-    let e0 = Vector3::new(0.4e-3, -0.3e-3, 0.2e-3);
-    // Start with e_O = e0 and ė_O = 0: ė = R (ė_O − ψ̇ R′ᵀ e) in task space.
-    let start = circle(centre, 0.0);
-    let frame = ContourFrame::new(&start.velocity, &start.acceleration, &start.jerk, 1e-4).unwrap();
-    let turned = ContourFrame::quarter_turn(&e0) * frame.turn_rate_rad_s();
-    let mut x = start.position - frame.from_frame(&e0);
-    let mut v = start.velocity + frame.from_frame(&turned);
-    let acceleration = |t: f64, x: &Vector3<f64>, v: &Vector3<f64>| {
-        law.task_acceleration(&circle(centre, t), x, v).unwrap().0
-    };
+/// The task state that starts `reference` with frame error e_O = `e0` and ė_O = 0:
+/// ė = R (ė_O − ψ̇ R′ᵀ e) in task space.
+fn start_with_frame_error(
+    reference: &TaskReference<f64>,
+    e0: &Vector3<f64>,
+) -> (Vector3<f64>, Vector3<f64>) {
+    let frame = ContourFrame::new(
+        &reference.velocity,
+        &reference.acceleration,
+        &reference.jerk,
+        1e-4,
+    )
+    .unwrap();
+    let turned = ContourFrame::quarter_turn(e0) * frame.turn_rate_rad_s();
+    (
+        reference.position - frame.from_frame(e0),
+        reference.velocity + frame.from_frame(&turned),
+    )
+}
+
+/// A double integrator s̈ = `law(t, s, ṡ).0` from (s0, ṡ0), integrated by RK4 at
+/// 10 µs over 0.3 s: the largest deviation of the frame error `law(t, s, ṡ).1` from
+/// the designed decoupled critically damped responses starting at `e0`.
+fn worst_deviation_in_closed_loop(
+    e0: &Vector3<f64>,
+    (mut s, mut s_dot): (Vector3<f64>, Vector3<f64>),
+    law: impl Fn(f64, &Vector3<f64>, &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>),
+) -> f64 {
+    let acceleration = |t: f64, s: &Vector3<f64>, s_dot: &Vector3<f64>| law(t, s, s_dot).0;
     let dt = 1e-5;
     let mut worst = 0.0f64;
     for k in 0..30_000 {
         let t = k as f64 * dt;
-        let (_, e_o) = law.task_acceleration(&circle(centre, t), &x, &v).unwrap();
+        let (a1, e_o) = law(t, &s, &s_dot);
         let expected = Vector3::new(
             critically_damped(e0.x, TANGENTIAL_RAD_S, t),
             critically_damped(e0.y, NORMAL_RAD_S, t),
             critically_damped(e0.z, VERTICAL_RAD_S, t),
         );
         worst = worst.max((e_o - expected).amax());
-        let a1 = acceleration(t, &x, &v);
-        let (x2, v2) = (x + v * (dt / 2.0), v + a1 * (dt / 2.0));
-        let a2 = acceleration(t + dt / 2.0, &x2, &v2);
-        let (x3, v3) = (x + v2 * (dt / 2.0), v + a2 * (dt / 2.0));
-        let a3 = acceleration(t + dt / 2.0, &x3, &v3);
-        let (x4, v4) = (x + v3 * dt, v + a3 * dt);
-        let a4 = acceleration(t + dt, &x4, &v4);
-        x += (v + v2 * 2.0 + v3 * 2.0 + v4) * (dt / 6.0);
-        v += (a1 + a2 * 2.0 + a3 * 2.0 + a4) * (dt / 6.0);
+        let (s2, v2) = (s + s_dot * (dt / 2.0), s_dot + a1 * (dt / 2.0));
+        let a2 = acceleration(t + dt / 2.0, &s2, &v2);
+        let (s3, v3) = (s + v2 * (dt / 2.0), s_dot + a2 * (dt / 2.0));
+        let a3 = acceleration(t + dt / 2.0, &s3, &v3);
+        let (s4, v4) = (s + v3 * dt, s_dot + a3 * dt);
+        let a4 = acceleration(t + dt, &s4, &v4);
+        s += (s_dot + v2 * 2.0 + v3 * 2.0 + v4) * (dt / 6.0);
+        s_dot += (a1 + a2 * 2.0 + a3 * 2.0 + a4) * (dt / 6.0);
     }
+    worst
+}
+
+/// A point mass driven by the law's task acceleration (no kinematics in the way): its
+/// frame errors must follow the designed decoupled responses exactly, however the
+/// circle turns. RK4's error at 10 µs is below 1e-12 of the initial error, so 1e-9
+/// leaves room only for round-off.
+#[test]
+fn frame_errors_follow_the_designed_dynamics_in_closed_loop() {
+    let law = law();
+    let centre = Vector3::new(0.0, 0.0, 0.05);
+    let e0 = Vector3::new(0.4e-3, -0.3e-3, 0.2e-3);
+    let start = start_with_frame_error(&circle(centre, 0.0), &e0);
+    let worst = worst_deviation_in_closed_loop(&e0, start, |t, x, v| {
+        law.task_acceleration(&circle(centre, t), x, v).unwrap()
+    });
     assert!(
         worst < 1e-9 * e0.amax(),
         "worst frame error deviation {worst:e} m"
@@ -117,14 +144,9 @@ fn equals_the_print_joint_space_form_on_a_linear_machine() {
         let q_ref = a_inv * reference.position;
         let q_ref_dot = a_inv * reference.velocity;
         let q_ref_ddot = a_inv * reference.acceleration;
-        let v = reference.velocity;
-        let speed = (v.x * v.x + v.y * v.y).sqrt();
-        let psi = libm::atan2(v.y, v.x);
-        let (s, c) = (libm::sin(psi), libm::cos(psi));
-        let psi_dot =
-            (v.x * reference.acceleration.y - v.y * reference.acceleration.x) / (speed * speed);
         // ψ̈ by a central difference of ψ̇ along the circle (independent of the frame's
         // closed form).
+        let v = reference.velocity;
         let rate = |t: f64| {
             let r = circle(centre, t);
             (r.velocity.x * r.acceleration.y - r.velocity.y * r.acceleration.x)
@@ -132,21 +154,7 @@ fn equals_the_print_joint_space_form_on_a_linear_machine() {
         };
         let h = 1e-5;
         let psi_ddot = (rate(t + h) - rate(t - h)) / (2.0 * h);
-        let jo = Matrix3::new(
-            v.x / speed,
-            v.y / speed,
-            0.0,
-            -v.y / speed,
-            v.x / speed,
-            0.0,
-            0.0,
-            0.0,
-            1.0,
-        );
-        let r_prime_t = Matrix3::new(-s, c, 0.0, -c, -s, 0.0, 0.0, 0.0, 0.0);
-        let r_t = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 0.0);
-        let jo_dot = r_prime_t * psi_dot;
-        let jo_ddot = r_prime_t * psi_ddot - r_t * (psi_dot * psi_dot);
+        let [jo, jo_dot, jo_ddot] = literal_frame_matrices(&v, rate(t), psi_ddot);
         let jo_inv = jo.try_inverse().unwrap();
         let ko1 = Matrix3::from_diagonal(&Vector3::new(
             TANGENTIAL_RAD_S * TANGENTIAL_RAD_S,
@@ -181,38 +189,15 @@ fn frame_errors_follow_the_designed_dynamics_through_the_delta() {
     let law = law();
     let centre = geometry.forward(&Vector3::new(0.02, 0.02, 0.02)).unwrap();
     let e0 = Vector3::new(-0.3e-3, 0.4e-3, -0.2e-3);
-    let start = circle(centre, 0.0);
-    let frame = ContourFrame::new(&start.velocity, &start.acceleration, &start.jerk, 1e-4).unwrap();
-    let turned = ContourFrame::quarter_turn(&e0) * frame.turn_rate_rad_s();
-    let x0 = start.position - frame.from_frame(&e0);
-    let x0_dot = start.velocity + frame.from_frame(&turned);
-    let mut q = geometry.inverse(&x0).unwrap();
-    let mut q_dot = geometry.jacobian_inverse(&q, &x0).unwrap() * x0_dot;
-    let acceleration = |t: f64, q: &Vector3<f64>, q_dot: &Vector3<f64>| {
-        law.joint_acceleration(&geometry, &circle(centre, t), q, q_dot)
-            .unwrap()
-    };
-    let dt = 1e-5;
-    let mut worst = 0.0f64;
-    for k in 0..30_000 {
-        let t = k as f64 * dt;
-        let out = acceleration(t, &q, &q_dot);
-        let expected = Vector3::new(
-            critically_damped(e0.x, TANGENTIAL_RAD_S, t),
-            critically_damped(e0.y, NORMAL_RAD_S, t),
-            critically_damped(e0.z, VERTICAL_RAD_S, t),
-        );
-        worst = worst.max((out.frame_error_m - expected).amax());
-        let a1 = out.joint_acceleration;
-        let (q2, v2) = (q + q_dot * (dt / 2.0), q_dot + a1 * (dt / 2.0));
-        let a2 = acceleration(t + dt / 2.0, &q2, &v2).joint_acceleration;
-        let (q3, v3) = (q + v2 * (dt / 2.0), q_dot + a2 * (dt / 2.0));
-        let a3 = acceleration(t + dt / 2.0, &q3, &v3).joint_acceleration;
-        let (q4, v4) = (q + v3 * dt, q_dot + a3 * dt);
-        let a4 = acceleration(t + dt, &q4, &v4).joint_acceleration;
-        q += (q_dot + v2 * 2.0 + v3 * 2.0 + v4) * (dt / 6.0);
-        q_dot += (a1 + a2 * 2.0 + a3 * 2.0 + a4) * (dt / 6.0);
-    }
+    let (x0, x0_dot) = start_with_frame_error(&circle(centre, 0.0), &e0);
+    let q0 = geometry.inverse(&x0).unwrap();
+    let q0_dot = geometry.jacobian_inverse(&q0, &x0).unwrap() * x0_dot;
+    let worst = worst_deviation_in_closed_loop(&e0, (q0, q0_dot), |t, q, q_dot| {
+        let out = law
+            .joint_acceleration(&geometry, &circle(centre, t), q, q_dot)
+            .unwrap();
+        (out.joint_acceleration, out.frame_error_m)
+    });
     assert!(
         worst < 1e-8 * e0.amax(),
         "worst frame error deviation {worst:e} m"
