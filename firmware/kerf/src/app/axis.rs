@@ -107,6 +107,8 @@ pub struct AxisOutput<T> {
     pub velocity_m_s: T,
     /// Disturbance estimate in N.
     pub disturbance_n: T,
+    /// The force command is at the driver's limit (the law asked for more).
+    pub saturated: bool,
     /// Status after this period.
     pub status: AxisStatus,
 }
@@ -209,6 +211,7 @@ impl<T: Real> AxisState<T> {
             position_m: self.position_m(),
             velocity_m_s: T::ZERO,
             disturbance_n: T::ZERO,
+            saturated: false,
             status: self.status,
         }
     }
@@ -248,14 +251,41 @@ impl<T: Real> AxisLaw<T> {
             state.status = AxisStatus::Fault(AxisFault::ReferenceNotFinite);
             return state.safe_output();
         }
-        let velocity = match self.sense(sensor, state, hall_counts) {
+        let velocity = match self.measure(sensor, state, hall_counts) {
             Ok(velocity) => velocity,
-            Err(fault) => {
-                state.status = AxisStatus::Fault(fault);
-                return state.safe_output();
-            }
+            Err(_) => return state.safe_output(),
         };
         let acceleration = self.pd.acceleration(reference, state.position_m, velocity);
+        self.actuate(state, acceleration, velocity)
+    }
+
+    /// The measured half of [`AxisLaw::step`]: decode, check and track. Returns the
+    /// velocity estimate (the position is [`AxisState::position_m`]); a sensor fault
+    /// latches and is returned. A machine whose law couples its axes (contouring)
+    /// measures every axis first, computes the desired accelerations together, then
+    /// calls [`AxisLaw::actuate`] on each.
+    pub fn measure(
+        &self,
+        sensor: &HallAxis<T>,
+        state: &mut AxisState<T>,
+        hall_counts: [u16; 3],
+    ) -> Result<T, AxisFault> {
+        if let AxisStatus::Fault(fault) = state.status {
+            return Err(fault);
+        }
+        self.sense(sensor, state, hall_counts).inspect_err(|fault| {
+            state.status = AxisStatus::Fault(*fault);
+        })
+    }
+
+    /// The commanded half of [`AxisLaw::step`]: the disturbance observer turns the
+    /// desired acceleration (m/s², from any law) into the force command. `velocity` is
+    /// what [`AxisLaw::measure`] returned this period. A non-finite value anywhere in
+    /// the loop latches [`AxisFault::NotFinite`] with zero force in the same period.
+    pub fn actuate(&self, state: &mut AxisState<T>, acceleration: T, velocity: T) -> AxisOutput<T> {
+        if let AxisStatus::Fault(_) = state.status {
+            return state.safe_output();
+        }
         let out = self.dob.update(&mut state.dob, acceleration, velocity);
         // The saturation passes NaN, and a saturated ±inf hides an overflow: any
         // non-finite value here latches a fault before the force leaves the period.
@@ -276,6 +306,7 @@ impl<T: Real> AxisLaw<T> {
             position_m: state.position_m,
             velocity_m_s: velocity,
             disturbance_n: out.disturbance_n,
+            saturated: self.dob.is_saturated(&out),
             status: state.status,
         }
     }
@@ -339,6 +370,7 @@ impl<T: Real> AxisLaw<T> {
             position_m: state.position_m,
             velocity_m_s: velocity,
             disturbance_n: state.dob.estimate_n,
+            saturated: false,
             status: state.status,
         })
     }

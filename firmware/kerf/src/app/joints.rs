@@ -293,6 +293,7 @@ impl<T: Real, const N: usize> Joints<T, N> {
                 position_m: a.position_m(),
                 velocity_m_s: T::ZERO,
                 disturbance_n: T::ZERO,
+                saturated: false,
                 status: a.status(),
             }),
             axes,
@@ -335,6 +336,63 @@ impl<T: Real, const N: usize> Joints<T, N> {
     ) -> Result<[T; N], JointFault> {
         self.reference = reference;
         self.control(inputs)
+    }
+
+    /// The measured half of a period for a law that couples the axes: every axis
+    /// decoded, checked and tracked. Returns each axis' position and velocity estimate
+    /// (m, m/s); the first fault stops the rest and is named with its axis. Follow with
+    /// [`Joints::actuate`] in the same period.
+    pub(crate) fn measure(
+        &mut self,
+        inputs: &[[u16; 3]; N],
+    ) -> Result<([T; N], [T; N]), JointFault> {
+        let mut velocity = [T::ZERO; N];
+        let law = &self.law;
+        each_axis(
+            &mut self.axes,
+            &self.sensors,
+            inputs,
+            |k, sensor, axis, counts| {
+                let v = law.measure(sensor, axis, counts)?;
+                if let Some(out) = velocity.get_mut(k) {
+                    *out = v;
+                }
+                Ok(())
+            },
+        )?;
+        Ok((self.axes.map(|a| a.position_m()), velocity))
+    }
+
+    /// The commanded half: each axis' disturbance observer turns its desired
+    /// acceleration (m/s²) into a force. `velocity` is what [`Joints::measure`]
+    /// returned; `reference` is this period's joint reference (kept for telemetry and
+    /// a stop ramp's start). Returns the forces and whether any axis saturated.
+    pub(crate) fn actuate(
+        &mut self,
+        reference: [Reference<T>; N],
+        acceleration: &[T; N],
+        velocity: &[T; N],
+    ) -> Result<([T; N], bool), JointFault> {
+        self.reference = reference;
+        let mut forces = [T::ZERO; N];
+        let mut saturated = false;
+        for (k, axis) in self.axes.iter_mut().enumerate() {
+            let a = acceleration.get(k).copied().unwrap_or(T::ZERO);
+            let v = velocity.get(k).copied().unwrap_or(T::ZERO);
+            let out = self.law.actuate(axis, a, v);
+            if let crate::app::axis::AxisStatus::Fault(fault) = out.status {
+                return Err(JointFault {
+                    axis: k as u8,
+                    fault,
+                });
+            }
+            saturated |= out.saturated;
+            if let (Some(force), Some(last)) = (forces.get_mut(k), self.last.get_mut(k)) {
+                *force = out.force_n;
+                *last = out;
+            }
+        }
+        Ok((forces, saturated))
     }
 
     /// Steps every axis with `self.reference`; the first fault stops all of them.

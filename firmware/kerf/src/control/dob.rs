@@ -130,6 +130,12 @@ impl<T: Real> Dob<T> {
         }
     }
 
+    /// Whether `out`'s force is at the limit (the law asked for at least as much).
+    #[inline]
+    pub fn is_saturated(&self, out: &DobOutput<T>) -> bool {
+        !(out.force_n < self.force_limit && out.force_n > -self.force_limit)
+    }
+
     /// Acceleration the nominal plant gets from `out`: (F − F̂dis)/An.
     #[inline]
     pub fn applied_acceleration(&self, out: &DobOutput<T>) -> T {

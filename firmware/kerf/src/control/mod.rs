@@ -16,3 +16,4 @@
 pub mod contouring;
 pub mod dob;
 pub mod pd;
+pub mod preview;
