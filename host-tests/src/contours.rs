@@ -24,6 +24,7 @@ pub fn cam_at_10_mm_s(ts_s: f64, cruise_s: f64, multiple_of: usize) -> Vec<Conto
     let config = FollowerConfig {
         ramp,
         accel_limit_m_s2: 1.0,
+        newton_steps: 2,
     };
     let mut follower = ContourFollower::new(efd, &config, 0.0).expect("follower config");
     follower.start();

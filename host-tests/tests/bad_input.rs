@@ -632,6 +632,7 @@ fn follower_config() -> FollowerConfig {
             ts_s: 1e-3,
         },
         accel_limit_m_s2: 10.0,
+        newton_steps: 2,
     }
 }
 
@@ -1240,6 +1241,7 @@ fn degenerate_geometry<T: Float>(s: &mut Sweep, scalar: &str) {
     let octagon = shapes::octagon();
     let config = FollowerConfig {
         accel_limit_m_s2: 1e12,
+        newton_steps: 2,
         ..follower_config()
     };
     for flatten in [0.0, 1e-15, 1e-12, 1e-10, 1e-8, 1e-6, 1e-4, 1e-2] {

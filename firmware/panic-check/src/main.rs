@@ -238,6 +238,7 @@ fn contours() {
                 ts_s: 1e-4,
             },
             accel_limit_m_s2: 1.0,
+            newton_steps: 2,
         });
         if let Ok(follower) = ContourFollower::new(efd, &config, opaque(0.0)) {
             let mut follower = opaque(follower);
