@@ -23,6 +23,13 @@
 //!
 //! The output, a desired joint acceleration, goes to each joint's disturbance
 //! observer (`control::dob`), like the joint PD's.
+//!
+//! Below the minimum planar speed the reference has no frame (at rest before and after
+//! a contour, at a cusp). There the law holds the reference in the base frame with the
+//! normal gains on x and y and the vertical gains on z: ẍ_des = ẍ_ref + K2 ė + K1 e.
+//! When the frame appears the tangential gain takes over along the path; the command
+//! changes by (k_n − k_t)·e_t + (d_n − d_t)·ė_t, small because the speed, and with it
+//! the timing error, is small there.
 
 use crate::control::pd::PdConfig;
 use crate::error::{coefficient, positive, ConfigContext, ConfigError};
@@ -86,13 +93,19 @@ pub struct TaskReference<T> {
     pub jerk: Vector3<T>,
 }
 
-/// What the law computed: the command and the errors it acted on.
+/// What the law computed: the command, the errors it acted on and the measured task
+/// state it used.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ContouringOutput<T> {
     /// Desired acceleration of each joint, m/s².
     pub joint_acceleration: Vector3<T>,
-    /// The error e_O = J_O (x_ref − x): tangential, normal, vertical, m.
+    /// The error e_O = J_O (x_ref − x): tangential, normal, vertical, m (x, y, z of
+    /// the base frame where the reference has no frame).
     pub frame_error_m: Vector3<T>,
+    /// The effector's measured position FK(q), m.
+    pub position_m: Vector3<T>,
+    /// The effector's measured velocity Jx q̇, m/s.
+    pub velocity_m_s: Vector3<T>,
 }
 
 /// The contouring law's coefficients (it keeps no state).
@@ -125,19 +138,26 @@ impl<T: Float> Contouring<T> {
     }
 
     /// Desired task acceleration (m/s²) and the frame error, from the reference and
-    /// the measured task position and velocity.
+    /// the measured task position and velocity. Errors only on a reference that is not
+    /// finite; one too slow for a frame is held in the base frame (module docs).
     pub fn task_acceleration(
         &self,
         reference: &TaskReference<T>,
         position: &Vector3<T>,
         velocity: &Vector3<T>,
     ) -> Result<(Vector3<T>, Vector3<T>), ContourFrameError> {
-        let frame = ContourFrame::new(
+        let frame = match ContourFrame::new(
             &reference.velocity,
             &reference.acceleration,
             &reference.jerk,
             self.min_speed_m_s,
-        )?;
+        ) {
+            Ok(frame) => frame,
+            Err(ContourFrameError::SpeedTooLow) => {
+                return Ok(self.hold(reference, position, velocity))
+            }
+            Err(error) => return Err(error),
+        };
         let (w, w_dot) = (frame.turn_rate_rad_s(), frame.turn_accel_rad_s2());
         let e = reference.position - position;
         let e_dot = reference.velocity - velocity;
@@ -160,6 +180,23 @@ impl<T: Float> Contouring<T> {
             + jo_dot_e_dot * two
             + self.kd.component_mul(&rotated_e_dot);
         Ok((reference.acceleration + frame.from_frame(&in_frame), e_o))
+    }
+
+    /// Without a frame: the base-frame PD with the normal gains on x and y.
+    fn hold(
+        &self,
+        reference: &TaskReference<T>,
+        position: &Vector3<T>,
+        velocity: &Vector3<T>,
+    ) -> (Vector3<T>, Vector3<T>) {
+        let kp = Vector3::new(self.kp.y, self.kp.y, self.kp.z);
+        let kd = Vector3::new(self.kd.y, self.kd.y, self.kd.z);
+        let e = reference.position - position;
+        let e_dot = reference.velocity - velocity;
+        (
+            reference.acceleration + kd.component_mul(&e_dot) + kp.component_mul(&e),
+            e,
+        )
     }
 
     /// The law for the delta's joints: forward kinematics of the measured `q`, the
@@ -188,6 +225,8 @@ impl<T: Float> Contouring<T> {
         Ok(ContouringOutput {
             joint_acceleration: jx_inv * (acceleration - jx_dot * q_dot),
             frame_error_m,
+            position_m: position,
+            velocity_m_s: velocity,
         })
     }
 }

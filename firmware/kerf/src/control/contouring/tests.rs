@@ -205,16 +205,35 @@ fn frame_errors_follow_the_designed_dynamics_through_the_delta() {
 }
 
 #[test]
-fn no_output_without_a_frame_or_kinematics() {
+fn a_reference_at_rest_is_held_in_the_base_frame_and_bad_input_refused() {
     let geometry = DeltaGeometry::<f64>::new(&DeltaConfig::SLAVE_KEOPS).unwrap();
     let law = law();
     let centre = geometry.forward(&Vector3::new(0.02, 0.02, 0.02)).unwrap();
     let q = Vector3::new(0.02, 0.02, 0.02);
     let mut dwell = circle(centre, 0.0);
     dwell.velocity = Vector3::zeros();
+    // At rest: ẍ = ẍref + K2 ė + K1 e with the normal gains on x and y, by hand.
+    let (kn, dn) = (law.kp.y, law.kd.y);
+    let (kz, dz) = (law.kp.z, law.kd.z);
+    let x = dwell.position + Vector3::new(1e-5, -2e-5, 3e-6);
+    let v = Vector3::new(-1e-3, 2e-4, 5e-4);
+    let (a, e) = law.task_acceleration(&dwell, &x, &v).unwrap();
+    let expected = dwell.acceleration
+        + Vector3::new(
+            kn * -1e-5 + dn * 1e-3,
+            kn * 2e-5 - dn * 2e-4,
+            kz * -3e-6 - dz * 5e-4,
+        );
+    assert!(
+        (a - expected).amax() < 1e-9 * expected.amax(),
+        "{a} vs {expected}"
+    );
+    assert_eq!(e, dwell.position - x);
+    let mut nan = dwell;
+    nan.velocity.x = f64::NAN;
     assert_eq!(
-        law.joint_acceleration(&geometry, &dwell, &q, &Vector3::zeros()),
-        Err(ContouringError::Frame(ContourFrameError::SpeedTooLow))
+        law.joint_acceleration(&geometry, &nan, &q, &Vector3::zeros()),
+        Err(ContouringError::Frame(ContourFrameError::NotFinite))
     );
     let moving = circle(centre, 0.0);
     let far = Vector3::new(5.0, 0.02, 0.02);
