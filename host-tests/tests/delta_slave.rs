@@ -13,7 +13,7 @@ use kerf_sim::slave::{run_slave, SlaveOutcome, SlaveScenario};
 
 fn square<T: kerf::Float>() -> SlaveOutcome {
     let scenario = SlaveScenario::square();
-    let outcome = run_slave::<T>(&scenario, 0, |_| {}).unwrap();
+    let outcome = run_slave::<T>(&scenario, 0, |_, _| {}).unwrap();
     println!(
         "Keops slave, 20 mm square at 40 mm/s mean ({} periods on the lines): effector error RMS {:.3} µm, max {:.3} µm; max ‖Jx‖∞ {:.2}",
         outcome.periods,
@@ -60,7 +60,7 @@ fn keops_slave_calibrates_and_cuts_a_square_in_f64() {
 fn a_broken_sensor_on_one_carriage_stops_all_three() {
     let mut scenario = SlaveScenario::square();
     scenario.sensor_fault = Some((1.0, 2, ChannelFault::OpenWire(1)));
-    let outcome = run_slave::<f32>(&scenario, 100, |_| {}).unwrap();
+    let outcome = run_slave::<f32>(&scenario, 100, |_, _| {}).unwrap();
     assert_eq!(
         outcome.fault,
         Some(DeltaFault::Joint(JointFault {

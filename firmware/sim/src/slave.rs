@@ -98,6 +98,11 @@ impl SlaveScenario {
         let job = self.job().map_err(SlaveError::Job)?;
         Ok(Operator::new(self.machine.joints.hall, None, job))
     }
+
+    /// Time from `Start` to the end of the square, s.
+    pub fn job_s(&self) -> f64 {
+        self.approach_s + 4.0 * self.side_s
+    }
 }
 
 /// One simulated period of the slave.
@@ -282,17 +287,28 @@ impl SlaveOutcome {
 pub fn run_slave<T: Float>(
     scenario: &SlaveScenario,
     fault_periods: u32,
-    mut each: impl FnMut(&SlavePeriod),
+    each: impl FnMut(&SlavePeriod, &SlaveRig<'_, T>),
+) -> Result<SlaveOutcome, SlaveError> {
+    let job = scenario.job().map_err(SlaveError::Job)?;
+    run_slave_job(scenario, job, scenario.job_s(), fault_periods, each)
+}
+
+/// [`run_slave`] with another job (a contour) that lasts about `job_s` from `Start`.
+pub fn run_slave_job<T: Float>(
+    scenario: &SlaveScenario,
+    job: DeltaJob,
+    job_s: f64,
+    fault_periods: u32,
+    mut each: impl FnMut(&SlavePeriod, &SlaveRig<'_, T>),
 ) -> Result<SlaveOutcome, SlaveError> {
     let mut commands = Queue::<Command<DeltaSlave<T>>, COMMAND_CAPACITY>::new();
     let mut reports = Queue::<Report<DeltaSlave<T>>, REPORT_CAPACITY>::new();
     let (mut send, from_sender) = commands.split();
     let (to_operator, mut receive) = reports.split();
     let mut rig = SlaveRig::<T>::new(scenario, from_sender, to_operator)?;
-    let mut operator = scenario.operator::<T>()?;
+    let mut operator = Operator::new(scenario.machine.joints.hall, None, job);
     operator.start(&mut send);
     let mut outcome = SlaveOutcome::default();
-    let job_s = scenario.approach_s + 4.0 * scenario.side_s;
     // Calibration sweep (0.8 s), the job, and a margin.
     let limit = ((job_s + 2.0) / scenario.machine.joints.period_s) as u32;
     let mut after_fault = 0;
@@ -300,7 +316,7 @@ pub fn run_slave<T: Float>(
         let period = rig.step()?;
         outcome.late_periods = rig.clock().late_periods();
         outcome.add(&period);
-        each(&period);
+        each(&period, &rig);
         match operator.poll(&mut receive, &mut send) {
             OperatorState::Finished => return Ok(outcome),
             OperatorState::Failed(OperatorError::Fault(_)) => {

@@ -259,6 +259,12 @@ impl<T: Real> AxisLaw<T> {
         self.actuate(state, acceleration, velocity)
     }
 
+    /// The PD law's desired acceleration (m/s²) for `reference` at the measured
+    /// position and velocity: what [`AxisLaw::step`] hands its observer.
+    pub fn pd_acceleration(&self, reference: &Reference<T>, position_m: T, velocity_m_s: T) -> T {
+        self.pd.acceleration(reference, position_m, velocity_m_s)
+    }
+
     /// The measured half of [`AxisLaw::step`]: decode, check and track. Returns the
     /// velocity estimate (the position is [`AxisState::position_m`]); a sensor fault
     /// latches and is returned. A machine whose law couples its axes (contouring)

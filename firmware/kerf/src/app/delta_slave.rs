@@ -29,13 +29,22 @@ use crate::app::joints::{
     JobError, JointFault, JointJob, JointTelemetry, Joints, JointsConfig, Segment,
 };
 use crate::app::supervisor::{Machine, Step};
+use crate::control::contouring::Contouring;
 use crate::control::pd::Reference;
-use crate::error::{ConfigContext, ConfigError};
+use crate::control::preview::Preview;
+use crate::error::{positive, ConfigContext, ConfigError};
 use crate::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
 use crate::scalar::{lit, Float, Real};
 use crate::sensing::hall::{HallConfig, SelfCalibration};
 use crate::trajectory::quintic::Quintic;
+use crate::trajectory::ContourError;
+pub use contour::{
+    ContourConfig, ContourLaw, ContourPlan, CONTOUR_HARMONICS, PLAN_SAMPLES_PER_LAP,
+};
+use contour::{ContourJob, ContourRun};
 use nalgebra::Vector3;
+
+mod contour;
 
 /// Instants per move at which a plan checks the joint limits (plus the end). A
 /// minimum-jerk move's joint speed and acceleration are smooth in time; between
@@ -51,6 +60,8 @@ pub struct DeltaSlaveConfig {
     pub joints: JointsConfig<3>,
     /// The delta's geometry, with each actuator's travel.
     pub delta: DeltaConfig,
+    /// The contour laws and the limits that supervise a contour.
+    pub contour: ContourConfig,
 }
 
 impl DeltaSlaveConfig {
@@ -69,6 +80,7 @@ impl DeltaSlaveConfig {
             accel_limit_m_s2: 20.0,
         },
         delta: DeltaConfig::SLAVE_KEOPS,
+        contour: ContourConfig::KEOPS,
     };
 
     /// The carriages' configuration with the delta actuators' travel.
@@ -82,7 +94,7 @@ impl DeltaSlaveConfig {
 }
 
 /// Why a job cannot be planned, or started. `segment` indexes the job's moves.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DeltaJobError {
     /// The job has no move, or more than [`MAX_SEGMENTS`](super::joints::MAX_SEGMENTS).
@@ -116,16 +128,36 @@ pub enum DeltaJobError {
         /// Move index.
         segment: u8,
     },
+    /// The contour, its speed or ramps are bad (a setting named, a curve too short
+    /// for one period's step, a speed above the curvature limit, …).
+    Contour(ContourError),
+    /// The first point of the contour, in path order, that leaves the workspace.
+    ContourUnreachable {
+        /// The point, m.
+        point_m: [f64; 3],
+        /// What the kinematics said.
+        error: KinematicsError,
+    },
+    /// The first point of the contour where a carriage would exceed its speed or
+    /// acceleration limit.
+    ContourTooFast {
+        /// The point, m.
+        point_m: [f64; 3],
+        /// Carriage index.
+        axis: u8,
+    },
 }
 
-/// A planned job: a start point, the approach time to reach it, and straight moves.
-/// Only [`DeltaJob::plan`] makes one; `clone_from` copies in place (see [`JointJob`]).
+/// A planned job: a start point, the approach time to reach it, and straight moves or
+/// a contour. Only [`DeltaJob::plan`] and [`DeltaJob::plan_contour`] make one;
+/// `clone_from` copies in place (see [`JointJob`]).
 #[derive(Debug, Default, PartialEq)]
 pub struct DeltaJob {
     start_m: [f64; 3],
     start_joints_m: [f64; 3],
     approach_s: f64,
     moves: JointJob<3>,
+    contour: Option<ContourJob>,
     /// `None` only for the empty default job, which every machine refuses.
     planned_for: Option<Limits>,
 }
@@ -142,6 +174,7 @@ impl Clone for DeltaJob {
         self.start_joints_m = source.start_joints_m;
         self.approach_s = source.approach_s;
         self.moves.clone_from(&source.moves);
+        self.contour.clone_from(&source.contour);
         self.planned_for = source.planned_for;
     }
 }
@@ -289,8 +322,44 @@ impl DeltaJob {
             start_joints_m: start_joints.into(),
             approach_s,
             moves,
+            contour: None,
             planned_for: Some(Limits::of(config)),
         })
+    }
+
+    /// Plans a contour job for `config` ([`ContourPlan`]; the checks are in the
+    /// `contour` module's docs): a joint-space approach of `plan.approach_s` to the
+    /// curve at θ0, then the contour at constant tangential speed between jerk-limited
+    /// ramps, for `plan.laps` laps.
+    pub fn plan_contour(
+        config: &DeltaSlaveConfig,
+        plan: &ContourPlan<'_>,
+    ) -> Result<Self, DeltaJobError> {
+        if !(plan.approach_s.is_finite() && plan.approach_s > 0.0) {
+            return Err(DeltaJobError::NotFinite { segment: 0 });
+        }
+        let (contour, start_m) = ContourJob::plan(config, plan)?;
+        let geometry =
+            DeltaGeometry::<f64>::new(&config.delta).map_err(|_| DeltaJobError::OtherMachine)?;
+        let start_joints = geometry.inverse(&Vector3::from(start_m)).map_err(|error| {
+            DeltaJobError::ContourUnreachable {
+                point_m: start_m,
+                error,
+            }
+        })?;
+        Ok(Self {
+            start_m,
+            start_joints_m: start_joints.into(),
+            approach_s: plan.approach_s,
+            moves: JointJob::new(),
+            contour: Some(contour),
+            planned_for: Some(Limits::of(config)),
+        })
+    }
+
+    /// The law of a contour job (`None` for straight moves).
+    pub fn contour_law(&self) -> Option<ContourLaw> {
+        self.contour.as_ref().map(ContourJob::law)
     }
 
     /// Where the straight moves start, m.
@@ -303,20 +372,32 @@ impl DeltaJob {
         &self.moves
     }
 
-    /// Time from `Start` to the end of the last move, s.
+    /// Time from `Start` to the end of the last move, s (straight moves only; a
+    /// contour's end depends on its ramps and is not counted).
     pub fn duration_s(&self) -> f64 {
         self.approach_s + self.moves.iter().map(|m| m.duration_s).sum::<f64>()
     }
 }
 
 /// Why the slave stopped.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DeltaFault {
     /// A carriage's fault.
     Joint(JointFault),
-    /// The joint references could not be computed.
+    /// The joint references, or the measured effector, could not be computed.
     Kinematics(KinematicsError),
+    /// The contour follower could not take a step.
+    Contour(ContourError),
+    /// The effector left the contour by more than the normal-error limit.
+    ContourError,
+    /// A carriage fell behind its reference by more than the joint-error limit.
+    FollowingError {
+        /// Carriage index.
+        axis: u8,
+    },
+    /// A carriage's force stayed at its limit longer than the saturation limit.
+    Saturated,
 }
 
 /// One period's telemetry.
@@ -324,8 +405,25 @@ pub enum DeltaFault {
 pub struct DeltaTelemetry<T> {
     /// The carriages.
     pub joints: JointTelemetry<T, 3>,
-    /// The effector's reference position during a straight move, m.
+    /// The effector's reference position during a straight move or a contour, m.
     pub effector_reference_m: Option<[T; 3]>,
+    /// During a contour: what the supervision measured.
+    pub contour: Option<ContourTelemetry<T>>,
+}
+
+/// One contour period as measured.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct ContourTelemetry<T> {
+    /// The effector, FK of the measured carriages, m.
+    pub effector_m: [T; 3],
+    /// The error in the path's frame (tangential, normal, vertical), m; in the base
+    /// frame (x, y, z) where the reference is too slow for a frame.
+    pub frame_error_m: [T; 3],
+    /// The contour error the supervision checks: |normal error|, or the planar error
+    /// without a frame, m.
+    pub contour_error_m: T,
+    /// The effector's measured speed along the reference's tangent, m/s.
+    pub tangential_speed_m_s: T,
 }
 
 /// Where a running job is.
@@ -338,6 +436,7 @@ enum Phase<T> {
         period: u32,
         periods: u32,
     },
+    Contour,
 }
 
 /// The delta slave as a [`Machine`] the supervisor runs.
@@ -352,6 +451,14 @@ pub struct DeltaSlave<T: Float> {
     approach: JointJob<3>,
     phase: Option<Phase<T>>,
     effector_reference_m: Option<[T; 3]>,
+    /// The contour in progress (built at `Start`, run after the approach).
+    contour: Option<ContourRun<T>>,
+    contour_telemetry: Option<ContourTelemetry<T>>,
+    preview: Preview<T>,
+    contouring: Contouring<T>,
+    normal_error_limit_m: T,
+    joint_error_limit_m: T,
+    saturation_periods: u32,
 }
 
 impl<T: Float> DeltaSlave<T> {
@@ -361,6 +468,15 @@ impl<T: Float> DeltaSlave<T> {
         let geometry = DeltaGeometry::new(&config.delta).within("delta")?;
         // Homes are checked against the actuators' travel there.
         let joints = Joints::new(&config.joints_config()).within("joints")?;
+        let limits = &config.contour;
+        let limit = |name, value| {
+            positive(name, value)
+                .and_then(|v| crate::error::representable::<T>(name, v))
+                .within("contour")
+        };
+        let saturation_periods = positive("saturation_limit_s", limits.saturation_limit_s)
+            .within("contour")?
+            / config.joints.period_s;
         Ok(Self {
             joints,
             geometry,
@@ -369,6 +485,13 @@ impl<T: Float> DeltaSlave<T> {
             approach: JointJob::new(),
             phase: None,
             effector_reference_m: None,
+            contour: None,
+            contour_telemetry: None,
+            preview: Preview::new(&limits.preview).within("contour.preview")?,
+            contouring: Contouring::new(&limits.contouring).within("contour.contouring")?,
+            normal_error_limit_m: limit("normal_error_limit_m", limits.normal_error_limit_m)?,
+            joint_error_limit_m: limit("joint_error_limit_m", limits.joint_error_limit_m)?,
+            saturation_periods: libm::ceil(saturation_periods).min(f64::from(u32::MAX)) as u32,
         })
     }
 
@@ -451,11 +574,18 @@ impl<T: Float> Machine for DeltaSlave<T> {
             target_m: job.start_joints_m,
             duration_s: job.approach_s,
         });
+        // A contour's run is built before anything moves: a curve that does not fit
+        // the scalar refuses the start.
+        self.contour = match &job.contour {
+            Some(contour) => Some(ContourRun::new(contour, &self.geometry)?),
+            None => None,
+        };
         self.joints
             .begin_job(&self.approach)
             .map_err(DeltaJobError::Approach)?;
         self.phase = Some(Phase::Approach);
         self.effector_reference_m = None;
+        self.contour_telemetry = None;
         Ok(())
     }
 
@@ -468,6 +598,10 @@ impl<T: Float> Machine for DeltaSlave<T> {
                     .map_err(DeltaFault::Joint)?;
                 Ok(match step {
                     Step::Continue(forces) => Step::Continue(forces),
+                    Step::Done(forces) if self.contour.is_some() => {
+                        self.phase = Some(Phase::Contour);
+                        Step::Continue(forces)
+                    }
                     Step::Done(forces) => match self.next_move(job, 0) {
                         Some(phase) => {
                             self.phase = Some(phase);
@@ -509,13 +643,16 @@ impl<T: Float> Machine for DeltaSlave<T> {
                     None => Step::Done(forces),
                 })
             }
+            Some(Phase::Contour) => self.contour_period(inputs),
             None => Ok(Step::Done(self.safe_outputs())),
         }
     }
 
     fn begin_stop(&mut self) {
         self.phase = None;
+        self.contour = None;
         self.effector_reference_m = None;
+        self.contour_telemetry = None;
         self.joints.begin_stop();
     }
 
@@ -530,13 +667,16 @@ impl<T: Float> Machine for DeltaSlave<T> {
     fn reset(&mut self) {
         self.joints.reset();
         self.phase = None;
+        self.contour = None;
         self.effector_reference_m = None;
+        self.contour_telemetry = None;
     }
 
     fn telemetry(&self) -> DeltaTelemetry<T> {
         DeltaTelemetry {
             joints: self.joints.telemetry(),
             effector_reference_m: self.effector_reference_m,
+            contour: self.contour_telemetry,
         }
     }
 }

@@ -317,6 +317,11 @@ impl<T: Real, const N: usize> Joints<T, N> {
         self.period_s
     }
 
+    /// The law every axis runs.
+    pub fn law(&self) -> &AxisLaw<T> {
+        &self.law
+    }
+
     /// The axes' states.
     pub fn axes(&self) -> &[AxisState<T>; N] {
         &self.axes

@@ -106,6 +106,9 @@ pub struct ContouringOutput<T> {
     pub position_m: Vector3<T>,
     /// The effector's measured velocity Jx q̇, m/s.
     pub velocity_m_s: Vector3<T>,
+    /// The contour error: |normal error| with a frame, the planar error's length
+    /// without one, m.
+    pub contour_error_m: T,
 }
 
 /// The contouring law's coefficients (it keeps no state).
@@ -146,6 +149,40 @@ impl<T: Float> Contouring<T> {
         position: &Vector3<T>,
         velocity: &Vector3<T>,
     ) -> Result<(Vector3<T>, Vector3<T>), ContourFrameError> {
+        self.task_acceleration_framed(reference, position, velocity)
+            .map(|(a, e, _)| (a, e))
+    }
+
+    /// The frame error of the measured `position` and the contour error
+    /// ([`ContouringOutput::contour_error_m`]), for supervising another law.
+    pub fn frame_error(
+        &self,
+        reference: &TaskReference<T>,
+        position: &Vector3<T>,
+    ) -> Result<(Vector3<T>, T), ContourFrameError> {
+        let e = reference.position - position;
+        match ContourFrame::new(
+            &reference.velocity,
+            &reference.acceleration,
+            &reference.jerk,
+            self.min_speed_m_s,
+        ) {
+            Ok(frame) => {
+                let e_o = frame.to_frame(&e);
+                Ok((e_o, e_o.y.abs()))
+            }
+            Err(ContourFrameError::SpeedTooLow) => Ok((e, planar_norm(&e))),
+            Err(error) => Err(error),
+        }
+    }
+
+    /// [`Contouring::task_acceleration`] and whether the reference had a frame.
+    fn task_acceleration_framed(
+        &self,
+        reference: &TaskReference<T>,
+        position: &Vector3<T>,
+        velocity: &Vector3<T>,
+    ) -> Result<(Vector3<T>, Vector3<T>, bool), ContourFrameError> {
         let frame = match ContourFrame::new(
             &reference.velocity,
             &reference.acceleration,
@@ -154,7 +191,8 @@ impl<T: Float> Contouring<T> {
         ) {
             Ok(frame) => frame,
             Err(ContourFrameError::SpeedTooLow) => {
-                return Ok(self.hold(reference, position, velocity))
+                let (a, e) = self.hold(reference, position, velocity);
+                return Ok((a, e, false));
             }
             Err(error) => return Err(error),
         };
@@ -179,7 +217,11 @@ impl<T: Float> Contouring<T> {
             + self.kp.component_mul(&e_o)
             + jo_dot_e_dot * two
             + self.kd.component_mul(&rotated_e_dot);
-        Ok((reference.acceleration + frame.from_frame(&in_frame), e_o))
+        Ok((
+            reference.acceleration + frame.from_frame(&in_frame),
+            e_o,
+            true,
+        ))
     }
 
     /// Without a frame: the base-frame PD with the normal gains on x and y.
@@ -213,9 +255,14 @@ impl<T: Float> Contouring<T> {
             .jacobian(q, &position)
             .map_err(ContouringError::Kinematics)?;
         let velocity = jx * q_dot;
-        let (acceleration, frame_error_m) = self
-            .task_acceleration(reference, &position, &velocity)
+        let (acceleration, frame_error_m, framed) = self
+            .task_acceleration_framed(reference, &position, &velocity)
             .map_err(ContouringError::Frame)?;
+        let contour_error_m = if framed {
+            frame_error_m.y.abs()
+        } else {
+            planar_norm(&frame_error_m)
+        };
         let jx_dot = geometry
             .jacobian_derivative(q, &position, q_dot)
             .map_err(ContouringError::Kinematics)?;
@@ -227,8 +274,14 @@ impl<T: Float> Contouring<T> {
             frame_error_m,
             position_m: position,
             velocity_m_s: velocity,
+            contour_error_m,
         })
     }
+}
+
+/// √(x² + y²).
+fn planar_norm<T: Float>(e: &Vector3<T>) -> T {
+    (e.x * e.x + e.y * e.y).fsqrt()
 }
 
 #[cfg(test)]

@@ -33,7 +33,7 @@ pub struct EfdSample<T: Float> {
 }
 
 /// An n-harmonic EFD curve with capacity `N` harmonics.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Efd<T: Float, const N: usize> {
     centre: Vector2<T>,
     /// (ak, bk, ck, dk) for k = 1..=harmonics; entries past `harmonics` are zero.
@@ -200,6 +200,34 @@ impl<T: Float, const N: usize> Efd<T, N> {
             return Err(ContourError::ZeroLength);
         }
         Ok(efd)
+    }
+
+    /// The same curve in the scalar `T`, from its `f64` description (a job planned in
+    /// `f64`): the coefficients are rounded to `T` and the perimeter kept, so this
+    /// costs 4n conversions and a bound, not a quadrature.
+    /// Errors: a coefficient or the curve's derivatives beyond `T` (`NotRepresentable`).
+    pub fn from_f64(curve: &Efd<f64, N>) -> Result<Self, ContourError> {
+        let mut coefficients = [[T::ZERO; 4]; N];
+        for (row, src) in coefficients.iter_mut().zip(curve.coefficients()) {
+            for (o, v) in row.iter_mut().zip(src) {
+                *o = representable("coefficients", *v)?;
+            }
+        }
+        let centre = curve.centre();
+        let efd = Self {
+            centre: Vector2::new(
+                representable("centre_m", centre.x)?,
+                representable("centre_m", centre.y)?,
+            ),
+            coefficients,
+            harmonics: curve.harmonics(),
+            perimeter_m: curve.polygon_perimeter_m(),
+        };
+        if efd.derivatives_fit() {
+            Ok(efd)
+        } else {
+            Err(ConfigError::not_representable("coefficients").into())
+        }
     }
 
     /// Whether [`Efd::evaluate`] stays finite in `T` at every θ: Σk k³ (|ak| + |bk| +

@@ -357,6 +357,30 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
     /// the limit, V·Ts longer than the curve, or V²κmax above the limit
     /// ([`ContourError::SpeedAboveCurvatureLimit`] carries the highest allowed speed).
     pub fn new(efd: Efd<T, N>, config: &FollowerConfig, theta0: f64) -> Result<Self, ContourError> {
+        let limit = positive("accel_limit_m_s2", config.accel_limit_m_s2)?;
+        let length = to_f64(efd.arc_length(T::ZERO, lit(2.0 * PI), 16 * efd.harmonics()));
+        if config.ramp.speed_m_s * config.ramp.ts_s >= length {
+            return Err(ContourError::StepLongerThanContour);
+        }
+        let v_max = max_speed_m_s(&efd, limit)?;
+        if config.ramp.speed_m_s > v_max {
+            return Err(ContourError::SpeedAboveCurvatureLimit {
+                max_speed_m_s: v_max,
+            });
+        }
+        Self::for_checked_curve(efd, config, theta0)
+    }
+
+    /// A follower on a curve whose length and curvature were already checked against
+    /// `config` (by [`ContourFollower::new`] on the same curve, or by a job's plan in
+    /// `f64`): only the ramp, the limit, θ0 and the Newton count are validated, a few
+    /// dozen operations, so a control period can build it. The curve-wide checks of
+    /// `new` sample the whole curve and cost far more.
+    pub fn for_checked_curve(
+        efd: Efd<T, N>,
+        config: &FollowerConfig,
+        theta0: f64,
+    ) -> Result<Self, ContourError> {
         let ramp = SpeedRamp::new(&config.ramp)?;
         let limit = positive("accel_limit_m_s2", config.accel_limit_m_s2)?;
         if config.ramp.accel_m_s2 > limit {
@@ -367,16 +391,6 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
         }
         if config.newton_steps > MAX_NEWTON_STEPS {
             return Err(ConfigError::out_of_range("newton_steps").into());
-        }
-        let length = to_f64(efd.arc_length(T::ZERO, lit(2.0 * PI), 16 * efd.harmonics()));
-        if config.ramp.speed_m_s * config.ramp.ts_s >= length {
-            return Err(ContourError::StepLongerThanContour);
-        }
-        let v_max = max_speed_m_s(&efd, limit)?;
-        if config.ramp.speed_m_s > v_max {
-            return Err(ContourError::SpeedAboveCurvatureLimit {
-                max_speed_m_s: v_max,
-            });
         }
         let two_pi = lit::<T>(2.0 * PI);
         let mut theta = lit::<T>(theta0 - 2.0 * PI * libm::floor(theta0 / (2.0 * PI)));
@@ -415,6 +429,19 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
     /// Stops (jerk-limited ramp to rest).
     pub fn stop(&mut self) {
         self.ramp.stop();
+    }
+
+    /// The reference where the follower stands, at rest (zero derivatives).
+    pub fn at_rest(&self) -> ContourReference<T> {
+        let zero = Vector2::new(T::ZERO, T::ZERO);
+        ContourReference {
+            position: self.sample.position,
+            velocity: zero,
+            acceleration: zero,
+            jerk: zero,
+            speed: T::ZERO,
+            theta: self.theta,
+        }
     }
 
     /// Current θ in [0, 2π).

@@ -1,0 +1,465 @@
+//! Contour jobs of the delta slave (T ch. 4, 8.1–8.2): the effector follows an EFD
+//! curve at a constant tangential speed, in the cutting plane z = const, driven by one
+//! of three laws on the per-joint disturbance observers ([`ContourLaw`]).
+//!
+//! Planning (the slower context, `f64`): the curve's length and curvature against the
+//! speed ([`ContourFollower::new`]), then [`PLAN_SAMPLES_PER_LAP`] points per lap, in
+//! path order, each checked for reach, travel, singularity and the carriages' speed and
+//! acceleration at cruise (centripetal V²κ plus the ramp's tangential acceleration, a
+//! bound of what the ramps and cruise ask). The first point that fails is named in the
+//! error with its coordinates. Samples 2π/512 apart in θ are a few tens of
+//! micrometres of path on the test contours, far closer than the workspace boundary
+//! bends.
+//!
+//! Running (each control period, in the scalar `T`): the follower steps the reference
+//! two periods ahead ([`PreviewWindow`]); the newest sample's joint references come
+//! from the kinematics (T eq. 146); the law of the job turns the present (or, for
+//! preview, the shifted) taps and the measured joints into desired joint accelerations;
+//! the disturbance observers turn those into forces. Every period is supervised: the
+//! contour error (normal to the path; the planar error where the reference is too slow
+//! for a frame), every joint's following error and the force saturation, each against
+//! a limit of [`ContourConfig`]; past one, the machine faults with zero force in the
+//! same period.
+
+use super::{
+    joint_references, ContourTelemetry, DeltaFault, DeltaJobError, DeltaSlave, DeltaSlaveConfig,
+};
+use crate::app::supervisor::{Machine, Step};
+use crate::control::contouring::ContouringError;
+use crate::control::contouring::{ContouringConfig, TaskReference};
+use crate::control::pd::Reference;
+use crate::control::preview::{PreviewConfig, PreviewWindow};
+use crate::error::{positive, ConfigError};
+use crate::kinematics::delta::DeltaGeometry;
+use crate::scalar::{lit, Float};
+use crate::trajectory::efd::Efd;
+use crate::trajectory::tangential::{
+    ContourFollower, ContourReference, FollowerConfig, SpeedRamp, SpeedRampConfig,
+};
+use crate::trajectory::ContourError;
+use core::f64::consts::PI;
+use nalgebra::Vector3;
+
+/// Harmonics a contour job can carry.
+pub const CONTOUR_HARMONICS: usize = 30;
+
+/// Points per lap at which a plan checks reach and limits.
+pub const PLAN_SAMPLES_PER_LAP: usize = 512;
+
+/// The law that drives the joints along a contour. All three end in the same per-joint
+/// disturbance observers.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ContourLaw {
+    /// Independent joint control: each joint's PD (the axis law's gains) on its own
+    /// reference, the baseline of T fig. 8.4.
+    Joint,
+    /// Joint PD with preview of the reference (T 4.2.1, `control::preview`).
+    Preview,
+    /// The law in the frame moving with the path (T 4.3.2, `control::contouring`).
+    Contouring,
+}
+
+/// The slave's contour laws and the limits that supervise a contour.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct ContourConfig {
+    /// Preview law gains.
+    pub preview: PreviewConfig,
+    /// Contouring law gains and the slowest reference with a frame.
+    pub contouring: ContouringConfig,
+    /// Largest contour error (normal to the path) before a fault, m.
+    pub normal_error_limit_m: f64,
+    /// Largest following error of any carriage before a fault, m.
+    pub joint_error_limit_m: f64,
+    /// Longest time any carriage's force may stay at its limit before a fault, s.
+    pub saturation_limit_s: f64,
+    /// Newton corrections of the arc-length step per period
+    /// ([`FollowerConfig::newton_steps`]).
+    pub newton_steps: u8,
+}
+
+impl ContourConfig {
+    /// The Keops slave's stiffness budget, matched across the laws: every law has the
+    /// axis PD's error poles, a double pole at 2π·40 rad/s, in each direction it
+    /// regulates (joint PD and preview per joint; contouring along the tangent, the
+    /// normal and z). The laws differ only in where they measure the error and which
+    /// reference taps they use. Frames below 0.5 mm/s (the ramps pass it within a
+    /// few periods). Limits: 50 µm normal, 0.5 mm per carriage (a blocked carriage
+    /// reaches it within tens of milliseconds at cutting speeds), 20 ms at the force
+    /// limit. No Newton correction: the Taylor step is exact to 1e-13 m per period.
+    pub const KEOPS: Self = Self {
+        preview: PreviewConfig {
+            surface_slope_per_s: 2.0 * PI * 40.0,
+            reaching_rate_per_s: 2.0 * PI * 40.0,
+        },
+        contouring: ContouringConfig {
+            tangential: crate::control::pd::PdConfig {
+                kp_per_s2: (2.0 * PI * 40.0) * (2.0 * PI * 40.0),
+                kd_per_s: 2.0 * 2.0 * PI * 40.0,
+            },
+            normal: crate::control::pd::PdConfig {
+                kp_per_s2: (2.0 * PI * 40.0) * (2.0 * PI * 40.0),
+                kd_per_s: 2.0 * 2.0 * PI * 40.0,
+            },
+            vertical: crate::control::pd::PdConfig {
+                kp_per_s2: (2.0 * PI * 40.0) * (2.0 * PI * 40.0),
+                kd_per_s: 2.0 * 2.0 * PI * 40.0,
+            },
+            min_speed_m_s: 5e-4,
+        },
+        normal_error_limit_m: 50e-6,
+        joint_error_limit_m: 0.5e-3,
+        saturation_limit_s: 0.02,
+        newton_steps: 0,
+    };
+}
+
+/// What an operator asks of a contour job.
+#[derive(Copy, Clone, Debug)]
+pub struct ContourPlan<'a> {
+    /// The curve, relative to its own centre.
+    pub efd: &'a Efd<f64, CONTOUR_HARMONICS>,
+    /// Where the curve's centre goes, and the cutting height z, m.
+    pub centre_m: [f64; 3],
+    /// Where on the curve the cut starts, rad.
+    pub theta0_rad: f64,
+    /// How far to go, in laps of the curve (more than the two speed ramps' length).
+    pub laps: f64,
+    /// Tangential speed V, m/s.
+    pub speed_m_s: f64,
+    /// Largest tangential acceleration of the start and stop ramps, m/s².
+    pub accel_m_s2: f64,
+    /// Largest tangential jerk of the ramps, m/s³.
+    pub jerk_m_s3: f64,
+    /// Time of the joint-space approach to the start point, s.
+    pub approach_s: f64,
+    /// The law.
+    pub law: ContourLaw,
+}
+
+/// A planned contour: everything a period needs, checked.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct ContourJob {
+    efd: Efd<f64, CONTOUR_HARMONICS>,
+    centre_m: [f64; 3],
+    theta0_rad: f64,
+    follower: FollowerConfig,
+    /// Periods from the start of the ramp to the start of the stop ramp.
+    stop_after_periods: u32,
+    law: ContourLaw,
+}
+
+/// The effector's reference from the follower's sample (relative to the curve centre).
+fn task_reference<T: Float>(centre: &Vector3<T>, r: &ContourReference<T>) -> TaskReference<T> {
+    let planar = |v: nalgebra::Vector2<T>| Vector3::new(v.x, v.y, T::zero());
+    TaskReference {
+        position: centre + planar(r.position),
+        velocity: planar(r.velocity),
+        acceleration: planar(r.acceleration),
+        jerk: planar(r.jerk),
+    }
+}
+
+impl ContourJob {
+    /// Plans `plan` for `config` (module docs). Returns the job and the start point.
+    pub(super) fn plan(
+        config: &DeltaSlaveConfig,
+        plan: &ContourPlan<'_>,
+    ) -> Result<(Self, [f64; 3]), DeltaJobError> {
+        let contour = DeltaJobError::Contour;
+        let config_error = |e: ConfigError| DeltaJobError::Contour(ContourError::Config(e));
+        if !plan.centre_m.iter().all(|c| c.is_finite()) {
+            return Err(config_error(ConfigError::not_finite("centre_m")));
+        }
+        let laps = positive("laps", plan.laps).map_err(config_error)?;
+        let period_s = config.joints.period_s;
+        let follower = FollowerConfig {
+            ramp: SpeedRampConfig {
+                speed_m_s: plan.speed_m_s,
+                accel_m_s2: plan.accel_m_s2,
+                jerk_m_s3: plan.jerk_m_s3,
+                ts_s: period_s,
+            },
+            accel_limit_m_s2: config.joints.accel_limit_m_s2,
+            newton_steps: config.contour.newton_steps,
+        };
+        // Length against the step, curvature against the speed, the ramp, θ0.
+        ContourFollower::new(plan.efd.clone(), &follower, plan.theta0_rad).map_err(contour)?;
+        let ramp = SpeedRamp::<f64>::new(&follower.ramp).map_err(config_error)?;
+        let lap_m = plan
+            .efd
+            .arc_length(0.0, 2.0 * PI, 64 * plan.efd.harmonics());
+        let length_m = laps * lap_m;
+        let cruise_m = length_m - 2.0 * ramp.ramp_distance_m();
+        let cruise_periods = cruise_m / (plan.speed_m_s * period_s);
+        if !(cruise_m >= 0.0 && cruise_periods < f64::from(u32::MAX / 2)) {
+            return Err(config_error(ConfigError::out_of_range("laps")));
+        }
+        let stop_after_periods = ramp.ramp_periods() + libm::round(cruise_periods) as u32;
+
+        let geometry =
+            DeltaGeometry::<f64>::new(&config.delta).map_err(|_| DeltaJobError::OtherMachine)?;
+        let centre = Vector3::from(plan.centre_m);
+        let limits = &config.joints;
+        let samples = libm::ceil(laps * PLAN_SAMPLES_PER_LAP as f64) as usize;
+        let (v, a) = (plan.speed_m_s, plan.accel_m_s2);
+        let mut start = [0.0; 3];
+        for i in 0..=samples {
+            let theta = plan.theta0_rad + 2.0 * PI * laps * i as f64 / samples as f64;
+            let s = plan.efd.evaluate(theta);
+            let point = centre + Vector3::new(s.position.x, s.position.y, 0.0);
+            let point_m: [f64; 3] = point.into();
+            if i == 0 {
+                start = point_m;
+            }
+            let sigma = s.d1.norm();
+            let tangent = s.d1 / sigma;
+            let normal = nalgebra::Vector2::new(-tangent.y, tangent.x);
+            let curvature = s.d1.perp(&s.d2) / (sigma * sigma * sigma);
+            let planar = |w: nalgebra::Vector2<f64>| Vector3::new(w.x, w.y, 0.0);
+            let velocity = planar(tangent * v);
+            let acceleration = planar(normal * (v * v * curvature) + tangent * a);
+            let joints = joint_references(&geometry, &point, &velocity, &acceleration)
+                .map_err(|error| DeltaJobError::ContourUnreachable { point_m, error })?;
+            for (axis, r) in joints.iter().enumerate() {
+                if libm::fabs(r.velocity) > limits.speed_limit_m_s
+                    || libm::fabs(r.acceleration) > limits.accel_limit_m_s2
+                {
+                    return Err(DeltaJobError::ContourTooFast {
+                        point_m,
+                        axis: axis as u8,
+                    });
+                }
+            }
+        }
+        Ok((
+            Self {
+                efd: plan.efd.clone(),
+                centre_m: plan.centre_m,
+                theta0_rad: plan.theta0_rad,
+                follower,
+                stop_after_periods,
+                law: plan.law,
+            },
+            start,
+        ))
+    }
+
+    /// The law.
+    pub(super) fn law(&self) -> ContourLaw {
+        self.law
+    }
+}
+
+/// A contour in progress.
+#[derive(Clone, Debug)]
+pub(super) struct ContourRun<T: Float> {
+    follower: ContourFollower<T, CONTOUR_HARMONICS>,
+    centre: Vector3<T>,
+    law: ContourLaw,
+    /// Task references at k, k+1, k+2.
+    pub(super) task: PreviewWindow<TaskReference<T>>,
+    /// The joint references of the same taps.
+    pub(super) joints: PreviewWindow<[Reference<T>; 3]>,
+    started: bool,
+    period: u32,
+    stop_after_periods: u32,
+    /// Periods the window has been draining since the follower came to rest.
+    drained: u8,
+    /// Consecutive periods with a force at its limit.
+    pub(super) saturated_periods: u32,
+}
+
+impl<T: Float> ContourRun<T> {
+    /// The run of `job`, at rest at its start, built in `T` (a few hundred conversions:
+    /// the curve was checked when the job was planned).
+    pub(super) fn new(
+        job: &ContourJob,
+        geometry: &DeltaGeometry<T>,
+    ) -> Result<Self, DeltaJobError> {
+        let efd =
+            Efd::<T, CONTOUR_HARMONICS>::from_f64(&job.efd).map_err(DeltaJobError::Contour)?;
+        let follower = ContourFollower::for_checked_curve(efd, &job.follower, job.theta0_rad)
+            .map_err(DeltaJobError::Contour)?;
+        let centre = Vector3::new(
+            lit(job.centre_m[0]),
+            lit(job.centre_m[1]),
+            lit(job.centre_m[2]),
+        );
+        let first = task_reference(&centre, &follower.at_rest());
+        let joints = joint_references(
+            geometry,
+            &first.position,
+            &first.velocity,
+            &first.acceleration,
+        )
+        .map_err(|error| DeltaJobError::ContourUnreachable {
+            point_m: job.centre_m,
+            error,
+        })?;
+        Ok(Self {
+            follower,
+            centre,
+            law: job.law,
+            task: PreviewWindow::filled(first),
+            joints: PreviewWindow::filled(joints),
+            started: false,
+            period: 0,
+            stop_after_periods: job.stop_after_periods,
+            drained: 0,
+            saturated_periods: 0,
+        })
+    }
+
+    /// The law.
+    pub(super) fn law(&self) -> ContourLaw {
+        self.law
+    }
+
+    /// Steps the reference one period (the newest tap, two periods ahead) and shifts the
+    /// windows. Returns `true` once the follower has stopped and the present tap is at
+    /// rest at the end.
+    pub(super) fn advance(
+        &mut self,
+        geometry: &DeltaGeometry<T>,
+    ) -> Result<bool, super::DeltaFault> {
+        if !self.started {
+            self.follower.start();
+            self.started = true;
+        }
+        if self.period == self.stop_after_periods {
+            self.follower.stop();
+        }
+        self.period = self.period.saturating_add(1);
+        let r = self.follower.step().map_err(super::DeltaFault::Contour)?;
+        let task = task_reference(&self.centre, &r);
+        let joints = joint_references(geometry, &task.position, &task.velocity, &task.acceleration)
+            .map_err(super::DeltaFault::Kinematics)?;
+        self.task.push(task);
+        self.joints.push(joints);
+        if self.period > self.stop_after_periods && self.follower.ramp().is_at_rest() {
+            self.drained = self.drained.saturating_add(1);
+        }
+        Ok(self.drained > 2)
+    }
+}
+
+impl<T: Float> DeltaSlave<T> {
+    /// One period of the contour in progress (module docs).
+    pub(super) fn contour_period(
+        &mut self,
+        inputs: &[[u16; 3]; 3],
+    ) -> Result<Step<[T; 3]>, DeltaFault> {
+        let Some(run) = self.contour.as_mut() else {
+            return Ok(Step::Done(self.joints.safe_outputs()));
+        };
+        let done = run.advance(&self.geometry)?;
+        let (q, q_dot) = self.joints.measure(inputs).map_err(DeltaFault::Joint)?;
+        let (q_m, q_dot_m_s) = (Vector3::from(q), Vector3::from(q_dot));
+        let task = *run.task.now();
+        let joint_references = *run.joints.now();
+        let kinematics = DeltaFault::Kinematics;
+        let lost = || DeltaFault::Contour(ContourError::LostContour);
+        let (acceleration, frame_error_m, contour_error_m, effector_m, effector_velocity) =
+            match run.law() {
+                ContourLaw::Contouring => {
+                    let out = self
+                        .contouring
+                        .joint_acceleration(&self.geometry, &task, &q_m, &q_dot_m_s)
+                        .map_err(|e| match e {
+                            // Only a reference that is not finite has no frame here.
+                            ContouringError::Frame(_) => lost(),
+                            ContouringError::Kinematics(e) => kinematics(e),
+                        })?;
+                    (
+                        out.joint_acceleration.into(),
+                        out.frame_error_m,
+                        out.contour_error_m,
+                        out.position_m,
+                        out.velocity_m_s,
+                    )
+                }
+                law => {
+                    let p = self.geometry.forward(&q_m).map_err(kinematics)?;
+                    let jx = self.geometry.jacobian(&q_m, &p).map_err(kinematics)?;
+                    let (e, contour_error) =
+                        self.contouring.frame_error(&task, &p).map_err(|_| lost())?;
+                    let mut acceleration = [T::zero(); 3];
+                    for (k, (a, (position, velocity))) in acceleration
+                        .iter_mut()
+                        .zip(q.iter().copied().zip(q_dot.iter().copied()))
+                        .enumerate()
+                    {
+                        *a = match law {
+                            ContourLaw::Preview => {
+                                let window = run.joints.map(|r| {
+                                    r.get(k).copied().unwrap_or(Reference {
+                                        position,
+                                        velocity,
+                                        acceleration: T::zero(),
+                                    })
+                                });
+                                self.preview.acceleration(&window, position, velocity)
+                            }
+                            _ => match joint_references.get(k) {
+                                Some(r) => self.joints.law().pd_acceleration(r, position, velocity),
+                                None => T::zero(),
+                            },
+                        };
+                    }
+                    (acceleration, e, contour_error, p, jx * q_dot_m_s)
+                }
+            };
+        let (forces, saturated) = self
+            .joints
+            .actuate(joint_references, &acceleration, &q_dot)
+            .map_err(DeltaFault::Joint)?;
+        run.saturated_periods = if saturated {
+            run.saturated_periods.saturating_add(1)
+        } else {
+            0
+        };
+        // The measured speed along the reference's tangent (zero where it has none).
+        let reference_speed = task.velocity.norm();
+        let tangential_speed_m_s = if reference_speed > T::zero() {
+            effector_velocity.dot(&task.velocity) / reference_speed
+        } else {
+            T::zero()
+        };
+        self.effector_reference_m = Some(task.position.into());
+        self.contour_telemetry = Some(ContourTelemetry {
+            effector_m: effector_m.into(),
+            frame_error_m: frame_error_m.into(),
+            contour_error_m,
+            tangential_speed_m_s,
+        });
+        // Supervision; a NaN fails every comparison and faults too.
+        let within = |error: T, limit: T| {
+            matches!(
+                error.partial_cmp(&limit),
+                Some(core::cmp::Ordering::Less | core::cmp::Ordering::Equal)
+            )
+        };
+        if !within(contour_error_m, self.normal_error_limit_m) {
+            return Err(DeltaFault::ContourError);
+        }
+        for (k, (r, position)) in joint_references.iter().zip(q.iter()).enumerate() {
+            let error = r.position - *position;
+            if !(within(error, self.joint_error_limit_m)
+                && within(-error, self.joint_error_limit_m))
+            {
+                return Err(DeltaFault::FollowingError { axis: k as u8 });
+            }
+        }
+        if run.saturated_periods > self.saturation_periods {
+            return Err(DeltaFault::Saturated);
+        }
+        Ok(if done {
+            self.contour = None;
+            self.phase = None;
+            Step::Done(forces)
+        } else {
+            Step::Continue(forces)
+        })
+    }
+}
