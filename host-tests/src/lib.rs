@@ -2,4 +2,5 @@
 
 pub mod contours;
 pub mod hall;
+pub mod machining;
 pub mod signals;

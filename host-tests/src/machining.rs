@@ -1,0 +1,252 @@
+//! The contour-machining experiment of T 8.2.1 on the simulated Keops slave: a shape
+//! planned as a contour job, run by the machine app (calibration, approach, contour)
+//! under the supervisor, with the plant read back only through its Hall sensors.
+//!
+//! The figures are measured on the plant's true state, not on what the machine
+//! believes: the contour error is the signed distance from the true effector to the
+//! reference path (the polyline of every period's reference, 0.8 µm apart at 8 mm/s and
+//! 10 kHz, so the chord error of the polyline is below 1e-13 m), found by walking
+//! the nearest reference index along with the effector; the tangential speed is the
+//! true effector velocity along the path's direction at that point.
+
+use hal_mock::delta_plant::DeltaPlantParams;
+use hal_mock::hall_sensor::HallSensorParams;
+use kerf::app::delta_slave::{
+    ContourLaw, ContourPlan, DeltaFault, DeltaJob, DeltaSlaveConfig, CONTOUR_HARMONICS,
+};
+use kerf::app::supervisor::{Machine, Mode};
+use kerf::trajectory::efd::Efd;
+use kerf::Float;
+use kerf_sim::slave::{run_slave_job, SlaveError, SlaveScenario};
+
+/// Cutting height of the experiment, m (the square scenario's, mid-workspace).
+pub const CUT_HEIGHT_M: f64 = 0.050;
+
+/// One contour run: what to cut, how, on which machine.
+#[derive(Clone, Debug)]
+pub struct ContourCase {
+    /// The shape's polygon, m (closed, centred near the origin).
+    pub polygon: Vec<[f64; 2]>,
+    /// Harmonics of its EFD.
+    pub harmonics: usize,
+    /// Tangential speed, m/s.
+    pub speed_m_s: f64,
+    /// The law.
+    pub law: ContourLaw,
+    /// Control period, s.
+    pub period_s: f64,
+    /// The plant.
+    pub plant: DeltaPlantParams,
+}
+
+/// One period of a run, in the contour phase.
+#[derive(Copy, Clone, Debug)]
+pub struct ContourSample {
+    /// Time since the contour's first period, s.
+    pub t_s: f64,
+    /// The machine's reference, m.
+    pub reference_m: [f64; 3],
+    /// The true effector, m.
+    pub effector_m: [f64; 3],
+    /// The true effector velocity, m/s.
+    pub effector_velocity_m_s: [f64; 3],
+    /// Forces applied, N.
+    pub force_n: [f64; 3],
+}
+
+/// What a run measured.
+#[derive(Clone, Debug)]
+pub struct ContourReport {
+    /// Largest |contour error|, m.
+    pub max_normal_m: f64,
+    /// RMS contour error, m.
+    pub rms_normal_m: f64,
+    /// Largest |tangential speed − reference speed| at cruise, m/s.
+    pub max_speed_error_m_s: f64,
+    /// Largest |force| on any carriage, N.
+    pub peak_force_n: f64,
+    /// The machine's fault, if it stopped on one.
+    pub fault: Option<DeltaFault>,
+    /// The contour error of every period (signed, left of the path positive), m.
+    pub normal_m: Vec<f64>,
+    /// Every period of the contour phase.
+    pub samples: Vec<ContourSample>,
+}
+
+/// The shape scaled by `scale` about its centroid.
+pub fn scaled(points: &[[f64; 2]], scale: f64) -> Vec<[f64; 2]> {
+    let n = points.len() as f64;
+    let cx = points.iter().map(|p| p[0]).sum::<f64>() / n;
+    let cy = points.iter().map(|p| p[1]).sum::<f64>() / n;
+    points
+        .iter()
+        .map(|p| [(p[0] - cx) * scale, (p[1] - cy) * scale])
+        .collect()
+}
+
+/// The machine of a case: the Keops preset at the case's period.
+pub fn machine(period_s: f64) -> DeltaSlaveConfig {
+    let mut config = DeltaSlaveConfig::KEOPS;
+    config.joints.period_s = period_s;
+    config
+}
+
+/// Plans the case's job: one lap from θ = 0, ramps of 0.1 m/s² and 10 m/s³.
+pub fn plan(case: &ContourCase) -> Result<DeltaJob, kerf::app::delta_slave::DeltaJobError> {
+    let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&case.polygon, case.harmonics)
+        .map_err(kerf::app::delta_slave::DeltaJobError::Contour)?;
+    DeltaJob::plan_contour(
+        &machine(case.period_s),
+        &ContourPlan {
+            efd: &efd,
+            centre_m: [0.0, 0.0, CUT_HEIGHT_M],
+            theta0_rad: 0.0,
+            laps: 1.0,
+            speed_m_s: case.speed_m_s,
+            accel_m_s2: 0.1,
+            jerk_m_s3: 10.0,
+            approach_s: 0.3,
+            law: case.law,
+        },
+    )
+}
+
+/// Runs the case in the scalar `T` and measures it (module docs).
+pub fn run<T: Float>(case: &ContourCase) -> Result<ContourReport, SlaveError> {
+    let job = plan(case).map_err(SlaveError::Job)?;
+    let mut scenario = SlaveScenario::square();
+    scenario.machine = machine(case.period_s);
+    scenario.plant = case.plant;
+    let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&case.polygon, case.harmonics)
+        .map_err(|e| SlaveError::Job(kerf::app::delta_slave::DeltaJobError::Contour(e)))?;
+    let perimeter = efd.arc_length(0.0, 2.0 * core::f64::consts::PI, 1024);
+    let job_s = 0.3 + perimeter / case.speed_m_s + 1.0;
+    let mut samples = Vec::new();
+    let mut fault = None;
+    let mut t0 = None;
+    run_slave_job::<T>(&scenario, job, job_s, 200, |period, rig| {
+        let telemetry = rig.supervisor().machine().telemetry();
+        if let Mode::Fault(f) = period.mode {
+            fault.get_or_insert(f);
+        }
+        let (Some(_), Some(reference)) = (telemetry.contour, telemetry.effector_reference_m) else {
+            return;
+        };
+        let start = *t0.get_or_insert(period.t_s);
+        let plant = &rig.plant().plant;
+        let (Ok(p), Ok(v)) = (plant.effector_m(), plant.effector_velocity_m_s()) else {
+            return;
+        };
+        samples.push(ContourSample {
+            t_s: period.t_s - start,
+            reference_m: reference.map(|r| r.to_f64()),
+            effector_m: p.into(),
+            effector_velocity_m_s: v.into(),
+            force_n: plant.applied_force_n().into(),
+        });
+    })?;
+    Ok(measure(samples, fault, case.period_s, case.speed_m_s))
+}
+
+/// The figures of a run's samples (module docs).
+pub fn measure(
+    samples: Vec<ContourSample>,
+    fault: Option<DeltaFault>,
+    period_s: f64,
+    speed_m_s: f64,
+) -> ContourReport {
+    let reference: Vec<[f64; 2]> = samples
+        .iter()
+        .map(|s| [s.reference_m[0], s.reference_m[1]])
+        .collect();
+    let distance_sq = |j: usize, p: [f64; 2]| {
+        let r = reference[j];
+        (r[0] - p[0]).powi(2) + (r[1] - p[1]).powi(2)
+    };
+    let mut normal_m = Vec::with_capacity(samples.len());
+    let mut j = 0;
+    let (mut max_normal, mut sum_sq, mut max_speed_error, mut peak_force) =
+        (0.0f64, 0.0, 0.0f64, 0.0f64);
+    for (i, s) in samples.iter().enumerate() {
+        let p = [s.effector_m[0], s.effector_m[1]];
+        while j + 1 < reference.len() && distance_sq(j + 1, p) <= distance_sq(j, p) {
+            j += 1;
+        }
+        while j > 0 && distance_sq(j - 1, p) < distance_sq(j, p) {
+            j -= 1;
+        }
+        // Distance to the segments on either side of the nearest vertex, signed by the
+        // path's left normal.
+        let mut best = f64::INFINITY;
+        let mut signed = 0.0;
+        for (a, b) in [
+            (j.saturating_sub(1), j),
+            (j, (j + 1).min(reference.len() - 1)),
+        ] {
+            let (ra, rb) = (reference[a], reference[b]);
+            let d = [rb[0] - ra[0], rb[1] - ra[1]];
+            let len_sq = d[0] * d[0] + d[1] * d[1];
+            let u = if len_sq > 0.0 {
+                (((p[0] - ra[0]) * d[0] + (p[1] - ra[1]) * d[1]) / len_sq).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let c = [ra[0] + u * d[0], ra[1] + u * d[1]];
+            let off = [p[0] - c[0], p[1] - c[1]];
+            let dist = off[0].hypot(off[1]);
+            if dist < best {
+                best = dist;
+                signed = if len_sq > 0.0 && d[0] * off[1] - d[1] * off[0] < 0.0 {
+                    -dist
+                } else {
+                    dist
+                };
+            }
+        }
+        normal_m.push(signed);
+        max_normal = max_normal.max(best);
+        sum_sq += best * best;
+        // Tangential speed along the path at the nearest point, against the reference
+        // speed of this period; at cruise only (the ramps change speed on purpose).
+        let (a, b) = (
+            j.min(reference.len().saturating_sub(2)),
+            (j + 1).min(reference.len() - 1),
+        );
+        let d = [
+            reference[b][0] - reference[a][0],
+            reference[b][1] - reference[a][1],
+        ];
+        let step = d[0].hypot(d[1]);
+        let reference_speed = if i + 1 < reference.len() {
+            let n = [
+                reference[i + 1][0] - reference[i][0],
+                reference[i + 1][1] - reference[i][1],
+            ];
+            n[0].hypot(n[1]) / period_s
+        } else {
+            0.0
+        };
+        if step > 0.0 && (reference_speed - speed_m_s).abs() < 1e-6 * speed_m_s {
+            let v = s.effector_velocity_m_s;
+            let along = (v[0] * d[0] + v[1] * d[1]) / step;
+            max_speed_error = max_speed_error.max((along - reference_speed).abs());
+        }
+        peak_force = s.force_n.iter().fold(peak_force, |m, f| m.max(f.abs()));
+    }
+    let n = samples.len().max(1) as f64;
+    ContourReport {
+        max_normal_m: max_normal,
+        rms_normal_m: (sum_sq / n).sqrt(),
+        max_speed_error_m_s: max_speed_error,
+        peak_force_n: peak_force,
+        fault,
+        normal_m,
+        samples,
+    }
+}
+
+/// Every carriage's sensors in the experiment: the square scenario's (imperfect 16-bit,
+/// different on each carriage, calibrated by the machine).
+pub fn sensors() -> [HallSensorParams; 3] {
+    SlaveScenario::square().sensors
+}
