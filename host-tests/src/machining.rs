@@ -37,6 +37,8 @@ pub struct ContourCase {
     pub period_s: f64,
     /// The plant.
     pub plant: DeltaPlantParams,
+    /// From this job time on (s), carriage `.1` is blocked.
+    pub blocked_carriage: Option<(f64, usize)>,
 }
 
 /// One period of a run, in the contour phase.
@@ -67,6 +69,10 @@ pub struct ContourReport {
     pub peak_force_n: f64,
     /// The machine's fault, if it stopped on one.
     pub fault: Option<DeltaFault>,
+    /// Job time of the fault, s.
+    pub fault_at_s: Option<f64>,
+    /// Largest |force| commanded from the fault's period on, N.
+    pub force_after_fault_n: f64,
     /// The contour error of every period (signed, left of the path positive), m.
     pub normal_m: Vec<f64>,
     /// Every period of the contour phase.
@@ -117,6 +123,7 @@ pub fn run<T: Float>(case: &ContourCase) -> Result<ContourReport, SlaveError> {
     let mut scenario = SlaveScenario::square();
     scenario.machine = machine(case.period_s);
     scenario.plant = case.plant;
+    scenario.blocked_carriage = case.blocked_carriage;
     let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&case.polygon, case.harmonics)
         .map_err(|e| SlaveError::Job(kerf::app::delta_slave::DeltaJobError::Contour(e)))?;
     let perimeter = efd.arc_length(0.0, 2.0 * core::f64::consts::PI, 1024);
@@ -124,7 +131,7 @@ pub fn run<T: Float>(case: &ContourCase) -> Result<ContourReport, SlaveError> {
     let mut samples = Vec::new();
     let mut fault = None;
     let mut t0 = None;
-    run_slave_job::<T>(&scenario, job, job_s, 200, |period, rig| {
+    let outcome = run_slave_job::<T>(&scenario, job, job_s, 200, |period, rig| {
         let telemetry = rig.supervisor().machine().telemetry();
         if let Mode::Fault(f) = period.mode {
             fault.get_or_insert(f);
@@ -145,7 +152,10 @@ pub fn run<T: Float>(case: &ContourCase) -> Result<ContourReport, SlaveError> {
             force_n: plant.applied_force_n().into(),
         });
     })?;
-    Ok(measure(samples, fault, case.period_s, case.speed_m_s))
+    let mut report = measure(samples, fault, case.period_s, case.speed_m_s);
+    report.fault_at_s = outcome.fault_at_s;
+    report.force_after_fault_n = outcome.force_after_fault_n;
+    Ok(report)
 }
 
 /// The figures of a run's samples (module docs).
@@ -240,6 +250,8 @@ pub fn measure(
         max_speed_error_m_s: max_speed_error,
         peak_force_n: peak_force,
         fault,
+        fault_at_s: None,
+        force_after_fault_n: 0.0,
         normal_m,
         samples,
     }

@@ -4,7 +4,7 @@
 
 use hal_mock::delta_plant::DeltaPlantParams;
 use host_tests::machining::{run, scaled, ContourCase, ContourReport};
-use kerf::app::delta_slave::ContourLaw;
+use kerf::app::delta_slave::{ContourLaw, DeltaFault};
 use kerf::trajectory::shapes;
 
 fn shapes() -> [(&'static str, Vec<[f64; 2]>); 3] {
@@ -24,6 +24,7 @@ fn case(polygon: &[[f64; 2]], law: ContourLaw, period_s: f64) -> ContourCase {
         law,
         period_s,
         plant: DeltaPlantParams::SLAVE,
+        blocked_carriage: None,
     }
 }
 
@@ -53,4 +54,87 @@ fn contouring_against_joint_control() {
             }
         }
     }
+}
+
+/// A carriage blocked half a second into the contour: the joint's following error (or
+/// its saturated force) stops the machine, every force zero in the same period.
+#[test]
+fn a_blocked_carriage_faults_the_contour_with_zero_force() {
+    let octagon = scaled(&shapes::octagon(), 0.6);
+    for law in [ContourLaw::Joint, ContourLaw::Contouring] {
+        let mut c = case(&octagon, law, 1e-4);
+        c.blocked_carriage = Some((0.8, 1));
+        let r = run::<f32>(&c).unwrap();
+        println!(
+            "blocked carriage 1 at 0.8 s, {law:?}: {:?} at {:?} s",
+            r.fault, r.fault_at_s
+        );
+        assert!(
+            matches!(
+                r.fault,
+                Some(
+                    DeltaFault::ContourError
+                        | DeltaFault::FollowingError { axis: 1 }
+                        | DeltaFault::Saturated
+                )
+            ),
+            "{:?}",
+            r.fault
+        );
+        let at = r.fault_at_s.unwrap();
+        // Blocked at 0.8 s; the limits (50 µm across the path, 0.5 mm per carriage)
+        // are crossed within milliseconds at 8 mm/s.
+        assert!(at > 0.8 && at < 0.9, "{at}");
+        assert_eq!(r.force_after_fault_n, 0.0);
+    }
+}
+
+/// A contour that leaves the workspace is refused at load, naming the first sample (in
+/// path order) that is out of reach; every sample before it is reachable.
+#[test]
+fn a_contour_beyond_the_workspace_names_its_first_unreachable_point() {
+    use kerf::app::delta_slave::{ContourPlan, DeltaJob};
+    use kerf::app::delta_slave::{DeltaJobError, CONTOUR_HARMONICS, PLAN_SAMPLES_PER_LAP};
+    use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
+    use kerf::kinematics::Vector3;
+    use kerf::trajectory::efd::Efd;
+    // A ±20 mm octagon centred 10 mm off the axis: it starts inside (θ = 0, the
+    // vertex nearest the axis side) and its far side leaves the Keops workspace.
+    let big = scaled(&shapes::octagon(), 2.0);
+    let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&big, 30).unwrap();
+    let centre = [-0.010, 0.0, host_tests::machining::CUT_HEIGHT_M];
+    let err = DeltaJob::plan_contour(
+        &host_tests::machining::machine(1e-4),
+        &ContourPlan {
+            efd: &efd,
+            centre_m: centre,
+            theta0_rad: 0.0,
+            laps: 1.0,
+            speed_m_s: 8e-3,
+            accel_m_s2: 0.1,
+            jerk_m_s3: 10.0,
+            approach_s: 0.3,
+            law: ContourLaw::Contouring,
+        },
+    )
+    .unwrap_err();
+    let DeltaJobError::ContourUnreachable { point_m, .. } = err else {
+        panic!("{err:?}");
+    };
+    // The same samples, independently: the first whose IK fails.
+    let geometry = DeltaGeometry::<f64>::new(&DeltaConfig::SLAVE_KEOPS).unwrap();
+    let samples: Vec<Vector3<f64>> = (0..=PLAN_SAMPLES_PER_LAP)
+        .map(|i| {
+            let theta = 2.0 * std::f64::consts::PI * i as f64 / PLAN_SAMPLES_PER_LAP as f64;
+            let p = efd.evaluate(theta).position;
+            Vector3::new(centre[0] + p.x, centre[1] + p.y, centre[2])
+        })
+        .collect();
+    let first = samples
+        .iter()
+        .position(|p| geometry.inverse(p).is_err())
+        .expect("some point out of reach");
+    assert!(first > 0, "the start itself is out of reach");
+    println!("first unreachable point: {point_m:?}");
+    assert_eq!(point_m, <[f64; 3]>::from(samples[first]));
 }

@@ -42,6 +42,9 @@ pub struct SlaveScenario {
     pub approach_s: f64,
     /// From this job time on (s), carriage `.1`'s sensor has fault `.2`.
     pub sensor_fault: Option<(f64, usize, ChannelFault)>,
+    /// From this job time on (s), carriage `.1` is blocked where it is (a crash into
+    /// a fixture, a jammed bearing): its position holds whatever force it gets.
+    pub blocked_carriage: Option<(f64, usize)>,
 }
 
 /// `params` with its channels' imperfections rotated by `k` places: each carriage's
@@ -74,6 +77,7 @@ impl SlaveScenario {
             height_m: 0.050,
             approach_s: 0.3,
             sensor_fault: None,
+            blocked_carriage: None,
         }
     }
 
@@ -129,6 +133,7 @@ pub struct SlaveRig<'q, T: Float> {
     clock: PeriodClock,
     period: u32,
     job_start: Option<u32>,
+    blocked_at_m: Option<f64>,
 }
 
 impl<'q, T: Float> SlaveRig<'q, T> {
@@ -163,6 +168,7 @@ impl<'q, T: Float> SlaveRig<'q, T> {
             clock,
             period: 0,
             job_start: None,
+            blocked_at_m: None,
         })
     }
 
@@ -210,6 +216,14 @@ impl<'q, T: Float> SlaveRig<'q, T> {
                 if let Some(sensor) = self.plant.sensors.get_mut(axis) {
                     sensor.fault = Some(fault);
                 }
+            }
+        }
+        if let (Some(start), Some((at, axis))) = (self.job_start, self.scenario.blocked_carriage) {
+            if f64::from(self.period - start) * ts >= at {
+                let plant = &mut self.plant.plant;
+                let held = *self.blocked_at_m.get_or_insert(plant.q_m[axis.min(2)]);
+                plant.q_m[axis.min(2)] = held;
+                plant.q_dot_m_s[axis.min(2)] = 0.0;
             }
         }
         let reference = self.supervisor.machine().telemetry().effector_reference_m;
