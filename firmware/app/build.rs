@@ -9,6 +9,9 @@ fn main() {
     if env::var("TARGET").is_ok_and(|t| t.starts_with("thumb")) {
         if env::var_os("CARGO_FEATURE_QEMU").is_some() {
             println!("cargo:rustc-link-arg-bins=--defsym=_kerf_flash_origin=0");
+            // The contour image's simulated plant, operator and queues need more than
+            // the board's 128 KiB (memory.x); 1 MiB of the model's 4 MiB SRAM.
+            println!("cargo:rustc-link-arg-bin=contour=--defsym=_kerf_ram_length=0x100000");
         }
         println!("cargo:rustc-link-arg-bins=-Tlink.x");
     }

@@ -3,11 +3,12 @@
 //! by the same [`Operator`] as the single axis: calibrate the three carriages, load a
 //! planned job, start it.
 
-use crate::operator::{Operator, OperatorError, OperatorState, COMMAND_CAPACITY, REPORT_CAPACITY};
+use crate::operator::{Operator, OperatorError, OperatorState};
 use hal_mock::delta::SimulatedDelta;
-use hal_mock::delta_plant::DeltaPlantParams;
+use hal_mock::delta_plant::{DeltaPlant, DeltaPlantParams};
 use hal_mock::hall_sensor::{ChannelFault, HallSensorParams};
 use heapless::spsc::{Consumer, Producer, Queue};
+use kerf::app::axis::HallAxis;
 use kerf::app::delta_slave::{DeltaFault, DeltaJob, DeltaJobError, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::joints::Segment;
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
@@ -45,6 +46,12 @@ pub struct SlaveScenario {
     /// From this job time on (s), carriage `.1` is blocked where it is (a crash into
     /// a fixture, a jammed bearing): its position holds whatever force it gets.
     pub blocked_carriage: Option<(f64, usize)>,
+    /// RK4 steps of the plant per control period.
+    pub substeps: u32,
+    /// Install the nominal decoders instead of calibrating (with sensors that match
+    /// them): no sweep and no fit, for the emulated MCU, whose RAM holds the slave's
+    /// queues and state but not also the fit's working set.
+    pub stored_nominal_calibration: bool,
 }
 
 /// `params` with its channels' imperfections rotated by `k` places: each carriage's
@@ -78,6 +85,8 @@ impl SlaveScenario {
             approach_s: 0.3,
             sensor_fault: None,
             blocked_carriage: None,
+            substeps: 4,
+            stored_nominal_calibration: false,
         }
     }
 
@@ -147,7 +156,7 @@ impl<'q, T: Float> SlaveRig<'q, T> {
         let mut supervisor = Supervisor::new(machine, commands, reports);
         supervisor.set_telemetry_decimation(0);
         let config = &scenario.machine;
-        let plant = SimulatedDelta::new(
+        let mut plant = SimulatedDelta::new(
             &config.delta,
             scenario.plant,
             scenario.sensors,
@@ -156,6 +165,16 @@ impl<'q, T: Float> SlaveRig<'q, T> {
             config.joints.home_m,
         )
         .map_err(SlaveError::Plant)?;
+        if scenario.substeps != 4 {
+            plant.plant = DeltaPlant::new(
+                &config.delta,
+                scenario.plant,
+                config.joints.period_s,
+                scenario.substeps,
+                Vector3::from(config.joints.home_m),
+            )
+            .map_err(SlaveError::Plant)?;
+        }
         let geometry =
             DeltaGeometry::new(&config.delta).map_err(|e| SlaveError::Config(e.within("delta")))?;
         let clock = PeriodClock::new(config.joints.period_s, plant.tick_hz())
@@ -296,6 +315,15 @@ impl SlaveOutcome {
     }
 }
 
+/// Command queue of a slave run: the operator has at most a job load and a start in
+/// flight. A command carries a calibration of three decoders or a job (5 KB each), so
+/// the queue is kept short enough for the emulated MCU's 128 KB of RAM.
+pub const SLAVE_COMMAND_CAPACITY: usize = 4;
+
+/// Report queue of a slave run: the operator drains it every period, and a period
+/// reports at most a calibration sample per carriage, a reply and a mode change.
+pub const SLAVE_REPORT_CAPACITY: usize = 16;
+
 /// Runs `scenario` with the machine in scalar `T`, operator and rig in lockstep, until
 /// the job is done (or the machine faults and `fault_periods` more have passed).
 pub fn run_slave<T: Float>(
@@ -315,12 +343,22 @@ pub fn run_slave_job<T: Float>(
     fault_periods: u32,
     mut each: impl FnMut(&SlavePeriod, &SlaveRig<'_, T>),
 ) -> Result<SlaveOutcome, SlaveError> {
-    let mut commands = Queue::<Command<DeltaSlave<T>>, COMMAND_CAPACITY>::new();
-    let mut reports = Queue::<Report<DeltaSlave<T>>, REPORT_CAPACITY>::new();
+    let mut commands = Queue::<Command<DeltaSlave<T>>, SLAVE_COMMAND_CAPACITY>::new();
+    let mut reports = Queue::<Report<DeltaSlave<T>>, SLAVE_REPORT_CAPACITY>::new();
     let (mut send, from_sender) = commands.split();
     let (to_operator, mut receive) = reports.split();
     let mut rig = SlaveRig::<T>::new(scenario, from_sender, to_operator)?;
-    let mut operator = Operator::new(scenario.machine.joints.hall, None, job);
+    let hall = scenario.machine.joints.hall;
+    let stored = if scenario.stored_nominal_calibration {
+        let [a, b, c] = hall.map(|h| HallAxis::<T>::new(&h));
+        match (a, b, c) {
+            (Ok(a), Ok(b), Ok(c)) => Some([a, b, c]),
+            (Err(e), _, _) | (_, Err(e), _) | (_, _, Err(e)) => return Err(SlaveError::Config(e)),
+        }
+    } else {
+        None
+    };
+    let mut operator = Operator::new(hall, stored, job);
     operator.start(&mut send);
     let mut outcome = SlaveOutcome::default();
     // Calibration sweep (0.8 s), the job, and a margin.
