@@ -59,6 +59,19 @@ impl Counter {
         start.wrapping_sub(end) & 0x00FF_FFFF
     }
 
+    /// Instructions of one call of `body`, net of an empty call; resolution one
+    /// SysTick tick (40 instructions), for calls that cannot be repeated on the same
+    /// input (a machine's period advances its state).
+    pub fn once(&mut self, body: &mut dyn FnMut()) -> f64 {
+        let start = SYST::get_current();
+        black_box(0);
+        let empty = start.wrapping_sub(SYST::get_current()) & 0x00FF_FFFF;
+        let start = SYST::get_current();
+        body();
+        let full = start.wrapping_sub(SYST::get_current()) & 0x00FF_FFFF;
+        f64::from(full.saturating_sub(empty)) * self.instructions_per_tick
+    }
+
     /// Instructions per call of `kernel` (called with the iteration index), net of the
     /// loop and of `black_box` on the index.
     pub fn per_call(&mut self, kernel: impl FnMut(u32)) -> f64 {

@@ -11,7 +11,9 @@ use hal_mock::hall_sensor::{calibration_coast_m, HallSensor, HallSensorParams, C
 use heapless::spsc::Queue;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
 use kerf::app::calibrate::{CalibrationFit, HallMachine, SAMPLES_PER_COAST, SEGMENT_BREAK};
-use kerf::app::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
+use kerf::app::delta_slave::{
+    ContourLaw, ContourPlan, DeltaJob, DeltaSlave, DeltaSlaveConfig, CONTOUR_HARMONICS,
+};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
 use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
 use kerf::codec::dct::{Dct, NaiveDct};
@@ -81,6 +83,7 @@ fn main() -> ! {
     );
 
     kernel_rows(&mut counter);
+    slave_period_rows(&mut counter);
     machine_stacks();
     fit_stack::<Joints<f32, 1>, 1>("Joints<f32, 1>");
     fit_stack::<DeltaSlave<f32>, 3>("DeltaSlave<f32>");
@@ -627,4 +630,116 @@ fn efd_direct(coefficients: &[[f32; 4]], theta: f32) -> [f32; 8] {
         }
     }
     out
+}
+
+/// Hall counts of the nominal 16-bit sensor at carriage position `q_m`.
+fn nominal_counts(q_m: f32) -> [u16; 3] {
+    let cfg = HallConfig::LM1247_16BIT;
+    let phi = 2.0 * PI * q_m / cfg.pitch_m as f32;
+    let mut counts = [0u16; 3];
+    for (ch, shift) in [0.0, 2.0 * PI / 3.0, -2.0 * PI / 3.0]
+        .into_iter()
+        .enumerate()
+    {
+        counts[ch] = (cfg.calibration.offset_counts[ch]
+            + cfg.amplitude_counts as f32 * libm::sinf(phi + shift)) as u16;
+    }
+    counts
+}
+
+/// Periods of a contour measured one by one for the slave-period rows.
+const SLAVE_PERIODS: usize = 256;
+
+/// Mean instructions of one supervisor period of the slave cutting the ±6 mm octagon
+/// (n harmonics) under `law`, each period measured alone; the carriages follow their
+/// references exactly (nominal sensors fed the last period's joint references), so
+/// every measured period runs the whole law.
+#[inline(never)]
+fn slave_period(counter: &mut Counter, harmonics: usize, law: ContourLaw) -> f64 {
+    let config = DeltaSlaveConfig::KEOPS;
+    let mut points = shapes::octagon();
+    for p in points.iter_mut() {
+        *p = [0.6 * p[0], 0.6 * p[1]];
+    }
+    let (Ok(machine), Ok(efd), Ok(sensor)) = (
+        DeltaSlave::<f32>::new(&config),
+        Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&points, harmonics),
+        HallAxis::<f32>::new(&HallConfig::LM1247_16BIT),
+    ) else {
+        exit(false)
+    };
+    let plan = ContourPlan {
+        efd: &efd,
+        centre_m: [0.0, 0.0, 0.05],
+        theta0_rad: 0.0,
+        laps: 1.0,
+        speed_m_s: 8e-3,
+        accel_m_s2: 0.1,
+        jerk_m_s3: 10.0,
+        approach_s: 0.3,
+        law,
+    };
+    let Ok(job) = DeltaJob::plan_contour(&config, &plan) else {
+        exit(false)
+    };
+    let mut commands = Queue::<Command<DeltaSlave<f32>>, 2>::new();
+    let mut reports = Queue::<Report<DeltaSlave<f32>>, 16>::new();
+    let (mut send, command_out) = commands.split();
+    let (report_in, mut receive) = reports.split();
+    let mut supervisor = Supervisor::new(machine, command_out, report_in);
+    let mut inputs = config.joints.home_m.map(|q| nominal_counts(q as f32));
+    let commands = [
+        Command::FinishCalibration([sensor; 3]),
+        Command::LoadJob(job),
+        Command::Start,
+    ];
+    for command in commands {
+        if send.enqueue(command).is_err() {
+            exit(false)
+        }
+        supervisor.step(&inputs);
+        while receive.dequeue().is_some() {}
+    }
+    let mut total = 0.0;
+    let mut measured = 0;
+    // The approach (3 000 periods), the start ramp, then cruise.
+    for period in 0..(4_000 + SLAVE_PERIODS) {
+        let mut step = || {
+            black_box(supervisor.step(black_box(&inputs)));
+        };
+        if period >= 4_000 {
+            total += counter.once(&mut step);
+            measured += 1;
+        } else {
+            step();
+        }
+        while receive.dequeue().is_some() {}
+        let reference = supervisor.machine().joints().reference();
+        inputs = core::array::from_fn(|k| nominal_counts(reference[k].position));
+        if supervisor.machine().telemetry().contour.is_none() && period >= 4_000 {
+            hprintln!(
+                "slave period: not in the contour at period {} ({:?})",
+                period,
+                supervisor.mode()
+            );
+            exit(false)
+        }
+    }
+    total / f64::from(measured)
+}
+
+/// The full slave period (three Hall decodes, the reference, kinematics, the law, three
+/// DOBs, supervision) with the contouring law, beside the baseline joint PD's period.
+#[inline(never)]
+fn slave_period_rows(counter: &mut Counter) {
+    for harmonics in [10, 30] {
+        let contouring = slave_period(counter, harmonics, ContourLaw::Contouring);
+        let joint = slave_period(counter, harmonics, ContourLaw::Joint);
+        hprintln!(
+            "| app::delta_slave contour period <f32>, EFD n={}, contouring law | {:.0} | same period, independent joint PD law | {:.0} |",
+            harmonics,
+            contouring,
+            joint
+        );
+    }
 }

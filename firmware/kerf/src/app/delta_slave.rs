@@ -174,9 +174,19 @@ impl Clone for DeltaJob {
         self.start_joints_m = source.start_joints_m;
         self.approach_s = source.approach_s;
         self.moves.clone_from(&source.moves);
-        self.contour.clone_from(&source.contour);
+        if self.contour.is_some() || source.contour.is_some() {
+            replace_contour(&mut self.contour, &source.contour);
+        }
         self.planned_for = source.planned_for;
     }
+}
+
+/// Copies a contour job (or its absence). Out of line: the temporary copy (a kilobyte
+/// of curve) is on the stack only in this call, not in every `clone_from` of straight
+/// moves.
+#[inline(never)]
+fn replace_contour(contour: &mut Option<ContourJob>, from: &Option<ContourJob>) {
+    *contour = from.clone();
 }
 
 /// What a plan was checked against.
@@ -576,10 +586,10 @@ impl<T: Float> Machine for DeltaSlave<T> {
         });
         // A contour's run is built before anything moves: a curve that does not fit
         // the scalar refuses the start.
-        self.contour = match &job.contour {
-            Some(contour) => Some(ContourRun::new(contour, &self.geometry)?),
-            None => None,
-        };
+        self.contour = None;
+        if let Some(contour) = &job.contour {
+            ContourRun::start(&mut self.contour, contour, &self.geometry)?;
+        }
         self.joints
             .begin_job(&self.approach)
             .map_err(DeltaJobError::Approach)?;

@@ -271,12 +271,21 @@ pub(super) struct ContourRun<T: Float> {
 }
 
 impl<T: Float> ContourRun<T> {
-    /// The run of `job`, at rest at its start, built in `T` (a few hundred conversions:
-    /// the curve was checked when the job was planned).
-    pub(super) fn new(
+    /// Builds the run of `job` into `slot`. Out of line, like the period: a machine that
+    /// starts straight moves does not carry the run's temporaries on its stack.
+    #[inline(never)]
+    pub(super) fn start(
+        slot: &mut Option<Self>,
         job: &ContourJob,
         geometry: &DeltaGeometry<T>,
-    ) -> Result<Self, DeltaJobError> {
+    ) -> Result<(), DeltaJobError> {
+        *slot = Some(Self::new(job, geometry)?);
+        Ok(())
+    }
+
+    /// The run of `job`, at rest at its start, built in `T` (a few hundred conversions:
+    /// the curve was checked when the job was planned).
+    fn new(job: &ContourJob, geometry: &DeltaGeometry<T>) -> Result<Self, DeltaJobError> {
         let efd =
             Efd::<T, CONTOUR_HARMONICS>::from_f64(&job.efd).map_err(DeltaJobError::Contour)?;
         let follower = ContourFollower::for_checked_curve(efd, &job.follower, job.theta0_rad)
@@ -345,7 +354,9 @@ impl<T: Float> ContourRun<T> {
 }
 
 impl<T: Float> DeltaSlave<T> {
-    /// One period of the contour in progress (module docs).
+    /// One period of the contour in progress (module docs). Out of line: its frame
+    /// (the kinematics' and the law's matrices) is paid only while a contour runs.
+    #[inline(never)]
     pub(super) fn contour_period(
         &mut self,
         inputs: &[[u16; 3]; 3],
