@@ -15,4 +15,5 @@
 
 pub mod contouring;
 pub mod dob;
+pub mod laser;
 pub mod pd;
