@@ -2,4 +2,5 @@
 
 pub mod contours;
 pub mod hall;
+pub mod plot;
 pub mod signals;
