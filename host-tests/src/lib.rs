@@ -1,6 +1,7 @@
 //! Shared helpers for the host scenario tests.
 
 pub mod contours;
+pub mod depth;
 pub mod hall;
 pub mod plot;
 pub mod signals;
