@@ -1,6 +1,8 @@
 //! Shared helpers for the host scenario tests.
 
 pub mod contours;
+pub mod depth;
 pub mod hall;
 pub mod machining;
+pub mod plot;
 pub mod signals;

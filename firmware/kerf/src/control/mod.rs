@@ -15,5 +15,6 @@
 
 pub mod contouring;
 pub mod dob;
+pub mod laser;
 pub mod pd;
 pub mod preview;
