@@ -1,5 +1,7 @@
 //! A simulated delta robot behind kerf's HAL traits: the Lagrangian plant with one set
-//! of Hall sensors per carriage. Nine Hall counts out, three forces in.
+//! of Hall sensors per carriage. Nine Hall counts out, three forces in; the forces go
+//! through the plant's drive (`DeltaPlantParams::drive`: DAC, current loop, ripple), so
+//! what the controller writes and what acts on the rails can differ.
 
 use crate::axis::SimulatedClock;
 use crate::delta_plant::{DeltaPlant, DeltaPlantParams};
@@ -24,8 +26,9 @@ pub struct SimulatedDelta {
 }
 
 impl SimulatedDelta {
-    /// The plant at rest at carriage positions `q_m`, 4 RK4 substeps per period of
-    /// `ts_s`; carriage `k` has the sensors `sensors[k]`, noise seeded `seed + k`.
+    /// The plant at rest at carriage positions `q_m`, 4 RK4 substeps (or more, as the
+    /// plant's friction needs) per period of `ts_s`; carriage `k` has the sensors
+    /// `sensors[k]`, noise seeded `seed + k`.
     pub fn new(
         config: &DeltaConfig,
         plant: DeltaPlantParams,
@@ -41,6 +44,17 @@ impl SimulatedDelta {
             error: None,
             clock: SimulatedClock::new(ts_s),
         })
+    }
+
+    /// Forces the controller wrote for the last period, N per carriage.
+    pub fn commanded_force_n(&self) -> [f64; 3] {
+        self.plant.commanded_force_n().into()
+    }
+
+    /// Forces that acted along the rails over the last period (mean, after the limit
+    /// and the drive), N per carriage.
+    pub fn applied_force_n(&self) -> [f64; 3] {
+        self.plant.applied_force_n().into()
     }
 }
 
@@ -75,5 +89,48 @@ impl Monotonic for SimulatedDelta {
     }
     fn now(&mut self) -> u64 {
         self.clock.now()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kerf::kinematics::delta::Root;
+
+    fn delta(params: DeltaPlantParams) -> SimulatedDelta {
+        let mut c = DeltaConfig::SLAVE_KEOPS;
+        c.fk_root = Root::Minus;
+        for a in c.actuators.iter_mut() {
+            a.travel_min_m = -0.03;
+            a.travel_max_m = 0.06;
+        }
+        let sensors = [HallSensorParams::LM1247_16BIT; 3];
+        SimulatedDelta::new(&c, params, sensors, 1e-4, 1, [0.012, 0.006, 0.0]).unwrap()
+    }
+
+    #[test]
+    fn reports_the_commanded_and_the_applied_force() {
+        let written = [1.0f32, f32::NAN, 10.0];
+        // Ideal drive: the command after the limit acts (NaN → 0, 10 → 3.6 N).
+        let mut d = delta(DeltaPlantParams::SLAVE);
+        d.write(&written);
+        assert_eq!(d.applied_force_n(), [1.0, 0.0, 3.6]);
+        let c = d.commanded_force_n();
+        assert!(c[0] == 1.0 && c[1].is_nan() && c[2] == 10.0);
+        // Realistic drive: over the first period the 2 kHz current loop delivers on
+        // average 1 − (τ/T)(1 − e^(−T/τ)) = 0.43 of the 1 N step (the ripple adds at
+        // most 2 % of that plus 15 mN).
+        let mut d = delta(DeltaPlantParams::SLAVE_REALISTIC);
+        d.write(&written);
+        let tau = DeltaPlantParams::SLAVE_REALISTIC.drive.current_tau_s();
+        let mean = 1.0 - tau / 1e-4 * (1.0 - libm::exp(-1e-4 / tau));
+        let applied = d.applied_force_n();
+        assert!(
+            (applied[0] - mean).abs() < 0.02 * mean + 0.015 + 1e-4,
+            "{applied:?}"
+        );
+        assert!(applied[1].abs() <= 0.015 + 1e-9, "{applied:?}");
+        assert!(applied[2] > 1.0 && applied[2] < 3.6, "{applied:?}");
+        assert_eq!(d.commanded_force_n()[0], 1.0);
     }
 }

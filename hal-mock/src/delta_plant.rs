@@ -5,27 +5,50 @@
 //! generalized coordinates are the carriage displacements q and ṗ = Jx q̇):
 //!
 //!   T = ½ q̇ᵀ Mc q̇ + ½ me |ṗ|²,   V = −g · (mc Σ Ci + me p)
-//!   ⇒ (Mc + me Jxᵀ Jx) q̈ = F − b q̇ + mc (g · ui) + Jxᵀ me g − me Jxᵀ J̇x q̇,
+//!   ⇒ (Mc + me Jxᵀ Jx) q̈ = F − b q̇ − Fc tanh(q̇/vs) + mc (g · ui) + Jxᵀ me g
+//!                          − me Jxᵀ J̇x q̇,
 //!
-//! where the last term is the velocity-product (Coriolis/centripetal) force of the
-//! effector seen at the carriages, ui the rail directions and g = (0, 0, gz) gravity
-//! along the base z axis. Arms are massless; an arm's mass ma is lumped half at each
-//! end (mc += ma/2, me += 3 ma/2), which keeps every arm's mass and centre of mass
-//! and neglects its rotational inertia (ma la²/12, small for slender arms). Masses and
-//! force limits of the presets are from T 7.1.1–7.1.2.
+//! where the velocity-product term is the Coriolis/centripetal force of the effector
+//! seen at the carriages, ui the rail directions and g = (0, 0, gz) gravity along the
+//! base z axis. Arms are massless; an arm's mass ma is lumped half at each end
+//! (mc += ma/2, me += 3 ma/2), which keeps every arm's mass and centre of mass and
+//! neglects its rotational inertia (ma la²/12, small for slender arms). A payload on
+//! the effector adds to me (mass matrix and gravity alike; the effector only
+//! translates, so its inertia tensor never enters). Masses and force limits of the
+//! presets are from T 7.1.1–7.1.2.
+//!
+//! Every force on q acts along a carriage's own rail, so it enters the generalized
+//! force unchanged: the motor force F from the drive (`crate::drive`: DAC, current
+//! loop, ripple in the carriage's own q) and the friction of the carriage's bearings,
+//! viscous b q̇ plus Coulomb Fc regularized as Fc tanh(q̇/vs). The regularization
+//! replaces stiction by a steep viscous slope Fc/vs around rest, so a carriage pushed
+//! below Fc creeps at vs atanh(F/Fc) instead of sticking; vs is chosen far below every
+//! intended speed (see [`DeltaPlantParams::SLAVE_REALISTIC`]).
 //!
 //! Integration: classical fourth-order Runge–Kutta in joint coordinates with the force
-//! held over a control period (zero-order hold) and `substeps` steps per period. The
-//! effector is always computed by FK from q, so the loop closure holds to rounding at
-//! every instant; RK4 has local error O(h⁵), which at h ≤ 1e-4 s and the plant's
-//! modes (≤ 100 Hz without control) keeps the energy error far below what any test
-//! of a controller can see (measured in `energy_is_conserved_without_input`). A
-//! symplectic scheme (implicit midpoint) would need an iterated FK per stage.
+//! command held over a control period (zero-order hold) and `substeps` steps per
+//! period. The current loop's output is not approximated: within a substep it is the
+//! exact solution of its first-order lag with the command held, evaluated at each RK4
+//! stage's time. The effector is always computed by FK from q, so the loop closure
+//! holds to rounding at every instant; RK4 has local error O(h⁵), which at h ≤ 1e-4 s
+//! and the plant's modes (≤ 100 Hz without control) keeps the energy error far below
+//! what any test of a controller can see (measured in
+//! `energy_is_conserved_without_input`). The friction's slope near rest is stiff
+//! (Fc/(vs mc) ≈ 1.1e4 /s for the realistic slave), so the plant raises the substep
+//! count until h (Fc/vs + b)/mc ≤ [`MAX_FRICTION_STEP`]; the largest eigenvalue of
+//! M⁻¹ times the friction slope is at most that, since M ≥ mc I. A symplectic scheme
+//! (implicit midpoint) would need an iterated FK per stage.
 
+use crate::drive::DriveParams;
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
 use kerf::kinematics::{Matrix3, Vector3};
 
-/// Mass and force parameters of a delta plant.
+/// Largest product of the substep and the friction's stiffness, h (Fc/vs + b)/mc, the
+/// plant integrates with: RK4 is stable up to 2.79 on a decaying mode, and at 0.5 its
+/// error per step on that mode is (0.5)⁵/120 ≈ 3e-4 of what is left of it.
+pub const MAX_FRICTION_STEP: f64 = 0.5;
+
+/// Mass, friction and drive parameters of a delta plant.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct DeltaPlantParams {
     /// Moving mass of each carriage (motor slider plus its share of fixings) in kg.
@@ -38,31 +61,81 @@ pub struct DeltaPlantParams {
     pub force_limit_n: f64,
     /// Viscous friction per carriage in N·s/m.
     pub viscous_n_s_per_m: f64,
+    /// Coulomb friction per carriage in N, along its rail: Fc tanh(q̇/vs).
+    pub coulomb_n: f64,
+    /// Regularization velocity vs of the Coulomb friction in m/s (> 0 whenever
+    /// `coulomb_n` is).
+    pub coulomb_velocity_m_s: f64,
+    /// Payload carried by the effector in kg (workpiece and holder), which the
+    /// controller's model does not include.
+    pub payload_kg: f64,
     /// Gravity component along the base +z axis in m/s² (−9.81 with z up).
     pub gravity_z_m_s2: f64,
+    /// The motor drives: DAC, current loop, force ripple.
+    pub drive: DriveParams,
 }
 
 impl DeltaPlantParams {
     /// Horizontal master (T 7.1.1): 335 g per motor, 164 g effector (the thesis gives
     /// these as totals, so arms are taken as included), 10 N continuous. No friction
-    /// (set it per test); z up.
+    /// (set it per test), no payload, ideal drive; z up.
     pub const MASTER: Self = Self {
         carriage_mass_kg: 0.335,
         effector_mass_kg: 0.164,
         arm_mass_kg: 0.0,
         force_limit_n: 10.0,
         viscous_n_s_per_m: 0.0,
+        coulomb_n: 0.0,
+        coulomb_velocity_m_s: 0.0,
+        payload_kg: 0.0,
         gravity_z_m_s2: -9.81,
+        drive: DriveParams::IDEAL,
     };
 
     /// Keops slave (T 7.1.2): 71 g per motor, 68 g effector, 3.6 N continuous; z up.
+    /// Frictionless, no payload, ideal drive.
     pub const SLAVE: Self = Self {
         carriage_mass_kg: 0.071,
         effector_mass_kg: 0.068,
         arm_mass_kg: 0.0,
         force_limit_n: 3.6,
         viscous_n_s_per_m: 0.0,
+        coulomb_n: 0.0,
+        coulomb_velocity_m_s: 0.0,
+        payload_kg: 0.0,
         gravity_z_m_s2: -9.81,
+        drive: DriveParams::IDEAL,
+    };
+
+    /// The Keops slave as the real robot is: [`DeltaPlantParams::SLAVE`]'s masses and
+    /// limit plus
+    ///
+    /// - Coulomb friction 0.08 N and viscous 0.5 N·s/m per carriage: the LM1247's
+    ///   slider runs in sleeve bearings, and these are the values of
+    ///   `LinearMotorParams::LM1247_WITH_PAYLOAD` (≈2 % of the continuous force,
+    ///   the order of a polymer sleeve bearing under the light side load of the arms).
+    ///   Assumptions: the seed gives no friction figures. The arms' ruby-ball joints
+    ///   (T 7.1.2, "very low friction between aluminum and ruby") turn under small
+    ///   moment arms and are neglected.
+    /// - vs = 0.1 mm/s: the width of the Coulomb law's transition, far below the
+    ///   slave's contouring speeds (tens of mm/s) so the friction reverses as sharply
+    ///   as a controller can see; a carriage held at half of Fc creeps at
+    ///   vs atanh(0.5) = 55 µm/s. Stiffness Fc/(vs mc) = 1.1e4 /s: at the 10 kHz loop
+    ///   with 4 substeps (`SimulatedDelta`), h k = 0.28 (the plant adds substeps past
+    ///   0.5).
+    /// - Payload 20 g: the slave carries the workpiece under the fixed laser head
+    ///   (T 7.1.3; wood and fibreglass sheets, T 8.2.2). A 40 × 40 mm sheet of a few
+    ///   mm (≈5 g) on an aluminium holder plate (≈15 g) is the assumed order, 30 % of
+    ///   the 68 g effector.
+    /// - Drive [`DriveParams::LM1247_DS1103`]: 16-bit DAC, 2 kHz current loop,
+    ///   commutation, current-offset and detent ripple.
+    pub const SLAVE_REALISTIC: Self = Self {
+        viscous_n_s_per_m: 0.5,
+        coulomb_n: 0.08,
+        coulomb_velocity_m_s: 1e-4,
+        payload_kg: 0.020,
+        drive: DriveParams::LM1247_DS1103,
+        ..Self::SLAVE
     };
 }
 
@@ -79,16 +152,21 @@ pub struct DeltaPlant {
     pub q_m: Vector3<f64>,
     /// Carriage velocities q̇ in m/s.
     pub q_dot_m_s: Vector3<f64>,
+    /// Current loops' outputs (current × force constant) in N.
+    drive_force_n: Vector3<f64>,
+    commanded_force_n: Vector3<f64>,
     applied_force_n: Vector3<f64>,
 }
 
-/// Time derivative of the state (q̇, q̈).
-type Rate = (Vector3<f64>, Vector3<f64>);
+/// Time derivative of the state (q̇, q̈) and the motor forces along the rails.
+type Rate = (Vector3<f64>, Vector3<f64>, Vector3<f64>);
 
 impl DeltaPlant {
-    /// A plant at rest at `q_m`, stepped every `ts_s` with `substeps` RK4 steps.
-    /// Fails when `q_m` does not assemble; an invalid geometry (see
-    /// `DeltaGeometry::new`) is reported as `KinematicsError::NotFinite`.
+    /// A plant at rest at `q_m`, stepped every `ts_s` with `substeps` RK4 steps (more
+    /// when the Coulomb friction needs them, see [`MAX_FRICTION_STEP`]), current loops
+    /// at zero. Fails when `q_m` does not assemble; an invalid geometry (see
+    /// `DeltaGeometry::new`) or Coulomb friction without a positive regularization
+    /// velocity and carriage mass is reported as `KinematicsError::NotFinite`.
     pub fn new(
         config: &DeltaConfig,
         params: DeltaPlantParams,
@@ -105,7 +183,24 @@ impl DeltaPlant {
             libm::sin(a2.alpha_rad),
             libm::sin(a3.alpha_rad),
         ) * (carriage_mass * params.gravity_z_m_s2);
-        let substeps = substeps.max(1);
+        let mut substeps = substeps.max(1);
+        if params.coulomb_n != 0.0 {
+            let valid = params.coulomb_n > 0.0
+                && params.coulomb_velocity_m_s > 0.0
+                && carriage_mass > 0.0
+                && ts_s.is_finite();
+            if !valid {
+                return Err(KinematicsError::NotFinite);
+            }
+            let stiffness_per_s = (params.coulomb_n / params.coulomb_velocity_m_s
+                + params.viscous_n_s_per_m)
+                / carriage_mass;
+            let needed = libm::ceil(ts_s * stiffness_per_s / MAX_FRICTION_STEP);
+            if !needed.is_finite() || needed >= 1e6 {
+                return Err(KinematicsError::NotFinite);
+            }
+            substeps = substeps.max(needed as u32);
+        }
         Ok(Self {
             geometry,
             params,
@@ -114,6 +209,8 @@ impl DeltaPlant {
             h_s: ts_s / f64::from(substeps),
             q_m,
             q_dot_m_s: Vector3::zeros(),
+            drive_force_n: Vector3::zeros(),
+            commanded_force_n: Vector3::zeros(),
             applied_force_n: Vector3::zeros(),
         })
     }
@@ -123,7 +220,17 @@ impl DeltaPlant {
     }
 
     fn effector_mass_kg(&self) -> f64 {
-        self.params.effector_mass_kg + 1.5 * self.params.arm_mass_kg
+        self.params.effector_mass_kg + 1.5 * self.params.arm_mass_kg + self.params.payload_kg
+    }
+
+    /// Parameters in use.
+    pub fn params(&self) -> &DeltaPlantParams {
+        &self.params
+    }
+
+    /// RK4 substep in s (the control period over the substeps in use).
+    pub fn substep_s(&self) -> f64 {
+        self.h_s
     }
 
     /// Effector position p = FK(q) in m.
@@ -137,12 +244,40 @@ impl DeltaPlant {
         Ok(self.geometry.jacobian(&self.q_m, &p)? * self.q_dot_m_s)
     }
 
-    /// Motor forces applied during the last period (after the limit) in N.
+    /// Motor forces the controller commanded for the last period, as written (before
+    /// the limit, the DAC and the current loop), in N.
+    pub fn commanded_force_n(&self) -> Vector3<f64> {
+        self.commanded_force_n
+    }
+
+    /// Motor forces along the rails during the last period in N: the command after the
+    /// limit for an ideal drive; otherwise their mean over the period (current loop and
+    /// ripple included, by the integrator's own quadrature).
     pub fn applied_force_n(&self) -> Vector3<f64> {
         self.applied_force_n
     }
 
-    /// Kinetic plus potential energy in J (potential zero at z = 0 of every mass).
+    /// Current loops' outputs now (current × force constant, before ripple) in N.
+    pub fn drive_force_n(&self) -> Vector3<f64> {
+        self.drive_force_n
+    }
+
+    /// Rail forces that hold the present pose at rest, −(mc g · ui + Jxᵀ me g) in N
+    /// (payload included; friction, which can only help at rest, and ripple left out).
+    pub fn holding_force_n(&self) -> Result<Vector3<f64>, KinematicsError> {
+        let p = self.effector_m()?;
+        let jx = self.geometry.jacobian(&self.q_m, &p)?;
+        let gravity = Vector3::new(
+            0.0,
+            0.0,
+            self.params.gravity_z_m_s2 * self.effector_mass_kg(),
+        );
+        Ok(-(self.carriage_gravity_n + jx.transpose() * gravity))
+    }
+
+    /// Kinetic plus potential energy in J (gravity's potential zero at z = 0 of every
+    /// mass, payload included), plus the potential of the drive's current-independent
+    /// ripple (zero for an ideal drive).
     pub fn energy_j(&self, config: &DeltaConfig) -> Result<f64, KinematicsError> {
         let p = self.effector_m()?;
         let p_dot = self.geometry.jacobian(&self.q_m, &p)? * self.q_dot_m_s;
@@ -153,15 +288,29 @@ impl DeltaPlant {
             .map(|c| c.z)
             .sum();
         let potential = -self.params.gravity_z_m_s2 * (mc * carriage_height + me * p.z);
-        Ok(kinetic + potential)
+        let drive = &self.params.drive;
+        let ripple: f64 = (0..3)
+            .map(|i| drive.ripple_potential_j(i, self.q_m[i]))
+            .sum();
+        Ok(kinetic + potential + ripple)
     }
 
-    /// (q̇, q̈) at state (q, q̇) with motor forces `force_n`.
+    /// Coulomb friction on each carriage in N, Fc tanh(q̇/vs).
+    fn coulomb_n(&self, q_dot: &Vector3<f64>) -> Vector3<f64> {
+        let (fc, vs) = (self.params.coulomb_n, self.params.coulomb_velocity_m_s);
+        if fc == 0.0 {
+            Vector3::zeros()
+        } else {
+            q_dot.map(|v| fc * libm::tanh(v / vs))
+        }
+    }
+
+    /// (q̇, q̈, rail forces) at state (q, q̇) with current-loop outputs `drive_n`.
     fn rate(
         &self,
         q: &Vector3<f64>,
         q_dot: &Vector3<f64>,
-        force_n: &Vector3<f64>,
+        drive_n: &Vector3<f64>,
     ) -> Result<Rate, KinematicsError> {
         let p = self.geometry.forward(q)?;
         let jx = self.geometry.jacobian(q, &p)?;
@@ -170,7 +319,9 @@ impl DeltaPlant {
         let mass =
             Matrix3::from_diagonal_element(self.carriage_mass_kg()) + jx.transpose() * jx * me;
         let gravity = Vector3::new(0.0, 0.0, self.params.gravity_z_m_s2 * me);
-        let rhs = force_n - q_dot * self.params.viscous_n_s_per_m
+        let drive = &self.params.drive;
+        let rail = Vector3::from_fn(|i, _| drive.rail_force_n(i, drive_n[i], q[i]));
+        let rhs = rail - q_dot * self.params.viscous_n_s_per_m - self.coulomb_n(q_dot)
             + self.carriage_gravity_n
             + jx.transpose() * gravity
             - jx.transpose() * (jx_dot * q_dot) * me;
@@ -179,33 +330,50 @@ impl DeltaPlant {
             .cholesky()
             .ok_or(KinematicsError::SingularJ2)?
             .solve(&rhs);
-        Ok((*q_dot, q_ddot))
+        Ok((*q_dot, q_ddot, rail))
     }
 
     /// Advances one control period with the motor forces `force_cmd_n` held (clipped
-    /// to the continuous limit; a non-finite command applies zero). On error (the
-    /// motion left the assembling or regular region) the state is left at the start
-    /// of the failing substep.
+    /// to the continuous limit, a non-finite command applies zero; then through the
+    /// drive's DAC, current loop and ripple). On error (the motion left the assembling
+    /// or regular region) the state is left at the start of the failing substep.
     pub fn step(&mut self, force_cmd_n: Vector3<f64>) -> Result<(), KinematicsError> {
         let limit = self.params.force_limit_n;
+        let drive = self.params.drive;
+        self.commanded_force_n = force_cmd_n;
         let force = force_cmd_n.map(|f| {
             if f.is_finite() {
-                f.clamp(-limit, limit)
+                drive.quantize_n(f.clamp(-limit, limit))
             } else {
                 0.0
             }
         });
-        self.applied_force_n = force;
+        if drive.current_tau_s() == 0.0 {
+            self.drive_force_n = force;
+        }
         let h = self.h_s;
+        let mut mean = Vector3::zeros();
         for _ in 0..self.substeps {
-            let (q, v) = (self.q_m, self.q_dot_m_s);
-            let (k1q, k1v) = self.rate(&q, &v, &force)?;
-            let (k2q, k2v) = self.rate(&(q + k1q * (0.5 * h)), &(v + k1v * (0.5 * h)), &force)?;
-            let (k3q, k3v) = self.rate(&(q + k2q * (0.5 * h)), &(v + k2v * (0.5 * h)), &force)?;
-            let (k4q, k4v) = self.rate(&(q + k3q * h), &(v + k3v * h), &force)?;
+            let (q, v, f0) = (self.q_m, self.q_dot_m_s, self.drive_force_n);
+            // The current loop's exact output at the stage times 0, h/2, h.
+            let f_half = f0.zip_map(&force, |f0, u| drive.current_loop_n(f0, u, 0.5 * h));
+            let f_end = f0.zip_map(&force, |f0, u| drive.current_loop_n(f0, u, h));
+            let (k1q, k1v, r1) = self.rate(&q, &v, &f0)?;
+            let (k2q, k2v, r2) =
+                self.rate(&(q + k1q * (0.5 * h)), &(v + k1v * (0.5 * h)), &f_half)?;
+            let (k3q, k3v, r3) =
+                self.rate(&(q + k2q * (0.5 * h)), &(v + k2v * (0.5 * h)), &f_half)?;
+            let (k4q, k4v, r4) = self.rate(&(q + k3q * h), &(v + k3v * h), &f_end)?;
             self.q_m = q + (k1q + k2q * 2.0 + k3q * 2.0 + k4q) * (h / 6.0);
             self.q_dot_m_s = v + (k1v + k2v * 2.0 + k3v * 2.0 + k4v) * (h / 6.0);
+            self.drive_force_n = f_end;
+            mean += (r1 + r2 * 2.0 + r3 * 2.0 + r4) / 6.0;
         }
+        self.applied_force_n = if drive.is_instantaneous() {
+            force
+        } else {
+            mean / f64::from(self.substeps)
+        };
         Ok(())
     }
 }
@@ -241,7 +409,7 @@ mod tests {
     /// equilibrium exists (arms ~23° below horizontal), so the unforced robot swings
     /// about it instead of running into a singularity. Travel widened so the swing
     /// stays inside.
-    fn hanging_keops() -> DeltaConfig {
+    pub(super) fn hanging_keops() -> DeltaConfig {
         let mut c = DeltaConfig::SLAVE_KEOPS;
         c.fk_root = Root::Minus;
         for a in c.actuators.iter_mut() {
@@ -329,3 +497,6 @@ mod tests {
         assert!(plant.effector_m().unwrap().z < p.z - 1e-4);
     }
 }
+
+#[cfg(test)]
+mod realistic_tests;

@@ -9,6 +9,7 @@ extern crate std;
 pub mod axis;
 pub mod delta;
 pub mod delta_plant;
+pub mod drive;
 pub mod hall_sensor;
 pub mod linear_motor;
 pub mod link;
