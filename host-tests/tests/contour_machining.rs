@@ -23,7 +23,7 @@ fn case(polygon: &[[f64; 2]], law: ContourLaw, period_s: f64) -> ContourCase {
         speed_m_s: 8e-3,
         law,
         period_s,
-        plant: DeltaPlantParams::SLAVE,
+        plant: DeltaPlantParams::SLAVE_REALISTIC,
         blocked_carriage: None,
     }
 }
