@@ -123,14 +123,20 @@ pub struct ContourSummary {
     pub fault: Option<DeltaFault>,
 }
 
-/// The smoke contour: the octagon at ±6 mm, `laps` laps at 8 mm/s, contouring control,
-/// ramps of 0.1 m/s² and 10 m/s³, on `machine`.
-pub fn octagon_job(machine: &DeltaSlaveConfig, laps: f64) -> Result<DeltaJob, DeltaJobError> {
+/// The octagon at ±6 mm in `harmonics` harmonics, `laps` laps at 8 mm/s under `law`,
+/// ramps of 0.1 m/s² and 10 m/s³, on `machine` (the smoke run's contour with 30
+/// harmonics and contouring control; the benchmark's slave period).
+pub fn octagon_job(
+    machine: &DeltaSlaveConfig,
+    laps: f64,
+    harmonics: usize,
+    law: ContourLaw,
+) -> Result<DeltaJob, DeltaJobError> {
     let mut points = octagon();
     for p in points.iter_mut() {
         *p = [0.6 * p[0], 0.6 * p[1]];
     }
-    let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&points[..OCTAGON_POINTS], 30)
+    let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&points[..OCTAGON_POINTS], harmonics)
         .map_err(DeltaJobError::Contour)?;
     DeltaJob::plan_contour(
         machine,
@@ -143,7 +149,7 @@ pub fn octagon_job(machine: &DeltaSlaveConfig, laps: f64) -> Result<DeltaJob, De
             accel_m_s2: 0.1,
             jerk_m_s3: 10.0,
             approach_s: 0.3,
-            law: ContourLaw::Contouring,
+            law,
         },
     )
 }
@@ -165,7 +171,8 @@ pub fn run_octagon<T: Float>(
         scenario.sensors = [HallSensorParams::LM1247_16BIT; 3];
         scenario.stored_nominal_calibration = true;
     }
-    let job = octagon_job(&scenario.machine, laps).map_err(SlaveError::Job)?;
+    let job = octagon_job(&scenario.machine, laps, 30, ContourLaw::Contouring)
+        .map_err(SlaveError::Job)?;
     // Approach, the lap, the ramps and a margin.
     let job_s = 0.3 + laps * 0.045 / 8e-3 + 1.0;
     let mut meter = ContourMeter::<64>::new();

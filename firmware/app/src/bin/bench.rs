@@ -11,9 +11,7 @@ use hal_mock::hall_sensor::{calibration_coast_m, HallSensor, HallSensorParams, C
 use heapless::spsc::Queue;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
 use kerf::app::calibrate::{CalibrationFit, HallMachine, SAMPLES_PER_COAST, SEGMENT_BREAK};
-use kerf::app::delta_slave::{
-    ContourLaw, ContourPlan, DeltaJob, DeltaSlave, DeltaSlaveConfig, CONTOUR_HARMONICS,
-};
+use kerf::app::delta_slave::{ContourLaw, DeltaJob, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
 use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
 use kerf::codec::dct::{Dct, NaiveDct};
@@ -29,6 +27,7 @@ use kerf::{Real, Q32};
 use kerf_app::bench::Counter;
 use kerf_app::exit;
 use kerf_app::stack::Painted;
+use kerf_sim::contour::octagon_job;
 
 /// Number of distinct inputs cycled through (a power of two).
 const INPUTS: usize = 64;
@@ -47,19 +46,21 @@ fn row(
 
 /// Hall samples over one pitch: an axis moving 1/64 pitch per period.
 fn hall_inputs() -> [[u16; 3]; INPUTS] {
+    core::array::from_fn(|k| counts_at_phase(2.0 * PI * k as f32 / INPUTS as f32))
+}
+
+/// Counts of the nominal 16-bit sensor at electrical phase `phi` (rad).
+fn counts_at_phase(phi: f32) -> [u16; 3] {
     let cfg = HallConfig::LM1247_16BIT;
-    let mut out = [[0u16; 3]; INPUTS];
-    for (k, s) in out.iter_mut().enumerate() {
-        let phi = 2.0 * PI * k as f32 / INPUTS as f32;
-        for (ch, shift) in [0.0, 2.0 * PI / 3.0, -2.0 * PI / 3.0]
-            .into_iter()
-            .enumerate()
-        {
-            s[ch] = (cfg.calibration.offset_counts[ch]
-                + cfg.amplitude_counts as f32 * libm::sinf(phi + shift)) as u16;
-        }
+    let mut counts = [0u16; 3];
+    for (ch, shift) in [0.0, 2.0 * PI / 3.0, -2.0 * PI / 3.0]
+        .into_iter()
+        .enumerate()
+    {
+        counts[ch] = (cfg.calibration.offset_counts[ch]
+            + cfg.amplitude_counts as f32 * libm::sinf(phi + shift)) as u16;
     }
-    out
+    counts
 }
 
 /// References along a slow ramp, one per input.
@@ -634,17 +635,7 @@ fn efd_direct(coefficients: &[[f32; 4]], theta: f32) -> [f32; 8] {
 
 /// Hall counts of the nominal 16-bit sensor at carriage position `q_m`.
 fn nominal_counts(q_m: f32) -> [u16; 3] {
-    let cfg = HallConfig::LM1247_16BIT;
-    let phi = 2.0 * PI * q_m / cfg.pitch_m as f32;
-    let mut counts = [0u16; 3];
-    for (ch, shift) in [0.0, 2.0 * PI / 3.0, -2.0 * PI / 3.0]
-        .into_iter()
-        .enumerate()
-    {
-        counts[ch] = (cfg.calibration.offset_counts[ch]
-            + cfg.amplitude_counts as f32 * libm::sinf(phi + shift)) as u16;
-    }
-    counts
+    counts_at_phase(2.0 * PI * q_m / HallConfig::LM1247_16BIT.pitch_m as f32)
 }
 
 /// Periods of a contour measured one by one for the slave-period rows.
@@ -657,29 +648,11 @@ const SLAVE_PERIODS: usize = 256;
 #[inline(never)]
 fn slave_period(counter: &mut Counter, harmonics: usize, law: ContourLaw) -> f64 {
     let config = DeltaSlaveConfig::KEOPS;
-    let mut points = shapes::octagon();
-    for p in points.iter_mut() {
-        *p = [0.6 * p[0], 0.6 * p[1]];
-    }
-    let (Ok(machine), Ok(efd), Ok(sensor)) = (
+    let (Ok(machine), Ok(job), Ok(sensor)) = (
         DeltaSlave::<f32>::new(&config),
-        Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&points, harmonics),
+        octagon_job(&config, 1.0, harmonics, law),
         HallAxis::<f32>::new(&HallConfig::LM1247_16BIT),
     ) else {
-        exit(false)
-    };
-    let plan = ContourPlan {
-        efd: &efd,
-        centre_m: [0.0, 0.0, 0.05],
-        theta0_rad: 0.0,
-        laps: 1.0,
-        speed_m_s: 8e-3,
-        accel_m_s2: 0.1,
-        jerk_m_s3: 10.0,
-        approach_s: 0.3,
-        law,
-    };
-    let Ok(job) = DeltaJob::plan_contour(&config, &plan) else {
         exit(false)
     };
     let mut commands = Queue::<Command<DeltaSlave<f32>>, 2>::new();

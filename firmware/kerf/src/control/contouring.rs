@@ -161,17 +161,28 @@ impl<T: Float> Contouring<T> {
         position: &Vector3<T>,
     ) -> Result<(Vector3<T>, T), ContourFrameError> {
         let e = reference.position - position;
+        Ok(match self.frame(reference)? {
+            Some(frame) => {
+                let e_o = frame.to_frame(&e);
+                (e_o, contour_error(&e_o, true))
+            }
+            None => (e, contour_error(&e, false)),
+        })
+    }
+
+    /// The reference's frame, `None` where it is too slow to have one.
+    fn frame(
+        &self,
+        reference: &TaskReference<T>,
+    ) -> Result<Option<ContourFrame<T>>, ContourFrameError> {
         match ContourFrame::new(
             &reference.velocity,
             &reference.acceleration,
             &reference.jerk,
             self.min_speed_m_s,
         ) {
-            Ok(frame) => {
-                let e_o = frame.to_frame(&e);
-                Ok((e_o, e_o.y.abs()))
-            }
-            Err(ContourFrameError::SpeedTooLow) => Ok((e, planar_norm(&e))),
+            Ok(frame) => Ok(Some(frame)),
+            Err(ContourFrameError::SpeedTooLow) => Ok(None),
             Err(error) => Err(error),
         }
     }
@@ -183,18 +194,9 @@ impl<T: Float> Contouring<T> {
         position: &Vector3<T>,
         velocity: &Vector3<T>,
     ) -> Result<(Vector3<T>, Vector3<T>, bool), ContourFrameError> {
-        let frame = match ContourFrame::new(
-            &reference.velocity,
-            &reference.acceleration,
-            &reference.jerk,
-            self.min_speed_m_s,
-        ) {
-            Ok(frame) => frame,
-            Err(ContourFrameError::SpeedTooLow) => {
-                let (a, e) = self.hold(reference, position, velocity);
-                return Ok((a, e, false));
-            }
-            Err(error) => return Err(error),
+        let Some(frame) = self.frame(reference)? else {
+            let (a, e) = self.hold(reference, position, velocity);
+            return Ok((a, e, false));
         };
         let (w, w_dot) = (frame.turn_rate_rad_s(), frame.turn_accel_rad_s2());
         let e = reference.position - position;
@@ -258,11 +260,7 @@ impl<T: Float> Contouring<T> {
         let (acceleration, frame_error_m, framed) = self
             .task_acceleration_framed(reference, &position, &velocity)
             .map_err(ContouringError::Frame)?;
-        let contour_error_m = if framed {
-            frame_error_m.y.abs()
-        } else {
-            planar_norm(&frame_error_m)
-        };
+        let contour_error_m = contour_error(&frame_error_m, framed);
         let jx_dot = geometry
             .jacobian_derivative(q, &position, q_dot)
             .map_err(ContouringError::Kinematics)?;
@@ -279,9 +277,14 @@ impl<T: Float> Contouring<T> {
     }
 }
 
-/// √(x² + y²).
-fn planar_norm<T: Float>(e: &Vector3<T>) -> T {
-    (e.x * e.x + e.y * e.y).fsqrt()
+/// The contour error of a frame error: |normal| with a frame, the planar length of the
+/// base-frame error without one.
+fn contour_error<T: Float>(e: &Vector3<T>, framed: bool) -> T {
+    if framed {
+        e.y.abs()
+    } else {
+        (e.x * e.x + e.y * e.y).fsqrt()
+    }
 }
 
 #[cfg(test)]
