@@ -1,11 +1,13 @@
 //! A simulated delta robot behind kerf's HAL traits: the Lagrangian plant with one set
-//! of Hall sensors per carriage. Nine Hall counts out, three forces in; the forces go
-//! through the plant's drive (`DeltaPlantParams::drive`: DAC, current loop, ripple), so
-//! what the controller writes and what acts on the rails can differ.
+//! of Hall sensors per carriage. Nine Hall counts out, three forces and the laser's PWM
+//! duty in; the forces go through the plant's drive (`DeltaPlantParams::drive`: DAC,
+//! current loop, ripple), so what the controller writes and what acts on the rails can
+//! differ. The laser's duty is held for the period and read back by the scenario.
 
 use crate::axis::SimulatedClock;
 use crate::delta_plant::{DeltaPlant, DeltaPlantParams};
 use crate::hall_sensor::{HallSensor, HallSensorParams};
+use kerf::app::delta_slave::SlaveOutputs;
 use kerf::hal::{Monotonic, SampleInputs, WriteOutputs};
 use kerf::kinematics::delta::{DeltaConfig, KinematicsError};
 use kerf::kinematics::Vector3;
@@ -23,6 +25,9 @@ pub struct SimulatedDelta {
     pub error: Option<KinematicsError>,
     /// Simulated time, ns: one period per write.
     pub clock: SimulatedClock,
+    /// The laser's PWM duty over the last period, as written (a duty outside [0, 1]
+    /// or NaN is kept as written, for the scenario to catch).
+    pub laser_duty: f64,
 }
 
 impl SimulatedDelta {
@@ -43,6 +48,7 @@ impl SimulatedDelta {
                 .map(|(params, k)| HallSensor::new(params, seed + k)),
             error: None,
             clock: SimulatedClock::new(ts_s),
+            laser_duty: 0.0,
         })
     }
 
@@ -73,12 +79,23 @@ impl SampleInputs<[[u16; 3]; 3]> for SimulatedDelta {
 }
 
 impl<T: Real> WriteOutputs<[T; 3]> for SimulatedDelta {
-    /// Applies the forces and advances the plant by one period.
+    /// Applies the forces (laser off) and advances the plant by one period.
     fn write(&mut self, force_n: &[T; 3]) {
+        self.write(&SlaveOutputs {
+            force_n: *force_n,
+            laser_duty: T::ZERO,
+        });
+    }
+}
+
+impl<T: Real> WriteOutputs<SlaveOutputs<T>> for SimulatedDelta {
+    /// Applies the forces, holds the laser's duty and advances the plant by one period.
+    fn write(&mut self, outputs: &SlaveOutputs<T>) {
         if self.error.is_none() {
-            let force = Vector3::from(force_n.map(|f| f.to_f64()));
+            let force = Vector3::from(outputs.force_n.map(|f| f.to_f64()));
             self.error = self.plant.step(force).err();
         }
+        self.laser_duty = outputs.laser_duty.to_f64();
         self.clock.advance();
     }
 }

@@ -15,6 +15,7 @@ use kerf::app::delta_slave::{
     ContourLaw, ContourPlan, DeltaFault, DeltaJob, DeltaSlaveConfig, CONTOUR_HARMONICS,
 };
 use kerf::app::supervisor::{Machine, Mode};
+use kerf::control::laser::LaserMode;
 use kerf::trajectory::efd::Efd;
 use kerf::Float;
 use kerf_sim::slave::{run_slave_job, SlaveError, SlaveScenario};
@@ -39,6 +40,8 @@ pub struct ContourCase {
     pub plant: DeltaPlantParams,
     /// From this job time on (s), carriage `.1` is blocked.
     pub blocked_carriage: Option<(f64, usize)>,
+    /// What the beam does along the contour.
+    pub laser: LaserMode,
 }
 
 /// One period of a run, in the contour phase.
@@ -54,6 +57,10 @@ pub struct ContourSample {
     pub effector_velocity_m_s: [f64; 3],
     /// Forces applied, N.
     pub force_n: [f64; 3],
+    /// Laser power written for the period, W (duty × the source's maximum).
+    pub laser_power_w: f64,
+    /// The contour error as the machine measured it (through its Hall decoders), m.
+    pub measured_contour_error_m: f64,
 }
 
 /// What a run measured.
@@ -67,14 +74,22 @@ pub struct ContourReport {
     pub max_speed_error_m_s: f64,
     /// Largest |force| on any carriage, N.
     pub peak_force_n: f64,
+    /// Largest contour error as the machine measured it, m: what its law acts on;
+    /// the rest of [`Self::max_normal_m`] is the sensors' residual error.
+    pub max_measured_normal_m: f64,
     /// The machine's fault, if it stopped on one.
     pub fault: Option<DeltaFault>,
     /// Job time of the fault, s.
     pub fault_at_s: Option<f64>,
     /// Largest |force| commanded from the fault's period on, N.
     pub force_after_fault_n: f64,
+    /// Largest laser duty written from the fault's period on.
+    pub laser_after_fault: f64,
     /// The contour error of every period (signed, left of the path positive), m.
     pub normal_m: Vec<f64>,
+    /// Where the true effector is along the reference path at the end of each
+    /// period: arc length of its nearest point on the path, m.
+    pub arc_m: Vec<f64>,
     /// Every period of the contour phase.
     pub samples: Vec<ContourSample>,
 }
@@ -113,6 +128,7 @@ pub fn plan(case: &ContourCase) -> Result<DeltaJob, kerf::app::delta_slave::Delt
             jerk_m_s3: 10.0,
             approach_s: 0.3,
             law: case.law,
+            laser: case.laser,
         },
     )
 }
@@ -128,6 +144,7 @@ pub fn run<T: Float>(case: &ContourCase) -> Result<ContourReport, SlaveError> {
         .map_err(|e| SlaveError::Job(kerf::app::delta_slave::DeltaJobError::Contour(e)))?;
     let perimeter = efd.arc_length(0.0, 2.0 * core::f64::consts::PI, 1024);
     let job_s = 0.3 + perimeter / case.speed_m_s + 1.0;
+    let max_power_w = scenario.machine.laser.max_power_w;
     let mut samples = Vec::new();
     let mut fault = None;
     let mut t0 = None;
@@ -136,7 +153,8 @@ pub fn run<T: Float>(case: &ContourCase) -> Result<ContourReport, SlaveError> {
         if let Mode::Fault(f) = period.mode {
             fault.get_or_insert(f);
         }
-        let (Some(_), Some(reference)) = (telemetry.contour, telemetry.effector_reference_m) else {
+        let (Some(contour), Some(reference)) = (telemetry.contour, telemetry.effector_reference_m)
+        else {
             return;
         };
         let start = *t0.get_or_insert(period.t_s);
@@ -150,11 +168,14 @@ pub fn run<T: Float>(case: &ContourCase) -> Result<ContourReport, SlaveError> {
             effector_m: p.into(),
             effector_velocity_m_s: v.into(),
             force_n: plant.applied_force_n().into(),
+            laser_power_w: rig.plant().laser_duty * max_power_w,
+            measured_contour_error_m: contour.contour_error_m.to_f64(),
         });
     })?;
     let mut report = measure(samples, fault, case.period_s, case.speed_m_s);
     report.fault_at_s = outcome.fault_at_s;
     report.force_after_fault_n = outcome.force_after_fault_n;
+    report.laser_after_fault = outcome.laser_after_fault;
     Ok(report)
 }
 
@@ -173,7 +194,17 @@ pub fn measure(
         let r = reference[j];
         (r[0] - p[0]).powi(2) + (r[1] - p[1]).powi(2)
     };
+    // Arc length of each reference vertex.
+    let mut vertex_arc_m = Vec::with_capacity(reference.len());
+    let mut along = 0.0;
+    for (i, r) in reference.iter().enumerate() {
+        if i > 0 {
+            along += (r[0] - reference[i - 1][0]).hypot(r[1] - reference[i - 1][1]);
+        }
+        vertex_arc_m.push(along);
+    }
     let mut normal_m = Vec::with_capacity(samples.len());
+    let mut arc_m = Vec::with_capacity(samples.len());
     let mut j = 0;
     let (mut max_normal, mut sum_sq, mut max_speed_error, mut peak_force) =
         (0.0f64, 0.0, 0.0f64, 0.0f64);
@@ -189,6 +220,7 @@ pub fn measure(
         // path's left normal.
         let mut best = f64::INFINITY;
         let mut signed = 0.0;
+        let mut arc = vertex_arc_m.get(j).copied().unwrap_or(0.0);
         for (a, b) in [
             (j.saturating_sub(1), j),
             (j, (j + 1).min(reference.len() - 1)),
@@ -206,6 +238,7 @@ pub fn measure(
             let dist = off[0].hypot(off[1]);
             if dist < best {
                 best = dist;
+                arc = vertex_arc_m[a] + u * len_sq.sqrt();
                 signed = if len_sq > 0.0 && d[0] * off[1] - d[1] * off[0] < 0.0 {
                     -dist
                 } else {
@@ -214,6 +247,7 @@ pub fn measure(
             }
         }
         normal_m.push(signed);
+        arc_m.push(arc);
         max_normal = max_normal.max(best);
         sum_sq += best * best;
         // Tangential speed along the path at the nearest point, against the reference
@@ -249,10 +283,16 @@ pub fn measure(
         rms_normal_m: (sum_sq / n).sqrt(),
         max_speed_error_m_s: max_speed_error,
         peak_force_n: peak_force,
+        max_measured_normal_m: samples
+            .iter()
+            .map(|s| s.measured_contour_error_m)
+            .fold(0.0, f64::max),
         fault,
         fault_at_s: None,
         force_after_fault_n: 0.0,
+        laser_after_fault: 0.0,
         normal_m,
+        arc_m,
         samples,
     }
 }
@@ -261,4 +301,69 @@ pub fn measure(
 /// different on each carriage, calibrated by the machine).
 pub fn sensors() -> [HallSensorParams; 3] {
     SlaveScenario::square().sensors
+}
+
+/// Pictures of runs of one case under different laws (`runs`: legend and report):
+/// `<dir>/<name>_xy.svg`, the reference and each run's true effector in the x–y plane
+/// with a zoom on the first run's worst contour error (a window of six times that
+/// error, so the error spans a third of it), and `<dir>/<name>_normal.svg`, each
+/// run's contour error against time.
+pub fn draw_runs(
+    dir: &std::path::Path,
+    name: &str,
+    title: &str,
+    runs: &[(&str, &ContourReport)],
+) -> crate::plot::PlotResult {
+    use crate::plot::{time_series, xy_with_zoom, Series, ZoomBox};
+    let Some((_, first)) = runs.first() else {
+        return Ok(());
+    };
+    let mm = |p: [f64; 3]| (1e3 * p[0], 1e3 * p[1]);
+    let reference: Vec<(f64, f64)> = first.samples.iter().map(|s| mm(s.reference_m)).collect();
+    let paths: Vec<Vec<(f64, f64)>> = runs
+        .iter()
+        .map(|(_, r)| r.samples.iter().map(|s| mm(s.effector_m)).collect())
+        .collect();
+    let worst = first
+        .normal_m
+        .iter()
+        .enumerate()
+        .fold((0, 0.0f64), |best, (i, e)| {
+            if e.abs() > best.1 {
+                (i, e.abs())
+            } else {
+                best
+            }
+        });
+    let zoom = first.samples.get(worst.0).map(|s| {
+        let (x, y) = mm(s.effector_m);
+        ZoomBox::around(x, y, 3e3 * worst.1.max(1e-7))
+    });
+    let mut series = vec![Series::new("reference", &reference, 0)];
+    for (i, ((label, _), path)) in runs.iter().zip(&paths).enumerate() {
+        series.push(Series::new(label, path, i + 1));
+    }
+    xy_with_zoom(&dir.join(format!("{name}_xy.svg")), title, &series, zoom)?;
+    let errors: Vec<Vec<(f64, f64)>> = runs
+        .iter()
+        .map(|(_, r)| {
+            r.samples
+                .iter()
+                .zip(&r.normal_m)
+                .map(|(s, e)| (s.t_s, 1e6 * e))
+                .collect()
+        })
+        .collect();
+    let series: Vec<Series> = runs
+        .iter()
+        .zip(&errors)
+        .enumerate()
+        .map(|(i, ((label, _), points))| Series::new(label, points, i + 1))
+        .collect();
+    time_series(
+        &dir.join(format!("{name}_normal.svg")),
+        title,
+        "contour error (µm)",
+        &series,
+    )
 }

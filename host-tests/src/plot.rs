@@ -156,6 +156,19 @@ fn arg_best(
     best
 }
 
+/// `<target dir>/<profile>/plots/` (beside the test binary's `deps/`), created: where
+/// the scenarios write their pictures.
+pub fn plots_dir() -> std::io::Result<std::path::PathBuf> {
+    let exe = std::env::current_exe()?;
+    let dir = exe
+        .parent()
+        .and_then(Path::parent)
+        .map(|d| d.join("plots"))
+        .ok_or_else(|| std::io::Error::other("test binary has no target directory"))?;
+    std::fs::create_dir_all(&dir)?;
+    Ok(dir)
+}
+
 /// Reference path and responses in the x–y plane, mm, at equal scale on both axes,
 /// one line per series with a legend; with a `zoom` window, a second panel on the
 /// right shows the same series inside it (lines cut at its edges) and the window is
@@ -448,12 +461,8 @@ mod tests {
     use super::*;
     use std::path::PathBuf;
 
-    /// `<target dir>/<profile>/plots/` (beside the test binary's `deps/`), created.
     fn out_dir() -> PathBuf {
-        let exe = std::env::current_exe().unwrap();
-        let dir = exe.parent().unwrap().parent().unwrap().join("plots");
-        std::fs::create_dir_all(&dir).unwrap();
-        dir
+        plots_dir().unwrap()
     }
 
     /// The file parses as XML with an `<svg>` root; returns the text of its `<text>`

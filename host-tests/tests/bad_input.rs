@@ -19,7 +19,7 @@
 //! and every failure; the test asserts that there are none.
 
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, AxisStatus, HallAxis};
-use kerf::app::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
+use kerf::app::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig, SlaveOutputs};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
 use kerf::app::stream::SignalSender;
 use kerf::app::supervisor::{Machine, Step};
@@ -1671,6 +1671,20 @@ fn machine_step<T: Real, F, const N: usize>(r: Result<Step<[T; N]>, F>) -> Out {
     }
 }
 
+/// A slave period: forces finite and the laser's duty a number in [0, 1].
+fn slave_step<T: Real, F>(r: Result<Step<SlaveOutputs<T>>, F>) -> Out {
+    match r {
+        Ok(Step::Continue(o)) | Ok(Step::Done(o)) => {
+            let duty_ok = o.laser_duty >= T::ZERO && o.laser_duty <= T::from_f64(1.0);
+            match finite(o.force_n) {
+                Out::Finite if !duty_ok => Out::NonFinite,
+                out => out,
+            }
+        }
+        Err(_) => Out::Refused,
+    }
+}
+
 fn axis_sites<T: Real>(s: &mut Sweep, scalar: &str) {
     const M: &str = "app";
     let law = AxisLaw::<T>::new(&AxisConfig::LM1247_SLAVE, 1e-4).unwrap();
@@ -1933,7 +1947,7 @@ fn delta_slave_sites<T: Float>(s: &mut Sweep, scalar: &str) {
             for _ in 0..periods {
                 let r = m.run(&job, &here);
                 let refused = r.is_err();
-                out = out.and(machine_step(r));
+                out = out.and(slave_step(r));
                 if refused {
                     break;
                 }
@@ -2038,7 +2052,7 @@ fn delta_slave_sites<T: Float>(s: &mut Sweep, scalar: &str) {
                 };
                 let r = m.run(&job, &inputs);
                 let refused = r.is_err();
-                out = out.and(machine_step(r));
+                out = out.and(slave_step(r));
                 if refused {
                     break;
                 }

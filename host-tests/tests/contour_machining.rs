@@ -3,8 +3,10 @@
 //! at the seed's 2.4 kHz and at 10 kHz.
 
 use hal_mock::delta_plant::DeltaPlantParams;
-use host_tests::machining::{run, scaled, ContourCase, ContourReport};
+use host_tests::machining::{draw_runs, run, scaled, ContourCase, ContourReport};
+use host_tests::plot::plots_dir;
 use kerf::app::delta_slave::{ContourLaw, DeltaFault};
+use kerf::control::laser::LaserMode;
 use kerf::trajectory::shapes;
 
 fn shapes() -> [(&'static str, Vec<[f64; 2]>); 3] {
@@ -25,14 +27,16 @@ fn case(polygon: &[[f64; 2]], law: ContourLaw, period_s: f64) -> ContourCase {
         period_s,
         plant: DeltaPlantParams::SLAVE_REALISTIC,
         blocked_carriage: None,
+        laser: LaserMode::constant_energy_of(10.0, 8e-3),
     }
 }
 
 fn report(name: &str, law: ContourLaw, rate_hz: f64, r: &ContourReport) {
     println!(
-        "{name:>8} {rate_hz:>6.0} Hz {law:>11?}: normal max {:7.3} µm rms {:7.3} µm, speed error max {:7.3} mm/s, peak force {:5.2} N{}",
+        "{name:>8} {rate_hz:>6.0} Hz {law:>11?}: normal max {:7.3} µm rms {:7.3} µm (as measured: max {:6.3} µm), speed error max {:7.3} mm/s, peak force {:5.2} N{}",
         r.max_normal_m * 1e6,
         r.rms_normal_m * 1e6,
+        r.max_measured_normal_m * 1e6,
         r.max_speed_error_m_s * 1e3,
         r.peak_force_n,
         r.fault.map_or(String::new(), |f| format!(", FAULT {f:?}"))
@@ -41,8 +45,10 @@ fn report(name: &str, law: ContourLaw, rate_hz: f64, r: &ContourReport) {
 
 #[test]
 fn contouring_against_joint_control() {
+    let dir = plots_dir().unwrap();
     for (name, polygon) in shapes() {
         for period_s in [1e-4, 1.0 / 2400.0] {
+            let mut runs = Vec::new();
             for law in [
                 ContourLaw::Joint,
                 ContourLaw::Preview,
@@ -51,7 +57,18 @@ fn contouring_against_joint_control() {
                 let r = run::<f32>(&case(&polygon, law, period_s)).unwrap();
                 report(name, law, 1.0 / period_s, &r);
                 assert!(r.fault.is_none());
+                runs.push((format!("{law:?}"), r));
             }
+            let rate_hz = (1.0 / period_s).round();
+            let labelled: Vec<(&str, &ContourReport)> =
+                runs.iter().map(|(l, r)| (l.as_str(), r)).collect();
+            draw_runs(
+                &dir,
+                &format!("contour_{name}_{rate_hz}hz"),
+                &format!("{name} at 8 mm/s, {rate_hz} Hz, realistic slave"),
+                &labelled,
+            )
+            .unwrap();
         }
     }
 }
@@ -86,6 +103,9 @@ fn a_blocked_carriage_faults_the_contour_with_zero_force() {
         // are crossed within milliseconds at 8 mm/s.
         assert!(at > 0.8 && at < 0.9, "{at}");
         assert_eq!(r.force_after_fault_n, 0.0);
+        assert_eq!(r.laser_after_fault, 0.0);
+        // The beam was on up to the fault.
+        assert!(r.samples.iter().any(|s| s.laser_power_w > 5.0));
     }
 }
 
@@ -115,6 +135,7 @@ fn a_contour_beyond_the_workspace_names_its_first_unreachable_point() {
             jerk_m_s3: 10.0,
             approach_s: 0.3,
             law: ContourLaw::Contouring,
+            laser: LaserMode::Off,
         },
     )
     .unwrap_err();

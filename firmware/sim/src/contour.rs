@@ -17,6 +17,7 @@ use kerf::app::delta_slave::{
     CONTOUR_HARMONICS,
 };
 use kerf::app::supervisor::{Machine, Mode};
+use kerf::control::laser::LaserMode;
 use kerf::scalar::Float;
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::shapes::{octagon, OCTAGON_POINTS};
@@ -123,8 +124,12 @@ pub struct ContourSummary {
     pub fault: Option<DeltaFault>,
 }
 
+/// Laser power at the octagon's cruising speed, W: half the Keops source's 20 W.
+pub const OCTAGON_LASER_POWER_W: f64 = 10.0;
+
 /// The octagon at ±6 mm in `harmonics` harmonics, `laps` laps at 8 mm/s under `law`,
-/// ramps of 0.1 m/s² and 10 m/s³, on `machine` (the smoke run's contour with 30
+/// ramps of 0.1 m/s² and 10 m/s³, the laser at constant energy per length
+/// ([`OCTAGON_LASER_POWER_W`] at 8 mm/s), on `machine` (the smoke run's contour with 30
 /// harmonics and contouring control; the benchmark's slave period).
 pub fn octagon_job(
     machine: &DeltaSlaveConfig,
@@ -150,6 +155,7 @@ pub fn octagon_job(
             jerk_m_s3: 10.0,
             approach_s: 0.3,
             law,
+            laser: LaserMode::constant_energy_of(OCTAGON_LASER_POWER_W, 8e-3),
         },
     )
 }

@@ -131,6 +131,8 @@ pub struct SlavePeriod {
     pub jacobian_gain: f64,
     /// Force commands, N.
     pub force_n: [f64; 3],
+    /// The laser's PWM duty commanded, in [0, 1].
+    pub laser_duty: f64,
 }
 
 /// The slave machine and the simulated delta: what the control interrupt owns.
@@ -217,7 +219,7 @@ impl<'q, T: Float> SlaveRig<'q, T> {
             .jacobian(&q, &p)
             .map(|j| (0..3).map(|i| j.row(i).abs().sum()).fold(0.0, f64::max))
             .map_err(SlaveError::Plant)?;
-        let force =
+        let outputs =
             kerf::app::control_period(&mut self.supervisor, &mut self.clock, &mut self.plant);
         if let Some(e) = self.plant.error {
             return Err(SlaveError::Plant(e));
@@ -255,7 +257,8 @@ impl<'q, T: Float> SlaveRig<'q, T> {
             mode,
             effector_error_m,
             jacobian_gain,
-            force_n: force.map(|f| f.to_f64()),
+            force_n: outputs.force_n.map(|f| f.to_f64()),
+            laser_duty: outputs.laser_duty.to_f64(),
         })
     }
 }
@@ -292,6 +295,8 @@ pub struct SlaveOutcome {
     pub fault: Option<DeltaFault>,
     /// Largest |force| from the fault on, N (must be 0).
     pub force_after_fault_n: f64,
+    /// Largest laser duty from the fault on (must be 0).
+    pub laser_after_fault: f64,
     /// Control periods that started late (must be 0 in simulation).
     pub late_periods: u32,
     sum_sq_m2: f64,
@@ -311,6 +316,7 @@ impl SlaveOutcome {
             self.fault.get_or_insert(fault);
             let peak = p.force_n.iter().fold(0.0f64, |m, f| m.max(libm::fabs(*f)));
             self.force_after_fault_n = self.force_after_fault_n.max(peak);
+            self.laser_after_fault = self.laser_after_fault.max(p.laser_duty);
         }
     }
 }

@@ -30,9 +30,10 @@ use crate::app::joints::{
 };
 use crate::app::supervisor::{Machine, Step};
 use crate::control::contouring::Contouring;
+use crate::control::laser::{Laser, LaserConfig};
 use crate::control::pd::Reference;
 use crate::control::preview::Preview;
-use crate::error::{positive, ConfigContext, ConfigError};
+use crate::error::{positive, ConfigContext, ConfigError, ConfigErrorKind};
 use crate::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
 use crate::scalar::{lit, Float, Real};
 use crate::sensing::hall::{HallConfig, SelfCalibration};
@@ -62,6 +63,9 @@ pub struct DeltaSlaveConfig {
     pub delta: DeltaConfig,
     /// The contour laws and the limits that supervise a contour.
     pub contour: ContourConfig,
+    /// The laser source; a contour job says what the beam does
+    /// ([`ContourPlan::laser`]), every other phase keeps it off.
+    pub laser: LaserConfig,
 }
 
 impl DeltaSlaveConfig {
@@ -81,6 +85,7 @@ impl DeltaSlaveConfig {
         },
         delta: DeltaConfig::SLAVE_KEOPS,
         contour: ContourConfig::KEOPS,
+        laser: LaserConfig::SPI_REDENERGY_G3_20W,
     };
 
     /// The carriages' configuration with the delta actuators' travel.
@@ -146,6 +151,10 @@ pub enum DeltaJobError {
         /// Carriage index.
         axis: u8,
     },
+    /// The laser mode's setting (the constant power, or the energy per length) does
+    /// not suit the machine's source: not finite, negative or above the maximum
+    /// power (`OutOfRange`), or not representable in the machine's scalar.
+    Laser(ConfigErrorKind),
 }
 
 /// A planned job: a start point, the approach time to reach it, and straight moves or
@@ -193,6 +202,7 @@ fn replace_contour(contour: &mut Option<ContourJob>, from: &Option<ContourJob>) 
 #[derive(Copy, Clone, Debug, PartialEq)]
 struct Limits {
     delta: DeltaConfig,
+    laser: LaserConfig,
     speed_limit_m_s: f64,
     accel_limit_m_s2: f64,
     period_s: f64,
@@ -202,6 +212,7 @@ impl Limits {
     fn of(config: &DeltaSlaveConfig) -> Self {
         Self {
             delta: config.delta,
+            laser: config.laser,
             speed_limit_m_s: config.joints.speed_limit_m_s,
             accel_limit_m_s2: config.joints.accel_limit_m_s2,
             period_s: config.joints.period_s,
@@ -410,6 +421,15 @@ pub enum DeltaFault {
     Saturated,
 }
 
+/// One period's commands: the carriages' forces and the laser, written together.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct SlaveOutputs<T> {
+    /// Force of each carriage, N.
+    pub force_n: [T; 3],
+    /// The laser's PWM duty in [0, 1] (power / the source's maximum power).
+    pub laser_duty: T,
+}
+
 /// One period's telemetry.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct DeltaTelemetry<T> {
@@ -419,6 +439,8 @@ pub struct DeltaTelemetry<T> {
     pub effector_reference_m: Option<[T; 3]>,
     /// During a contour: what the supervision measured.
     pub contour: Option<ContourTelemetry<T>>,
+    /// The laser power commanded this period, W.
+    pub laser_power_w: T,
 }
 
 /// One contour period as measured.
@@ -469,6 +491,9 @@ pub struct DeltaSlave<T: Float> {
     normal_error_limit_m: T,
     joint_error_limit_m: T,
     saturation_periods: u32,
+    laser: Laser<T>,
+    /// The power commanded in the last period, W (zero outside a contour).
+    laser_power_w: T,
 }
 
 impl<T: Float> DeltaSlave<T> {
@@ -502,7 +527,17 @@ impl<T: Float> DeltaSlave<T> {
             normal_error_limit_m: limit("normal_error_limit_m", limits.normal_error_limit_m)?,
             joint_error_limit_m: limit("joint_error_limit_m", limits.joint_error_limit_m)?,
             saturation_periods: libm::ceil(saturation_periods).min(f64::from(u32::MAX)) as u32,
+            laser: Laser::new(&config.laser).within("laser")?,
+            laser_power_w: T::zero(),
         })
+    }
+
+    /// `force_n` with the beam off.
+    fn beam_off(force_n: [T; 3]) -> SlaveOutputs<T> {
+        SlaveOutputs {
+            force_n,
+            laser_duty: T::zero(),
+        }
     }
 
     /// The carriages.
@@ -515,91 +550,13 @@ impl<T: Float> DeltaSlave<T> {
         &self.geometry
     }
 
-    fn next_move(&self, job: &DeltaJob, index: usize) -> Option<Phase<T>> {
-        let segment = job.moves.get(index)?;
-        let from = match index.checked_sub(1) {
-            None => job.start_m,
-            Some(previous) => job.moves.get(previous)?.target_m,
-        };
-        // Planned and checked: the line's inputs are finite and its duration positive.
-        let line = Line::new(from, segment.target_m, segment.duration_s).ok()?;
-        Some(Phase::Move {
-            index,
-            line,
-            period: 0,
-            periods: libm::round(segment.duration_s / self.limits.period_s) as u32,
-        })
-    }
-}
-
-impl<T: Float> Machine for DeltaSlave<T> {
-    type Inputs = [[u16; 3]; 3];
-    type Outputs = [T; 3];
-    type Job = DeltaJob;
-    type JobError = DeltaJobError;
-    type Coefficients = AxisLaw<T>;
-    type Calibration = [HallAxis<T>; 3];
-    type Fault = DeltaFault;
-    type Telemetry = DeltaTelemetry<T>;
-
-    fn safe_outputs(&self) -> [T; 3] {
-        self.joints.safe_outputs()
-    }
-
-    fn monitor(&mut self, inputs: &[[u16; 3]; 3]) -> Result<(), DeltaFault> {
-        self.joints.monitor(inputs).map_err(DeltaFault::Joint)
-    }
-
-    fn begin_calibration(&mut self) {
-        self.joints.begin_calibration();
-    }
-
-    fn calibrate(
+    /// The forces of a running job's period (the laser's power is left in
+    /// `laser_power_w`).
+    fn run_forces(
         &mut self,
+        job: &DeltaJob,
         inputs: &[[u16; 3]; 3],
-        record: &mut dyn FnMut(u8, [u16; 3]),
     ) -> Result<Step<[T; 3]>, DeltaFault> {
-        self.joints
-            .calibrate(inputs, record)
-            .map_err(DeltaFault::Joint)
-    }
-
-    fn finish_calibration(&mut self, sensors: &[HallAxis<T>; 3]) {
-        self.joints.finish_calibration(sensors);
-    }
-
-    fn check_job(&self, job: &DeltaJob) -> Result<(), DeltaJobError> {
-        if job.planned_for == Some(self.limits) {
-            Ok(())
-        } else {
-            Err(DeltaJobError::OtherMachine)
-        }
-    }
-
-    fn begin_job(&mut self, job: &DeltaJob) -> Result<(), DeltaJobError> {
-        self.check_job(job)?;
-        self.approach.clear();
-        // Capacity MAX_SEGMENTS ≥ 1.
-        let _ = self.approach.push(Segment {
-            target_m: job.start_joints_m,
-            duration_s: job.approach_s,
-        });
-        // A contour's run is built before anything moves: a curve that does not fit
-        // the scalar refuses the start.
-        self.contour = None;
-        if let Some(contour) = &job.contour {
-            ContourRun::start(&mut self.contour, contour, &self.geometry)?;
-        }
-        self.joints
-            .begin_job(&self.approach)
-            .map_err(DeltaJobError::Approach)?;
-        self.phase = Some(Phase::Approach);
-        self.effector_reference_m = None;
-        self.contour_telemetry = None;
-        Ok(())
-    }
-
-    fn run(&mut self, job: &DeltaJob, inputs: &[[u16; 3]; 3]) -> Result<Step<[T; 3]>, DeltaFault> {
         match self.phase {
             Some(Phase::Approach) => {
                 let step = self
@@ -654,8 +611,115 @@ impl<T: Float> Machine for DeltaSlave<T> {
                 })
             }
             Some(Phase::Contour) => self.contour_period(inputs),
-            None => Ok(Step::Done(self.safe_outputs())),
+            None => Ok(Step::Done(self.joints.safe_outputs())),
         }
+    }
+
+    fn next_move(&self, job: &DeltaJob, index: usize) -> Option<Phase<T>> {
+        let segment = job.moves.get(index)?;
+        let from = match index.checked_sub(1) {
+            None => job.start_m,
+            Some(previous) => job.moves.get(previous)?.target_m,
+        };
+        // Planned and checked: the line's inputs are finite and its duration positive.
+        let line = Line::new(from, segment.target_m, segment.duration_s).ok()?;
+        Some(Phase::Move {
+            index,
+            line,
+            period: 0,
+            periods: libm::round(segment.duration_s / self.limits.period_s) as u32,
+        })
+    }
+}
+
+impl<T: Float> Machine for DeltaSlave<T> {
+    type Inputs = [[u16; 3]; 3];
+    type Outputs = SlaveOutputs<T>;
+    type Job = DeltaJob;
+    type JobError = DeltaJobError;
+    type Coefficients = AxisLaw<T>;
+    type Calibration = [HallAxis<T>; 3];
+    type Fault = DeltaFault;
+    type Telemetry = DeltaTelemetry<T>;
+
+    /// Zero force on every carriage, laser off.
+    fn safe_outputs(&self) -> SlaveOutputs<T> {
+        SlaveOutputs {
+            force_n: self.joints.safe_outputs(),
+            laser_duty: T::zero(),
+        }
+    }
+
+    fn monitor(&mut self, inputs: &[[u16; 3]; 3]) -> Result<(), DeltaFault> {
+        self.laser_power_w = T::zero();
+        self.joints.monitor(inputs).map_err(DeltaFault::Joint)
+    }
+
+    fn begin_calibration(&mut self) {
+        self.joints.begin_calibration();
+    }
+
+    fn calibrate(
+        &mut self,
+        inputs: &[[u16; 3]; 3],
+        record: &mut dyn FnMut(u8, [u16; 3]),
+    ) -> Result<Step<SlaveOutputs<T>>, DeltaFault> {
+        self.laser_power_w = T::zero();
+        let step = self
+            .joints
+            .calibrate(inputs, record)
+            .map_err(DeltaFault::Joint)?;
+        Ok(step.map(Self::beam_off))
+    }
+
+    fn finish_calibration(&mut self, sensors: &[HallAxis<T>; 3]) {
+        self.joints.finish_calibration(sensors);
+    }
+
+    fn check_job(&self, job: &DeltaJob) -> Result<(), DeltaJobError> {
+        if job.planned_for == Some(self.limits) {
+            Ok(())
+        } else {
+            Err(DeltaJobError::OtherMachine)
+        }
+    }
+
+    fn begin_job(&mut self, job: &DeltaJob) -> Result<(), DeltaJobError> {
+        self.check_job(job)?;
+        self.approach.clear();
+        // Capacity MAX_SEGMENTS ≥ 1.
+        let _ = self.approach.push(Segment {
+            target_m: job.start_joints_m,
+            duration_s: job.approach_s,
+        });
+        // A contour's run is built before anything moves: a curve that does not fit
+        // the scalar refuses the start.
+        self.contour = None;
+        if let Some(contour) = &job.contour {
+            ContourRun::start(&mut self.contour, contour, &self.geometry, &self.laser)?;
+        }
+        self.joints
+            .begin_job(&self.approach)
+            .map_err(DeltaJobError::Approach)?;
+        self.phase = Some(Phase::Approach);
+        self.effector_reference_m = None;
+        self.contour_telemetry = None;
+        Ok(())
+    }
+
+    fn run(
+        &mut self,
+        job: &DeltaJob,
+        inputs: &[[u16; 3]; 3],
+    ) -> Result<Step<SlaveOutputs<T>>, DeltaFault> {
+        // Only a contour period that passes its supervision turns the beam on.
+        self.laser_power_w = T::zero();
+        let step = self.run_forces(job, inputs)?;
+        let laser_duty = self.laser.duty(self.laser_power_w);
+        Ok(step.map(|force_n| SlaveOutputs {
+            force_n,
+            laser_duty,
+        }))
     }
 
     fn begin_stop(&mut self) {
@@ -666,8 +730,10 @@ impl<T: Float> Machine for DeltaSlave<T> {
         self.joints.begin_stop();
     }
 
-    fn stop(&mut self, inputs: &[[u16; 3]; 3]) -> Result<Step<[T; 3]>, DeltaFault> {
-        self.joints.stop(inputs).map_err(DeltaFault::Joint)
+    fn stop(&mut self, inputs: &[[u16; 3]; 3]) -> Result<Step<SlaveOutputs<T>>, DeltaFault> {
+        self.laser_power_w = T::zero();
+        let step = self.joints.stop(inputs).map_err(DeltaFault::Joint)?;
+        Ok(step.map(Self::beam_off))
     }
 
     fn set_coefficients(&mut self, law: &AxisLaw<T>) {
@@ -676,6 +742,7 @@ impl<T: Float> Machine for DeltaSlave<T> {
 
     fn reset(&mut self) {
         self.joints.reset();
+        self.laser_power_w = T::zero();
         self.phase = None;
         self.contour = None;
         self.effector_reference_m = None;
@@ -687,6 +754,7 @@ impl<T: Float> Machine for DeltaSlave<T> {
             joints: self.joints.telemetry(),
             effector_reference_m: self.effector_reference_m,
             contour: self.contour_telemetry,
+            laser_power_w: self.laser_power_w,
         }
     }
 }

@@ -106,6 +106,15 @@ impl<O> Step<O> {
             Self::Continue(o) | Self::Done(o) => o,
         }
     }
+
+    /// The same step with its outputs mapped by `f` (a machine adding its own outputs
+    /// to a part's).
+    pub fn map<P>(self, f: impl FnOnce(O) -> P) -> Step<P> {
+        match self {
+            Self::Continue(o) => Step::Continue(f(o)),
+            Self::Done(o) => Step::Done(f(o)),
+        }
+    }
 }
 
 /// A machine the supervisor can run: the per-period parts of each mode. Every method is

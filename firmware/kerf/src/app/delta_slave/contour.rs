@@ -20,6 +20,10 @@
 //! for a frame), every joint's following error and the force saturation, each against
 //! a limit of [`ContourConfig`]; past one, the machine faults with zero force in the
 //! same period.
+//!
+//! The laser follows the job's [`LaserMode`] from the measured speed along the
+//! reference's tangent (T 9.2's adaptive mode: constant energy per length), and only in
+//! a period that passed its supervision; the approach, a stop and a fault keep it off.
 
 use super::{
     joint_references, ContourTelemetry, DeltaFault, DeltaJobError, DeltaSlave, DeltaSlaveConfig,
@@ -27,6 +31,7 @@ use super::{
 use crate::app::supervisor::{Machine, Step};
 use crate::control::contouring::ContouringError;
 use crate::control::contouring::{ContouringConfig, TaskReference};
+use crate::control::laser::{Laser, LaserMode};
 use crate::control::pd::Reference;
 use crate::control::preview::{PreviewConfig, PreviewWindow};
 use crate::error::{positive, ConfigError};
@@ -135,6 +140,8 @@ pub struct ContourPlan<'a> {
     pub approach_s: f64,
     /// The law.
     pub law: ContourLaw,
+    /// What the beam does along the contour (off during the approach).
+    pub laser: LaserMode,
 }
 
 /// A planned contour: everything a period needs, checked.
@@ -147,6 +154,7 @@ pub(super) struct ContourJob {
     /// Periods from the start of the ramp to the start of the stop ramp.
     stop_after_periods: u32,
     law: ContourLaw,
+    laser: LaserMode,
 }
 
 /// The effector's reference from the follower's sample (relative to the curve centre).
@@ -172,6 +180,9 @@ impl ContourJob {
             return Err(config_error(ConfigError::not_finite("centre_m")));
         }
         let laps = positive("laps", plan.laps).map_err(config_error)?;
+        Laser::<f64>::new(&config.laser)
+            .and_then(|laser| laser.mode(&plan.laser))
+            .map_err(|e| DeltaJobError::Laser(e.kind))?;
         let period_s = config.joints.period_s;
         let follower = FollowerConfig {
             ramp: SpeedRampConfig {
@@ -240,6 +251,7 @@ impl ContourJob {
                 follower,
                 stop_after_periods,
                 law: plan.law,
+                laser: plan.laser,
             },
             start,
         ))
@@ -257,6 +269,7 @@ pub(super) struct ContourRun<T: Float> {
     follower: ContourFollower<T, CONTOUR_HARMONICS>,
     centre: Vector3<T>,
     law: ContourLaw,
+    laser: LaserMode<T>,
     /// Task references at k, k+1, k+2.
     pub(super) task: PreviewWindow<TaskReference<T>>,
     /// The joint references of the same taps.
@@ -278,14 +291,19 @@ impl<T: Float> ContourRun<T> {
         slot: &mut Option<Self>,
         job: &ContourJob,
         geometry: &DeltaGeometry<T>,
+        laser: &Laser<T>,
     ) -> Result<(), DeltaJobError> {
-        *slot = Some(Self::new(job, geometry)?);
+        *slot = Some(Self::new(job, geometry, laser)?);
         Ok(())
     }
 
     /// The run of `job`, at rest at its start, built in `T` (a few hundred conversions:
     /// the curve was checked when the job was planned).
-    fn new(job: &ContourJob, geometry: &DeltaGeometry<T>) -> Result<Self, DeltaJobError> {
+    fn new(
+        job: &ContourJob,
+        geometry: &DeltaGeometry<T>,
+        laser: &Laser<T>,
+    ) -> Result<Self, DeltaJobError> {
         let efd =
             Efd::<T, CONTOUR_HARMONICS>::from_f64(&job.efd).map_err(DeltaJobError::Contour)?;
         let follower = ContourFollower::for_checked_curve(efd, &job.follower, job.theta0_rad)
@@ -310,6 +328,9 @@ impl<T: Float> ContourRun<T> {
             follower,
             centre,
             law: job.law,
+            laser: laser
+                .mode(&job.laser)
+                .map_err(|e| DeltaJobError::Laser(e.kind))?,
             task: PreviewWindow::filled(first),
             joints: PreviewWindow::filled(joints),
             started: false,
@@ -465,6 +486,7 @@ impl<T: Float> DeltaSlave<T> {
         if run.saturated_periods > self.saturation_periods {
             return Err(DeltaFault::Saturated);
         }
+        self.laser_power_w = self.laser.power_w(&run.laser, tangential_speed_m_s);
         Ok(if done {
             self.contour = None;
             self.phase = None;

@@ -3,6 +3,8 @@
 
 use super::*;
 use crate::app::joints::MAX_SEGMENTS;
+use crate::control::laser::LaserMode;
+use crate::trajectory::efd::Efd;
 use std::format;
 use std::string::ToString;
 
@@ -201,4 +203,85 @@ fn config_errors_name_the_whole_path() {
     config.joints.home_m[2] = 0.05;
     let e = DeltaSlave::<f32>::new(&config).unwrap_err();
     assert_eq!(format!("{}", e.path), "joints.home_m[2]", "{e}");
+}
+
+/// The octagon (±6 mm) about the workspace centre, one lap at 8 mm/s, with `laser`.
+fn octagon_plan(config: &DeltaSlaveConfig, laser: LaserMode) -> Result<DeltaJob, DeltaJobError> {
+    use crate::trajectory::shapes::octagon;
+    let points = octagon().map(|p| [0.6 * p[0], 0.6 * p[1]]);
+    let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&points, 30).unwrap();
+    DeltaJob::plan_contour(
+        config,
+        &ContourPlan {
+            efd: &efd,
+            centre_m: centre(),
+            theta0_rad: 0.0,
+            laps: 1.0,
+            speed_m_s: 8e-3,
+            accel_m_s2: 0.1,
+            jerk_m_s3: 10.0,
+            approach_s: 0.3,
+            law: ContourLaw::Contouring,
+            laser,
+        },
+    )
+}
+
+#[test]
+fn a_laser_mode_the_source_cannot_give_is_refused_at_plan_and_another_source_at_load() {
+    let keops = DeltaSlaveConfig::KEOPS;
+    for (mode, kind) in [
+        (
+            LaserMode::ConstantPower { power_w: 20.5 },
+            ConfigErrorKind::OutOfRange,
+        ),
+        (
+            LaserMode::ConstantPower { power_w: -1.0 },
+            ConfigErrorKind::OutOfRange,
+        ),
+        (
+            LaserMode::constant_energy_of(10.0, 0.0),
+            ConfigErrorKind::NotFinite,
+        ),
+    ] {
+        assert_eq!(
+            octagon_plan(&keops, mode).unwrap_err(),
+            DeltaJobError::Laser(kind),
+            "{mode:?}"
+        );
+    }
+    // The source's full power is a valid job; planned for a 30 W source, the Keops
+    // slave (20 W) refuses it at load.
+    let full = LaserMode::ConstantPower { power_w: 20.0 };
+    assert!(octagon_plan(&keops, full).is_ok());
+    let mut bigger = keops;
+    bigger.laser.max_power_w = 30.0;
+    let job = octagon_plan(&bigger, LaserMode::ConstantPower { power_w: 25.0 }).unwrap();
+    let slave = DeltaSlave::<f32>::new(&keops).unwrap();
+    assert_eq!(slave.check_job(&job), Err(DeltaJobError::OtherMachine));
+    // A source that is not one is named with its path.
+    let mut broken = keops;
+    broken.laser.min_speed_m_s = 0.0;
+    let e = DeltaSlave::<f32>::new(&broken).unwrap_err();
+    assert_eq!(e.to_string(), "laser.min_speed_m_s: not strictly positive");
+}
+
+#[test]
+fn the_beam_is_off_outside_a_contour_and_in_the_safe_outputs() {
+    let config = DeltaSlaveConfig::KEOPS;
+    let mut slave = DeltaSlave::<f32>::new(&config).unwrap();
+    assert_eq!(slave.safe_outputs().laser_duty, 0.0);
+    assert_eq!(slave.safe_outputs().force_n, [0.0; 3]);
+    let job = octagon_plan(&config, LaserMode::ConstantPower { power_w: 20.0 }).unwrap();
+    slave.begin_job(&job).unwrap();
+    // The approach, from wherever the (nominally decoded) carriages are: beam off.
+    let inputs = [[32768u16; 3]; 3];
+    let _ = slave.monitor(&inputs);
+    for _ in 0..10 {
+        match slave.run(&job, &inputs) {
+            Ok(Step::Continue(o)) | Ok(Step::Done(o)) => assert_eq!(o.laser_duty, 0.0),
+            Err(_) => break,
+        }
+        assert_eq!(slave.telemetry().laser_power_w, 0.0);
+    }
 }
