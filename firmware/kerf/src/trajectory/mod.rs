@@ -1,8 +1,9 @@
 //! What to follow: references evaluated once per control period.
 //!
 //! Contour references follow T ch. 3 as restated in SPEC § trajectory:
-//! [`efd`] (closed contours as elliptic Fourier descriptors), [`tangential`]
-//! (constant tangential speed along an EFD curve, with a jerk-limited start and stop),
+//! [`efd`] (closed contours as elliptic Fourier descriptors), [`open_path`] (open
+//! contours as a C² spline in chord length), [`tangential`] (constant tangential speed
+//! along either curve, with a jerk-limited start and stop),
 //! [`resample`] (open contours: quadratic densification and arc-length resampling),
 //! [`spline`] (joint references: IK of the samples and a C² cubic spline in time),
 //! [`constraint`] (circle/line motion constraints for manual machining) and [`shapes`]
@@ -10,6 +11,7 @@
 
 pub mod constraint;
 pub mod efd;
+pub mod open_path;
 pub mod quintic;
 pub mod resample;
 pub mod shapes;

@@ -1,4 +1,5 @@
-//! Constant tangential speed along an EFD curve (T 3.2.2, SPEC § trajectory), online.
+//! Constant tangential speed along a curve — an EFD or an open path (T 3.2.2, SPEC §
+//! trajectory), online.
 //!
 //! The print resamples the curve offline and interpolates linearly between samples.
 //! Here the curve parameter θ is advanced each period so that the reference moves the
@@ -227,17 +228,112 @@ impl<T: Float> SpeedRamp<T> {
     }
 }
 
-/// Highest constant tangential speed an EFD curve allows under `accel_limit_m_s2`:
-/// √(A/κmax), with κmax from [`Efd::max_curvature`] over `64·n` samples (+∞ only
-/// for a curve without curvature, which no closed contour is).
+/// A planar curve a [`CurveFollower`] can step along: position and derivatives at a
+/// parameter θ over a span — an EFD (closed, θ ∈ [0, 2π), wrapping) or an
+/// [`OpenPath`](super::open_path::OpenPath) (open, θ = chord length from 0 to its end).
+pub trait Curve<T: Float> {
+    /// Position (relative to the curve's centre) and its first three θ-derivatives.
+    fn evaluate(&self, theta: T) -> EfdSample<T>;
+    /// dC/dθ alone (cheaper where the curve allows; used for arc length).
+    fn tangent(&self, theta: T) -> Vector2<T>;
+    /// Where θ ends: 2π for a closed curve (θ wraps there), the end of an open one.
+    fn span(&self) -> T;
+    /// Whether θ wraps at [`Curve::span`] (closed) or stops there (open).
+    fn is_closed(&self) -> bool;
+    /// Pieces of the curve (harmonics, segments): sets how finely the whole-curve
+    /// checks sample it.
+    fn pieces(&self) -> usize;
+
+    /// Arc length from θ0 to θ1 (m): `intervals` panels of 3-point Gauss–Legendre.
+    fn arc_length(&self, theta0: T, theta1: T, intervals: usize) -> T {
+        let n = intervals.max(1);
+        let h = (theta1 - theta0) / lit(n as f64);
+        let mut sum = T::ZERO;
+        for i in 0..n {
+            let a = theta0 + h * lit(i as f64);
+            sum += gauss3(h, |u| self.tangent(a + u).norm());
+        }
+        sum
+    }
+
+    /// Largest |κ| over the span (1/m): `samples` equal θ steps, the best refined by
+    /// golden-section search over its two neighbouring steps (kept inside the span).
+    fn max_curvature(&self, samples: usize) -> T {
+        let curvature = |theta: T| {
+            let s = self.evaluate(theta);
+            let speed = s.d1.norm();
+            if speed > T::ZERO {
+                (s.d1.perp(&s.d2) / (speed * speed * speed)).abs()
+            } else {
+                T::ZERO
+            }
+        };
+        let n = samples.max(8);
+        let span = self.span();
+        let h = span / lit(n as f64);
+        let last = if self.is_closed() { n - 1 } else { n };
+        let mut best = (T::ZERO, T::ZERO);
+        for i in 0..=last {
+            let th = h * lit(i as f64);
+            let k = curvature(th);
+            if k > best.0 {
+                best = (k, th);
+            }
+        }
+        let (mut lo, mut hi) = (best.1 - h, best.1 + h);
+        if !self.is_closed() {
+            lo = lo.max(T::ZERO);
+            hi = hi.min(span);
+        }
+        let g = lit::<T>(0.618_033_988_749_894_8);
+        for _ in 0..40 {
+            let m1 = hi - (hi - lo) * g;
+            let m2 = lo + (hi - lo) * g;
+            if curvature(m1) > curvature(m2) {
+                hi = m2;
+            } else {
+                lo = m1;
+            }
+        }
+        best.0.max(curvature((lo + hi) * lit(0.5)))
+    }
+}
+
+impl<T: Float, const N: usize> Curve<T> for Efd<T, N> {
+    fn evaluate(&self, theta: T) -> EfdSample<T> {
+        Efd::evaluate(self, theta)
+    }
+    fn tangent(&self, theta: T) -> Vector2<T> {
+        Efd::tangent(self, theta)
+    }
+    fn span(&self) -> T {
+        lit(2.0 * PI)
+    }
+    fn is_closed(&self) -> bool {
+        true
+    }
+    fn pieces(&self) -> usize {
+        self.harmonics()
+    }
+    fn arc_length(&self, theta0: T, theta1: T, intervals: usize) -> T {
+        Efd::arc_length(self, theta0, theta1, intervals)
+    }
+    fn max_curvature(&self, samples: usize) -> T {
+        Efd::max_curvature(self, samples)
+    }
+}
+
+/// Highest constant tangential speed a curve allows under `accel_limit_m_s2`:
+/// √(A/κmax), with κmax from [`Curve::max_curvature`] over `64·pieces` samples (at
+/// least 1024; +∞ only for a curve without curvature).
 ///
 /// Errors: a limit that is not finite and positive (its square root would be NaN).
-pub fn max_speed_m_s<T: Float, const N: usize>(
-    efd: &Efd<T, N>,
+pub fn max_speed_m_s<T: Float, C: Curve<T>>(
+    curve: &C,
     accel_limit_m_s2: f64,
 ) -> Result<f64, ConfigError> {
     let limit = positive("accel_limit_m_s2", accel_limit_m_s2)?;
-    let kappa = to_f64(efd.max_curvature(64 * efd.harmonics().max(16)));
+    let kappa = to_f64(curve.max_curvature(64 * curve.pieces().max(16)));
     Ok(if kappa > 0.0 {
         libm::sqrt(limit / kappa)
     } else {
@@ -272,7 +368,8 @@ pub struct ContourReference<T: Float> {
     pub jerk: Vector2<T>,
     /// Tangential speed, m/s.
     pub speed: T,
-    /// Curve parameter θ in [0, 2π).
+    /// Curve parameter θ: in [0, 2π) on an EFD, chord length in [0, end] (m) on an
+    /// open path.
     pub theta: T,
 }
 
@@ -291,7 +388,9 @@ impl<T: Float> FiniteAll for Vector2<T> {
 /// evaluations of the curve).
 pub const MAX_NEWTON_STEPS: u8 = 4;
 
-/// Steps θ along an EFD curve at the tangential speed of a [`SpeedRamp`].
+/// Steps θ along a [`Curve`] at the tangential speed of a [`SpeedRamp`]. On a closed
+/// curve θ wraps and laps are counted; on an open one θ stops at the end (a job's
+/// stop ramp is planned to bring it to rest there).
 ///
 /// # Example
 ///
@@ -334,8 +433,8 @@ pub const MAX_NEWTON_STEPS: u8 = 4;
 /// assert!((steps[299] - speed * ts).abs() < 1e-9);
 /// ```
 #[derive(Clone, Debug)]
-pub struct ContourFollower<T: Float, const N: usize> {
-    efd: Efd<T, N>,
+pub struct CurveFollower<T: Float, C> {
+    curve: C,
     ramp: SpeedRamp<T>,
     theta: T,
     laps: u32,
@@ -344,31 +443,36 @@ pub struct ContourFollower<T: Float, const N: usize> {
     carry: T,
     /// 2π − (2π rounded to T), rad: the wrap of θ moves the curve by this much.
     wrap_error: T,
-    two_pi: T,
+    /// Where θ wraps (closed) or ends (open).
+    span: T,
+    closed: bool,
     /// Set when a step could not be solved: the follower holds from then on.
     lost: bool,
     newton_steps: u8,
 }
 
-impl<T: Float, const N: usize> ContourFollower<T, N> {
+/// The follower of an EFD contour.
+pub type ContourFollower<T, const N: usize> = CurveFollower<T, Efd<T, N>>;
+
+impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
     /// A follower at rest at θ = `theta0`.
     ///
     /// Errors: a bad ramp configuration or acceleration limit, a ramp acceleration above
     /// the limit, V·Ts longer than the curve, or V²κmax above the limit
     /// ([`ContourError::SpeedAboveCurvatureLimit`] carries the highest allowed speed).
-    pub fn new(efd: Efd<T, N>, config: &FollowerConfig, theta0: f64) -> Result<Self, ContourError> {
+    pub fn new(curve: C, config: &FollowerConfig, theta0: f64) -> Result<Self, ContourError> {
         let limit = positive("accel_limit_m_s2", config.accel_limit_m_s2)?;
-        let length = to_f64(efd.arc_length(T::ZERO, lit(2.0 * PI), 16 * efd.harmonics()));
+        let length = to_f64(curve.arc_length(T::ZERO, curve.span(), 16 * curve.pieces()));
         if config.ramp.speed_m_s * config.ramp.ts_s >= length {
             return Err(ContourError::StepLongerThanContour);
         }
-        let v_max = max_speed_m_s(&efd, limit)?;
+        let v_max = max_speed_m_s(&curve, limit)?;
         if config.ramp.speed_m_s > v_max {
             return Err(ContourError::SpeedAboveCurvatureLimit {
                 max_speed_m_s: v_max,
             });
         }
-        Self::for_checked_curve(efd, config, theta0)
+        Self::for_checked_curve(curve, config, theta0)
     }
 
     /// A follower on a curve whose length and curvature were already checked against
@@ -376,8 +480,9 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
     /// `f64`): only the ramp, the limit, θ0 and the Newton count are validated, a few
     /// dozen operations, so a control period can build it. The curve-wide checks of
     /// `new` sample the whole curve and cost far more.
+    /// On an open curve θ0 must lie in [0, end] (`OutOfRange` names `theta0`).
     pub fn for_checked_curve(
-        efd: Efd<T, N>,
+        curve: C,
         config: &FollowerConfig,
         theta0: f64,
     ) -> Result<Self, ContourError> {
@@ -392,28 +497,47 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
         if config.newton_steps > MAX_NEWTON_STEPS {
             return Err(ConfigError::out_of_range("newton_steps").into());
         }
-        let two_pi = lit::<T>(2.0 * PI);
-        let mut theta = lit::<T>(theta0 - 2.0 * PI * libm::floor(theta0 / (2.0 * PI)));
-        if theta >= two_pi {
-            theta = T::ZERO;
-        }
+        let (span, closed) = (curve.span(), curve.is_closed());
+        let theta = if closed {
+            let mut theta = lit::<T>(theta0 - 2.0 * PI * libm::floor(theta0 / (2.0 * PI)));
+            if theta >= span {
+                theta = T::ZERO;
+            }
+            theta
+        } else {
+            let theta = representable::<T>("theta0", theta0)?;
+            if !(theta >= T::ZERO && theta <= span) {
+                return Err(ConfigError::out_of_range("theta0").into());
+            }
+            theta
+        };
         Ok(Self {
-            sample: efd.evaluate(theta),
-            efd,
+            sample: curve.evaluate(theta),
+            curve,
             ramp,
             theta,
             laps: 0,
             carry: T::ZERO,
-            wrap_error: lit(2.0 * PI - to_f64(two_pi)),
-            two_pi,
+            wrap_error: if closed {
+                lit(2.0 * PI - to_f64(span))
+            } else {
+                T::ZERO
+            },
+            span,
+            closed,
             lost: false,
             newton_steps: config.newton_steps,
         })
     }
 
     /// The curve followed.
-    pub fn efd(&self) -> &Efd<T, N> {
-        &self.efd
+    pub fn curve(&self) -> &C {
+        &self.curve
+    }
+
+    /// Whether θ has reached the end of an open curve (never on a closed one).
+    pub fn at_end(&self) -> bool {
+        !self.closed && self.theta >= self.span
     }
 
     /// The speed ramp (start/stop state).
@@ -444,7 +568,7 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
         }
     }
 
-    /// Current θ in [0, 2π).
+    /// Current θ (see [`ContourReference::theta`]).
     pub fn theta(&self) -> T {
         self.theta
     }
@@ -464,8 +588,8 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
         let sigma_theta = d1.dot(&self.sample.d2) / sigma;
         let mut dth = ds / sigma - sigma_theta * ds * ds / (lit::<T>(2.0) * sigma * sigma * sigma);
         for _ in 0..self.newton_steps {
-            let arc = gauss3(dth, |u| self.efd.tangent(self.theta + u).norm());
-            let speed = self.efd.tangent(self.theta + dth).norm();
+            let arc = gauss3(dth, |u| self.curve.tangent(self.theta + u).norm());
+            let speed = self.curve.tangent(self.theta + dth).norm();
             if speed <= T::ZERO {
                 break;
             }
@@ -498,11 +622,19 @@ impl<T: Float, const N: usize> ContourFollower<T, N> {
         let taken = next - self.theta;
         let mut theta = next;
         let mut wrap = T::ZERO;
-        if theta >= self.two_pi {
-            theta -= self.two_pi;
-            wrap = self.wrap_error;
+        let mut taken = taken;
+        if theta >= self.span {
+            if self.closed {
+                theta -= self.span;
+                wrap = self.wrap_error;
+            } else {
+                // The end of an open curve: no further. What is left of the step is
+                // dropped with the carry below.
+                theta = self.span;
+                taken = dth;
+            }
         }
-        let sample = self.efd.evaluate(theta);
+        let sample = self.curve.evaluate(theta);
         // The chord can only be shorter than the arc; allow the rounding of the two
         // positions (a few ulps of their size) and 1 % of the step.
         let chord = (sample.position - self.sample.position).norm();

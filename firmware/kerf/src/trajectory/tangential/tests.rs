@@ -278,7 +278,7 @@ fn curvature_limits_speed() {
             let mut f = ContourFollower::new(efd, &config(v, limit), 0.0).unwrap();
             f.start();
             let mut worst: f64 = 0.0;
-            let lap = f.efd().arc_length(0.0, 2.0 * PI, 2000);
+            let lap = f.curve().arc_length(0.0, 2.0 * PI, 2000);
             let steps = (lap / (v * TS) * 1.2) as usize + f.ramp().ramp_periods() as usize;
             for _ in 0..steps {
                 let r = f.step().unwrap();
