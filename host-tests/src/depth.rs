@@ -79,14 +79,33 @@ impl EnergyProfile {
         if n <= 2 * skip_bins {
             return None;
         }
-        let kept: Range<usize> = skip_bins..n - skip_bins;
-        let bins = &self.energy_j_per_m[kept.clone()];
+        self.summary_of(skip_bins..n - skip_bins)
+    }
+
+    /// The same over the bins lying wholly inside [`from_m`, `to_m`] of arc length
+    /// (for example the cut from its first to its last point, or its cruise).
+    pub fn summary_within(&self, from_m: f64, to_m: f64) -> Option<DepthSummary> {
+        // Bin i is [start + i·bin, start + (i + 1)·bin]; round-off of 1e-9 bin allowed.
+        let first = ((from_m - self.start_m) / self.bin_m - EDGE_SLACK)
+            .ceil()
+            .max(0.0) as usize;
+        let end = ((to_m - self.start_m) / self.bin_m + EDGE_SLACK)
+            .floor()
+            .max(0.0) as usize;
+        self.summary_of(first..end.min(self.energy_j_per_m.len()))
+    }
+
+    fn summary_of(&self, kept: Range<usize>) -> Option<DepthSummary> {
+        let bins = self.energy_j_per_m.get(kept.clone())?;
+        if bins.is_empty() {
+            return None;
+        }
         let nominal = bins.iter().sum::<f64>() / bins.len() as f64;
         if nominal == 0.0 {
             return None;
         }
-        let (worst, deviation) = kept.zip(bins).map(|(i, e)| (i, e - nominal)).fold(
-            (skip_bins, 0.0f64),
+        let (worst, deviation) = kept.clone().zip(bins).map(|(i, e)| (i, e - nominal)).fold(
+            (kept.start, 0.0f64),
             |best, (i, d)| {
                 if d.abs() > best.1.abs() {
                     (i, d)
@@ -247,6 +266,24 @@ mod tests {
         ));
         // One of the four doubled bins (equal to round-off).
         assert!((0.8e-3..1.2e-3).contains(&summary.at_m), "{}", summary.at_m);
+    }
+
+    #[test]
+    fn a_summary_within_an_arc_keeps_only_whole_bins() {
+        // 2 mm/s over 0 → 2 mm, 1 mm/s over [0.8, 1.2) mm: bins 8..12 are doubled.
+        let mut v = vec![2e-3; 400];
+        v.extend(vec![1e-3; 400]);
+        v.extend(vec![2e-3; 400]);
+        let profile = deposit(&integrate(&v), &vec![20.0; v.len()], TS, BIN).unwrap();
+        // [0.75, 1.25] mm holds bins 8..12 wholly (7 and 12 only in part): all doubled.
+        let s = profile.summary_within(0.75e-3, 1.25e-3).unwrap();
+        assert!(close(s.nominal_j_per_m, 2e4, 1e-9));
+        assert!(s.max_deviation_pct.abs() < 1e-7);
+        // Edges on bin boundaries are inclusive (within round-off).
+        let s = profile.summary_within(0.0, 0.8e-3).unwrap();
+        assert!(close(s.nominal_j_per_m, 1e4, 1e-9) && s.max_deviation_pct.abs() < 1e-7);
+        // Less than one bin: nothing to summarize.
+        assert_eq!(profile.summary_within(0.81e-3, 0.89e-3), None);
     }
 
     #[test]

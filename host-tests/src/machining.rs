@@ -12,24 +12,39 @@
 use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::hall_sensor::HallSensorParams;
 use kerf::app::delta_slave::{
-    ContourLaw, ContourPlan, DeltaFault, DeltaJob, DeltaSlaveConfig, CONTOUR_HARMONICS,
+    ContourCurve, ContourLaw, ContourPlan, DeltaFault, DeltaJob, DeltaJobError, DeltaSlaveConfig,
+    CONTOUR_HARMONICS, OPEN_PATH_POINTS,
 };
 use kerf::app::supervisor::{Machine, Mode};
 use kerf::control::laser::LaserMode;
 use kerf::trajectory::efd::Efd;
+use kerf::trajectory::open_path::OpenPath;
+use kerf::trajectory::tangential::Curve;
 use kerf::Float;
 use kerf_sim::slave::{run_slave_job, SlaveError, SlaveScenario};
 
 /// Cutting height of the experiment, m (the square scenario's, mid-workspace).
 pub const CUT_HEIGHT_M: f64 = 0.050;
 
+/// What a case cuts, m, centred near the origin.
+#[derive(Clone, Debug)]
+pub enum CaseCurve {
+    /// A closed polygon, as an EFD of `harmonics` harmonics, one lap from θ = 0.
+    Closed {
+        /// The polygon's vertices.
+        polygon: Vec<[f64; 2]>,
+        /// Harmonics of its EFD.
+        harmonics: usize,
+    },
+    /// An open path through the points, first to last.
+    Open(Vec<[f64; 2]>),
+}
+
 /// One contour run: what to cut, how, on which machine.
 #[derive(Clone, Debug)]
 pub struct ContourCase {
-    /// The shape's polygon, m (closed, centred near the origin).
-    pub polygon: Vec<[f64; 2]>,
-    /// Harmonics of its EFD.
-    pub harmonics: usize,
+    /// The shape.
+    pub curve: CaseCurve,
     /// Tangential speed, m/s.
     pub speed_m_s: f64,
     /// The law.
@@ -112,17 +127,52 @@ pub fn machine(period_s: f64) -> DeltaSlaveConfig {
     config
 }
 
-/// Plans the case's job: one lap from θ = 0, ramps of 0.1 m/s² and 10 m/s³.
-pub fn plan(case: &ContourCase) -> Result<DeltaJob, kerf::app::delta_slave::DeltaJobError> {
-    let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&case.polygon, case.harmonics)
-        .map_err(kerf::app::delta_slave::DeltaJobError::Contour)?;
+/// The case's curves, planned: (EFD, open path), one of them.
+type Curves = (
+    Option<Efd<f64, CONTOUR_HARMONICS>>,
+    Option<OpenPath<f64, OPEN_PATH_POINTS>>,
+);
+
+fn curves(case: &ContourCase) -> Result<Curves, DeltaJobError> {
+    Ok(match &case.curve {
+        CaseCurve::Closed { polygon, harmonics } => (
+            Some(Efd::from_polygon(polygon, *harmonics).map_err(DeltaJobError::Contour)?),
+            None,
+        ),
+        CaseCurve::Open(points) => (
+            None,
+            Some(OpenPath::from_points(points).map_err(DeltaJobError::Contour)?),
+        ),
+    })
+}
+
+/// Length of the case's path, m (one lap of a closed one).
+pub fn path_length_m(case: &ContourCase) -> Result<f64, DeltaJobError> {
+    Ok(match curves(case)? {
+        (Some(efd), _) => efd.arc_length(0.0, 2.0 * core::f64::consts::PI, 1024),
+        (_, Some(path)) => path.arc_length(0.0, path.chord_length_m(), 1024),
+        _ => 0.0,
+    })
+}
+
+/// Plans the case's job: one lap from θ = 0 (or the open path), ramps of 0.1 m/s² and
+/// 10 m/s³.
+pub fn plan(case: &ContourCase) -> Result<DeltaJob, DeltaJobError> {
+    let (efd, path) = curves(case)?;
+    let curve = match (&efd, &path) {
+        (Some(efd), _) => ContourCurve::Closed {
+            efd,
+            theta0_rad: 0.0,
+            laps: 1.0,
+        },
+        (_, Some(path)) => ContourCurve::Open(path),
+        _ => return Err(DeltaJobError::Size),
+    };
     DeltaJob::plan_contour(
         &machine(case.period_s),
         &ContourPlan {
-            efd: &efd,
+            curve,
             centre_m: [0.0, 0.0, CUT_HEIGHT_M],
-            theta0_rad: 0.0,
-            laps: 1.0,
             speed_m_s: case.speed_m_s,
             accel_m_s2: 0.1,
             jerk_m_s3: 10.0,
@@ -140,10 +190,7 @@ pub fn run<T: Float>(case: &ContourCase) -> Result<ContourReport, SlaveError> {
     scenario.machine = machine(case.period_s);
     scenario.plant = case.plant;
     scenario.blocked_carriage = case.blocked_carriage;
-    let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&case.polygon, case.harmonics)
-        .map_err(|e| SlaveError::Job(kerf::app::delta_slave::DeltaJobError::Contour(e)))?;
-    let perimeter = efd.arc_length(0.0, 2.0 * core::f64::consts::PI, 1024);
-    let job_s = 0.3 + perimeter / case.speed_m_s + 1.0;
+    let job_s = 0.3 + path_length_m(case).map_err(SlaveError::Job)? / case.speed_m_s + 1.0;
     let max_power_w = scenario.machine.laser.max_power_w;
     let mut samples = Vec::new();
     let mut fault = None;

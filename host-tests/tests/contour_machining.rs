@@ -3,7 +3,7 @@
 //! at the seed's 2.4 kHz and at 10 kHz.
 
 use hal_mock::delta_plant::DeltaPlantParams;
-use host_tests::machining::{draw_runs, run, scaled, ContourCase, ContourReport};
+use host_tests::machining::{draw_runs, run, scaled, CaseCurve, ContourCase, ContourReport};
 use host_tests::plot::plots_dir;
 use kerf::app::delta_slave::{ContourLaw, DeltaFault};
 use kerf::control::laser::LaserMode;
@@ -20,8 +20,10 @@ fn shapes() -> [(&'static str, Vec<[f64; 2]>); 3] {
 
 fn case(polygon: &[[f64; 2]], law: ContourLaw, period_s: f64) -> ContourCase {
     ContourCase {
-        polygon: polygon.to_vec(),
-        harmonics: 30,
+        curve: CaseCurve::Closed {
+            polygon: polygon.to_vec(),
+            harmonics: 30,
+        },
         speed_m_s: 8e-3,
         law,
         period_s,
@@ -113,7 +115,7 @@ fn a_blocked_carriage_faults_the_contour_with_zero_force() {
 /// path order) that is out of reach; every sample before it is reachable.
 #[test]
 fn a_contour_beyond_the_workspace_names_its_first_unreachable_point() {
-    use kerf::app::delta_slave::{ContourPlan, DeltaJob};
+    use kerf::app::delta_slave::{ContourCurve, ContourPlan, DeltaJob};
     use kerf::app::delta_slave::{DeltaJobError, CONTOUR_HARMONICS, PLAN_SAMPLES_PER_LAP};
     use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
     use kerf::kinematics::Vector3;
@@ -126,10 +128,12 @@ fn a_contour_beyond_the_workspace_names_its_first_unreachable_point() {
     let err = DeltaJob::plan_contour(
         &host_tests::machining::machine(1e-4),
         &ContourPlan {
-            efd: &efd,
+            curve: ContourCurve::Closed {
+                efd: &efd,
+                theta0_rad: 0.0,
+                laps: 1.0,
+            },
             centre_m: centre,
-            theta0_rad: 0.0,
-            laps: 1.0,
             speed_m_s: 8e-3,
             accel_m_s2: 0.1,
             jerk_m_s3: 10.0,

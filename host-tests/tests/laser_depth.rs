@@ -10,7 +10,7 @@
 
 use hal_mock::delta_plant::DeltaPlantParams;
 use host_tests::depth::{deposit, DepthSummary, EnergyProfile};
-use host_tests::machining::{run, scaled, ContourCase, ContourReport};
+use host_tests::machining::{run, scaled, CaseCurve, ContourCase, ContourReport};
 use host_tests::plot::{along_path, plots_dir, Series};
 use kerf::app::delta_slave::ContourLaw;
 use kerf::control::laser::LaserMode;
@@ -23,8 +23,10 @@ const BIN_M: f64 = 1e-4;
 
 fn octagon(laser: LaserMode, law: ContourLaw) -> ContourCase {
     ContourCase {
-        polygon: scaled(&shapes::octagon(), 0.6),
-        harmonics: 30,
+        curve: CaseCurve::Closed {
+            polygon: scaled(&shapes::octagon(), 0.6),
+            harmonics: 30,
+        },
         speed_m_s: SPEED_M_S,
         law,
         period_s: PERIOD_S,
@@ -78,8 +80,12 @@ fn constant_energy_keeps_the_depth_where_constant_power_does_not() {
         let r = run::<f32>(&octagon(mode, ContourLaw::Contouring)).unwrap();
         assert!(r.fault.is_none(), "{:?}", r.fault);
         let p = profile(&r);
-        // The whole cut without its two end bins, which the cut only partly covers.
-        let (c, w) = (p.summary(ramp_bins()).unwrap(), p.summary(1).unwrap());
+        // The whole cut (the bins it covers wholly), and its cruise without the ramps.
+        // The beam turns on where the approach ended, at the path's start (arc 0).
+        let (from, to) = (r.arc_m[0].min(0.0), *r.arc_m.last().unwrap());
+        let ramp_m = ramp_bins() as f64 * BIN_M;
+        let c = p.summary_within(from + ramp_m, to - ramp_m).unwrap();
+        let w = p.summary_within(from, to).unwrap();
         print(name, &c, &w);
         // Every joule written was deposited (the positions are the plant's own).
         let written: f64 = r.samples[1..]

@@ -13,7 +13,7 @@ use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::hall_sensor::HallSensorParams;
 use heapless::Deque;
 use kerf::app::delta_slave::{
-    ContourLaw, ContourPlan, DeltaFault, DeltaJob, DeltaJobError, DeltaSlaveConfig,
+    ContourCurve, ContourLaw, ContourPlan, DeltaFault, DeltaJob, DeltaJobError, DeltaSlaveConfig,
     CONTOUR_HARMONICS,
 };
 use kerf::app::supervisor::{Machine, Mode};
@@ -146,10 +146,12 @@ pub fn octagon_job(
     DeltaJob::plan_contour(
         machine,
         &ContourPlan {
-            efd: &efd,
+            curve: ContourCurve::Closed {
+                efd: &efd,
+                theta0_rad: 0.0,
+                laps,
+            },
             centre_m: [0.0, 0.0, CUT_HEIGHT_M],
-            theta0_rad: 0.0,
-            laps,
             speed_m_s: 8e-3,
             accel_m_s2: 0.1,
             jerk_m_s3: 10.0,

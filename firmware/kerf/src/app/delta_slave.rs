@@ -40,7 +40,8 @@ use crate::sensing::hall::{HallConfig, SelfCalibration};
 use crate::trajectory::quintic::Quintic;
 use crate::trajectory::ContourError;
 pub use contour::{
-    ContourConfig, ContourLaw, ContourPlan, CONTOUR_HARMONICS, PLAN_SAMPLES_PER_LAP,
+    ContourConfig, ContourCurve, ContourLaw, ContourPlan, CONTOUR_HARMONICS, OPEN_PATH_POINTS,
+    PLAN_SAMPLES_PER_LAP,
 };
 use contour::{ContourJob, ContourRun};
 use nalgebra::Vector3;
@@ -350,8 +351,9 @@ impl DeltaJob {
 
     /// Plans a contour job for `config` ([`ContourPlan`]; the checks are in the
     /// `contour` module's docs): a joint-space approach of `plan.approach_s` to the
-    /// curve at θ0, then the contour at constant tangential speed between jerk-limited
-    /// ramps, for `plan.laps` laps.
+    /// curve's start (θ0 of a closed curve, the first point of an open path), then the
+    /// curve at constant tangential speed between jerk-limited ramps, for the laps of a
+    /// closed curve or to the end of an open path.
     pub fn plan_contour(
         config: &DeltaSlaveConfig,
         plan: &ContourPlan<'_>,

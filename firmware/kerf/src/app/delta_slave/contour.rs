@@ -1,10 +1,11 @@
-//! Contour jobs of the delta slave (T ch. 4, 8.1–8.2): the effector follows an EFD
-//! curve at a constant tangential speed, in the cutting plane z = const, driven by one
-//! of three laws on the per-joint disturbance observers ([`ContourLaw`]).
+//! Contour jobs of the delta slave (T ch. 4, 8.1–8.2): the effector follows a closed
+//! EFD curve or an open path ([`ContourCurve`]) at a constant tangential speed, in the
+//! cutting plane z = const, driven by one of three laws on the per-joint disturbance
+//! observers ([`ContourLaw`]).
 //!
 //! Planning (the slower context, `f64`): the curve's length and curvature against the
-//! speed ([`ContourFollower::new`]), then [`PLAN_SAMPLES_PER_LAP`] points per lap, in
-//! path order, each checked for reach, travel, singularity and the carriages' speed and
+//! speed ([`CurveFollower::new`]), then [`PLAN_SAMPLES_PER_LAP`] points per lap (per
+//! open path), in path order, each checked for reach, travel, singularity and the carriages' speed and
 //! acceleration at cruise (centripetal V²κ plus the ramp's tangential acceleration, a
 //! bound of what the ramps and cruise ask). The first point that fails is named in the
 //! error with its coordinates. Samples 2π/512 apart in θ are a few tens of
@@ -37,9 +38,10 @@ use crate::control::preview::{PreviewConfig, PreviewWindow};
 use crate::error::{positive, ConfigError};
 use crate::kinematics::delta::DeltaGeometry;
 use crate::scalar::{lit, Float};
-use crate::trajectory::efd::Efd;
+use crate::trajectory::efd::{Efd, EfdSample};
+use crate::trajectory::open_path::OpenPath;
 use crate::trajectory::tangential::{
-    ContourFollower, ContourReference, FollowerConfig, SpeedRamp, SpeedRampConfig,
+    ContourReference, Curve, CurveFollower, FollowerConfig, SpeedRamp, SpeedRampConfig,
 };
 use crate::trajectory::ContourError;
 use core::f64::consts::PI;
@@ -48,8 +50,76 @@ use nalgebra::Vector3;
 /// Harmonics a contour job can carry.
 pub const CONTOUR_HARMONICS: usize = 30;
 
-/// Points per lap at which a plan checks reach and limits.
+/// Points an open path of a contour job can carry (the letters of T fig. 8.1 have 25
+/// and 29).
+pub const OPEN_PATH_POINTS: usize = 32;
+
+/// Points per lap (per open path) at which a plan checks reach and limits.
 pub const PLAN_SAMPLES_PER_LAP: usize = 512;
+
+/// What a contour job follows.
+#[derive(Copy, Clone, Debug)]
+pub enum ContourCurve<'a> {
+    /// A closed contour, from θ0 for a number of laps.
+    Closed {
+        /// The curve, relative to its own centre.
+        efd: &'a Efd<f64, CONTOUR_HARMONICS>,
+        /// Where on the curve the cut starts, rad.
+        theta0_rad: f64,
+        /// How far to go, in laps of the curve (more than the two speed ramps' length).
+        laps: f64,
+    },
+    /// An open path, from its first point to its last (T 8.1's letters), relative to
+    /// the centroid of its points.
+    Open(&'a OpenPath<f64, OPEN_PATH_POINTS>),
+}
+
+/// The curve of a job (`f64`, planned) or of a run (`T`).
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum PathCurve<T: Float> {
+    Closed(Efd<T, CONTOUR_HARMONICS>),
+    Open(OpenPath<T, OPEN_PATH_POINTS>),
+}
+
+impl<T: Float> Curve<T> for PathCurve<T> {
+    fn evaluate(&self, theta: T) -> EfdSample<T> {
+        match self {
+            Self::Closed(c) => Curve::evaluate(c, theta),
+            Self::Open(c) => c.evaluate(theta),
+        }
+    }
+    fn tangent(&self, theta: T) -> nalgebra::Vector2<T> {
+        match self {
+            Self::Closed(c) => Curve::tangent(c, theta),
+            Self::Open(c) => c.tangent(theta),
+        }
+    }
+    fn span(&self) -> T {
+        match self {
+            Self::Closed(c) => c.span(),
+            Self::Open(c) => c.span(),
+        }
+    }
+    fn is_closed(&self) -> bool {
+        matches!(self, Self::Closed(_))
+    }
+    fn pieces(&self) -> usize {
+        match self {
+            Self::Closed(c) => c.pieces(),
+            Self::Open(c) => c.pieces(),
+        }
+    }
+}
+
+impl<T: Float> PathCurve<T> {
+    /// The run's curve in `T` from the job's.
+    fn from_f64(curve: &PathCurve<f64>) -> Result<Self, ContourError> {
+        Ok(match curve {
+            PathCurve::Closed(c) => Self::Closed(Efd::from_f64(c)?),
+            PathCurve::Open(c) => Self::Open(OpenPath::from_f64(c)?),
+        })
+    }
+}
 
 /// The law that drives the joints along a contour. All three end in the same per-joint
 /// disturbance observers.
@@ -122,14 +192,10 @@ impl ContourConfig {
 /// What an operator asks of a contour job.
 #[derive(Copy, Clone, Debug)]
 pub struct ContourPlan<'a> {
-    /// The curve, relative to its own centre.
-    pub efd: &'a Efd<f64, CONTOUR_HARMONICS>,
+    /// The curve, and where on it the cut starts and ends.
+    pub curve: ContourCurve<'a>,
     /// Where the curve's centre goes, and the cutting height z, m.
     pub centre_m: [f64; 3],
-    /// Where on the curve the cut starts, rad.
-    pub theta0_rad: f64,
-    /// How far to go, in laps of the curve (more than the two speed ramps' length).
-    pub laps: f64,
     /// Tangential speed V, m/s.
     pub speed_m_s: f64,
     /// Largest tangential acceleration of the start and stop ramps, m/s².
@@ -147,7 +213,7 @@ pub struct ContourPlan<'a> {
 /// A planned contour: everything a period needs, checked.
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct ContourJob {
-    efd: Efd<f64, CONTOUR_HARMONICS>,
+    curve: PathCurve<f64>,
     centre_m: [f64; 3],
     theta0_rad: f64,
     follower: FollowerConfig,
@@ -179,7 +245,18 @@ impl ContourJob {
         if !plan.centre_m.iter().all(|c| c.is_finite()) {
             return Err(config_error(ConfigError::not_finite("centre_m")));
         }
-        let laps = positive("laps", plan.laps).map_err(config_error)?;
+        let (curve, theta0_rad, laps) = match plan.curve {
+            ContourCurve::Closed {
+                efd,
+                theta0_rad,
+                laps,
+            } => (
+                PathCurve::Closed(efd.clone()),
+                theta0_rad,
+                positive("laps", laps).map_err(config_error)?,
+            ),
+            ContourCurve::Open(path) => (PathCurve::Open(path.clone()), 0.0, 1.0),
+        };
         Laser::<f64>::new(&config.laser)
             .and_then(|laser| laser.mode(&plan.laser))
             .map_err(|e| DeltaJobError::Laser(e.kind))?;
@@ -195,16 +272,17 @@ impl ContourJob {
             newton_steps: config.contour.newton_steps,
         };
         // Length against the step, curvature against the speed, the ramp, θ0.
-        ContourFollower::new(plan.efd.clone(), &follower, plan.theta0_rad).map_err(contour)?;
+        CurveFollower::new(curve.clone(), &follower, theta0_rad).map_err(contour)?;
         let ramp = SpeedRamp::<f64>::new(&follower.ramp).map_err(config_error)?;
-        let lap_m = plan
-            .efd
-            .arc_length(0.0, 2.0 * PI, 64 * plan.efd.harmonics());
+        let span = curve.span();
+        let lap_m = curve.arc_length(0.0, span, 64 * curve.pieces());
         let length_m = laps * lap_m;
         let cruise_m = length_m - 2.0 * ramp.ramp_distance_m();
         let cruise_periods = cruise_m / (plan.speed_m_s * period_s);
         if !(cruise_m >= 0.0 && cruise_periods < f64::from(u32::MAX / 2)) {
-            return Err(config_error(ConfigError::out_of_range("laps")));
+            // Too short for the ramps (or too long to count).
+            let field = if curve.is_closed() { "laps" } else { "curve" };
+            return Err(config_error(ConfigError::out_of_range(field)));
         }
         let stop_after_periods = ramp.ramp_periods() + libm::round(cruise_periods) as u32;
 
@@ -216,8 +294,8 @@ impl ContourJob {
         let (v, a) = (plan.speed_m_s, plan.accel_m_s2);
         let mut start = [0.0; 3];
         for i in 0..=samples {
-            let theta = plan.theta0_rad + 2.0 * PI * laps * i as f64 / samples as f64;
-            let s = plan.efd.evaluate(theta);
+            let theta = theta0_rad + span * laps * i as f64 / samples as f64;
+            let s = curve.evaluate(theta);
             let point = centre + Vector3::new(s.position.x, s.position.y, 0.0);
             let point_m: [f64; 3] = point.into();
             if i == 0 {
@@ -245,9 +323,9 @@ impl ContourJob {
         }
         Ok((
             Self {
-                efd: plan.efd.clone(),
+                curve,
                 centre_m: plan.centre_m,
-                theta0_rad: plan.theta0_rad,
+                theta0_rad,
                 follower,
                 stop_after_periods,
                 law: plan.law,
@@ -266,7 +344,7 @@ impl ContourJob {
 /// A contour in progress.
 #[derive(Clone, Debug)]
 pub(super) struct ContourRun<T: Float> {
-    follower: ContourFollower<T, CONTOUR_HARMONICS>,
+    follower: CurveFollower<T, PathCurve<T>>,
     centre: Vector3<T>,
     law: ContourLaw,
     laser: LaserMode<T>,
@@ -304,9 +382,8 @@ impl<T: Float> ContourRun<T> {
         geometry: &DeltaGeometry<T>,
         laser: &Laser<T>,
     ) -> Result<Self, DeltaJobError> {
-        let efd =
-            Efd::<T, CONTOUR_HARMONICS>::from_f64(&job.efd).map_err(DeltaJobError::Contour)?;
-        let follower = ContourFollower::for_checked_curve(efd, &job.follower, job.theta0_rad)
+        let curve = PathCurve::from_f64(&job.curve).map_err(DeltaJobError::Contour)?;
+        let follower = CurveFollower::for_checked_curve(curve, &job.follower, job.theta0_rad)
             .map_err(DeltaJobError::Contour)?;
         let centre = Vector3::new(
             lit(job.centre_m[0]),

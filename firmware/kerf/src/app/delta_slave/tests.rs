@@ -2,6 +2,7 @@
 //! inverse kinematics (a different computation from the Jacobian route).
 
 use super::*;
+use crate::app::delta_slave::ContourCurve;
 use crate::app::joints::MAX_SEGMENTS;
 use crate::control::laser::LaserMode;
 use crate::trajectory::efd::Efd;
@@ -213,10 +214,12 @@ fn octagon_plan(config: &DeltaSlaveConfig, laser: LaserMode) -> Result<DeltaJob,
     DeltaJob::plan_contour(
         config,
         &ContourPlan {
-            efd: &efd,
+            curve: ContourCurve::Closed {
+                efd: &efd,
+                theta0_rad: 0.0,
+                laps: 1.0,
+            },
             centre_m: centre(),
-            theta0_rad: 0.0,
-            laps: 1.0,
             speed_m_s: 8e-3,
             accel_m_s2: 0.1,
             jerk_m_s3: 10.0,
