@@ -12,8 +12,8 @@
 use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::hall_sensor::HallSensorParams;
 use kerf::app::delta_slave::{
-    ContourCurve, ContourLaw, ContourPlan, DeltaFault, DeltaJob, DeltaJobError, DeltaSlaveConfig,
-    CONTOUR_HARMONICS, OPEN_PATH_POINTS,
+    ContourConfig, ContourCurve, ContourLaw, ContourPlan, DeltaFault, DeltaJob, DeltaJobError,
+    DeltaSlaveConfig, CONTOUR_HARMONICS, OPEN_PATH_POINTS,
 };
 use kerf::app::supervisor::{Machine, Mode};
 use kerf::control::laser::LaserMode;
@@ -57,6 +57,13 @@ pub struct ContourCase {
     pub blocked_carriage: Option<(f64, usize)>,
     /// What the beam does along the contour.
     pub laser: LaserMode,
+    /// The contour laws' gains and limits (the Keops preset unless a case retunes
+    /// them).
+    pub contour: ContourConfig,
+    /// Noise-free nominal sensors with the nominal decoders installed (no
+    /// calibration): what the laws do when sensing is not the limit. Otherwise the
+    /// square scenario's imperfect, noisy sensors, calibrated by the machine.
+    pub ideal_sensors: bool,
 }
 
 /// One period of a run, in the contour phase.
@@ -85,6 +92,9 @@ pub struct ContourReport {
     pub max_normal_m: f64,
     /// RMS contour error, m.
     pub rms_normal_m: f64,
+    /// Largest |contour error| at cruise (the periods whose reference moves at the
+    /// set speed: the start and stop ramps left out), m.
+    pub max_normal_cruise_m: f64,
     /// Largest |tangential speed − reference speed| at cruise, m/s.
     pub max_speed_error_m_s: f64,
     /// Largest |force| on any carriage, N.
@@ -120,7 +130,15 @@ pub fn scaled(points: &[[f64; 2]], scale: f64) -> Vec<[f64; 2]> {
         .collect()
 }
 
-/// The machine of a case: the Keops preset at the case's period.
+/// The machine of a case: [`machine`] with the case's contour configuration.
+fn case_machine(case: &ContourCase) -> DeltaSlaveConfig {
+    DeltaSlaveConfig {
+        contour: case.contour,
+        ..machine(case.period_s)
+    }
+}
+
+/// The Keops preset at `period_s`.
 pub fn machine(period_s: f64) -> DeltaSlaveConfig {
     let mut config = DeltaSlaveConfig::KEOPS;
     config.joints.period_s = period_s;
@@ -169,7 +187,7 @@ pub fn plan(case: &ContourCase) -> Result<DeltaJob, DeltaJobError> {
         _ => return Err(DeltaJobError::Size),
     };
     DeltaJob::plan_contour(
-        &machine(case.period_s),
+        &case_machine(case),
         &ContourPlan {
             curve,
             centre_m: [0.0, 0.0, CUT_HEIGHT_M],
@@ -187,9 +205,15 @@ pub fn plan(case: &ContourCase) -> Result<DeltaJob, DeltaJobError> {
 pub fn run<T: Float>(case: &ContourCase) -> Result<ContourReport, SlaveError> {
     let job = plan(case).map_err(SlaveError::Job)?;
     let mut scenario = SlaveScenario::square();
-    scenario.machine = machine(case.period_s);
+    scenario.machine = case_machine(case);
     scenario.plant = case.plant;
     scenario.blocked_carriage = case.blocked_carriage;
+    if case.ideal_sensors {
+        let mut nominal = HallSensorParams::LM1247_16BIT;
+        nominal.noise_lsb = 0.0;
+        scenario.sensors = [nominal; 3];
+        scenario.stored_nominal_calibration = true;
+    }
     let job_s = 0.3 + path_length_m(case).map_err(SlaveError::Job)? / case.speed_m_s + 1.0;
     let max_power_w = scenario.machine.laser.max_power_w;
     let mut samples = Vec::new();
@@ -255,6 +279,7 @@ pub fn measure(
     let mut j = 0;
     let (mut max_normal, mut sum_sq, mut max_speed_error, mut peak_force) =
         (0.0f64, 0.0, 0.0f64, 0.0f64);
+    let mut max_normal_cruise = 0.0f64;
     for (i, s) in samples.iter().enumerate() {
         let p = [s.effector_m[0], s.effector_m[1]];
         while j + 1 < reference.len() && distance_sq(j + 1, p) <= distance_sq(j, p) {
@@ -317,7 +342,11 @@ pub fn measure(
         } else {
             0.0
         };
-        if step > 0.0 && (reference_speed - speed_m_s).abs() < 1e-6 * speed_m_s {
+        let cruising = (reference_speed - speed_m_s).abs() < 1e-6 * speed_m_s;
+        if cruising {
+            max_normal_cruise = max_normal_cruise.max(best);
+        }
+        if step > 0.0 && cruising {
             let v = s.effector_velocity_m_s;
             let along = (v[0] * d[0] + v[1] * d[1]) / step;
             max_speed_error = max_speed_error.max((along - reference_speed).abs());
@@ -328,6 +357,7 @@ pub fn measure(
     ContourReport {
         max_normal_m: max_normal,
         rms_normal_m: (sum_sq / n).sqrt(),
+        max_normal_cruise_m: max_normal_cruise,
         max_speed_error_m_s: max_speed_error,
         peak_force_n: peak_force,
         max_measured_normal_m: samples

@@ -12,7 +12,7 @@ use hal_mock::delta_plant::DeltaPlantParams;
 use host_tests::depth::{deposit, DepthSummary, EnergyProfile};
 use host_tests::machining::{run, scaled, CaseCurve, ContourCase, ContourReport};
 use host_tests::plot::{along_path, plots_dir, Series};
-use kerf::app::delta_slave::ContourLaw;
+use kerf::app::delta_slave::{ContourConfig, ContourLaw};
 use kerf::control::laser::LaserMode;
 use kerf::trajectory::shapes;
 
@@ -32,6 +32,8 @@ fn octagon(laser: LaserMode, law: ContourLaw) -> ContourCase {
         period_s: PERIOD_S,
         plant: DeltaPlantParams::SLAVE_REALISTIC,
         blocked_carriage: None,
+        contour: ContourConfig::KEOPS,
+        ideal_sensors: false,
         laser,
     }
 }

@@ -12,7 +12,7 @@ use hal_mock::delta_plant::DeltaPlantParams;
 use host_tests::depth::deposit;
 use host_tests::machining::{draw_runs, run, CaseCurve, ContourCase, ContourReport};
 use host_tests::plot::{along_path, plots_dir, Series};
-use kerf::app::delta_slave::ContourLaw;
+use kerf::app::delta_slave::{ContourConfig, ContourLaw};
 use kerf::control::laser::LaserMode;
 use kerf::trajectory::shapes;
 
@@ -37,6 +37,8 @@ fn case(points: &[[f64; 2]], law: ContourLaw, period_s: f64, laser: LaserMode) -
         period_s,
         plant: DeltaPlantParams::SLAVE_REALISTIC,
         blocked_carriage: None,
+        contour: ContourConfig::KEOPS,
+        ideal_sensors: false,
         laser,
     }
 }
