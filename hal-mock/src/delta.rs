@@ -7,8 +7,7 @@
 use crate::axis::SimulatedClock;
 use crate::delta_plant::{DeltaPlant, DeltaPlantParams};
 use crate::hall_sensor::{HallSensor, HallSensorParams};
-use kerf::app::delta_slave::SlaveOutputs;
-use kerf::hal::{Monotonic, SampleInputs, WriteOutputs};
+use kerf::hal::{ForceAndLaser, Monotonic, SampleInputs, WriteOutputs};
 use kerf::kinematics::delta::{DeltaConfig, KinematicsError};
 use kerf::kinematics::Vector3;
 use kerf::Real;
@@ -81,16 +80,16 @@ impl SampleInputs<[[u16; 3]; 3]> for SimulatedDelta {
 impl<T: Real> WriteOutputs<[T; 3]> for SimulatedDelta {
     /// Applies the forces (laser off) and advances the plant by one period.
     fn write(&mut self, force_n: &[T; 3]) {
-        self.write(&SlaveOutputs {
+        self.write(&ForceAndLaser {
             force_n: *force_n,
             laser_duty: T::ZERO,
         });
     }
 }
 
-impl<T: Real> WriteOutputs<SlaveOutputs<T>> for SimulatedDelta {
+impl<T: Real> WriteOutputs<ForceAndLaser<T, 3>> for SimulatedDelta {
     /// Applies the forces, holds the laser's duty and advances the plant by one period.
-    fn write(&mut self, outputs: &SlaveOutputs<T>) {
+    fn write(&mut self, outputs: &ForceAndLaser<T, 3>) {
         if self.error.is_none() {
             let force = Vector3::from(outputs.force_n.map(|f| f.to_f64()));
             self.error = self.plant.step(force).err();

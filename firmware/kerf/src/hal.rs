@@ -20,6 +20,16 @@ pub trait WriteOutputs<O> {
     fn write(&mut self, outputs: &O);
 }
 
+/// One period's commands to `N` force-driven axes and a laser, written together (the
+/// laser cutting machines' outputs).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct ForceAndLaser<T, const N: usize> {
+    /// Force of each axis, N.
+    pub force_n: [T; N],
+    /// The laser's PWM duty in [0, 1] (power / the source's maximum power).
+    pub laser_duty: T,
+}
+
 /// A tick counter that only counts up and never wraps in a machine's life: 64 bits
 /// (a 170 MHz timer extended in software wraps after 3,400 years). The app reads it
 /// once per control period to find periods that came late.

@@ -34,6 +34,7 @@ use crate::control::laser::{Laser, LaserConfig};
 use crate::control::pd::Reference;
 use crate::control::preview::Preview;
 use crate::error::{positive, ConfigContext, ConfigError, ConfigErrorKind};
+use crate::hal::ForceAndLaser;
 use crate::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
 use crate::scalar::{lit, Float, Real};
 use crate::sensing::hall::{HallConfig, SelfCalibration};
@@ -424,13 +425,7 @@ pub enum DeltaFault {
 }
 
 /// One period's commands: the carriages' forces and the laser, written together.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub struct SlaveOutputs<T> {
-    /// Force of each carriage, N.
-    pub force_n: [T; 3],
-    /// The laser's PWM duty in [0, 1] (power / the source's maximum power).
-    pub laser_duty: T,
-}
+pub type SlaveOutputs<T> = ForceAndLaser<T, 3>;
 
 /// One period's telemetry.
 #[derive(Copy, Clone, Debug, PartialEq)]
