@@ -623,6 +623,7 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
         let mut theta = next;
         let mut wrap = T::ZERO;
         let mut taken = taken;
+        let mut clamped = false;
         if theta >= self.span {
             if self.closed {
                 theta -= self.span;
@@ -632,6 +633,7 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
                 // dropped with the carry below.
                 theta = self.span;
                 taken = dth;
+                clamped = true;
             }
         }
         let sample = self.curve.evaluate(theta);
@@ -662,7 +664,13 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
         } else {
             T::ZERO
         };
-        let (v, a, j) = (sp.v, sp.a, sp.j);
+        // Stopped at an open curve's end: the reference is at rest there, whatever is
+        // left of the ramp.
+        let (v, a, j) = if clamped {
+            (T::ZERO, T::ZERO, T::ZERO)
+        } else {
+            (sp.v, sp.a, sp.j)
+        };
         let (th_dot, th_ddot, th_dddot) = if sigma > T::ZERO {
             let inv = T::one() / sigma;
             let s_t = s.d1.dot(&s.d2) * inv;

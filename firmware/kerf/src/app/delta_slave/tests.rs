@@ -288,3 +288,85 @@ fn the_beam_is_off_outside_a_contour_and_in_the_safe_outputs() {
         assert_eq!(slave.telemetry().laser_power_w, 0.0);
     }
 }
+
+/// An open path planned like the letters: 2 mm/s, ramps of 0.1 m/s² and 10 m/s³.
+fn open_plan(points: &[[f64; 2]], centre_m: [f64; 3]) -> Result<DeltaJob, DeltaJobError> {
+    use crate::trajectory::open_path::OpenPath;
+    let path =
+        OpenPath::<f64, OPEN_PATH_POINTS>::from_points(points).map_err(DeltaJobError::Contour)?;
+    DeltaJob::plan_contour(
+        &DeltaSlaveConfig::KEOPS,
+        &ContourPlan {
+            curve: ContourCurve::Open(&path),
+            centre_m,
+            speed_m_s: 2e-3,
+            accel_m_s2: 0.1,
+            jerk_m_s3: 10.0,
+            approach_s: 0.3,
+            law: ContourLaw::Preview,
+            laser: LaserMode::Off,
+        },
+    )
+}
+
+#[test]
+fn open_paths_plan_and_refuse_what_does_not_fit() {
+    use crate::trajectory::shapes::letter_s;
+    let c = centre();
+    let job = open_plan(&letter_s(), c).unwrap();
+    assert_eq!(job.contour_law(), Some(ContourLaw::Preview));
+    // The start is the path's first point (relative to the points' centroid).
+    let s = letter_s();
+    let n = s.len() as f64;
+    let centroid = [
+        s.iter().map(|p| p[0]).sum::<f64>() / n,
+        s.iter().map(|p| p[1]).sum::<f64>() / n,
+    ];
+    let want = [
+        c[0] + s[0][0] - centroid[0],
+        c[1] + s[0][1] - centroid[1],
+        c[2],
+    ];
+    let got = job.start_m();
+    for k in 0..3 {
+        assert!((got[k] - want[k]).abs() < 1e-15, "{got:?} {want:?}");
+    }
+    // Shorter than the two ramps (2 × 0.03 mm): named.
+    let tiny = [[0.0, 0.0], [1e-5, 1e-5], [2e-5, 0.0]];
+    match open_plan(&tiny, c) {
+        Err(DeltaJobError::Contour(ContourError::Config(e))) => assert_eq!(e.field(), "curve"),
+        other => panic!("{other:?}"),
+    }
+    // Too many points for a job.
+    let many: std::vec::Vec<[f64; 2]> = (0..=OPEN_PATH_POINTS)
+        .map(|i| [1e-4 * i as f64, 0.0])
+        .collect();
+    assert_eq!(
+        open_plan(&many, c).unwrap_err(),
+        DeltaJobError::Contour(ContourError::Capacity)
+    );
+    // A 'stroke' from the middle of the workspace out past its edge (x ±29 mm): the
+    // first point beyond reach is named, and it is past the edge.
+    // The centroid is at x = 26 mm, so the stroke runs from x = −26 mm to +44 mm.
+    let stroke = [
+        [0.0, 0.0],
+        [0.010, 0.001],
+        [0.020, 0.0],
+        [0.030, 0.001],
+        [0.070, 0.0],
+    ];
+    match open_plan(&stroke, c) {
+        Err(DeltaJobError::ContourUnreachable { point_m, .. }) => {
+            // On the far side, out of reach, and a sample step (72 mm / 512) back
+            // along the stroke is in reach.
+            let geometry = DeltaGeometry::<f64>::new(&DeltaConfig::SLAVE_KEOPS).unwrap();
+            let p = Vector3::from(point_m);
+            assert!(p.x - c[0] > 0.020, "{point_m:?}");
+            assert!(geometry.inverse(&p).is_err());
+            assert!(geometry
+                .inverse(&(p - Vector3::new(0.15e-3, 0.0, 0.0)))
+                .is_ok());
+        }
+        other => panic!("{other:?}"),
+    }
+}

@@ -233,6 +233,13 @@ fn a_follower_walks_an_open_path_at_constant_speed_and_stops_at_its_end() {
     let length = path.arc_length(0.0, path.chord_length_m(), 2000);
     assert!((arc - length).abs() < 1e-9 + speed * ts, "{arc} {length}");
     assert_eq!(f.theta(), path.chord_length_m());
+    // Held at the end, at rest.
+    let r = f.step().unwrap();
+    assert_eq!(
+        r.velocity.norm() + r.acceleration.norm() + r.jerk.norm(),
+        0.0
+    );
+    assert_eq!(r.position, previous);
     // θ0 outside the path is refused.
     assert!(CurveFollower::new(path, &config, -1e-3).is_err());
 }
