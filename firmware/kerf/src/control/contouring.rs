@@ -261,14 +261,11 @@ impl<T: Float> Contouring<T> {
             .task_acceleration_framed(reference, &position, &velocity)
             .map_err(ContouringError::Frame)?;
         let contour_error_m = contour_error(&frame_error_m, framed);
-        let jx_dot = geometry
-            .jacobian_derivative(q, &position, q_dot)
-            .map_err(ContouringError::Kinematics)?;
-        let jx_inv = geometry
-            .jacobian_inverse(q, &position)
+        let joint_acceleration = geometry
+            .joint_acceleration(q, &position, q_dot, &acceleration)
             .map_err(ContouringError::Kinematics)?;
         Ok(ContouringOutput {
-            joint_acceleration: jx_inv * (acceleration - jx_dot * q_dot),
+            joint_acceleration,
             frame_error_m,
             position_m: position,
             velocity_m_s: velocity,

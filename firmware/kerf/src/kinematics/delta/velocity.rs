@@ -144,6 +144,20 @@ impl<T: Float> DeltaGeometry<T> {
         let [c1, c2, c3] = &terms.adj;
         finite_matrix(Matrix3::from_columns(&[*c1, *c2, *c3]) * m * terms.inv_det_j2)
     }
+
+    /// The joint accelerations that give the effector the acceleration `p_ddot` (m/s²)
+    /// at (q, p) moving with q̇: q̈ = Jx⁻¹ (p̈ − J̇x q̇), the time derivative of T eq. 146.
+    pub fn joint_acceleration(
+        &self,
+        q: &Vector3<T>,
+        p: &Vector3<T>,
+        q_dot: &Vector3<T>,
+        p_ddot: &Vector3<T>,
+    ) -> Result<Vector3<T>, KinematicsError> {
+        let jx_dot = self.jacobian_derivative(q, p, q_dot)?;
+        let jx_inv = self.jacobian_inverse(q, p)?;
+        Ok(jx_inv * (p_ddot - jx_dot * q_dot))
+    }
 }
 
 #[cfg(test)]
