@@ -23,6 +23,8 @@ use kerf_app::exit;
 use kerf_app::stack::Painted;
 use kerf_sim::contour::octagon_job;
 
+#[path = "bench/checks.rs"]
+mod checks;
 #[path = "bench/kernels.rs"]
 mod kernels;
 #[path = "bench/peers.rs"]
@@ -129,8 +131,14 @@ fn main() -> ! {
         counter.instructions_per_tick()
     );
 
+    checks::run(&mut counter);
     kernel_rows(&mut counter);
     slave_period_rows(&mut counter);
+    if counter.is_traced() {
+        // The traced run is for the timed loops only.
+        exit(true)
+    }
+    state_sizes();
     machine_stacks();
     fit_stack::<Joints<f32, 1>, 1>("Joints<f32, 1>");
     fit_stack::<DeltaSlave<f32>, 3>("DeltaSlave<f32>");
@@ -282,6 +290,46 @@ fn kernel_rows(counter: &mut Counter) {
     peers::efd_rows(counter);
     kernels::codec_rows::<32>(counter, 8);
     kernels::codec_rows::<64>(counter, 16);
+}
+
+/// Sizes of the slave machine's state and of its per-axis parts, printed as `= ` lines
+/// for the Memory section of BENCHMARKS.md.
+fn state_sizes() {
+    use core::mem::size_of;
+    let sizes = [
+        (
+            "DeltaSlave<f32> (whole slave machine: 3 axes, geometry, contour run)",
+            size_of::<DeltaSlave<f32>>(),
+        ),
+        (
+            "Joints<f32, 3> (the three carriages)",
+            size_of::<Joints<f32, 3>>(),
+        ),
+        (
+            "AxisState<f32> (per axis: Hall tracking, observer, DOB)",
+            size_of::<AxisState<f32>>(),
+        ),
+        (
+            "HallState (per axis, inside AxisState)",
+            size_of::<HallState>(),
+        ),
+        (
+            "DobState<f32> (per axis, inside AxisState)",
+            size_of::<DobState<f32>>(),
+        ),
+        (
+            "HallAxis<f32> (per axis coefficients: decoder with its phase table)",
+            size_of::<HallAxis<f32>>(),
+        ),
+        (
+            "AxisLaw<f32> (coefficients shared by the axes)",
+            size_of::<AxisLaw<f32>>(),
+        ),
+        ("DeltaJob (a planned job)", size_of::<DeltaJob>()),
+    ];
+    for (name, bytes) in sizes {
+        hprintln!("= {}: {} bytes", name, bytes);
+    }
 }
 
 /// Control-period stack of each machine: one supervisor step per command and mode, from
@@ -546,6 +594,13 @@ fn slave_period_rows(counter: &mut Counter) {
         );
         let mut reference = name.clone();
         let _ = reference.push_str(" :: reference");
+        if counter.is_traced() && harmonics != 10 {
+            // Each row needs its own 4 000-period approach; the traced run (about ten
+            // times slower per instruction) estimates the cycles of the n = 10 rows only.
+            hprintln!("@ skip 0 {}", name);
+            hprintln!("@ skip 0 {}", reference);
+            continue;
+        }
         let contouring = slave_period(counter, &name, harmonics, ContourLaw::Contouring);
         let joint = slave_period(counter, &reference, harmonics, ContourLaw::Joint);
         hprintln!(
