@@ -14,8 +14,10 @@ use kerf::app::calibrate::{CalibrationFit, HallMachine, SAMPLES_PER_COAST, SEGME
 use kerf::app::delta_slave::{ContourLaw, DeltaJob, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
 use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
+use kerf::control::contouring::Contouring;
 use kerf::control::dob::{Dob, DobState};
 use kerf::control::pd::{Pd, Reference};
+use kerf::kinematics::delta::DeltaGeometry;
 use kerf::sensing::hall::{HallArithmetic, HallConfig, HallDecoder, HallState};
 use kerf::{Real, Q32};
 use kerf_app::bench::Counter;
@@ -29,6 +31,8 @@ mod checks;
 mod kernels;
 #[path = "bench/peers.rs"]
 mod peers;
+#[path = "bench/stages.rs"]
+mod stages;
 
 /// Number of distinct inputs cycled through (a power of two).
 const INPUTS: usize = 64;
@@ -525,12 +529,25 @@ const SLAVE_PERIODS: usize = 256;
 /// references exactly (nominal sensors fed the last period's joint references), so
 /// every measured period runs the whole law.
 #[inline(never)]
-fn slave_period(counter: &mut Counter, key: &str, harmonics: usize, law: ContourLaw) -> f64 {
+fn slave_period(
+    counter: &mut Counter,
+    key: &str,
+    harmonics: usize,
+    law: ContourLaw,
+    mut stages: Option<&mut stages::Stages>,
+) -> f64 {
     let config = DeltaSlaveConfig::KEOPS;
     let (Ok(machine), Ok(job), Ok(sensor)) = (
         DeltaSlave::<f32>::new(&config),
         octagon_job(&config, 1.0, harmonics, law),
         HallAxis::<f32>::new(&HallConfig::LM1247_16BIT),
+    ) else {
+        exit(false)
+    };
+    let (Ok(geometry), Ok(contouring), Ok(law32)) = (
+        DeltaGeometry::<f32>::new(&config.delta),
+        Contouring::<f32>::new(&config.contour.contouring),
+        AxisLaw::<f32>::new(&config.joints.axis, config.joints.period_s),
     ) else {
         exit(false)
     };
@@ -556,6 +573,7 @@ fn slave_period(counter: &mut Counter, key: &str, harmonics: usize, law: Contour
     let mut measured = 0;
     // The approach (3 000 periods), the start ramp, then cruise.
     for period in 0..(4_000 + SLAVE_PERIODS) {
+        let axes = *supervisor.machine().joints().axes();
         let mut step = || {
             black_box(supervisor.step(black_box(&inputs)));
         };
@@ -564,6 +582,24 @@ fn slave_period(counter: &mut Counter, key: &str, harmonics: usize, law: Contour
             measured += 1;
         } else {
             step();
+        }
+        if let (Some(stages), Some(effector)) = (
+            stages.as_deref_mut(),
+            supervisor.machine().telemetry().effector_reference_m,
+        ) {
+            if period >= 4_000 - 3 {
+                stages.measure(
+                    counter,
+                    &law32,
+                    &sensor,
+                    &geometry,
+                    &contouring,
+                    &inputs,
+                    &axes,
+                    effector,
+                    config.joints.period_s as f32,
+                );
+            }
         }
         while receive.dequeue().is_some() {}
         let reference = supervisor.machine().joints().reference();
@@ -601,13 +637,30 @@ fn slave_period_rows(counter: &mut Counter) {
             hprintln!("@ skip 0 {}", reference);
             continue;
         }
-        let contouring = slave_period(counter, &name, harmonics, ContourLaw::Contouring);
-        let joint = slave_period(counter, &reference, harmonics, ContourLaw::Joint);
+        let mut stages = stages::Stages::default();
+        let contouring = slave_period(
+            counter,
+            &name,
+            harmonics,
+            ContourLaw::Contouring,
+            (harmonics == 10).then_some(&mut stages),
+        );
+        let joint = slave_period(counter, &reference, harmonics, ContourLaw::Joint, None);
         hprintln!(
             "| {} | {:.0} | same period, independent joint PD law | {:.0} | — | — |",
             name,
             contouring,
             joint
         );
+        if stages.periods > 0 {
+            let periods = f64::from(stages.periods);
+            for (stage, total) in stages::STAGES.iter().zip(stages.totals) {
+                hprintln!(
+                    "| {} | {:.0} | — | — | — | — |",
+                    stages::key(stage),
+                    total / periods
+                );
+            }
+        }
     }
 }
