@@ -12,6 +12,9 @@ fn main() {
             // The contour image's simulated plant, operator and queues need more than
             // the board's 128 KiB (memory.x); 1 MiB of the model's 4 MiB SRAM.
             println!("cargo:rustc-link-arg-bin=contour=--defsym=_kerf_ram_length=0x100000");
+            // The benchmark image links every kernel beside its peers: 1 MiB of the
+            // model's 4 MiB code memory.
+            println!("cargo:rustc-link-arg-bin=bench=--defsym=_kerf_flash_length=0x100000");
         }
         println!("cargo:rustc-link-arg-bins=-Tlink.x");
     }

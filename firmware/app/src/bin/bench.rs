@@ -14,20 +14,25 @@ use kerf::app::calibrate::{CalibrationFit, HallMachine, SAMPLES_PER_COAST, SEGME
 use kerf::app::delta_slave::{ContourLaw, DeltaJob, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
 use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
-use kerf::codec::dct::{Dct, NaiveDct};
-use kerf::codec::sdct::{SdctConfig, SdctDecoder, SdctEncoder, Selection};
+use kerf::control::contouring::Contouring;
 use kerf::control::dob::{Dob, DobState};
 use kerf::control::pd::{Pd, Reference};
-use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
-use kerf::kinematics::Vector3;
+use kerf::kinematics::delta::DeltaGeometry;
 use kerf::sensing::hall::{HallArithmetic, HallConfig, HallDecoder, HallState};
-use kerf::trajectory::efd::Efd;
-use kerf::trajectory::shapes;
 use kerf::{Real, Q32};
 use kerf_app::bench::Counter;
 use kerf_app::exit;
 use kerf_app::stack::Painted;
 use kerf_sim::contour::octagon_job;
+
+#[path = "bench/checks.rs"]
+mod checks;
+#[path = "bench/kernels.rs"]
+mod kernels;
+#[path = "bench/peers.rs"]
+mod peers;
+#[path = "bench/stages.rs"]
+mod stages;
 
 /// Number of distinct inputs cycled through (a power of two).
 const INPUTS: usize = 64;
@@ -38,10 +43,57 @@ fn row(
     kernel: impl FnMut(u32),
     reference_name: &str,
     reference: impl FnMut(u32),
+    baseline: impl FnMut(u32) + Copy,
 ) {
-    let n = counter.per_call(kernel);
-    let r = counter.per_call(reference);
-    hprintln!("| {} | {:.0} | {} | {:.0} |", name, n, reference_name, r);
+    row_with_errors(
+        counter,
+        name,
+        kernel,
+        reference_name,
+        reference,
+        (baseline, baseline),
+        None,
+    );
+}
+
+/// One row of the table: `kernel` and `reference` per call, each net of `baseline`
+/// (the same loop with the same input and output moves, without either), then their
+/// errors against an f64 reference when given ("—" otherwise); `baselines` are the
+/// kernel's and the reference's, when their moves differ. The traced run keys
+/// the reference by the row's name, since reference names repeat.
+fn row_with_errors(
+    counter: &mut Counter,
+    name: &str,
+    kernel: impl FnMut(u32),
+    reference_name: &str,
+    reference: impl FnMut(u32),
+    baselines: (impl FnMut(u32), impl FnMut(u32)),
+    errors: Option<(f64, f64, &str)>,
+) {
+    let n = counter.per_call(name, kernel, baselines.0);
+    let mut key = heapless::String::<128>::new();
+    let _ = core::fmt::write(&mut key, format_args!("{name} :: reference"));
+    let r = counter.per_call(&key, reference, baselines.1);
+    match errors {
+        Some((e, er, unit)) => hprintln!(
+            "| {} | {:.0} | {} | {:.0} | {:.1e}{} | {:.1e}{} |",
+            name,
+            n,
+            reference_name,
+            r,
+            e,
+            unit,
+            er,
+            unit
+        ),
+        None => hprintln!(
+            "| {} | {:.0} | {} | {:.0} | — | — |",
+            name,
+            n,
+            reference_name,
+            r
+        ),
+    }
 }
 
 /// Hall samples over one pitch: an axis moving 1/64 pitch per period.
@@ -83,8 +135,14 @@ fn main() -> ! {
         counter.instructions_per_tick()
     );
 
+    checks::run(&mut counter);
     kernel_rows(&mut counter);
     slave_period_rows(&mut counter);
+    if counter.is_traced() {
+        // The traced run is for the timed loops only.
+        exit(true)
+    }
+    state_sizes();
     machine_stacks();
     fit_stack::<Joints<f32, 1>, 1>("Joints<f32, 1>");
     fit_stack::<DeltaSlave<f32>, 3>("DeltaSlave<f32>");
@@ -151,6 +209,9 @@ fn kernel_rows(counter: &mut Counter) {
             let (y, x) = black_box(vectors[(i & mask) as usize]);
             black_box(libm::atan2f(y as f32, x as f32));
         },
+        |i| {
+            black_box(black_box(vectors[(i & mask) as usize]));
+        },
     );
     row(
         counter,
@@ -169,6 +230,9 @@ fn kernel_rows(counter: &mut Counter) {
                     .update(&mut hall_state_f32, black_box(hall[(i & mask) as usize]), 0)
                     .ok(),
             );
+        },
+        |i| {
+            black_box(black_box(hall[(i & mask) as usize]));
         },
     );
 
@@ -199,6 +263,9 @@ fn kernel_rows(counter: &mut Counter) {
             );
             black_box(dobq.update(&mut dobq_state, a, Q32::from_q32(425_201_762)));
         },
+        |i| {
+            black_box(i);
+        },
     );
 
     let refs64: [Reference<f64>; INPUTS] = core::array::from_fn(|k| Reference {
@@ -218,11 +285,55 @@ fn kernel_rows(counter: &mut Counter) {
             let k = (i & mask) as usize;
             black_box(law64.step(&sensor64, &mut axis64, black_box(hall[k]), &refs64[k]));
         },
+        |i| {
+            black_box(black_box(hall[(i & mask) as usize]));
+        },
     );
-    kinematics_rows(counter);
-    efd_rows(counter);
-    codec_rows::<32>(counter, 8);
-    codec_rows::<64>(counter, 16);
+    peers::rows(counter, &vectors);
+    kernels::kinematics_rows(counter);
+    peers::efd_rows(counter);
+    kernels::codec_rows::<32>(counter, 8);
+    kernels::codec_rows::<64>(counter, 16);
+}
+
+/// Sizes of the slave machine's state and of its per-axis parts, printed as `= ` lines
+/// for the Memory section of BENCHMARKS.md.
+fn state_sizes() {
+    use core::mem::size_of;
+    let sizes = [
+        (
+            "DeltaSlave<f32> (whole slave machine: 3 axes, geometry, contour run)",
+            size_of::<DeltaSlave<f32>>(),
+        ),
+        (
+            "Joints<f32, 3> (the three carriages)",
+            size_of::<Joints<f32, 3>>(),
+        ),
+        (
+            "AxisState<f32> (per axis: Hall tracking, observer, DOB)",
+            size_of::<AxisState<f32>>(),
+        ),
+        (
+            "HallState (per axis, inside AxisState)",
+            size_of::<HallState>(),
+        ),
+        (
+            "DobState<f32> (per axis, inside AxisState)",
+            size_of::<DobState<f32>>(),
+        ),
+        (
+            "HallAxis<f32> (per axis coefficients: decoder with its phase table)",
+            size_of::<HallAxis<f32>>(),
+        ),
+        (
+            "AxisLaw<f32> (coefficients shared by the axes)",
+            size_of::<AxisLaw<f32>>(),
+        ),
+        ("DeltaJob (a planned job)", size_of::<DeltaJob>()),
+    ];
+    for (name, bytes) in sizes {
+        hprintln!("= {}: {} bytes", name, bytes);
+    }
 }
 
 /// Control-period stack of each machine: one supervisor step per command and mode, from
@@ -405,234 +516,6 @@ fn stack_of(body: &mut dyn FnMut()) -> Option<usize> {
     painted.used()
 }
 
-/// SDCT block codec (f32): the fast transforms, encode (transform + selection of m)
-/// and decode (zero-fill + inverse), each against the naive matrix-vector DCT with a
-/// precomputed cosine table; and the Q15 integer transform.
-fn codec_rows<const N: usize>(counter: &mut Counter, m: usize) {
-    let config = SdctConfig {
-        m,
-        selection: Selection::Largest,
-    };
-    let (Ok(dct), Ok(naive), Ok(encoder), Ok(decoder)) = (
-        Dct::<N>::new(),
-        NaiveDct::<N>::new(),
-        SdctEncoder::<N>::new(&config),
-        SdctDecoder::<N>::new(),
-    ) else {
-        exit(false)
-    };
-    // A block of a two-tone force signal.
-    let x: [f32; N] = core::array::from_fn(|n| {
-        let t = n as f32 * 1e-4;
-        0.6 * libm::sinf(2.0 * PI * 230.0 * t) + 0.25 * libm::sinf(2.0 * PI * 1700.0 * t + 0.4)
-    });
-    let x_q15: [i16; N] = x.map(|v| (v * 32767.0) as i16);
-    let Ok(block) = encoder.encode(&x) else {
-        exit(false)
-    };
-    let mut out = [0.0f32; N];
-    let mut out_q15 = [0i32; N];
-    let naive_forward = |_: u32| {
-        let mut c = [0.0f32; N];
-        naive.forward(black_box(&x), &mut c);
-        black_box(c);
-    };
-    let naive_inverse = |_: u32| {
-        let mut y = [0.0f32; N];
-        naive.inverse(black_box(block.coefficients()), &mut y);
-        black_box(y);
-    };
-    let mut name = heapless::String::<64>::new();
-    let mut named = |text: core::fmt::Arguments| -> heapless::String<64> {
-        name.clear();
-        let _ = core::fmt::write(&mut name, text);
-        name.clone()
-    };
-    row(
-        counter,
-        &named(format_args!("codec::dct::Dct::forward N={N} <f32>")),
-        |_| {
-            let mut c = black_box(x);
-            dct.forward(&mut c);
-            black_box(c);
-        },
-        "naive matrix-vector DCT-II (cosine table)",
-        naive_forward,
-    );
-    row(
-        counter,
-        &named(format_args!("codec::dct::Dct::inverse N={N} <f32>")),
-        |_| {
-            let mut y = black_box(*block.coefficients());
-            dct.inverse(&mut y);
-            black_box(y);
-        },
-        "naive matrix-vector DCT-III (cosine table)",
-        naive_inverse,
-    );
-    row(
-        counter,
-        &named(format_args!("codec::sdct::SdctEncoder::encode N={N} m={m}")),
-        |_| {
-            black_box(encoder.encode(black_box(&x)).ok());
-        },
-        "naive matrix-vector DCT-II (cosine table)",
-        naive_forward,
-    );
-    row(
-        counter,
-        &named(format_args!("codec::sdct::SdctDecoder::decode N={N}")),
-        |_| {
-            decoder.decode(black_box(&block), &mut out);
-            black_box(&out);
-        },
-        "naive matrix-vector DCT-III (cosine table)",
-        naive_inverse,
-    );
-    row(
-        counter,
-        &named(format_args!(
-            "codec::dct::Dct::forward_q15 N={N} <Q15, i64 sum>"
-        )),
-        |_| {
-            dct.forward_q15(black_box(&x_q15), &mut out_q15);
-            black_box(&out_q15);
-        },
-        "naive matrix-vector DCT-II (cosine table)",
-        naive_forward,
-    );
-}
-
-/// Delta kinematics of the Keops slave in f32, against the same code in f64 (software
-/// double): FK, IK, Jx, J̇x and the FK + IK + Jx set a period needs.
-fn kinematics_rows(counter: &mut Counter) {
-    let config = DeltaConfig::SLAVE_KEOPS;
-    let (Ok(g32), Ok(g64)) = (
-        DeltaGeometry::<f32>::new(&config),
-        DeltaGeometry::<f64>::new(&config),
-    ) else {
-        exit(false)
-    };
-    let mask = INPUTS as u32 - 1;
-    // Joint positions spread over the middle of the 0–40 mm travel.
-    let q64: [Vector3<f64>; INPUTS] = core::array::from_fn(|k| {
-        let t = k as f64 / INPUTS as f64 * core::f64::consts::TAU;
-        Vector3::new(
-            0.020 + 0.008 * libm::sin(t),
-            0.020 + 0.008 * libm::sin(t + 2.1),
-            0.020 + 0.008 * libm::cos(3.0 * t),
-        )
-    });
-    let p64: [Vector3<f64>; INPUTS] =
-        core::array::from_fn(|k| g64.forward(&q64[k]).unwrap_or_else(|_| exit(false)));
-    let q32: [Vector3<f32>; INPUTS] = core::array::from_fn(|k| q64[k].map(|v| v as f32));
-    let p32: [Vector3<f32>; INPUTS] = core::array::from_fn(|k| p64[k].map(|v| v as f32));
-    let qd32 = Vector3::new(0.01f32, -0.02, 0.015);
-    let qd64 = qd32.map(f64::from);
-    macro_rules! pair {
-        ($name:expr, |$k:ident| $f32:expr, |$k2:ident| $f64:expr) => {
-            row(
-                counter,
-                $name,
-                |i| {
-                    let $k = (i & mask) as usize;
-                    black_box($f32.ok());
-                },
-                "same <f64> (software double)",
-                |i| {
-                    let $k2 = (i & mask) as usize;
-                    black_box($f64.ok());
-                },
-            )
-        };
-    }
-    pair!(
-        "kinematics::delta::forward <f32>",
-        |k| g32.forward(black_box(&q32[k])),
-        |k| g64.forward(black_box(&q64[k]))
-    );
-    pair!(
-        "kinematics::delta::inverse <f32>",
-        |k| g32.inverse(black_box(&p32[k])),
-        |k| g64.inverse(black_box(&p64[k]))
-    );
-    pair!(
-        "kinematics::delta::jacobian <f32>",
-        |k| g32.jacobian(black_box(&q32[k]), &p32[k]),
-        |k| g64.jacobian(black_box(&q64[k]), &p64[k])
-    );
-    pair!(
-        "kinematics::delta::jacobian_derivative <f32>",
-        |k| g32.jacobian_derivative(black_box(&q32[k]), &p32[k], &qd32),
-        |k| g64.jacobian_derivative(black_box(&q64[k]), &p64[k], &qd64)
-    );
-    pair!(
-        "kinematics::delta forward + inverse + jacobian <f32>",
-        |k| g32
-            .forward(black_box(&q32[k]))
-            .and_then(|p| g32.inverse(&p).and_then(|q| g32.jacobian(&q, &p))),
-        |k| g64
-            .forward(black_box(&q64[k]))
-            .and_then(|p| g64.inverse(&p).and_then(|q| g64.jacobian(&q, &p)))
-    );
-}
-
-/// EFD position with three derivatives (sin/cos recurrence) against the direct sum
-/// that calls `sinf`/`cosf` for every harmonic, on the gear contour.
-fn efd_rows(counter: &mut Counter) {
-    fn pair<const N: usize>(counter: &mut Counter, name: &str, reference_name: &str) {
-        let Ok(efd) = Efd::<f32, N>::from_polygon(&shapes::gear(), N) else {
-            exit(false)
-        };
-        let mask = INPUTS as u32 - 1;
-        let thetas: [f32; INPUTS] = core::array::from_fn(|k| 0.1 + 6.2 * k as f32 / INPUTS as f32);
-        row(
-            counter,
-            name,
-            |i| {
-                black_box(efd.evaluate(black_box(thetas[(i & mask) as usize])));
-            },
-            reference_name,
-            |i| {
-                black_box(efd_direct(
-                    efd.coefficients(),
-                    black_box(thetas[(i & mask) as usize]),
-                ));
-            },
-        );
-    }
-    pair::<10>(
-        counter,
-        "trajectory::efd::Efd::evaluate n=10 <f32>",
-        "direct sum, sinf/cosf per harmonic",
-    );
-    pair::<30>(
-        counter,
-        "trajectory::efd::Efd::evaluate n=30 <f32>",
-        "direct sum, sinf/cosf per harmonic",
-    );
-}
-
-/// Reference: x, y and three derivatives with `sinf`/`cosf` of kθ for every harmonic.
-fn efd_direct(coefficients: &[[f32; 4]], theta: f32) -> [f32; 8] {
-    let mut out = [0.0f32; 8];
-    for (n, [a, b, c, d]) in coefficients.iter().copied().enumerate() {
-        let k = (n + 1) as f32;
-        let (s, co) = (libm::sinf(k * theta), libm::cosf(k * theta));
-        let (u, v) = (
-            [a * co + b * s, c * co + d * s],
-            [b * co - a * s, d * co - c * s],
-        );
-        for axis in 0..2 {
-            out[axis] += u[axis];
-            out[2 + axis] += k * v[axis];
-            out[4 + axis] -= k * k * u[axis];
-            out[6 + axis] -= k * k * k * v[axis];
-        }
-    }
-    out
-}
-
 /// Hall counts of the nominal 16-bit sensor at carriage position `q_m`.
 fn nominal_counts(q_m: f32) -> [u16; 3] {
     counts_at_phase(2.0 * PI * q_m / HallConfig::LM1247_16BIT.pitch_m as f32)
@@ -646,12 +529,25 @@ const SLAVE_PERIODS: usize = 256;
 /// references exactly (nominal sensors fed the last period's joint references), so
 /// every measured period runs the whole law.
 #[inline(never)]
-fn slave_period(counter: &mut Counter, harmonics: usize, law: ContourLaw) -> f64 {
+fn slave_period(
+    counter: &mut Counter,
+    key: &str,
+    harmonics: usize,
+    law: ContourLaw,
+    mut stages: Option<&mut stages::Stages>,
+) -> f64 {
     let config = DeltaSlaveConfig::KEOPS;
     let (Ok(machine), Ok(job), Ok(sensor)) = (
         DeltaSlave::<f32>::new(&config),
         octagon_job(&config, 1.0, harmonics, law),
         HallAxis::<f32>::new(&HallConfig::LM1247_16BIT),
+    ) else {
+        exit(false)
+    };
+    let (Ok(geometry), Ok(contouring), Ok(law32)) = (
+        DeltaGeometry::<f32>::new(&config.delta),
+        Contouring::<f32>::new(&config.contour.contouring),
+        AxisLaw::<f32>::new(&config.joints.axis, config.joints.period_s),
     ) else {
         exit(false)
     };
@@ -677,14 +573,33 @@ fn slave_period(counter: &mut Counter, harmonics: usize, law: ContourLaw) -> f64
     let mut measured = 0;
     // The approach (3 000 periods), the start ramp, then cruise.
     for period in 0..(4_000 + SLAVE_PERIODS) {
+        let axes = *supervisor.machine().joints().axes();
         let mut step = || {
             black_box(supervisor.step(black_box(&inputs)));
         };
         if period >= 4_000 {
-            total += counter.once(&mut step);
+            total += counter.once(key, &mut step);
             measured += 1;
         } else {
             step();
+        }
+        if let (Some(stages), Some(effector)) = (
+            stages.as_deref_mut(),
+            supervisor.machine().telemetry().effector_reference_m,
+        ) {
+            if period >= 4_000 - 3 {
+                stages.measure(
+                    counter,
+                    &law32,
+                    &sensor,
+                    &geometry,
+                    &contouring,
+                    &inputs,
+                    &axes,
+                    effector,
+                    config.joints.period_s as f32,
+                );
+            }
         }
         while receive.dequeue().is_some() {}
         let reference = supervisor.machine().joints().reference();
@@ -706,13 +621,46 @@ fn slave_period(counter: &mut Counter, harmonics: usize, law: ContourLaw) -> f64
 #[inline(never)]
 fn slave_period_rows(counter: &mut Counter) {
     for harmonics in [10, 30] {
-        let contouring = slave_period(counter, harmonics, ContourLaw::Contouring);
-        let joint = slave_period(counter, harmonics, ContourLaw::Joint);
-        hprintln!(
-            "| app::delta_slave contour period <f32>, EFD n={}, contouring law | {:.0} | same period, independent joint PD law | {:.0} |",
+        let mut name = heapless::String::<96>::new();
+        let _ = core::fmt::write(
+            &mut name,
+            format_args!(
+                "app::delta_slave contour period <f32>, EFD n={harmonics}, contouring law"
+            ),
+        );
+        let mut reference = name.clone();
+        let _ = reference.push_str(" :: reference");
+        if counter.is_traced() && harmonics != 10 {
+            // Each row needs its own 4 000-period approach; the traced run (about ten
+            // times slower per instruction) estimates the cycles of the n = 10 rows only.
+            hprintln!("@ skip 0 {}", name);
+            hprintln!("@ skip 0 {}", reference);
+            continue;
+        }
+        let mut stages = stages::Stages::default();
+        let contouring = slave_period(
+            counter,
+            &name,
             harmonics,
+            ContourLaw::Contouring,
+            (harmonics == 10).then_some(&mut stages),
+        );
+        let joint = slave_period(counter, &reference, harmonics, ContourLaw::Joint, None);
+        hprintln!(
+            "| {} | {:.0} | same period, independent joint PD law | {:.0} | — | — |",
+            name,
             contouring,
             joint
         );
+        if stages.periods > 0 {
+            let periods = f64::from(stages.periods);
+            for (stage, total) in stages::STAGES.iter().zip(stages.totals) {
+                hprintln!(
+                    "| {} | {:.0} | — | — | — | — |",
+                    stages::key(stage),
+                    total / periods
+                );
+            }
+        }
     }
 }

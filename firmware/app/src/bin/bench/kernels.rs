@@ -1,0 +1,278 @@
+//! Kernel rows against kerf's own references: delta kinematics in f32 against the
+//! same code in f64, and the codec against the FFT-based DCT-II, the naive
+//! matrix-vector transforms and the Q15 path.
+
+use super::{exit, row, row_with_errors, INPUTS};
+use core::f32::consts::PI;
+use core::hint::black_box;
+use kerf::codec::dct::{Dct, NaiveDct};
+use kerf::codec::sdct::{SdctConfig, SdctDecoder, SdctEncoder, Selection};
+use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
+use kerf::kinematics::Vector3;
+use kerf_app::bench::Counter;
+use kerf_peers::FftDct;
+
+/// SDCT block codec (f32): the fast transforms, encode (transform + selection of m)
+/// and decode (zero-fill + inverse), each against the naive matrix-vector DCT with a
+/// precomputed cosine table; the forward transform also against the DCT-II through
+/// microfft's real FFT (Makhoul's reordering), with both errors against the f64 sum;
+/// and the Q15 integer transform. Array copies and output moves are in the baselines.
+#[inline(never)]
+pub fn codec_rows<const N: usize>(counter: &mut Counter, m: usize) {
+    let config = SdctConfig {
+        m,
+        selection: Selection::Largest,
+    };
+    let (Ok(dct), Ok(naive), Ok(encoder), Ok(decoder), Some(fft)) = (
+        Dct::<N>::new(),
+        NaiveDct::<N>::new(),
+        SdctEncoder::<N>::new(&config),
+        SdctDecoder::<N>::new(),
+        FftDct::<N>::new(),
+    ) else {
+        exit(false)
+    };
+    // A block of a two-tone force signal.
+    let x: [f32; N] = core::array::from_fn(|n| {
+        let t = n as f32 * 1e-4;
+        0.6 * libm::sinf(2.0 * PI * 230.0 * t) + 0.25 * libm::sinf(2.0 * PI * 1700.0 * t + 0.4)
+    });
+    let x_q15: [i16; N] = x.map(|v| (v * 32767.0) as i16);
+    let Ok(block) = encoder.encode(&x) else {
+        exit(false)
+    };
+    let mut out = [0.0f32; N];
+    let mut out_q15 = [0i32; N];
+    let naive_forward = |_: u32| {
+        let mut c = [0.0f32; N];
+        naive.forward(black_box(&x), &mut c);
+        black_box(c);
+    };
+    let naive_forward_base = |_: u32| {
+        let c = [0.0f32; N];
+        black_box(&x);
+        black_box(c);
+    };
+    let naive_inverse = |_: u32| {
+        let mut y = [0.0f32; N];
+        naive.inverse(black_box(block.coefficients()), &mut y);
+        black_box(y);
+    };
+    let naive_inverse_base = |_: u32| {
+        let y = [0.0f32; N];
+        black_box(block.coefficients());
+        black_box(y);
+    };
+    let copy_x = |_: u32| {
+        let c = black_box(x);
+        black_box(c);
+    };
+    let copy_block = |_: u32| {
+        let y = black_box(*block.coefficients());
+        black_box(y);
+    };
+    let mut name = heapless::String::<64>::new();
+    let mut named = |text: core::fmt::Arguments| -> heapless::String<64> {
+        name.clear();
+        let _ = core::fmt::write(&mut name, text);
+        name.clone()
+    };
+    let (mut kerf_c, mut fft_c) = (x, x);
+    dct.forward(&mut kerf_c);
+    fft.forward(&mut fft_c);
+    row_with_errors(
+        counter,
+        &named(format_args!("codec::dct::Dct::forward N={N} <f32>")),
+        |_| {
+            let mut c = black_box(x);
+            dct.forward(&mut c);
+            black_box(c);
+        },
+        "DCT-II via microfft::real::rfft (Makhoul)",
+        |_| {
+            let mut c = black_box(x);
+            fft.forward(&mut c);
+            black_box(c);
+        },
+        (copy_x, copy_x),
+        Some((dct_error(&x, &kerf_c), dct_error(&x, &fft_c), " rel")),
+    );
+    row_with_errors(
+        counter,
+        &named(format_args!("codec::dct::Dct::forward N={N} <f32> (naive)")),
+        |_| {
+            let mut c = black_box(x);
+            dct.forward(&mut c);
+            black_box(c);
+        },
+        "naive matrix-vector DCT-II (cosine table)",
+        naive_forward,
+        (copy_x, naive_forward_base),
+        None,
+    );
+    row_with_errors(
+        counter,
+        &named(format_args!("codec::dct::Dct::inverse N={N} <f32>")),
+        |_| {
+            let mut y = black_box(*block.coefficients());
+            dct.inverse(&mut y);
+            black_box(y);
+        },
+        "naive matrix-vector DCT-III (cosine table)",
+        naive_inverse,
+        (copy_block, naive_inverse_base),
+        None,
+    );
+    row_with_errors(
+        counter,
+        &named(format_args!("codec::sdct::SdctEncoder::encode N={N} m={m}")),
+        |_| {
+            black_box(encoder.encode(black_box(&x)).ok());
+        },
+        "naive matrix-vector DCT-II (cosine table)",
+        naive_forward,
+        (
+            |_| {
+                black_box(black_box(&x));
+            },
+            naive_forward_base,
+        ),
+        None,
+    );
+    row_with_errors(
+        counter,
+        &named(format_args!("codec::sdct::SdctDecoder::decode N={N}")),
+        |_| {
+            decoder.decode(black_box(&block), &mut out);
+            black_box(&out);
+        },
+        "naive matrix-vector DCT-III (cosine table)",
+        naive_inverse,
+        (
+            |_| {
+                black_box(black_box(&block));
+            },
+            naive_inverse_base,
+        ),
+        None,
+    );
+    row_with_errors(
+        counter,
+        &named(format_args!(
+            "codec::dct::Dct::forward_q15 N={N} <Q15, i64 sum>"
+        )),
+        |_| {
+            dct.forward_q15(black_box(&x_q15), &mut out_q15);
+            black_box(&out_q15);
+        },
+        "naive matrix-vector DCT-II (cosine table)",
+        naive_forward,
+        (
+            |_| {
+                black_box(black_box(&x_q15));
+            },
+            naive_forward_base,
+        ),
+        None,
+    );
+}
+
+/// Largest error of a DCT-II `c` of `x` against the defining sum in f64, relative to
+/// the largest exact coefficient.
+fn dct_error<const N: usize>(x: &[f32; N], c: &[f32; N]) -> f64 {
+    let (mut worst, mut peak) = (0.0f64, 0.0f64);
+    for (k, ck) in c.iter().enumerate() {
+        let scale = if k == 0 {
+            1.0 / N as f64
+        } else {
+            2.0 / N as f64
+        };
+        let mut sum = 0.0f64;
+        for (n, xn) in x.iter().enumerate() {
+            let angle = core::f64::consts::PI * ((2 * n + 1) * k) as f64 / (2 * N) as f64;
+            sum += f64::from(*xn) * libm::cos(angle);
+        }
+        let exact = libm::sqrt(scale) * sum;
+        worst = worst.max(libm::fabs(f64::from(*ck) - exact));
+        peak = peak.max(libm::fabs(exact));
+    }
+    worst / peak
+}
+
+/// Delta kinematics of the Keops slave in f32, against the same code in f64 (software
+/// double): FK, IK, Jx, J̇x and the FK + IK + Jx set a period needs.
+#[inline(never)]
+pub fn kinematics_rows(counter: &mut Counter) {
+    let config = DeltaConfig::SLAVE_KEOPS;
+    let (Ok(g32), Ok(g64)) = (
+        DeltaGeometry::<f32>::new(&config),
+        DeltaGeometry::<f64>::new(&config),
+    ) else {
+        exit(false)
+    };
+    let mask = INPUTS as u32 - 1;
+    // Joint positions spread over the middle of the 0–40 mm travel.
+    let q64: [Vector3<f64>; INPUTS] = core::array::from_fn(|k| {
+        let t = k as f64 / INPUTS as f64 * core::f64::consts::TAU;
+        Vector3::new(
+            0.020 + 0.008 * libm::sin(t),
+            0.020 + 0.008 * libm::sin(t + 2.1),
+            0.020 + 0.008 * libm::cos(3.0 * t),
+        )
+    });
+    let p64: [Vector3<f64>; INPUTS] =
+        core::array::from_fn(|k| g64.forward(&q64[k]).unwrap_or_else(|_| exit(false)));
+    let q32: [Vector3<f32>; INPUTS] = core::array::from_fn(|k| q64[k].map(|v| v as f32));
+    let p32: [Vector3<f32>; INPUTS] = core::array::from_fn(|k| p64[k].map(|v| v as f32));
+    let qd32 = Vector3::new(0.01f32, -0.02, 0.015);
+    let qd64 = qd32.map(f64::from);
+    macro_rules! pair {
+        ($name:expr, |$k:ident| $f32:expr, |$k2:ident| $f64:expr) => {
+            row(
+                counter,
+                $name,
+                |i| {
+                    let $k = (i & mask) as usize;
+                    black_box($f32.ok());
+                },
+                "same <f64> (software double)",
+                |i| {
+                    let $k2 = (i & mask) as usize;
+                    black_box($f64.ok());
+                },
+                |i| {
+                    black_box(i);
+                },
+            )
+        };
+    }
+    pair!(
+        "kinematics::delta::forward <f32>",
+        |k| g32.forward(black_box(&q32[k])),
+        |k| g64.forward(black_box(&q64[k]))
+    );
+    pair!(
+        "kinematics::delta::inverse <f32>",
+        |k| g32.inverse(black_box(&p32[k])),
+        |k| g64.inverse(black_box(&p64[k]))
+    );
+    pair!(
+        "kinematics::delta::jacobian <f32>",
+        |k| g32.jacobian(black_box(&q32[k]), &p32[k]),
+        |k| g64.jacobian(black_box(&q64[k]), &p64[k])
+    );
+    pair!(
+        "kinematics::delta::jacobian_derivative <f32>",
+        |k| g32.jacobian_derivative(black_box(&q32[k]), &p32[k], &qd32),
+        |k| g64.jacobian_derivative(black_box(&q64[k]), &p64[k], &qd64)
+    );
+    pair!(
+        "kinematics::delta forward + inverse + jacobian <f32>",
+        |k| g32
+            .forward(black_box(&q32[k]))
+            .and_then(|p| g32.inverse(&p).and_then(|q| g32.jacobian(&q, &p))),
+        |k| g64
+            .forward(black_box(&q64[k]))
+            .and_then(|p| g64.inverse(&p).and_then(|q| g64.jacobian(&q, &p)))
+    );
+}
