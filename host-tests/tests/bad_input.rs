@@ -793,7 +793,7 @@ fn trajectory_sites<T: Float>(s: &mut Sweep, scalar: &str) {
             |v| {
                 let mut config = follower_config();
                 edit(&mut config, v);
-                refused_or(ContourFollower::new(efd.clone(), &config, 0.0), |f| {
+                refused_or(ContourFollower::new(efd, &config, 0.0), |f| {
                     // Only the chord check needs the nominal period.
                     let mut f = f;
                     f.start();
@@ -822,10 +822,9 @@ fn trajectory_sites<T: Float>(s: &mut Sweep, scalar: &str) {
         scalar,
         Kind::Config,
         |v| {
-            refused_or(
-                ContourFollower::new(efd.clone(), &follower_config(), v),
-                |f| follow(f, 300),
-            )
+            refused_or(ContourFollower::new(efd, &follower_config(), v), |f| {
+                follow(f, 300)
+            })
         },
     );
     // SpeedRamp

@@ -562,11 +562,24 @@ fn slave_period(
         Command::LoadJob(job),
         Command::Start,
     ];
+    // The stack of a contour session (n = 30, contouring law; not in the traced run):
+    // the periods that take the commands (the job's load copies its curve in place)
+    // and a contour period at cruise.
+    let session_stack = harmonics == 30 && law == ContourLaw::Contouring && !counter.is_traced();
+    let mut deepest = 0;
     for command in commands {
         if send.enqueue(command).is_err() {
             exit(false)
         }
-        supervisor.step(&inputs);
+        let mut step = || {
+            black_box(supervisor.step(black_box(&inputs)));
+        };
+        if session_stack {
+            let used = stack_of(&mut step).unwrap_or(usize::MAX);
+            deepest = deepest.max(used);
+        } else {
+            step();
+        }
         while receive.dequeue().is_some() {}
     }
     let mut total = 0.0;
@@ -610,6 +623,21 @@ fn slave_period(
                 period,
                 supervisor.mode()
             );
+            exit(false)
+        }
+    }
+    if session_stack {
+        let mut step = || {
+            black_box(supervisor.step(black_box(&inputs)));
+        };
+        let used = stack_of(&mut step).unwrap_or(usize::MAX);
+        deepest = deepest.max(used);
+        hprintln!(
+            "- DeltaSlave<f32> contour session (EFD n=30, contouring law: load, start, a period at cruise), deepest period: {} bytes",
+            deepest
+        );
+        if deepest.saturating_add(EXCEPTION_FRAME) > CONTROL_STACK_BUDGET {
+            hprintln!("DeltaSlave<f32> contour session: over the control period's stack budget");
             exit(false)
         }
     }

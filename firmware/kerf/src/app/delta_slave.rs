@@ -192,12 +192,12 @@ impl Clone for DeltaJob {
     }
 }
 
-/// Copies a contour job (or its absence). Out of line: the temporary copy (a kilobyte
-/// of curve) is on the stack only in this call, not in every `clone_from` of straight
-/// moves.
+/// Copies a contour job (or its absence) in place: the job is `Copy`, so this is a
+/// memory copy with no temporary (a contour job is two kilobytes; the control period's
+/// stack budget is two). Out of line, to keep it out of straight moves' `clone_from`.
 #[inline(never)]
 fn replace_contour(contour: &mut Option<ContourJob>, from: &Option<ContourJob>) {
-    *contour = from.clone();
+    *contour = *from;
 }
 
 /// What a plan was checked against.
@@ -480,8 +480,10 @@ pub struct DeltaSlave<T: Float> {
     approach: JointJob<3>,
     phase: Option<Phase<T>>,
     effector_reference_m: Option<[T; 3]>,
-    /// The contour in progress (built at `Start`, run after the approach).
-    contour: Option<ContourRun<T>>,
+    /// The contour's run: rebuilt in place at `Start`, run after the approach while
+    /// `contour_active`.
+    contour: ContourRun<T>,
+    contour_active: bool,
     contour_telemetry: Option<ContourTelemetry<T>>,
     preview: Preview<T>,
     contouring: Contouring<T>,
@@ -517,7 +519,8 @@ impl<T: Float> DeltaSlave<T> {
             approach: JointJob::new(),
             phase: None,
             effector_reference_m: None,
-            contour: None,
+            contour: ContourRun::idle().within("contour")?,
+            contour_active: false,
             contour_telemetry: None,
             preview: Preview::new(&limits.preview).within("contour.preview")?,
             contouring: Contouring::new(&limits.contouring).within("contour.contouring")?,
@@ -562,7 +565,7 @@ impl<T: Float> DeltaSlave<T> {
                     .map_err(DeltaFault::Joint)?;
                 Ok(match step {
                     Step::Continue(forces) => Step::Continue(forces),
-                    Step::Done(forces) if self.contour.is_some() => {
+                    Step::Done(forces) if self.contour_active => {
                         self.phase = Some(Phase::Contour);
                         Step::Continue(forces)
                     }
@@ -691,9 +694,10 @@ impl<T: Float> Machine for DeltaSlave<T> {
         });
         // A contour's run is built before anything moves: a curve that does not fit
         // the scalar refuses the start.
-        self.contour = None;
+        self.contour_active = false;
         if let Some(contour) = &job.contour {
-            ContourRun::start(&mut self.contour, contour, &self.geometry, &self.laser)?;
+            self.contour.start(contour, &self.geometry, &self.laser)?;
+            self.contour_active = true;
         }
         self.joints
             .begin_job(&self.approach)
@@ -721,7 +725,7 @@ impl<T: Float> Machine for DeltaSlave<T> {
 
     fn begin_stop(&mut self) {
         self.phase = None;
-        self.contour = None;
+        self.contour_active = false;
         self.effector_reference_m = None;
         self.contour_telemetry = None;
         self.joints.begin_stop();
@@ -741,7 +745,7 @@ impl<T: Float> Machine for DeltaSlave<T> {
         self.joints.reset();
         self.laser_power_w = T::zero();
         self.phase = None;
-        self.contour = None;
+        self.contour_active = false;
         self.effector_reference_m = None;
         self.contour_telemetry = None;
     }

@@ -32,8 +32,9 @@ pub struct EfdSample<T: Float> {
     pub d3: Vector2<T>,
 }
 
-/// An n-harmonic EFD curve with capacity `N` harmonics.
-#[derive(Clone, Debug, PartialEq)]
+/// An n-harmonic EFD curve with capacity `N` harmonics. `Copy`, so that a job's curve
+/// is copied in place (a plain memory copy, no stack temporary).
+#[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Efd<T: Float, const N: usize> {
     centre: Vector2<T>,
     /// (ak, bk, ck, dk) for k = 1..=harmonics; entries past `harmonics` are zero.
@@ -207,24 +208,38 @@ impl<T: Float, const N: usize> Efd<T, N> {
     /// costs 4n conversions and a bound, not a quadrature.
     /// Errors: a coefficient or the curve's derivatives beyond `T` (`NotRepresentable`).
     pub fn from_f64(curve: &Efd<f64, N>) -> Result<Self, ContourError> {
-        let mut coefficients = [[T::ZERO; 4]; N];
-        for (row, src) in coefficients.iter_mut().zip(curve.coefficients()) {
+        let mut efd = Self::empty();
+        efd.assign_f64(curve)?;
+        Ok(efd)
+    }
+
+    /// No harmonics, zero everywhere (a placeholder to convert a curve into).
+    pub fn empty() -> Self {
+        Self {
+            centre: Vector2::new(T::ZERO, T::ZERO),
+            coefficients: [[T::ZERO; 4]; N],
+            harmonics: 0,
+            perimeter_m: 0.0,
+        }
+    }
+
+    /// [`Efd::from_f64`] into `self`, in place (no copy of the curve on the stack: a
+    /// control period can run it). On an error `self` holds part of the curve and must
+    /// not be used.
+    pub fn assign_f64(&mut self, curve: &Efd<f64, N>) -> Result<(), ContourError> {
+        for (row, src) in self.coefficients.iter_mut().zip(curve.coefficients.iter()) {
             for (o, v) in row.iter_mut().zip(src) {
                 *o = representable("coefficients", *v)?;
             }
         }
-        let centre = curve.centre();
-        let efd = Self {
-            centre: Vector2::new(
-                representable("centre_m", centre.x)?,
-                representable("centre_m", centre.y)?,
-            ),
-            coefficients,
-            harmonics: curve.harmonics(),
-            perimeter_m: curve.polygon_perimeter_m(),
-        };
-        if efd.derivatives_fit() {
-            Ok(efd)
+        self.centre = Vector2::new(
+            representable("centre_m", curve.centre.x)?,
+            representable("centre_m", curve.centre.y)?,
+        );
+        self.harmonics = curve.harmonics;
+        self.perimeter_m = curve.perimeter_m;
+        if self.derivatives_fit() {
+            Ok(())
         } else {
             Err(ConfigError::not_representable("coefficients").into())
         }

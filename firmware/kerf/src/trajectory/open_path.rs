@@ -30,11 +30,14 @@ struct Knot<T> {
     m: Vector2<T>,
 }
 
-/// An open planar curve through up to `N` points (module docs).
-#[derive(Clone, Debug, PartialEq)]
+/// An open planar curve through up to `N` points (module docs). `Copy`, so that a
+/// job's path is copied in place.
+#[derive(Copy, Clone, Debug, PartialEq)]
 pub struct OpenPath<T: Float, const N: usize> {
     centre: Vector2<T>,
-    knots: heapless::Vec<Knot<T>, N>,
+    /// The first `len` are the knots.
+    knots: [Knot<T>; N],
+    len: usize,
 }
 
 impl<T: Float, const N: usize> OpenPath<T, N> {
@@ -84,27 +87,65 @@ impl<T: Float, const N: usize> OpenPath<T, N> {
             let _ = knots.push(knot);
         }
         solve_natural(&mut knots);
-        let mut path = Self {
-            centre: Vector2::new(
-                representable("points", centre[0])?,
-                representable("points", centre[1])?,
-            ),
-            knots: heapless::Vec::new(),
-        };
-        path.knots = convert(&knots)?;
+        let mut path = Self::empty();
+        path.assign(Vector2::new(centre[0], centre[1]), &knots)?;
         Ok(path)
+    }
+
+    /// No points (a placeholder to convert a path into).
+    pub fn empty() -> Self {
+        let zero = Vector2::new(T::ZERO, T::ZERO);
+        Self {
+            centre: zero,
+            knots: [Knot {
+                u: T::ZERO,
+                p: zero,
+                m: zero,
+            }; N],
+            len: 0,
+        }
+    }
+
+    /// [`OpenPath::from_f64`] into `self`, in place (no copy of the path on the
+    /// stack). On an error `self` must not be used.
+    pub fn assign_f64(&mut self, curve: &OpenPath<f64, N>) -> Result<(), ContourError> {
+        self.assign(curve.centre, curve.knots())
+    }
+
+    /// The centre and knots, converted to `T`, into `self`.
+    fn assign(&mut self, centre: Vector2<f64>, knots: &[Knot<f64>]) -> Result<(), ContourError> {
+        let v = |w: Vector2<f64>| -> Result<Vector2<T>, ConfigError> {
+            Ok(Vector2::new(
+                representable("points", w.x)?,
+                representable("points", w.y)?,
+            ))
+        };
+        self.centre = v(centre)?;
+        if knots.len() > N {
+            return Err(ContourError::Capacity);
+        }
+        for (o, k) in self.knots.iter_mut().zip(knots) {
+            *o = Knot {
+                u: representable("points", k.u)?,
+                p: v(k.p)?,
+                m: v(k.m)?,
+            };
+        }
+        self.len = knots.len();
+        Ok(())
+    }
+
+    /// The knots in use.
+    fn knots(&self) -> &[Knot<T>] {
+        self.knots.get(..self.len).unwrap_or(&[])
     }
 
     /// The same curve in the scalar `T`, from its `f64` description (a job planned in
     /// `f64`): 5 conversions per knot, no solve.
     pub fn from_f64(curve: &OpenPath<f64, N>) -> Result<Self, ContourError> {
-        Ok(Self {
-            centre: Vector2::new(
-                representable("points", curve.centre.x)?,
-                representable("points", curve.centre.y)?,
-            ),
-            knots: convert(&curve.knots)?,
-        })
+        let mut path = Self::empty();
+        path.assign_f64(curve)?;
+        Ok(path)
     }
 
     /// The centroid of the points, m (positions are relative to it).
@@ -114,22 +155,22 @@ impl<T: Float, const N: usize> OpenPath<T, N> {
 
     /// Number of points.
     pub fn points(&self) -> usize {
-        self.knots.len()
+        self.len
     }
 
     /// Length of the chord polygon: the parameter's range is [0, this], m.
     pub fn chord_length_m(&self) -> T {
-        self.knots.last().map_or(T::ZERO, |k| k.u)
+        self.knots().last().map_or(T::ZERO, |k| k.u)
     }
 
     /// Index of the segment holding `u` (the first for u below 0, the last above the
     /// end): binary search over the knots.
     fn segment(&self, u: T) -> usize {
-        let last = self.knots.len().saturating_sub(2);
+        let last = self.len.saturating_sub(2);
         let (mut lo, mut hi) = (0, last);
         while lo < hi {
             let mid = (lo + hi).div_ceil(2);
-            if self.knots.get(mid).is_some_and(|k| k.u <= u) {
+            if self.knots().get(mid).is_some_and(|k| k.u <= u) {
                 lo = mid;
             } else {
                 hi = mid - 1;
@@ -177,35 +218,12 @@ fn solve_natural<const N: usize>(knots: &mut heapless::Vec<Knot<f64>, N>) {
     }
 }
 
-/// `knots` in `T`.
-fn convert<T: Float, const N: usize>(
-    knots: &[Knot<f64>],
-) -> Result<heapless::Vec<Knot<T>, N>, ConfigError> {
-    let mut out = heapless::Vec::new();
-    for k in knots {
-        let v = |w: Vector2<f64>| -> Result<Vector2<T>, ConfigError> {
-            Ok(Vector2::new(
-                representable("points", w.x)?,
-                representable("points", w.y)?,
-            ))
-        };
-        let knot = Knot {
-            u: representable("points", k.u)?,
-            p: v(k.p)?,
-            m: v(k.m)?,
-        };
-        out.push(knot)
-            .map_err(|_| ConfigError::out_of_range("points"))?;
-    }
-    Ok(out)
-}
-
 impl<T: Float, const N: usize> Curve<T> for OpenPath<T, N> {
     /// Position (relative to the centroid) and derivatives in u; outside [0, end] the
     /// end segments' cubics continue.
     fn evaluate(&self, u: T) -> EfdSample<T> {
         let i = self.segment(u);
-        let (Some(a), Some(b)) = (self.knots.get(i), self.knots.get(i + 1)) else {
+        let (Some(a), Some(b)) = (self.knots().get(i), self.knots().get(i + 1)) else {
             let zero = Vector2::new(T::ZERO, T::ZERO);
             return EfdSample {
                 position: zero,
@@ -241,7 +259,7 @@ impl<T: Float, const N: usize> Curve<T> for OpenPath<T, N> {
     }
 
     fn pieces(&self) -> usize {
-        self.knots.len().saturating_sub(1)
+        self.len.saturating_sub(1)
     }
 }
 

@@ -486,7 +486,39 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
         config: &FollowerConfig,
         theta0: f64,
     ) -> Result<Self, ContourError> {
-        let ramp = SpeedRamp::new(&config.ramp)?;
+        let zero = Vector2::new(T::ZERO, T::ZERO);
+        let mut follower = Self {
+            curve,
+            ramp: SpeedRamp::new(&config.ramp)?,
+            theta: T::ZERO,
+            laps: 0,
+            sample: EfdSample {
+                position: zero,
+                d1: zero,
+                d2: zero,
+                d3: zero,
+            },
+            carry: T::ZERO,
+            wrap_error: T::ZERO,
+            span: T::ZERO,
+            closed: true,
+            lost: false,
+            newton_steps: 0,
+        };
+        follower.restart(config, theta0)?;
+        Ok(follower)
+    }
+
+    /// Puts the follower at rest at θ = `theta0` on its curve as it now is (after
+    /// [`CurveFollower::curve_mut`] replaced it), with the checks of
+    /// [`CurveFollower::for_checked_curve`], in place: nothing the size of the curve
+    /// passes through the stack, so a control period can start a contour. On an
+    /// error the follower is lost (it holds and refuses to step). Out of line: its
+    /// frame is not added to its callers'.
+    #[inline(never)]
+    pub fn restart(&mut self, config: &FollowerConfig, theta0: f64) -> Result<(), ContourError> {
+        self.lost = true;
+        self.ramp = SpeedRamp::new(&config.ramp)?;
         let limit = positive("accel_limit_m_s2", config.accel_limit_m_s2)?;
         if config.ramp.accel_m_s2 > limit {
             return Err(ConfigError::out_of_range("accel_m_s2").into());
@@ -497,7 +529,7 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
         if config.newton_steps > MAX_NEWTON_STEPS {
             return Err(ConfigError::out_of_range("newton_steps").into());
         }
-        let (span, closed) = (curve.span(), curve.is_closed());
+        let (span, closed) = (self.curve.span(), self.curve.is_closed());
         let theta = if closed {
             let mut theta = lit::<T>(theta0 - 2.0 * PI * libm::floor(theta0 / (2.0 * PI)));
             if theta >= span {
@@ -511,23 +543,27 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
             }
             theta
         };
-        Ok(Self {
-            sample: curve.evaluate(theta),
-            curve,
-            ramp,
-            theta,
-            laps: 0,
-            carry: T::ZERO,
-            wrap_error: if closed {
-                lit(2.0 * PI - to_f64(span))
-            } else {
-                T::ZERO
-            },
-            span,
-            closed,
-            lost: false,
-            newton_steps: config.newton_steps,
-        })
+        self.sample = self.curve.evaluate(theta);
+        self.theta = theta;
+        self.laps = 0;
+        self.carry = T::ZERO;
+        self.wrap_error = if closed {
+            lit(2.0 * PI - to_f64(span))
+        } else {
+            T::ZERO
+        };
+        self.span = span;
+        self.closed = closed;
+        self.newton_steps = config.newton_steps;
+        self.lost = false;
+        Ok(())
+    }
+
+    /// The curve, to replace in place before [`CurveFollower::restart`]. The follower
+    /// is lost (it refuses to step) until restarted.
+    pub fn curve_mut(&mut self) -> &mut C {
+        self.lost = true;
+        &mut self.curve
     }
 
     /// The curve followed.

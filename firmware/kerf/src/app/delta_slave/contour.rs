@@ -74,8 +74,9 @@ pub enum ContourCurve<'a> {
     Open(&'a OpenPath<f64, OPEN_PATH_POINTS>),
 }
 
-/// The curve of a job (`f64`, planned) or of a run (`T`).
-#[derive(Clone, Debug, PartialEq)]
+/// The curve of a job (`f64`, planned) or of a run (`T`). `Copy`: a job's curve is
+/// copied in place.
+#[derive(Copy, Clone, Debug, PartialEq)]
 pub(super) enum PathCurve<T: Float> {
     Closed(Efd<T, CONTOUR_HARMONICS>),
     Open(OpenPath<T, OPEN_PATH_POINTS>),
@@ -112,12 +113,41 @@ impl<T: Float> Curve<T> for PathCurve<T> {
 }
 
 impl<T: Float> PathCurve<T> {
-    /// The run's curve in `T` from the job's.
-    fn from_f64(curve: &PathCurve<f64>) -> Result<Self, ContourError> {
-        Ok(match curve {
-            PathCurve::Closed(c) => Self::Closed(Efd::from_f64(c)?),
-            PathCurve::Open(c) => Self::Open(OpenPath::from_f64(c)?),
-        })
+    /// The job's curve converted into this one, in place (see [`Efd::assign_f64`]).
+    fn assign_f64(&mut self, curve: &PathCurve<f64>) -> Result<(), ContourError> {
+        match curve {
+            PathCurve::Closed(c) => {
+                if !matches!(self, Self::Closed(_)) {
+                    self.become_closed();
+                }
+                match self {
+                    Self::Closed(this) => this.assign_f64(c),
+                    Self::Open(_) => Err(ContourError::LostContour),
+                }
+            }
+            PathCurve::Open(c) => {
+                if !matches!(self, Self::Open(_)) {
+                    self.become_open();
+                }
+                match self {
+                    Self::Open(this) => this.assign_f64(c),
+                    Self::Closed(_) => Err(ContourError::LostContour),
+                }
+            }
+        }
+    }
+
+    /// An empty closed curve in place of an open one. Out of line: its temporary is on
+    /// the stack only while it runs, not in every start's frame.
+    #[inline(never)]
+    fn become_closed(&mut self) {
+        *self = Self::Closed(Efd::empty());
+    }
+
+    /// An empty open path in place of a closed curve (out of line, as above).
+    #[inline(never)]
+    fn become_open(&mut self) {
+        *self = Self::Open(OpenPath::empty());
     }
 }
 
@@ -210,8 +240,9 @@ pub struct ContourPlan<'a> {
     pub laser: LaserMode,
 }
 
-/// A planned contour: everything a period needs, checked.
-#[derive(Clone, Debug, PartialEq)]
+/// A planned contour: everything a period needs, checked. `Copy`: loading a job copies
+/// it in place, with no temporary on the control period's stack.
+#[derive(Copy, Clone, Debug, PartialEq)]
 pub(super) struct ContourJob {
     curve: PathCurve<f64>,
     centre_m: [f64; 3],
@@ -251,11 +282,11 @@ impl ContourJob {
                 theta0_rad,
                 laps,
             } => (
-                PathCurve::Closed(efd.clone()),
+                PathCurve::Closed(*efd),
                 theta0_rad,
                 positive("laps", laps).map_err(config_error)?,
             ),
-            ContourCurve::Open(path) => (PathCurve::Open(path.clone()), 0.0, 1.0),
+            ContourCurve::Open(path) => (PathCurve::Open(*path), 0.0, 1.0),
         };
         Laser::<f64>::new(&config.laser)
             .and_then(|laser| laser.mode(&plan.laser))
@@ -272,7 +303,7 @@ impl ContourJob {
             newton_steps: config.contour.newton_steps,
         };
         // Length against the step, curvature against the speed, the ramp, θ0.
-        CurveFollower::new(curve.clone(), &follower, theta0_rad).map_err(contour)?;
+        CurveFollower::new(curve, &follower, theta0_rad).map_err(contour)?;
         let ramp = SpeedRamp::<f64>::new(&follower.ramp).map_err(config_error)?;
         let span = curve.span();
         let lap_m = curve.arc_length(0.0, span, 64 * curve.pieces());
@@ -362,35 +393,73 @@ pub(super) struct ContourRun<T: Float> {
 }
 
 impl<T: Float> ContourRun<T> {
-    /// Builds the run of `job` into `slot`. Out of line, like the period: a machine that
-    /// starts straight moves does not carry the run's temporaries on its stack.
+    /// An idle run (a zero curve, never stepped): the machine's storage for the runs
+    /// it starts, built once with the machine.
+    pub(super) fn idle() -> Result<Self, ConfigError> {
+        let follower = FollowerConfig {
+            ramp: SpeedRampConfig {
+                speed_m_s: 1e-3,
+                accel_m_s2: 1.0,
+                jerk_m_s3: 100.0,
+                ts_s: 1e-3,
+            },
+            accel_limit_m_s2: 1.0,
+            newton_steps: 0,
+        };
+        let follower =
+            CurveFollower::for_checked_curve(PathCurve::Closed(Efd::empty()), &follower, 0.0)
+                .map_err(|_| ConfigError::out_of_range("contour"))?;
+        let zero = Vector3::zeros();
+        let rest = TaskReference {
+            position: zero,
+            velocity: zero,
+            acceleration: zero,
+            jerk: zero,
+        };
+        let hold = Reference {
+            position: T::zero(),
+            velocity: T::zero(),
+            acceleration: T::zero(),
+        };
+        Ok(Self {
+            follower,
+            centre: zero,
+            law: ContourLaw::Joint,
+            laser: LaserMode::Off,
+            task: PreviewWindow::filled(rest),
+            joints: PreviewWindow::filled([hold; 3]),
+            started: false,
+            period: 0,
+            stop_after_periods: 0,
+            drained: 0,
+            saturated_periods: 0,
+        })
+    }
+
+    /// Makes this the run of `job`, at rest at its start, in place: the curve is
+    /// converted to `T` where it lies (a few hundred conversions: it was checked when
+    /// the job was planned), so no copy of it passes through the control period's
+    /// stack. Out of line, like the period.
     #[inline(never)]
     pub(super) fn start(
-        slot: &mut Option<Self>,
+        &mut self,
         job: &ContourJob,
         geometry: &DeltaGeometry<T>,
         laser: &Laser<T>,
     ) -> Result<(), DeltaJobError> {
-        *slot = Some(Self::new(job, geometry, laser)?);
-        Ok(())
-    }
-
-    /// The run of `job`, at rest at its start, built in `T` (a few hundred conversions:
-    /// the curve was checked when the job was planned).
-    fn new(
-        job: &ContourJob,
-        geometry: &DeltaGeometry<T>,
-        laser: &Laser<T>,
-    ) -> Result<Self, DeltaJobError> {
-        let curve = PathCurve::from_f64(&job.curve).map_err(DeltaJobError::Contour)?;
-        let follower = CurveFollower::for_checked_curve(curve, &job.follower, job.theta0_rad)
+        self.follower
+            .curve_mut()
+            .assign_f64(&job.curve)
             .map_err(DeltaJobError::Contour)?;
-        let centre = Vector3::new(
+        self.follower
+            .restart(&job.follower, job.theta0_rad)
+            .map_err(DeltaJobError::Contour)?;
+        self.centre = Vector3::new(
             lit(job.centre_m[0]),
             lit(job.centre_m[1]),
             lit(job.centre_m[2]),
         );
-        let first = task_reference(&centre, &follower.at_rest());
+        let first = task_reference(&self.centre, &self.follower.at_rest());
         let joints = joint_references(
             geometry,
             &first.position,
@@ -401,21 +470,18 @@ impl<T: Float> ContourRun<T> {
             point_m: job.centre_m,
             error,
         })?;
-        Ok(Self {
-            follower,
-            centre,
-            law: job.law,
-            laser: laser
-                .mode(&job.laser)
-                .map_err(|e| DeltaJobError::Laser(e.kind))?,
-            task: PreviewWindow::filled(first),
-            joints: PreviewWindow::filled(joints),
-            started: false,
-            period: 0,
-            stop_after_periods: job.stop_after_periods,
-            drained: 0,
-            saturated_periods: 0,
-        })
+        self.law = job.law;
+        self.laser = laser
+            .mode(&job.laser)
+            .map_err(|e| DeltaJobError::Laser(e.kind))?;
+        self.task = PreviewWindow::filled(first);
+        self.joints = PreviewWindow::filled(joints);
+        self.started = false;
+        self.period = 0;
+        self.stop_after_periods = job.stop_after_periods;
+        self.drained = 0;
+        self.saturated_periods = 0;
+        Ok(())
     }
 
     /// The law.
@@ -459,9 +525,10 @@ impl<T: Float> DeltaSlave<T> {
         &mut self,
         inputs: &[[u16; 3]; 3],
     ) -> Result<Step<[T; 3]>, DeltaFault> {
-        let Some(run) = self.contour.as_mut() else {
+        if !self.contour_active {
             return Ok(Step::Done(self.joints.safe_outputs()));
-        };
+        }
+        let run = &mut self.contour;
         let done = run.advance(&self.geometry)?;
         let (q, q_dot) = self.joints.measure(inputs).map_err(DeltaFault::Joint)?;
         let (q_m, q_dot_m_s) = (Vector3::from(q), Vector3::from(q_dot));
@@ -565,7 +632,7 @@ impl<T: Float> DeltaSlave<T> {
         }
         self.laser_power_w = self.laser.power_w(&run.laser, tangential_speed_m_s);
         Ok(if done {
-            self.contour = None;
+            self.contour_active = false;
             self.phase = None;
             Step::Done(forces)
         } else {

@@ -203,7 +203,7 @@ fn a_follower_walks_an_open_path_at_constant_speed_and_stops_at_its_end() {
         accel_limit_m_s2: 10.0,
         newton_steps: 2,
     };
-    let mut f = CurveFollower::new(path.clone(), &config, 0.0).unwrap();
+    let mut f = CurveFollower::new(path, &config, 0.0).unwrap();
     f.start();
     let mut previous = f.at_rest().position;
     let mut arc = 0.0;

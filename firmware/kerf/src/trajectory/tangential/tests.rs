@@ -266,7 +266,7 @@ fn curvature_limits_speed() {
             let kappa = limit / (v_max * v_max);
             println!("{name:>8} {n:>4} {kappa:>12.1} {:>12.2}", v_max * 1e3);
             // Just above the limit is rejected with the limit in the error ...
-            match ContourFollower::new(efd.clone(), &config(v_max * 1.01, limit), 0.0) {
+            match ContourFollower::new(efd, &config(v_max * 1.01, limit), 0.0) {
                 Err(ContourError::SpeedAboveCurvatureLimit { max_speed_m_s }) => {
                     assert_eq!(max_speed_m_s, v_max)
                 }
@@ -303,21 +303,21 @@ fn curvature_limits_speed() {
 fn rejects_bad_speed_and_step() {
     let efd = Efd::<f32, 10>::from_polygon(&shapes::octagon(), 10).unwrap();
     assert_eq!(
-        ContourFollower::new(efd.clone(), &config(-0.01, 10.0), 0.0).err(),
+        ContourFollower::new(efd, &config(-0.01, 10.0), 0.0).err(),
         Some(ContourError::Config(ConfigError::not_positive("speed_m_s")))
     );
     // Perimeter ≈ 61 mm: 100 m/s × 1 ms = 100 mm.
     assert_eq!(
-        ContourFollower::new(efd.clone(), &config(100.0, 1e9), 0.0).err(),
+        ContourFollower::new(efd, &config(100.0, 1e9), 0.0).err(),
         Some(ContourError::StepLongerThanContour)
     );
     assert_eq!(
-        ContourFollower::new(efd.clone(), &config(0.01, 0.1), 0.0).err(),
+        ContourFollower::new(efd, &config(0.01, 0.1), 0.0).err(),
         Some(ContourError::Config(ConfigError::out_of_range(
             "accel_m_s2"
         )))
     );
-    assert!(ContourFollower::new(efd.clone(), &config(0.01, 10.0), f64::NAN).is_err());
+    assert!(ContourFollower::new(efd, &config(0.01, 10.0), f64::NAN).is_err());
     // A negative, zero or NaN limit has no speed (√ of it would be NaN).
     for bad in [-1.0, 0.0, f64::NAN] {
         assert!(max_speed_m_s(&efd, bad).is_err(), "{bad}");
