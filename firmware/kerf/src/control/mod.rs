@@ -14,6 +14,7 @@
 //! The scenario tests record every signal's peak and check these ranges.
 
 pub mod bilateral;
+pub mod constraint;
 pub mod contouring;
 pub mod dob;
 pub mod laser;

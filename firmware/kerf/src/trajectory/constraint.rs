@@ -256,6 +256,11 @@ pub struct ConstraintValue<T: Float> {
     pub phi: Vector2<T>,
     /// Jφ (2×3).
     pub jacobian: Matrix2x3<T>,
+    /// J̇φ ẋ = [this × (ẋ² + ẏ²), 0]: the rate at which φ₁'s gradient turns as the
+    /// effector moves, 1/m (s/r of the windows' circles, blended like φ; zero on
+    /// lines). The window's own motion (the blend weight, a switch of window) is
+    /// not included: it is continuous and slow against the effector's.
+    pub gradient_rate_per_m: T,
     /// Fit of the nearer window, in the constraint's coordinates (see [`MotionConstraint::origin`]).
     pub fit: Fit<T>,
     /// Index of the nearest data segment's first point.
@@ -393,8 +398,11 @@ impl<T: Float, const N: usize> MotionConstraint<T, N> {
         (fit, dir)
     }
 
-    /// φ₁ and its gradient for a window fit (signed distance, left of `dir` positive).
-    fn distance(fit: &Fit<T>, dir: &Vector2<T>, x: Vector2<T>) -> (T, Vector2<T>) {
+    /// φ₁, its gradient and the gradient's rate per planar speed squared for a window
+    /// fit (signed distance, left of `dir` positive). For a circle the gradient is
+    /// s(x − c)/r, so its time derivative along ẋ gives J̇φ₁ẋ = (s/r)|ẋ|²: the third
+    /// value is s/r (zero for a line).
+    fn distance(fit: &Fit<T>, dir: &Vector2<T>, x: Vector2<T>) -> (T, Vector2<T>, T) {
         match *fit {
             Fit::Circle { centre, radius } => {
                 let d = x - centre;
@@ -409,9 +417,10 @@ impl<T: Float, const N: usize> MotionConstraint<T, N> {
                 (
                     s * (d.norm_squared() - radius * radius) * inv * lit(0.5),
                     d * (s * inv),
+                    s * inv,
                 )
             }
-            Fit::Line { point, normal } => (normal.dot(&(x - point)), normal),
+            Fit::Line { point, normal } => (normal.dot(&(x - point)), normal, T::ZERO),
         }
     }
 
@@ -436,13 +445,14 @@ impl<T: Float, const N: usize> MotionConstraint<T, N> {
         let (best_distance, i, u) = best;
         let (fit0, dir0) = self.fit_window(i);
         let (fit1, dir1) = self.fit_window((i + 1) % self.points.len().max(1));
-        let (phi0, g0) = Self::distance(&fit0, &dir0, p);
-        let (phi1, g1) = Self::distance(&fit1, &dir1, p);
+        let (phi0, g0, k0) = Self::distance(&fit0, &dir0, p);
+        let (phi1, g1, k1) = Self::distance(&fit1, &dir1, p);
         let w = T::one() - u;
         let (phi, g) = (phi0 * w + phi1 * u, g0 * w + g1 * u);
         let value = ConstraintValue {
             phi: Vector2::new(phi, z_ref - x.z),
             jacobian: Matrix2x3::new(g.x, g.y, T::ZERO, T::ZERO, T::ZERO, -T::one()),
+            gradient_rate_per_m: k0 * w + k1 * u,
             fit: if u < lit(0.5) { fit0 } else { fit1 },
             segment: i,
         };
