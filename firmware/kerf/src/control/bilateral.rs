@@ -159,6 +159,11 @@ impl<T: Float> Bilateral<T> {
         })
     }
 
+    /// The tracking error's gains (λk in s⁻², λ + k in s⁻¹), as stored in `T`.
+    pub fn gains(&self) -> (T, T) {
+        (self.kp, self.kd)
+    }
+
     /// The scale s, as stored in `T`.
     pub fn scale(&self) -> T {
         self.scale

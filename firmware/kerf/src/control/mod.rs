@@ -16,6 +16,7 @@
 pub mod bilateral;
 pub mod constraint;
 pub mod contouring;
+pub mod delay_observer;
 pub mod dob;
 pub mod laser;
 pub mod pd;
