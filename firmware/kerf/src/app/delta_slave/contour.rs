@@ -114,6 +114,8 @@ impl<T: Float> Curve<T> for PathCurve<T> {
 
 impl<T: Float> PathCurve<T> {
     /// The job's curve converted into this one, in place (see [`Efd::assign_f64`]).
+    /// Out of line: its frame is not added to the start's.
+    #[inline(never)]
     fn assign_f64(&mut self, curve: &PathCurve<f64>) -> Result<(), ContourError> {
         match curve {
             PathCurve::Closed(c) => {
