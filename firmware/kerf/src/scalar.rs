@@ -150,8 +150,9 @@ impl Real for Q32 {
 /// Floating-point scalars (`f32`, `f64`) for the geometric code: nalgebra's
 /// `RealField` plus [`Real`], and a square root and sine/cosine that stay in single
 /// precision for `f32`. (`libm`'s `sqrtf` and `sinf` compute in software or in double
-/// precision, which a Cortex-M4F has only in software: about 90 and 1300 instructions
-/// against about 20 and 40 here.)
+/// precision, which a Cortex-M4F has only in software: about 50 and 1300 instructions
+/// against about 20 and 60 here.) With the `hw-sqrt` feature on a hard-float Arm
+/// target, `f32`'s square root is the FPU's VSQRT.F32 (see [`sqrt_f32`]).
 pub trait Float: nalgebra::RealField + Copy + Real {
     /// √self (NaN for negative input).
     fn fsqrt(self) -> Self;
@@ -171,9 +172,18 @@ impl Float for f64 {
 }
 
 impl Float for f32 {
+    /// The FPU's VSQRT.F32 (correctly rounded) with the `hw-sqrt` feature on a
+    /// hard-float Arm target, else [`sqrt_f32`] (within 1 ulp).
     #[inline]
     fn fsqrt(self) -> Self {
-        sqrt_f32(self)
+        #[cfg(all(feature = "hw-sqrt", target_arch = "arm", target_abi = "eabihf"))]
+        {
+            kerf_vsqrt::sqrt_f32(self)
+        }
+        #[cfg(not(all(feature = "hw-sqrt", target_arch = "arm", target_abi = "eabihf")))]
+        {
+            sqrt_f32(self)
+        }
     }
     #[inline]
     fn fsin_cos(self) -> (Self, Self) {
@@ -204,6 +214,18 @@ pub(crate) fn to_f64<T: Float>(v: T) -> f64 {
 /// Inputs in [2^-125, 2^127), which include everything the geometry produces, cost one
 /// integer range check; the rest go to `sqrt_f32_special`, which scales the smallest
 /// and largest binades into that range (there x/2 would round, or r² overflow).
+///
+/// This is [`Float::fsqrt`] for `f32` on the host and without the `hw-sqrt` feature.
+/// With `hw-sqrt` on a hard-float Arm target (the firmware images enable it),
+/// `fsqrt` is the FPU's VSQRT.F32 instead, inlined through the `kerf-vsqrt` crate
+/// (the library itself stays free of `unsafe`): correctly rounded, and cheaper on a
+/// Cortex-M4 even though VSQRT takes 14 cycles. Measured in the same benchmark run on
+/// the same inputs (BENCHMARKS.md): this Newton root about 21 instructions and 20
+/// estimated cycles, the inlined VSQRT 5 instructions and 18 cycles (the value passes
+/// through a core register, as stable `asm!` cannot name an FPU register on this
+/// target), VSQRT called out of line 3 instructions and 20 cycles (the BL and BX, and
+/// the call clobbers s0–s15 in its caller); the general delta IK 231 → 174
+/// instructions, 309 → 261 cycles.
 #[inline]
 pub fn sqrt_f32(x: f32) -> f32 {
     let bits = x.to_bits();

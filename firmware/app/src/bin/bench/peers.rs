@@ -1,7 +1,7 @@
 //! Kernel rows against the peers a user would pick instead, on the same inputs in the
 //! same run, each with its error against an f64 reference: idsp's integer `atan2` and
-//! `cossin`, libm's `sqrtf`, the printer (vertical-rail) delta IK formula, and the
-//! EFD summed harmonic by harmonic with kerf's fast sine and cosine.
+//! `cossin`, libm's `sqrtf` and the FPU's VSQRT, the printer (vertical-rail) delta IK
+//! formula, and the EFD summed harmonic by harmonic with kerf's fast sine and cosine.
 
 use super::{exit, row_with_errors, INPUTS};
 use core::f64::consts::TAU;
@@ -108,7 +108,79 @@ pub fn rows(counter: &mut Counter, vectors: &[(i32, i32); INPUTS]) {
         (base(square), base(square)),
         Some((e_kerf, e_libm, " rel")),
     );
+    hw_sqrt_rows(counter, &squares, e_kerf);
     printer_rows(counter);
+}
+
+// The other way to reach VSQRT on stable: a routine of its own, called under the
+// hard-float AAPCS (argument and result in s0). It costs the BL and BX, and the call
+// clobbers s0–s15 in the caller.
+core::arch::global_asm!(
+    ".syntax unified",
+    ".thumb",
+    ".text",
+    ".p2align 2",
+    ".global kerf_bench_vsqrt_f32",
+    ".thumb_func",
+    "kerf_bench_vsqrt_f32:",
+    "    vsqrt.f32 s0, s0",
+    "    bx lr",
+);
+
+extern "C" {
+    fn kerf_bench_vsqrt_f32(x: f32) -> f32;
+}
+
+/// √x through the out-of-line routine above.
+#[inline(always)]
+fn vsqrt_call(x: f32) -> f32 {
+    // SAFETY: the routine follows the hard-float AAPCS: it reads and writes s0 only,
+    // then returns.
+    unsafe { kerf_bench_vsqrt_f32(x) }
+}
+
+/// The FPU's VSQRT.F32 on the square-root row's inputs, against kerf's Newton root:
+/// inlined through kerf-vsqrt (what `Float::fsqrt` uses with kerf's `hw-sqrt`), and
+/// called out of line. Both must be correctly rounded on every input (equal to the f64
+/// root rounded to f32). A function of its own, so that the rows above keep their frame.
+#[inline(never)]
+fn hw_sqrt_rows(counter: &mut Counter, squares: &[f32; INPUTS], e_kerf: f64) {
+    let square = |i: u32| black_box(squares[(i & MASK) as usize]);
+    let mut e_hw = 0.0f64;
+    for &x in squares {
+        let exact = libm::sqrt(f64::from(x));
+        let (hw, call) = (kerf_vsqrt::sqrt_f32(x), vsqrt_call(x));
+        if hw.to_bits() != (exact as f32).to_bits() || call.to_bits() != hw.to_bits() {
+            exit(false)
+        }
+        e_hw = e_hw.max(libm::fabs(f64::from(hw) - exact) / exact);
+    }
+    row_with_errors(
+        counter,
+        "kerf_vsqrt::sqrt_f32 (VSQRT.F32 inline, kerf hw-sqrt)",
+        |i| {
+            black_box(kerf_vsqrt::sqrt_f32(square(i)));
+        },
+        "scalar::sqrt_f32 (Newton, FPU multiply/add)",
+        |i| {
+            black_box(sqrt_f32(square(i)));
+        },
+        (base(square), base(square)),
+        Some((e_hw, e_kerf, " rel")),
+    );
+    row_with_errors(
+        counter,
+        "VSQRT.F32 out of line (global_asm! routine, BL + BX)",
+        |i| {
+            black_box(vsqrt_call(square(i)));
+        },
+        "kerf_vsqrt::sqrt_f32 (VSQRT.F32 inline)",
+        |i| {
+            black_box(kerf_vsqrt::sqrt_f32(square(i)));
+        },
+        (base(square), base(square)),
+        Some((e_hw, e_hw, " rel")),
+    );
 }
 
 /// A baseline that fetches the input the same way and moves it out, without a kernel.
@@ -150,18 +222,20 @@ fn printer_rows(counter: &mut Counter) {
         let (dx, dy) = (f64::from(p[0]) - xt, f64::from(p[1]) - yt);
         f64::from(p[2]) + libm::sqrt(arm * arm - dx * dx - dy * dy)
     };
-    let (mut e_kerf, mut e_fast, mut e_libm) = (0.0f64, 0.0f64, 0.0f64);
+    let (mut e_kerf, mut e_fast, mut e_libm, mut e_hw) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
     for p in &poses {
         let Ok(q) = geometry.inverse(&Vector3::new(p[0], p[1], p[2])) else {
             exit(false)
         };
         let fast = printer_inverse(&towers, *p, sqrt_f32);
         let soft = printer_inverse(&towers, *p, libm::sqrtf);
+        let hw = printer_inverse(&towers, *p, kerf_vsqrt::sqrt_f32);
         for i in 0..3 {
             let e = exact(p, i);
             e_kerf = e_kerf.max(libm::fabs(f64::from(q[i]) - e));
             e_fast = e_fast.max(libm::fabs(f64::from(fast[i]) - e));
             e_libm = e_libm.max(libm::fabs(f64::from(soft[i]) - e));
+            e_hw = e_hw.max(libm::fabs(f64::from(hw[i]) - e));
         }
     }
     let vector = |i: u32| {
@@ -182,6 +256,19 @@ fn printer_rows(counter: &mut Counter) {
         },
         (base(vector), base(pose)),
         Some((e_kerf, e_fast, " m")),
+    );
+    row_with_errors(
+        counter,
+        "kinematics::delta::inverse <f32>, printer geometry (VSQRT)",
+        |i| {
+            black_box(geometry.inverse(&vector(i)).ok());
+        },
+        "printer formula z + √(l² − dx² − dy²), kerf_vsqrt::sqrt_f32",
+        |i| {
+            black_box(printer_inverse(&towers, pose(i), kerf_vsqrt::sqrt_f32));
+        },
+        (base(vector), base(pose)),
+        Some((e_kerf, e_hw, " m")),
     );
     row_with_errors(
         counter,
