@@ -230,11 +230,7 @@ fn joint_references<T: Float>(
     p_dot: &Vector3<T>,
     p_ddot: &Vector3<T>,
 ) -> Result<[Reference<T>; 3], KinematicsError> {
-    let q = geometry.inverse(p)?;
-    let jx_inv = geometry.jacobian_inverse(&q, p)?;
-    let q_dot = jx_inv * p_dot;
-    let jx_dot = geometry.jacobian_derivative(&q, p, &q_dot)?;
-    let q_ddot = jx_inv * (p_ddot - jx_dot * q_dot);
+    let [q, q_dot, q_ddot] = geometry.joint_motion(p, p_dot, p_ddot)?;
     let reference = |position, velocity, acceleration| Reference {
         position,
         velocity,

@@ -5,19 +5,27 @@
 //! (`Contouring::joint_acceleration`: FK, Jx, the frame, the law, Jx⁻¹ and J̇x), FK, Jx
 //! and J̇x alone (inside the law), and the three DOBs (`AxisLaw::actuate`). The task
 //! reference the law is given is the period's effector reference with its velocity,
-//! acceleration and jerk by differences over the last periods. What is left of the
-//! period is the EFD reference (evaluation with derivatives, arc-length stepping,
-//! speed ramp), its joint references (IK, Jx⁻¹ṗ, J̇x) and the supervision.
+//! acceleration and jerk by differences over the last periods. The reference's stages
+//! run on an equivalent follower (the same 10-harmonic octagon, speed, ramps and
+//! period, started with the measured periods): one arc-length step with the curve's
+//! derivatives and the speed ramp, and the joint references of that sample (IK,
+//! Jx⁻¹ṗ, J̇x: `DeltaGeometry::joint_motion`). What is left of the period is the
+//! supervision and the period's own bookkeeping.
 
 use core::hint::black_box;
 use kerf::app::axis::{AxisLaw, AxisState, HallAxis};
 use kerf::control::contouring::{Contouring, TaskReference};
 use kerf::kinematics::delta::DeltaGeometry;
 use kerf::kinematics::Vector3;
+use kerf::trajectory::efd::Efd;
+use kerf::trajectory::shapes::octagon;
+use kerf::trajectory::tangential::{ContourFollower, FollowerConfig, SpeedRampConfig};
 use kerf_app::bench::Counter;
 
 /// Stage names, in the order [`Stages::measure`] times them.
-pub const STAGES: [&str; 6] = [
+pub const STAGES: [&str; 8] = [
+    "EFD reference n=10 (derivatives, arc-length step, ramp)",
+    "joint references of the reference (IK, Jx⁻¹ṗ, J̇x)",
     "three Hall decodes + velocity observers",
     "contouring law (FK, Jx, frame, law, Jx⁻¹, J̇x)",
     "of which FK",
@@ -29,7 +37,9 @@ pub const STAGES: [&str; 6] = [
 /// Sums of each stage's instructions over the measured periods.
 #[derive(Default)]
 pub struct Stages {
-    pub totals: [f64; 6],
+    pub totals: [f64; 8],
+    /// The equivalent follower (built at the first measured period).
+    follower: Option<ContourFollower<f32, 30>>,
     pub periods: u32,
     /// The last four effector references, newest first.
     history: [[f32; 3]; 4],
@@ -69,7 +79,33 @@ impl Stages {
         if self.filled < 4 {
             return;
         }
+        if self.follower.is_none() {
+            self.follower = follower(ts);
+        }
         let h = self.history.map(|p| Vector3::new(p[0], p[1], p[2]));
+        let mut sample = None;
+        let reference = match self.follower.as_mut() {
+            Some(f) => counter.once(&key(STAGES[0]), &mut || {
+                sample = black_box(f.step().ok());
+            }),
+            None => 0.0,
+        };
+        let planar = |x: f32, y: f32| Vector3::new(x, y, 0.0);
+        let centre = h[0];
+        let joint_map = match sample {
+            Some(r) => counter.once(&key(STAGES[1]), &mut || {
+                black_box(
+                    geometry
+                        .joint_motion(
+                            &(centre + black_box(planar(r.position.x, r.position.y))),
+                            &planar(r.velocity.x, r.velocity.y),
+                            &planar(r.acceleration.x, r.acceleration.y),
+                        )
+                        .ok(),
+                );
+            }),
+            None => 0.0,
+        };
         let task = TaskReference {
             position: h[0],
             velocity: (h[0] - h[1]) / ts,
@@ -79,7 +115,7 @@ impl Stages {
         let mut states = *axes;
         let mut velocities = [0.0f32; 3];
         let mut counts_in = *counts;
-        let decodes = counter.once(&key(STAGES[0]), &mut || {
+        let decodes = counter.once(&key(STAGES[2]), &mut || {
             let counts = black_box(&mut counts_in);
             for k in 0..3 {
                 velocities[k] = law
@@ -91,34 +127,52 @@ impl Stages {
         let q = Vector3::from(states.map(|s| s.position_m()));
         let q_dot = Vector3::from(velocities);
         let mut acceleration = Vector3::zeros();
-        let law_stage = counter.once(&key(STAGES[1]), &mut || {
+        let law_stage = counter.once(&key(STAGES[3]), &mut || {
             if let Ok(out) = contouring.joint_acceleration(geometry, &task, black_box(&q), &q_dot) {
                 acceleration = out.joint_acceleration;
             }
             black_box(&acceleration);
         });
         let p = geometry.forward(&q).unwrap_or(task.position);
-        let fk = counter.once(&key(STAGES[2]), &mut || {
+        let fk = counter.once(&key(STAGES[4]), &mut || {
             black_box(geometry.forward(black_box(&q)).ok());
         });
-        let jx = counter.once(&key(STAGES[3]), &mut || {
+        let jx = counter.once(&key(STAGES[5]), &mut || {
             black_box(geometry.jacobian(black_box(&q), &p).ok());
         });
-        let jx_dot = counter.once(&key(STAGES[4]), &mut || {
+        let jx_dot = counter.once(&key(STAGES[6]), &mut || {
             black_box(geometry.jacobian_derivative(black_box(&q), &p, &q_dot).ok());
         });
-        let dobs = counter.once(&key(STAGES[5]), &mut || {
+        let dobs = counter.once(&key(STAGES[7]), &mut || {
             for k in 0..3 {
                 black_box(law.actuate(&mut states[k], acceleration[k], velocities[k]));
             }
         });
-        for (total, stage) in self
-            .totals
-            .iter_mut()
-            .zip([decodes, law_stage, fk, jx, jx_dot, dobs])
-        {
+        for (total, stage) in self.totals.iter_mut().zip([
+            reference, joint_map, decodes, law_stage, fk, jx, jx_dot, dobs,
+        ]) {
             *total += stage;
         }
         self.periods += 1;
     }
+}
+
+/// The period's reference generator, equivalent to the job's: the ±6 mm octagon in 10
+/// harmonics at 8 mm/s, ramps of 0.1 m/s² and 10 m/s³, period `ts`, started.
+fn follower(ts: f32) -> Option<ContourFollower<f32, 30>> {
+    let points = octagon().map(|p| [0.6 * p[0], 0.6 * p[1]]);
+    let efd = Efd::<f64, 30>::from_polygon(&points, 10).ok()?;
+    let config = FollowerConfig {
+        ramp: SpeedRampConfig {
+            speed_m_s: 8e-3,
+            accel_m_s2: 0.1,
+            jerk_m_s3: 10.0,
+            ts_s: f64::from(ts),
+        },
+        accel_limit_m_s2: 20.0,
+        newton_steps: 0,
+    };
+    let mut f = ContourFollower::for_checked_curve(Efd::from_f64(&efd).ok()?, &config, 0.0).ok()?;
+    f.start();
+    Some(f)
 }

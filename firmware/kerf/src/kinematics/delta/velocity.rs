@@ -145,6 +145,22 @@ impl<T: Float> DeltaGeometry<T> {
         finite_matrix(Matrix3::from_columns(&[*c1, *c2, *c3]) * m * terms.inv_det_j2)
     }
 
+    /// Joint position, velocity and acceleration for the effector's position, velocity
+    /// and acceleration (T eq. 146 and its time derivative): q = IK(p), q̇ = Jx⁻¹ṗ,
+    /// q̈ = Jx⁻¹(p̈ − J̇x q̇).
+    pub fn joint_motion(
+        &self,
+        p: &Vector3<T>,
+        p_dot: &Vector3<T>,
+        p_ddot: &Vector3<T>,
+    ) -> Result<[Vector3<T>; 3], KinematicsError> {
+        let q = self.inverse(p)?;
+        let jx_inv = self.jacobian_inverse(&q, p)?;
+        let q_dot = jx_inv * p_dot;
+        let jx_dot = self.jacobian_derivative(&q, p, &q_dot)?;
+        Ok([q, q_dot, jx_inv * (p_ddot - jx_dot * q_dot)])
+    }
+
     /// The joint accelerations that give the effector the acceleration `p_ddot` (m/s²)
     /// at (q, p) moving with q̇: q̈ = Jx⁻¹ (p̈ − J̇x q̇), the time derivative of T eq. 146.
     pub fn joint_acceleration(
