@@ -17,6 +17,7 @@
 use super::{check_finite, lit, to_f64, ContourError, Float};
 use crate::error::{representable, ConfigError};
 use core::f64::consts::PI;
+use super::tangential::Curve;
 use nalgebra::Vector2;
 
 /// Position and derivatives of an EFD curve at one θ, relative to its centre.
@@ -327,54 +328,22 @@ impl<T: Float, const N: usize> Efd<T, N> {
     /// Arc length of the EFD curve from θ0 to θ1 (m) by `intervals` panels of 3-point
     /// Gauss–Legendre quadrature (exact for polynomials of degree 5 per panel). A
     /// non-finite θ, or a finite one so large that the span's length overflows,
-    /// passes through to the result.
+    /// passes through to the result. ([`Curve::arc_length`], as for any curve.)
     pub fn arc_length(&self, theta0: T, theta1: T, intervals: usize) -> T {
-        let n = intervals.max(1);
-        let h = (theta1 - theta0) / lit(n as f64);
-        let mut sum = T::ZERO;
-        for i in 0..n {
-            let a = theta0 + h * lit(i as f64);
-            sum += gauss3(h, |u| self.tangent(a + u).norm());
-        }
-        sum
+        Curve::arc_length(self, theta0, theta1, intervals)
     }
 
     /// Signed curvature κ(θ) = (x′y″ − y′x″)/|C′|³ (1/m); zero where |C′| = 0; a
     /// non-finite θ passes through (see [`Efd::evaluate`]).
     pub fn curvature(&self, theta: T) -> T {
-        let s = self.evaluate(theta);
-        let speed = s.d1.norm();
-        if speed <= T::zero() {
-            return T::zero();
-        }
-        s.d1.perp(&s.d2) / (speed * speed * speed)
+        Curve::curvature(self, theta)
     }
 
     /// Largest |κ| over the curve (1/m): `samples` equal θ steps, then the best sample is
-    /// refined by golden-section search over its two neighbouring steps.
+    /// refined by golden-section search over its two neighbouring steps
+    /// ([`Curve::max_curvature`]).
     pub fn max_curvature(&self, samples: usize) -> T {
-        let n = samples.max(8);
-        let h = lit::<T>(2.0 * PI / n as f64);
-        let mut best = (T::zero(), T::zero());
-        for i in 0..n {
-            let th = h * lit(i as f64);
-            let k = self.curvature(th).abs();
-            if k > best.0 {
-                best = (k, th);
-            }
-        }
-        let (mut lo, mut hi) = (best.1 - h, best.1 + h);
-        let g = lit::<T>(0.618_033_988_749_894_8);
-        for _ in 0..40 {
-            let m1 = hi - (hi - lo) * g;
-            let m2 = lo + (hi - lo) * g;
-            if self.curvature(m1).abs() > self.curvature(m2).abs() {
-                hi = m2;
-            } else {
-                lo = m1;
-            }
-        }
-        best.0.max(self.curvature((lo + hi) * lit(0.5)).abs())
+        Curve::max_curvature(self, samples)
     }
 }
 

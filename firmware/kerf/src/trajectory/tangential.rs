@@ -256,18 +256,21 @@ pub trait Curve<T: Float> {
         sum
     }
 
+    /// Signed curvature κ(θ) = (x′y″ − y′x″)/|C′|³ (1/m); zero where |C′| = 0.
+    fn curvature(&self, theta: T) -> T {
+        let s = self.evaluate(theta);
+        let speed = s.d1.norm();
+        if speed > T::ZERO {
+            s.d1.perp(&s.d2) / (speed * speed * speed)
+        } else {
+            T::ZERO
+        }
+    }
+
     /// Largest |κ| over the span (1/m): `samples` equal θ steps, the best refined by
     /// golden-section search over its two neighbouring steps (kept inside the span).
     fn max_curvature(&self, samples: usize) -> T {
-        let curvature = |theta: T| {
-            let s = self.evaluate(theta);
-            let speed = s.d1.norm();
-            if speed > T::ZERO {
-                (s.d1.perp(&s.d2) / (speed * speed * speed)).abs()
-            } else {
-                T::ZERO
-            }
-        };
+        let curvature = |theta: T| self.curvature(theta).abs();
         let n = samples.max(8);
         let span = self.span();
         let h = span / lit(n as f64);
@@ -314,12 +317,6 @@ impl<T: Float, const N: usize> Curve<T> for Efd<T, N> {
     }
     fn pieces(&self) -> usize {
         self.harmonics()
-    }
-    fn arc_length(&self, theta0: T, theta1: T, intervals: usize) -> T {
-        Efd::arc_length(self, theta0, theta1, intervals)
-    }
-    fn max_curvature(&self, samples: usize) -> T {
-        Efd::max_curvature(self, samples)
     }
 }
 
