@@ -77,16 +77,6 @@ impl SampleInputs<[[u16; 3]; 3]> for SimulatedDelta {
     }
 }
 
-impl<T: Real> WriteOutputs<[T; 3]> for SimulatedDelta {
-    /// Applies the forces (laser off) and advances the plant by one period.
-    fn write(&mut self, force_n: &[T; 3]) {
-        self.write(&ForceAndLaser {
-            force_n: *force_n,
-            laser_duty: T::ZERO,
-        });
-    }
-}
-
 impl<T: Real> WriteOutputs<ForceAndLaser<T, 3>> for SimulatedDelta {
     /// Applies the forces, holds the laser's duty and advances the plant by one period.
     fn write(&mut self, outputs: &ForceAndLaser<T, 3>) {
@@ -126,11 +116,15 @@ mod tests {
 
     #[test]
     fn reports_the_commanded_and_the_applied_force() {
-        let written = [1.0f32, f32::NAN, 10.0];
+        let written = ForceAndLaser {
+            force_n: [1.0f32, f32::NAN, 10.0],
+            laser_duty: 0.25,
+        };
         // Ideal drive: the command after the limit acts (NaN → 0, 10 → 3.6 N).
         let mut d = delta(DeltaPlantParams::SLAVE);
         d.write(&written);
         assert_eq!(d.applied_force_n(), [1.0, 0.0, 3.6]);
+        assert_eq!(d.laser_duty, 0.25);
         let c = d.commanded_force_n();
         assert!(c[0] == 1.0 && c[1].is_nan() && c[2] == 10.0);
         // Realistic drive: over the first period the 2 kHz current loop delivers on
