@@ -145,8 +145,7 @@ impl<T: Float> Bilateral<T> {
         q: &Vector3<T>,
         q_dot: &Vector3<T>,
     ) -> Result<BilateralOutput<T>, KinematicsError> {
-        let position = geometry.forward(q)?;
-        let velocity = geometry.jacobian(q, &position)? * q_dot;
+        let (position, velocity) = geometry.task_state(q, q_dot)?;
         let reference = self.slave_reference(master);
         let e = reference.position - position;
         let e_dot = reference.velocity - velocity;

@@ -252,11 +252,9 @@ impl<T: Float> Contouring<T> {
         q: &Vector3<T>,
         q_dot: &Vector3<T>,
     ) -> Result<ContouringOutput<T>, ContouringError> {
-        let position = geometry.forward(q).map_err(ContouringError::Kinematics)?;
-        let jx = geometry
-            .jacobian(q, &position)
+        let (position, velocity) = geometry
+            .task_state(q, q_dot)
             .map_err(ContouringError::Kinematics)?;
-        let velocity = jx * q_dot;
         let (acceleration, frame_error_m, framed) = self
             .task_acceleration_framed(reference, &position, &velocity)
             .map_err(ContouringError::Frame)?;

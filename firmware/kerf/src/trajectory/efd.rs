@@ -14,10 +14,10 @@
 //! sin kθ come from the angle-addition recurrence (one `sin` and one `cos` per call
 //! instead of 2n), whose error grows only linearly in k.
 
+use super::tangential::Curve;
 use super::{check_finite, lit, to_f64, ContourError, Float};
 use crate::error::{representable, ConfigError};
 use core::f64::consts::PI;
-use super::tangential::Curve;
 use nalgebra::Vector2;
 
 /// Position and derivatives of an EFD curve at one θ, relative to its centre.

@@ -558,8 +558,10 @@ impl<T: Float> DeltaSlave<T> {
                     )
                 }
                 law => {
-                    let p = self.geometry.forward(&q_m).map_err(kinematics)?;
-                    let jx = self.geometry.jacobian(&q_m, &p).map_err(kinematics)?;
+                    let (p, v) = self
+                        .geometry
+                        .task_state(&q_m, &q_dot_m_s)
+                        .map_err(kinematics)?;
                     let (e, contour_error) =
                         self.contouring.frame_error(&task, &p).map_err(|_| lost())?;
                     let mut acceleration = [T::zero(); 3];
@@ -585,7 +587,7 @@ impl<T: Float> DeltaSlave<T> {
                             },
                         };
                     }
-                    (acceleration, e, contour_error, p, jx * q_dot_m_s)
+                    (acceleration, e, contour_error, p, v)
                 }
             };
         let (forces, saturated) = self

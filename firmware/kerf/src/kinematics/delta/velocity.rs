@@ -145,6 +145,18 @@ impl<T: Float> DeltaGeometry<T> {
         finite_matrix(Matrix3::from_columns(&[*c1, *c2, *c3]) * m * terms.inv_det_j2)
     }
 
+    /// The effector's position FK(q) and velocity Jx q̇ (m, m/s) from the measured
+    /// joints: what a task-space law starts from.
+    pub fn task_state(
+        &self,
+        q: &Vector3<T>,
+        q_dot: &Vector3<T>,
+    ) -> Result<(Vector3<T>, Vector3<T>), KinematicsError> {
+        let p = self.forward(q)?;
+        let v = self.jacobian(q, &p)? * q_dot;
+        Ok((p, v))
+    }
+
     /// Joint position, velocity and acceleration for the effector's position, velocity
     /// and acceleration (T eq. 146 and its time derivative): q = IK(p), q̇ = Jx⁻¹ṗ,
     /// q̈ = Jx⁻¹(p̈ − J̇x q̇).
