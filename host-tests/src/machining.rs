@@ -66,6 +66,31 @@ pub struct ContourCase {
     pub ideal_sensors: bool,
 }
 
+impl ContourCase {
+    /// `curve` at `speed_m_s` under `law` every `period_s` on the realistic Keops slave
+    /// (`SLAVE_REALISTIC`, the calibrated imperfect sensors, the Keops contour
+    /// preset), nothing blocked, the laser as `laser`.
+    pub fn realistic(
+        curve: CaseCurve,
+        speed_m_s: f64,
+        law: ContourLaw,
+        period_s: f64,
+        laser: LaserMode,
+    ) -> Self {
+        Self {
+            curve,
+            speed_m_s,
+            law,
+            period_s,
+            plant: DeltaPlantParams::SLAVE_REALISTIC,
+            blocked_carriage: None,
+            contour: ContourConfig::KEOPS,
+            ideal_sensors: false,
+            laser,
+        }
+    }
+}
+
 /// One period of a run, in the contour phase.
 #[derive(Copy, Clone, Debug)]
 pub struct ContourSample {
@@ -145,47 +170,50 @@ pub fn machine(period_s: f64) -> DeltaSlaveConfig {
     config
 }
 
-/// The case's curves, planned: (EFD, open path), one of them.
-type Curves = (
-    Option<Efd<f64, CONTOUR_HARMONICS>>,
-    Option<OpenPath<f64, OPEN_PATH_POINTS>>,
-);
+/// The case's curve, built in `f64` (boxed: the two differ in size by a kilobyte).
+enum Planned {
+    Closed(Box<Efd<f64, CONTOUR_HARMONICS>>),
+    Open(Box<OpenPath<f64, OPEN_PATH_POINTS>>),
+}
 
-fn curves(case: &ContourCase) -> Result<Curves, DeltaJobError> {
-    Ok(match &case.curve {
-        CaseCurve::Closed { polygon, harmonics } => (
-            Some(Efd::from_polygon(polygon, *harmonics).map_err(DeltaJobError::Contour)?),
-            None,
-        ),
-        CaseCurve::Open(points) => (
-            None,
-            Some(OpenPath::from_points(points).map_err(DeltaJobError::Contour)?),
-        ),
-    })
+impl Planned {
+    fn of(case: &ContourCase) -> Result<Self, DeltaJobError> {
+        Ok(match &case.curve {
+            CaseCurve::Closed { polygon, harmonics } => Self::Closed(Box::new(
+                Efd::from_polygon(polygon, *harmonics).map_err(DeltaJobError::Contour)?,
+            )),
+            CaseCurve::Open(points) => Self::Open(Box::new(
+                OpenPath::from_points(points).map_err(DeltaJobError::Contour)?,
+            )),
+        })
+    }
+
+    /// One lap of a closed curve, from θ = 0; an open path, first to last point.
+    fn curve(&self) -> ContourCurve<'_> {
+        match self {
+            Self::Closed(efd) => ContourCurve::Closed {
+                efd,
+                theta0_rad: 0.0,
+                laps: 1.0,
+            },
+            Self::Open(path) => ContourCurve::Open(path),
+        }
+    }
 }
 
 /// Length of the case's path, m (one lap of a closed one).
 pub fn path_length_m(case: &ContourCase) -> Result<f64, DeltaJobError> {
-    Ok(match curves(case)? {
-        (Some(efd), _) => efd.arc_length(0.0, 2.0 * core::f64::consts::PI, 1024),
-        (_, Some(path)) => path.arc_length(0.0, path.chord_length_m(), 1024),
-        _ => 0.0,
+    Ok(match Planned::of(case)? {
+        Planned::Closed(efd) => efd.arc_length(0.0, efd.span(), 1024),
+        Planned::Open(path) => path.arc_length(0.0, path.span(), 1024),
     })
 }
 
 /// Plans the case's job: one lap from θ = 0 (or the open path), ramps of 0.1 m/s² and
 /// 10 m/s³.
 pub fn plan(case: &ContourCase) -> Result<DeltaJob, DeltaJobError> {
-    let (efd, path) = curves(case)?;
-    let curve = match (&efd, &path) {
-        (Some(efd), _) => ContourCurve::Closed {
-            efd,
-            theta0_rad: 0.0,
-            laps: 1.0,
-        },
-        (_, Some(path)) => ContourCurve::Open(path),
-        _ => return Err(DeltaJobError::Size),
-    };
+    let planned = Planned::of(case)?;
+    let curve = planned.curve();
     DeltaJob::plan_contour(
         &case_machine(case),
         &ContourPlan {

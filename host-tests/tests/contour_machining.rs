@@ -2,10 +2,9 @@
 //! independent joint control against contouring control (and joint PD with preview),
 //! at the seed's 2.4 kHz and at 10 kHz.
 
-use hal_mock::delta_plant::DeltaPlantParams;
 use host_tests::machining::{draw_runs, run, scaled, CaseCurve, ContourCase, ContourReport};
 use host_tests::plot::plots_dir;
-use kerf::app::delta_slave::{ContourConfig, ContourLaw, DeltaFault};
+use kerf::app::delta_slave::{ContourLaw, DeltaFault};
 use kerf::control::laser::LaserMode;
 use kerf::trajectory::shapes;
 
@@ -19,20 +18,17 @@ fn shapes() -> [(&'static str, Vec<[f64; 2]>); 3] {
 }
 
 fn case(polygon: &[[f64; 2]], law: ContourLaw, period_s: f64) -> ContourCase {
-    ContourCase {
-        curve: CaseCurve::Closed {
-            polygon: polygon.to_vec(),
-            harmonics: 30,
-        },
-        speed_m_s: 8e-3,
+    let curve = CaseCurve::Closed {
+        polygon: polygon.to_vec(),
+        harmonics: 30,
+    };
+    ContourCase::realistic(
+        curve,
+        8e-3,
         law,
         period_s,
-        plant: DeltaPlantParams::SLAVE_REALISTIC,
-        blocked_carriage: None,
-        contour: ContourConfig::KEOPS,
-        ideal_sensors: false,
-        laser: LaserMode::constant_energy_of(10.0, 8e-3),
-    }
+        LaserMode::constant_energy_of(10.0, 8e-3),
+    )
 }
 
 fn report(name: &str, law: ContourLaw, rate_hz: f64, r: &ContourReport) {

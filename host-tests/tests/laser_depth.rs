@@ -8,11 +8,10 @@
 //! Uniformity is reported over the cruise (the bins the speed ramps touch are left
 //! out, where constant power burns in by design) and over the whole cut.
 
-use hal_mock::delta_plant::DeltaPlantParams;
 use host_tests::depth::{deposit, DepthSummary, EnergyProfile};
 use host_tests::machining::{run, scaled, CaseCurve, ContourCase, ContourReport};
 use host_tests::plot::{along_path, plots_dir, Series};
-use kerf::app::delta_slave::{ContourConfig, ContourLaw};
+use kerf::app::delta_slave::ContourLaw;
 use kerf::control::laser::LaserMode;
 use kerf::trajectory::shapes;
 
@@ -22,20 +21,11 @@ const PERIOD_S: f64 = 1e-4;
 const BIN_M: f64 = 1e-4;
 
 fn octagon(laser: LaserMode, law: ContourLaw) -> ContourCase {
-    ContourCase {
-        curve: CaseCurve::Closed {
-            polygon: scaled(&shapes::octagon(), 0.6),
-            harmonics: 30,
-        },
-        speed_m_s: SPEED_M_S,
-        law,
-        period_s: PERIOD_S,
-        plant: DeltaPlantParams::SLAVE_REALISTIC,
-        blocked_carriage: None,
-        contour: ContourConfig::KEOPS,
-        ideal_sensors: false,
-        laser,
-    }
+    let curve = CaseCurve::Closed {
+        polygon: scaled(&shapes::octagon(), 0.6),
+        harmonics: 30,
+    };
+    ContourCase::realistic(curve, SPEED_M_S, law, PERIOD_S, laser)
 }
 
 /// The energy profile of a run: positions at the period ends, the power of the

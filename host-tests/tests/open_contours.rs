@@ -8,11 +8,10 @@
 //! the reference speed, at cruise; "at corners" is where the path turns fastest: the
 //! worst error within 0.5 mm of arc of the highest-curvature point of the reference.
 
-use hal_mock::delta_plant::DeltaPlantParams;
 use host_tests::depth::deposit;
 use host_tests::machining::{draw_runs, run, CaseCurve, ContourCase, ContourReport};
 use host_tests::plot::{along_path, plots_dir, Series};
-use kerf::app::delta_slave::{ContourConfig, ContourLaw};
+use kerf::app::delta_slave::ContourLaw;
 use kerf::control::laser::LaserMode;
 use kerf::trajectory::shapes;
 
@@ -30,17 +29,13 @@ fn letters() -> [(&'static str, Vec<[f64; 2]>); 2] {
 }
 
 fn case(points: &[[f64; 2]], law: ContourLaw, period_s: f64, laser: LaserMode) -> ContourCase {
-    ContourCase {
-        curve: CaseCurve::Open(points.to_vec()),
-        speed_m_s: SPEED_M_S,
+    ContourCase::realistic(
+        CaseCurve::Open(points.to_vec()),
+        SPEED_M_S,
         law,
         period_s,
-        plant: DeltaPlantParams::SLAVE_REALISTIC,
-        blocked_carriage: None,
-        contour: ContourConfig::KEOPS,
-        ideal_sensors: false,
         laser,
-    }
+    )
 }
 
 /// Largest |tangential speed error| at cruise over all periods, and within 0.5 mm of
