@@ -21,6 +21,8 @@ use kerf::control::laser::LaserMode;
 use kerf::scalar::Float;
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::shapes::{octagon, OCTAGON_POINTS};
+use kerf::trajectory::tangential::SpeedRampConfig;
+use kerf::trajectory::ContourError;
 
 /// Cutting height, m.
 pub const CUT_HEIGHT_M: f64 = 0.050;
@@ -127,6 +129,21 @@ pub struct ContourSummary {
 /// Laser power at the octagon's cruising speed, W: half the Keops source's 20 W.
 pub const OCTAGON_LASER_POWER_W: f64 = 10.0;
 
+/// The octagon's tangential speed (m/s) and its ramps' acceleration (m/s²) and jerk
+/// (m/s³), at the Keops period (a job runs at its machine's period instead).
+pub const OCTAGON_MOTION: SpeedRampConfig = SpeedRampConfig {
+    speed_m_s: 8e-3,
+    accel_m_s2: 0.1,
+    jerk_m_s3: 10.0,
+    ts_s: 1e-4,
+};
+
+/// The octagon at ±6 mm (the stored shape scaled by 0.6) in `harmonics` harmonics.
+pub fn octagon_efd(harmonics: usize) -> Result<Efd<f64, CONTOUR_HARMONICS>, ContourError> {
+    let points = octagon().map(|p| [0.6 * p[0], 0.6 * p[1]]);
+    Efd::from_polygon(&points[..OCTAGON_POINTS], harmonics)
+}
+
 /// The octagon at ±6 mm in `harmonics` harmonics, `laps` laps at 8 mm/s under `law`,
 /// ramps of 0.1 m/s² and 10 m/s³, the laser at constant energy per length
 /// ([`OCTAGON_LASER_POWER_W`] at 8 mm/s), on `machine` (the smoke run's contour with 30
@@ -137,12 +154,7 @@ pub fn octagon_job(
     harmonics: usize,
     law: ContourLaw,
 ) -> Result<DeltaJob, DeltaJobError> {
-    let mut points = octagon();
-    for p in points.iter_mut() {
-        *p = [0.6 * p[0], 0.6 * p[1]];
-    }
-    let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&points[..OCTAGON_POINTS], harmonics)
-        .map_err(DeltaJobError::Contour)?;
+    let efd = octagon_efd(harmonics).map_err(DeltaJobError::Contour)?;
     DeltaJob::plan_contour(
         machine,
         &ContourPlan {
@@ -152,12 +164,12 @@ pub fn octagon_job(
                 laps,
             },
             centre_m: [0.0, 0.0, CUT_HEIGHT_M],
-            speed_m_s: 8e-3,
-            accel_m_s2: 0.1,
-            jerk_m_s3: 10.0,
+            speed_m_s: OCTAGON_MOTION.speed_m_s,
+            accel_m_s2: OCTAGON_MOTION.accel_m_s2,
+            jerk_m_s3: OCTAGON_MOTION.jerk_m_s3,
             approach_s: 0.3,
             law,
-            laser: LaserMode::constant_energy_of(OCTAGON_LASER_POWER_W, 8e-3),
+            laser: LaserMode::constant_energy_of(OCTAGON_LASER_POWER_W, OCTAGON_MOTION.speed_m_s),
         },
     )
 }

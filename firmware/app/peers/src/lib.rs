@@ -13,6 +13,7 @@
 #![no_std]
 
 use kerf::scalar::sin_cos_f32;
+use kerf::trajectory::efd::EfdSample;
 use microfft::Complex32;
 
 /// Orthonormal DCT-II of N = 32 or 64 samples through microfft's real FFT.
@@ -103,6 +104,20 @@ pub fn printer_inverse(towers: &[Tower; 3], p: [f32; 3], sqrt: impl Fn(f32) -> f
         let (dx, dy) = (p[0] - t.x, p[1] - t.y);
         p[2] + sqrt(t.arm2 - dx * dx - dy * dy)
     })
+}
+
+/// kerf's EFD sample in [`efd_direct`]'s layout (x, y; then d1, d2, d3), to compare.
+pub fn efd_sample_flat(s: &EfdSample<f32>) -> [f32; 8] {
+    [
+        s.position.x,
+        s.position.y,
+        s.d1.x,
+        s.d1.y,
+        s.d2.x,
+        s.d2.y,
+        s.d3.x,
+        s.d3.y,
+    ]
 }
 
 /// EFD position and its first three θ-derivatives (x, y; then d1, d2, d3), summed

@@ -95,16 +95,7 @@ fn direct_efd_sum_matches_kerfs_recurrence() {
         let theta = 0.1 + 6.2 * i as f32 / 64.0;
         let s = efd.evaluate(theta);
         let d = efd_direct(efd.coefficients(), theta);
-        let kerf = [
-            s.position.x,
-            s.position.y,
-            s.d1.x,
-            s.d1.y,
-            s.d2.x,
-            s.d2.y,
-            s.d3.x,
-            s.d3.y,
-        ];
+        let kerf = efd_sample_flat(&s);
         for (j, (a, b)) in kerf.iter().zip(d).enumerate() {
             assert!(
                 (a - b).abs() <= 1e-5 * (1.0 + b.abs()),

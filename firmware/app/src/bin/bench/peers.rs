@@ -12,7 +12,7 @@ use kerf::scalar::{sin_cos_f32, sqrt_f32};
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::shapes;
 use kerf_app::bench::Counter;
-use kerf_peers::{efd_direct, printer_inverse, Tower};
+use kerf_peers::{efd_direct, efd_sample_flat, printer_inverse, Tower};
 
 const MASK: u32 = INPUTS as u32 - 1;
 /// 2^32: one turn of a phase word.
@@ -243,45 +243,43 @@ fn printer_rows(counter: &mut Counter) {
         Vector3::new(p[0], p[1], p[2])
     };
     let pose = |i: u32| black_box(poses[(i & MASK) as usize]);
-    let name = "kinematics::delta::inverse <f32>, printer geometry";
-    row_with_errors(
-        counter,
-        name,
-        |i| {
-            black_box(geometry.inverse(&vector(i)).ok());
-        },
+    // One row per square root inside the printer formula; a macro rather than a loop
+    // over function pointers, so that each row calls its square root directly, as a
+    // user's code would.
+    macro_rules! printer_row {
+        ($name:expr, $reference:expr, $sqrt:path, $error:expr) => {
+            row_with_errors(
+                counter,
+                $name,
+                |i| {
+                    black_box(geometry.inverse(&vector(i)).ok());
+                },
+                $reference,
+                |i| {
+                    black_box(printer_inverse(&towers, pose(i), $sqrt));
+                },
+                (base(vector), base(pose)),
+                Some((e_kerf, $error, " m")),
+            )
+        };
+    }
+    printer_row!(
+        "kinematics::delta::inverse <f32>, printer geometry",
         "printer formula z + √(l² − dx² − dy²), kerf sqrt_f32",
-        |i| {
-            black_box(printer_inverse(&towers, pose(i), sqrt_f32));
-        },
-        (base(vector), base(pose)),
-        Some((e_kerf, e_fast, " m")),
+        sqrt_f32,
+        e_fast
     );
-    row_with_errors(
-        counter,
+    printer_row!(
         "kinematics::delta::inverse <f32>, printer geometry (VSQRT)",
-        |i| {
-            black_box(geometry.inverse(&vector(i)).ok());
-        },
         "printer formula z + √(l² − dx² − dy²), kerf_vsqrt::sqrt_f32",
-        |i| {
-            black_box(printer_inverse(&towers, pose(i), kerf_vsqrt::sqrt_f32));
-        },
-        (base(vector), base(pose)),
-        Some((e_kerf, e_hw, " m")),
+        kerf_vsqrt::sqrt_f32,
+        e_hw
     );
-    row_with_errors(
-        counter,
+    printer_row!(
         "kinematics::delta::inverse <f32>, printer geometry (libm)",
-        |i| {
-            black_box(geometry.inverse(&vector(i)).ok());
-        },
         "printer formula z + √(l² − dx² − dy²), libm::sqrtf",
-        |i| {
-            black_box(printer_inverse(&towers, pose(i), libm::sqrtf));
-        },
-        (base(vector), base(pose)),
-        Some((e_kerf, e_libm, " m")),
+        libm::sqrtf,
+        e_libm
     );
 }
 
@@ -330,16 +328,7 @@ pub fn efd_rows(counter: &mut Counter) {
         let (mut e_kerf, mut e_direct) = (0.0f64, 0.0f64);
         for (k, theta) in thetas.iter().enumerate() {
             let s = efd.evaluate(*theta);
-            let kerf = [
-                s.position.x,
-                s.position.y,
-                s.d1.x,
-                s.d1.y,
-                s.d2.x,
-                s.d2.y,
-                s.d3.x,
-                s.d3.y,
-            ];
+            let kerf = efd_sample_flat(&s);
             let direct = efd_direct(efd.coefficients(), *theta);
             for j in 0..8 {
                 e_kerf = e_kerf.max(libm::fabs(f64::from(kerf[j]) - exact[k][j]) / peak[j]);

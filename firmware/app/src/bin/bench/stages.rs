@@ -14,13 +14,14 @@
 
 use core::hint::black_box;
 use kerf::app::axis::{AxisLaw, AxisState, HallAxis};
+use kerf::app::delta_slave::DeltaSlaveConfig;
 use kerf::control::contouring::{Contouring, TaskReference};
 use kerf::kinematics::delta::DeltaGeometry;
 use kerf::kinematics::Vector3;
 use kerf::trajectory::efd::Efd;
-use kerf::trajectory::shapes::octagon;
 use kerf::trajectory::tangential::{ContourFollower, FollowerConfig, SpeedRampConfig};
 use kerf_app::bench::Counter;
+use kerf_sim::contour::{octagon_efd, OCTAGON_MOTION};
 
 /// Stage names, in the order [`Stages::measure`] times them.
 pub const STAGES: [&str; 8] = [
@@ -157,22 +158,21 @@ impl Stages {
     }
 }
 
-/// The period's reference generator, equivalent to the job's: the ±6 mm octagon in 10
-/// harmonics at 8 mm/s, ramps of 0.1 m/s² and 10 m/s³, period `ts`, started.
+/// The period's reference generator, equivalent to the job's (`kerf_sim::contour`'s
+/// octagon in 10 harmonics, its speed and ramps, the Keops limits), at period `ts`,
+/// started.
 fn follower(ts: f32) -> Option<ContourFollower<f32, 30>> {
-    let points = octagon().map(|p| [0.6 * p[0], 0.6 * p[1]]);
-    let efd = Efd::<f64, 30>::from_polygon(&points, 10).ok()?;
+    let machine = DeltaSlaveConfig::KEOPS;
     let config = FollowerConfig {
         ramp: SpeedRampConfig {
-            speed_m_s: 8e-3,
-            accel_m_s2: 0.1,
-            jerk_m_s3: 10.0,
             ts_s: f64::from(ts),
+            ..OCTAGON_MOTION
         },
-        accel_limit_m_s2: 20.0,
-        newton_steps: 0,
+        accel_limit_m_s2: machine.joints.accel_limit_m_s2,
+        newton_steps: machine.contour.newton_steps,
     };
-    let mut f = ContourFollower::for_checked_curve(Efd::from_f64(&efd).ok()?, &config, 0.0).ok()?;
+    let efd = Efd::from_f64(&octagon_efd(10).ok()?).ok()?;
+    let mut f = ContourFollower::for_checked_curve(efd, &config, 0.0).ok()?;
     f.start();
     Some(f)
 }
