@@ -1,6 +1,8 @@
-//! A machine's signal sent over a [`FrameLink`] (SPEC `codec::sdct`, T 7.2.3): blocks
-//! of N samples, SDCT-coded, each in one packet with its sequence number and the
-//! index of its first sample; the receiver validates the order and reconstructs.
+//! A machine's signals sent over a [`FrameLink`] (SPEC `codec::sdct`, T 7.2.3): blocks
+//! of N samples of each of C channels sampled together, SDCT-coded, one frame per
+//! block — the caller's header, then a packet per channel, each with the block's
+//! sequence number and the index of its first sample; the receiver validates the
+//! frame and its order and reconstructs.
 //!
 //! The master sends the slave its motion this way, a machine its telemetry to the
 //! host. Both ends are sans-IO apart from the link, never block (a busy link drops
@@ -43,27 +45,45 @@
 //! ```
 
 use crate::codec::packet::{self, PacketDecoder, PacketError, MAX_PACKET_LEN};
-use crate::codec::sdct::{EncodeError, SdctConfig, SdctDecoder, SdctEncoder};
+use crate::codec::sdct::{Block, EncodeError, SdctConfig, SdctDecoder, SdctEncoder};
 use crate::error::ConfigError;
 use crate::hal::{FrameLink, LinkBusy};
 
-/// Why a block was not sent.
+/// Most channels a frame carries.
+pub const MAX_CHANNELS: usize = 4;
+/// Most bytes of the caller's header ahead of a frame's packets.
+pub const MAX_FRAME_HEADER: usize = 8;
+/// The longest frame: the header and [`MAX_CHANNELS`] packets of the largest size.
+pub const MAX_FRAME_LEN: usize = MAX_FRAME_HEADER + MAX_CHANNELS * MAX_PACKET_LEN;
+
+/// Why a block was not sent, or a frame not accepted.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum StreamError {
     /// A sample of the block was NaN or infinite: the block is dropped.
     Encode(EncodeError),
-    /// The packet could not be built.
+    /// A packet could not be built, or a received one was rejected.
     Packet(PacketError),
     /// The link was busy: the block is dropped.
     Busy(LinkBusy),
+    /// A received frame's packets disagree (channel count, sequence number or
+    /// timestamp), or it is shorter than its header.
+    Frame,
 }
 
-/// The sending end: collects samples, sends a packet per block of N.
+impl From<PacketError> for StreamError {
+    fn from(error: PacketError) -> Self {
+        Self::Packet(error)
+    }
+}
+
+/// The sending end of `C` signals sampled together: collects samples, and per block
+/// of N sends one frame — the caller's header, then one packet per channel with the
+/// same sequence number and first-sample index.
 #[derive(Clone, Debug)]
-pub struct SignalSender<const N: usize> {
+pub struct StreamSender<const C: usize, const N: usize> {
     encoder: SdctEncoder<N>,
-    block: [f32; N],
+    block: [[f32; N]; C],
     filled: usize,
     sequence: u16,
     /// Index of the next block's first sample (64 bits: never wraps; the packet
@@ -72,12 +92,19 @@ pub struct SignalSender<const N: usize> {
     dropped: u32,
 }
 
-impl<const N: usize> SignalSender<N> {
-    /// A sender keeping `config.m` of every N coefficients.
+/// The sending end of one signal.
+pub type SignalSender<const N: usize> = StreamSender<1, N>;
+
+impl<const C: usize, const N: usize> StreamSender<C, N> {
+    /// A sender keeping `config.m` of every N coefficients of each channel; 1 to
+    /// [`MAX_CHANNELS`] channels.
     pub fn new(config: &SdctConfig) -> Result<Self, ConfigError> {
+        if !(1..=MAX_CHANNELS).contains(&C) {
+            return Err(ConfigError::out_of_range("channels"));
+        }
         Ok(Self {
             encoder: SdctEncoder::new(config)?,
-            block: [0.0; N],
+            block: [[0.0; N]; C],
             filled: 0,
             sequence: 0,
             first_sample: 0,
@@ -85,12 +112,20 @@ impl<const N: usize> SignalSender<N> {
         })
     }
 
-    /// Adds one sample; the N-th of a block sends the block. A block that cannot be
-    /// sent is dropped and counted, and its sequence number is used up, so the
-    /// receiver sees the gap.
-    pub fn push(&mut self, sample: f32, link: &mut impl FrameLink) -> Result<(), StreamError> {
-        if let Some(slot) = self.block.get_mut(self.filled) {
-            *slot = sample;
+    /// Adds one sample of every channel; the N-th of a block sends the block behind
+    /// `header` (at most [`MAX_FRAME_HEADER`] bytes). A block that cannot be sent is
+    /// dropped and counted, and its sequence number is used up, so the receiver sees
+    /// the gap.
+    pub fn push_frame(
+        &mut self,
+        samples: [f32; C],
+        header: &[u8],
+        link: &mut impl FrameLink,
+    ) -> Result<(), StreamError> {
+        for (channel, sample) in self.block.iter_mut().zip(samples) {
+            if let Some(slot) = channel.get_mut(self.filled) {
+                *slot = sample;
+            }
         }
         self.filled += 1;
         if self.filled < N {
@@ -100,7 +135,7 @@ impl<const N: usize> SignalSender<N> {
         let (sequence, first_sample) = (self.sequence, self.first_sample);
         self.sequence = self.sequence.wrapping_add(1);
         self.first_sample = self.first_sample.wrapping_add(N as u64);
-        let sent = self.send(sequence, first_sample, link);
+        let sent = self.send(sequence, first_sample, header, link);
         if sent.is_err() {
             self.dropped = self.dropped.saturating_add(1);
         }
@@ -111,19 +146,23 @@ impl<const N: usize> SignalSender<N> {
         &self,
         sequence: u16,
         first_sample: u64,
+        header: &[u8],
         link: &mut impl FrameLink,
     ) -> Result<(), StreamError> {
-        let block = self
-            .encoder
-            .encode(&self.block)
-            .map_err(StreamError::Encode)?;
-        let mut frame = [0u8; MAX_PACKET_LEN];
-        // The low 32 bits on the wire; the receiver unwraps them.
-        let len = packet::encode(&block, sequence, first_sample as u32, &mut frame)
-            .map_err(StreamError::Packet)?;
-        let frame = frame
-            .get(..len)
-            .ok_or(StreamError::Packet(PacketError::Truncated))?;
+        let mut frame = [0u8; MAX_FRAME_LEN];
+        let mut len = header.len();
+        frame
+            .get_mut(..len)
+            .filter(|_| len <= MAX_FRAME_HEADER)
+            .ok_or(StreamError::Packet(PacketError::BufferTooSmall))?
+            .copy_from_slice(header);
+        for channel in &self.block {
+            let block = self.encoder.encode(channel).map_err(StreamError::Encode)?;
+            let out = frame.get_mut(len..).unwrap_or(&mut []);
+            // The low 32 bits on the wire; the receiver unwraps them.
+            len += packet::encode(&block, sequence, first_sample as u32, out)?;
+        }
+        let frame = frame.get(..len).unwrap_or(&[]);
         link.send(frame).map_err(StreamError::Busy)
     }
 
@@ -138,6 +177,13 @@ impl<const N: usize> SignalSender<N> {
     /// Blocks dropped so far.
     pub fn dropped(&self) -> u32 {
         self.dropped
+    }
+}
+
+impl<const N: usize> StreamSender<1, N> {
+    /// Adds one sample of the one signal (no header); see [`StreamSender::push_frame`].
+    pub fn push(&mut self, sample: f32, link: &mut impl FrameLink) -> Result<(), StreamError> {
+        self.push_frame([sample], &[], link)
     }
 }
 
@@ -156,18 +202,25 @@ pub struct ReceivedBlock {
     pub resynchronised: bool,
 }
 
-/// The receiving end: validates packets and their order, reconstructs blocks.
+/// The receiving end of `C` signals: validates frames and their order, reconstructs
+/// the blocks.
 #[derive(Clone, Debug)]
-pub struct SignalReceiver<const N: usize> {
+pub struct StreamReceiver<const C: usize, const N: usize> {
     decoder: SdctDecoder<N>,
     packets: PacketDecoder,
     /// First sample of the last accepted block, 64 bits.
     last_first_sample: Option<u64>,
 }
 
-impl<const N: usize> SignalReceiver<N> {
-    /// A receiver for blocks of N (8, 16, 32 or 64).
+/// The receiving end of one signal.
+pub type SignalReceiver<const N: usize> = StreamReceiver<1, N>;
+
+impl<const C: usize, const N: usize> StreamReceiver<C, N> {
+    /// A receiver for blocks of N (8, 16, 32 or 64) of 1 to [`MAX_CHANNELS`] channels.
     pub fn new() -> Result<Self, ConfigError> {
+        if !(1..=MAX_CHANNELS).contains(&C) {
+            return Err(ConfigError::out_of_range("channels"));
+        }
         Ok(Self {
             decoder: SdctDecoder::new()?,
             packets: PacketDecoder::new(),
@@ -175,34 +228,86 @@ impl<const N: usize> SignalReceiver<N> {
         })
     }
 
-    /// The next frame on `link`, if any: its block reconstructed into `out`, or why
-    /// the frame was rejected (`out` untouched).
+    /// The next frame on `link`, if any: its header copied into `header` (whose length
+    /// is the header's), every channel's block reconstructed into `out`; or why the
+    /// frame was rejected (`out` untouched, the sequence state unchanged). All packets
+    /// are validated before any is accepted.
+    pub fn poll_frame(
+        &mut self,
+        link: &mut impl FrameLink,
+        header: &mut [u8],
+        out: &mut [[f32; N]; C],
+    ) -> Option<Result<ReceivedBlock, StreamError>> {
+        let mut frame = [0u8; MAX_FRAME_LEN];
+        let len = link.receive(&mut frame)?;
+        let bytes = frame.get(..len)?;
+        Some(self.accept(bytes, header, out))
+    }
+
+    fn accept(
+        &mut self,
+        bytes: &[u8],
+        header: &mut [u8],
+        out: &mut [[f32; N]; C],
+    ) -> Result<ReceivedBlock, StreamError> {
+        let (head, mut rest) = bytes
+            .split_at_checked(header.len())
+            .ok_or(StreamError::Frame)?;
+        let mut blocks = [Block::<N>::from_parts(0, [0.0; N]); C];
+        let mut first = None;
+        for block in &mut blocks {
+            let packet_bytes;
+            (packet_bytes, rest) = rest
+                .split_at_checked(packet::packet_len(rest)?)
+                .ok_or(StreamError::Packet(PacketError::Truncated))?;
+            let packet = packet::parse(packet_bytes)?;
+            *block = packet.to_block::<N>()?;
+            match &first {
+                None => first = Some(packet),
+                Some(p) if (p.sequence, p.timestamp) == (packet.sequence, packet.timestamp) => {}
+                Some(_) => return Err(StreamError::Frame),
+            }
+        }
+        if !rest.is_empty() {
+            return Err(StreamError::Frame);
+        }
+        let received = self.packets.accept(first.ok_or(StreamError::Frame)?)?;
+        header.copy_from_slice(head);
+        for (block, out) in blocks.iter().zip(out.iter_mut()) {
+            self.decoder.decode(block, out);
+        }
+        let wire = received.packet.timestamp;
+        // Forward from the last block by the wrapping difference of the low 32 bits
+        // (accepted blocks only move forward, by less than 2^31 samples).
+        let first_sample = match (self.last_first_sample, received.resynchronised) {
+            (Some(last), false) => last.wrapping_add(u64::from(wire.wrapping_sub(last as u32))),
+            _ => u64::from(wire),
+        };
+        self.last_first_sample = Some(first_sample);
+        Ok(ReceivedBlock {
+            sequence: received.packet.sequence,
+            first_sample,
+            gap: received.gap,
+            resynchronised: received.resynchronised,
+        })
+    }
+}
+
+impl<const N: usize> StreamReceiver<1, N> {
+    /// The next frame of the one signal (no header) on `link`; see
+    /// [`StreamReceiver::poll_frame`].
     pub fn poll(
         &mut self,
         link: &mut impl FrameLink,
         out: &mut [f32; N],
-    ) -> Option<Result<ReceivedBlock, PacketError>> {
-        let mut frame = [0u8; MAX_PACKET_LEN];
-        let len = link.receive(&mut frame)?;
-        let bytes = frame.get(..len)?;
-        Some(self.packets.decode(bytes).and_then(|received| {
-            let block = received.packet.to_block::<N>()?;
-            self.decoder.decode(&block, out);
-            let wire = received.packet.timestamp;
-            // Forward from the last block by the wrapping difference of the low 32 bits
-            // (accepted blocks only move forward, by less than 2^31 samples).
-            let first_sample = match (self.last_first_sample, received.resynchronised) {
-                (Some(last), false) => last.wrapping_add(u64::from(wire.wrapping_sub(last as u32))),
-                _ => u64::from(wire),
-            };
-            self.last_first_sample = Some(first_sample);
-            Ok(ReceivedBlock {
-                sequence: received.packet.sequence,
-                first_sample,
-                gap: received.gap,
-                resynchronised: received.resynchronised,
-            })
-        }))
+    ) -> Option<Result<ReceivedBlock, StreamError>> {
+        let mut blocks = [*out];
+        let result = self.poll_frame(link, &mut [], &mut blocks)?;
+        if result.is_ok() {
+            let [block] = blocks;
+            *out = block;
+        }
+        Some(result)
     }
 }
 
@@ -251,5 +356,70 @@ mod tests {
         let expected: Vec<u64> = (0..8).map(|b| start + 32 * b).collect();
         assert_eq!(seen, expected);
         assert!(seen[3] > u64::from(u32::MAX));
+    }
+
+    /// Three channels in one frame behind a 4-byte header: each comes back to its own
+    /// signal within the Q15 step, the header unchanged; a frame whose packets were
+    /// cut, or spliced from two blocks, is rejected without moving the sequence state.
+    #[test]
+    fn three_channels_share_a_frame_and_a_sequence() {
+        let config = SdctConfig {
+            m: 16,
+            selection: Selection::Largest,
+        };
+        let signal =
+            |c: usize, k: usize| ((k as f32) * 0.05 * (c + 1) as f32).sin() * (c + 1) as f32;
+        let mut sender = StreamSender::<3, 16>::new(&config).unwrap();
+        let mut receiver = StreamReceiver::<3, 16>::new().unwrap();
+        let mut link = Loopback::default();
+        for k in 0..48 {
+            let header = (k as u32 / 16).to_le_bytes();
+            sender
+                .push_frame([0, 1, 2].map(|c| signal(c, k)), &header, &mut link)
+                .unwrap();
+        }
+        assert_eq!(link.0.len(), 3);
+        // Splice: the first frame's header and packets 0–1 with the second frame's
+        // packet 2; then the first frame cut short by one byte.
+        let lens: Vec<usize> = {
+            let f = &link.0[0];
+            let a = packet::packet_len(&f[4..]).unwrap();
+            let b = packet::packet_len(&f[4 + a..]).unwrap();
+            std::vec![4 + a + b, f.len()]
+        };
+        let mut spliced = link.0[0][..lens[0]].to_vec();
+        spliced.extend_from_slice(&link.0[1][lens[0]..]);
+        let mut cut = link.0[0].clone();
+        cut.pop();
+        let mut bad = Loopback(std::vec![spliced, cut]);
+        let mut header = [0u8; 4];
+        let mut out = [[0.0f32; 16]; 3];
+        assert_eq!(
+            receiver.poll_frame(&mut bad, &mut header, &mut out),
+            Some(Err(StreamError::Frame))
+        );
+        assert_eq!(
+            receiver.poll_frame(&mut bad, &mut header, &mut out),
+            Some(Err(StreamError::Packet(PacketError::Truncated)))
+        );
+        assert_eq!(out, [[0.0; 16]; 3]);
+        for b in 0..3u32 {
+            let block = receiver
+                .poll_frame(&mut link, &mut header, &mut out)
+                .unwrap()
+                .unwrap();
+            assert_eq!(
+                (block.sequence, block.first_sample, block.gap),
+                (b as u16, 16 * u64::from(b), 0)
+            );
+            assert_eq!(header, b.to_le_bytes());
+            for (c, channel) in out.iter().enumerate() {
+                for (k, y) in channel.iter().enumerate() {
+                    // All 16 coefficients kept: Q15 rounding of coefficients up to
+                    // √16·3 = 12 gives steps of 2^(4−15); 16 of them add < 1e-3.
+                    assert!((y - signal(c, 16 * b as usize + k)).abs() < 1e-3, "{c} {k}");
+                }
+            }
+        }
     }
 }

@@ -408,8 +408,20 @@ fn read_index_list(n: usize, m: usize, bytes: &[u8]) -> Result<(u64, [u8; MAX_N]
     Ok((mask, order))
 }
 
-/// Validates everything except the sequence number (see [`PacketDecoder`] for that).
-pub fn parse(bytes: &[u8]) -> Result<Packet, PacketError> {
+/// A packet's header fields and the lengths they imply.
+struct Header {
+    n: u8,
+    m: u8,
+    form: IndexForm,
+    exponent: i8,
+    index_len: usize,
+    total: usize,
+    sequence: u16,
+    timestamp: u32,
+}
+
+/// The header's checks, in the order of the module docs (up to the exponent).
+fn read_header(bytes: &[u8]) -> Result<Header, PacketError> {
     let header: &[u8; HEADER_LEN] = bytes
         .get(..HEADER_LEN)
         .and_then(|h| h.try_into().ok())
@@ -433,6 +445,38 @@ pub fn parse(bytes: &[u8]) -> Result<Packet, PacketError> {
     }
     let index_len = form.len(n, m);
     let total = HEADER_LEN + index_len + 2 * m + CRC_LEN;
+    Ok(Header {
+        n: n_byte,
+        m: m_byte,
+        form,
+        exponent,
+        index_len,
+        total,
+        sequence: u16::from_le_bytes([s0, s1]),
+        timestamp: u32::from_le_bytes([t0, t1, t2, t3]),
+    })
+}
+
+/// The length of the packet that `bytes` starts with, from its header alone (version,
+/// N, m, index form and exponent checked; nothing else): how a frame carrying several
+/// packets back to back is split.
+pub fn packet_len(bytes: &[u8]) -> Result<usize, PacketError> {
+    read_header(bytes).map(|h| h.total)
+}
+
+/// Validates everything except the sequence number (see [`PacketDecoder`] for that).
+pub fn parse(bytes: &[u8]) -> Result<Packet, PacketError> {
+    let Header {
+        n: n_byte,
+        m: m_byte,
+        form,
+        exponent,
+        index_len,
+        total,
+        sequence,
+        timestamp,
+    } = read_header(bytes)?;
+    let (n, m) = (usize::from(n_byte), usize::from(m_byte));
     if bytes.len() < total {
         return Err(PacketError::Truncated);
     }
@@ -486,8 +530,8 @@ pub fn parse(bytes: &[u8]) -> Result<Packet, PacketError> {
         n: n_byte,
         m: m_byte,
         exponent,
-        sequence: u16::from_le_bytes([s0, s1]),
-        timestamp: u32::from_le_bytes([t0, t1, t2, t3]),
+        sequence,
+        timestamp,
         mask,
         mantissas,
     })
@@ -554,7 +598,12 @@ impl PacketDecoder {
     /// the state ahead costs RESYNC_PACKETS − 1 genuine ones. Rejected packets leave
     /// the accepted state unchanged.
     pub fn decode(&mut self, bytes: &[u8]) -> Result<Received, PacketError> {
-        let packet = parse(bytes)?;
+        self.accept(parse(bytes)?)
+    }
+
+    /// The sequence check of [`PacketDecoder::decode`] on a packet already parsed
+    /// (a frame's packets are parsed together before any is accepted).
+    pub fn accept(&mut self, packet: Packet) -> Result<Received, PacketError> {
         let got = packet.sequence;
         let (gap, resynchronised) = match self.last_sequence {
             None => (0, false),
