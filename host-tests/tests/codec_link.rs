@@ -7,7 +7,7 @@ use std::collections::BTreeSet;
 
 use hal_mock::link::{FrameEnd, LinkConfig};
 use host_tests::signals::{self, snr_db};
-use kerf::app::stream::{SignalReceiver, SignalSender};
+use kerf::app::stream::{SignalReceiver, SignalSender, StreamError};
 use kerf::codec::packet::{self, PacketError, MAX_PACKET_LEN};
 use kerf::codec::sdct::{SdctConfig, SdctDecoder, Selection};
 use kerf::hal::{FrameLink, LinkBusy};
@@ -96,7 +96,7 @@ fn stream(x: &[f64], config: &LinkConfig) -> Outcome {
                         *dst = f64::from(v);
                     }
                 }
-                Err(PacketError::SequenceBackwards { got, .. }) => {
+                Err(StreamError::Packet(PacketError::SequenceBackwards { got, .. })) => {
                     out.rejected_backwards.insert(got);
                 }
                 Err(e) => panic!("unexpected {e:?}"),
