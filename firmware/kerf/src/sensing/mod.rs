@@ -1,4 +1,5 @@
 //! Raw samples to physical quantities.
 
+pub mod encoder;
 pub mod hall;
 pub mod velocity;
