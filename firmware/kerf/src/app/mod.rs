@@ -11,6 +11,7 @@ pub mod axis;
 pub mod calibrate;
 pub mod delta_slave;
 pub mod joints;
+pub mod playout;
 pub mod stream;
 pub mod supervisor;
 

@@ -146,16 +146,28 @@ impl<T: Float> Bilateral<T> {
         q_dot: &Vector3<T>,
     ) -> Result<BilateralOutput<T>, KinematicsError> {
         let (position, velocity) = geometry.task_state(q, q_dot)?;
-        let reference = self.slave_reference(master);
-        let e = reference.position - position;
-        let e_dot = reference.velocity - velocity;
-        let acceleration = reference.acceleration + e_dot * self.kd + e * self.kp;
+        let (acceleration, e) = self.task_acceleration(master, &position, &velocity);
         Ok(BilateralOutput {
             joint_acceleration: geometry.joint_acceleration(q, &position, q_dot, &acceleration)?,
             tracking_error_m: e,
             position_m: position,
             velocity_m_s: velocity,
         })
+    }
+
+    /// The law in task space: the slave's desired acceleration, m/s², and the tracking
+    /// error e, m, for the slave effector at `position` moving at `velocity` (measured,
+    /// or the master side's estimate of them: T eq. 96).
+    pub fn task_acceleration(
+        &self,
+        master: &MasterState<T>,
+        position: &Vector3<T>,
+        velocity: &Vector3<T>,
+    ) -> (Vector3<T>, Vector3<T>) {
+        let reference = self.slave_reference(master);
+        let e = reference.position - position;
+        let e_dot = reference.velocity - velocity;
+        (reference.acceleration + e_dot * self.kd + e * self.kp, e)
     }
 
     /// The tracking error's gains (λk in s⁻², λ + k in s⁻¹), as stored in `T`.
