@@ -23,8 +23,8 @@
 //!   x̂s(now) = model(now) + d̂ + ḋ̂ · (now − echo),   x̂̇s = model velocity + ḋ̂,
 //!
 //! where d̂, ḋ̂ track the model's error d = ys(echo) − model(echo) and its rate (the
-//! seed's "convergence term", which the seed's reference 115 adds to the network observer; here an α-β
-//! tracker), and the law uses x̂s, x̂̇s in place of the slave's state. Because the
+//! "convergence term" that the seed's reference 115 adds to the network observer;
+//! here an α-β tracker), and the law uses x̂s, x̂̇s in place of the slave's state. Because the
 //! correction is inside the loop, a constant push on the slave is cancelled, not just
 //! estimated. The round trip is whatever the echo says, packet by packet, so a
 //! constant, a varying or a jittering delay is handled alike; a packet older than the
