@@ -267,6 +267,15 @@ pub fn kinematics_rows(counter: &mut Counter) {
         |k| g64.jacobian_derivative(black_box(&q64[k]), &p64[k], &qd64)
     );
     pair!(
+        "kinematics::delta forward + inverse_with_jacobian (IK and Jx in one pass) <f32>",
+        |k| g32
+            .forward(black_box(&q32[k]))
+            .and_then(|p| g32.inverse_with_jacobian(&p)),
+        |k| g64
+            .forward(black_box(&q64[k]))
+            .and_then(|p| g64.inverse_with_jacobian(&p))
+    );
+    pair!(
         "kinematics::delta forward + inverse + jacobian <f32>",
         |k| g32
             .forward(black_box(&q32[k]))
