@@ -82,7 +82,7 @@ impl<const N: usize> Block<N> {
 }
 
 /// Mask of the `m` largest |c\[k\]|, ties to the lower index. No allocation and no
-/// panic path. The m-th largest magnitude T is found by [`mth_largest`]; then every
+/// panic path. The m-th largest magnitude T is found first (`mth_largest`); then every
 /// |c| > T is kept and the remaining slots go to the lowest indices with |c| = T, which
 /// is the order a stable sort by descending magnitude gives.
 pub fn select_largest<const N: usize>(c: &[f32; N], m: usize) -> u64 {

@@ -645,6 +645,32 @@ fn folded_offsets_give_the_unfolded_integers() {
     }
 }
 
+/// A healthy-residual table with an entry no channel sum can reach is refused by
+/// name (the sample path keeps the difference in i32 on that bound).
+#[test]
+fn residual_entries_beyond_any_channel_sum_are_refused() {
+    let cfg = HallConfig::LM1247_16BIT;
+    let mut table = ResidualTable {
+        value_q4: [0; RESIDUAL_ENTRIES],
+        systematic_counts: 1.0,
+        noise_gain: 1.0,
+        noise_rms_counts: 1.0,
+        sensitivity_counts_per_rad: [1e6; 3],
+    };
+    let with = |table: ResidualTable| {
+        let mut c = cfg;
+        c.calibration.residual = Some(table);
+        HallDecoder::new(&c)
+    };
+    table.value_q4[5] = 1 << 26;
+    assert!(with(table).is_ok());
+    table.value_q4[5] = -(1 << 26) - 1;
+    assert_eq!(
+        with(table).err().map(|e| e.field()),
+        Some("calibration.residual")
+    );
+}
+
 /// The configuration a decoder of this test was made from.
 fn calibrated_or(dec: &HallDecoder, nominal: &HallConfig, calibrated: &HallConfig) -> HallConfig {
     if dec.residual.is_some() {
