@@ -19,16 +19,18 @@ fn main() {
     writeln!(src, "pub const ATAN_INTERVALS: usize = {ATAN_INTERVALS};").unwrap();
     writeln!(
         src,
-        "/// atan(k / ATAN_INTERVALS) in units of 2^-32 turn, rounded to nearest."
+        "/// atan(k / ATAN_INTERVALS) in units of 2^-32 turn, rounded to nearest; the last\n\
+         /// entry repeats the one at ratio 1, so that every index up to ATAN_INTERVALS\n\
+         /// has a successor (one bounds check per lookup)."
     )
     .unwrap();
     write!(
         src,
         "pub const ATAN_TURN_Q32: [u32; {}] = [",
-        ATAN_INTERVALS + 1
+        ATAN_INTERVALS + 2
     )
     .unwrap();
-    for k in 0..=ATAN_INTERVALS {
+    for k in (0..=ATAN_INTERVALS).chain([ATAN_INTERVALS]) {
         let turns = (k as f64 / ATAN_INTERVALS as f64).atan() / (2.0 * PI);
         write!(src, "{}, ", (turns * 4294967296.0).round() as u64).unwrap();
     }

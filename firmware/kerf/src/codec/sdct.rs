@@ -82,10 +82,9 @@ impl<const N: usize> Block<N> {
 }
 
 /// Mask of the `m` largest |c\[k\]|, ties to the lower index. No allocation and no
-/// panic path: one pass keeps the m largest magnitudes in a sorted buffer (most values
-/// fail the first comparison once it is full), whose last entry is the m-th largest T;
-/// then every |c| > T is kept and the remaining slots go to the lowest indices with
-/// |c| = T. (The standard library's quickselect keeps bounds checks that can panic.)
+/// panic path. The m-th largest magnitude T is found first (`mth_largest`); then every
+/// |c| > T is kept and the remaining slots go to the lowest indices with |c| = T, which
+/// is the order a stable sort by descending magnitude gives.
 pub fn select_largest<const N: usize>(c: &[f32; N], m: usize) -> u64 {
     if m == 0 {
         return 0;
@@ -96,19 +95,7 @@ pub fn select_largest<const N: usize>(c: &[f32; N], m: usize) -> u64 {
     // For non-negative floats the IEEE bit pattern orders like the value, so the
     // selection runs on integers. NaN is rejected before the transform.
     let bits = c.map(|v| v.abs().to_bits());
-    // The m largest so far, descending, in the first m slots. Zeros stand in until m
-    // values have arrived: magnitudes are ≥ 0, so a stand-in never outranks a real one.
-    let mut top = [0u32; N];
-    for &b in &bits {
-        if top.get(m - 1).is_some_and(|&smallest| b > smallest) {
-            // Insert before the first smaller entry; the rest move down, the last drops.
-            let mut carry = b;
-            for slot in top.iter_mut().take(m).skip_while(|t| **t >= b) {
-                core::mem::swap(slot, &mut carry);
-            }
-        }
-    }
-    let threshold = top.get(m - 1).copied().unwrap_or(0);
+    let threshold = mth_largest(&bits, m);
     let mut mask = 0u64;
     // At most m − 1 magnitudes are strictly above the m-th largest, so `left` stays ≥ 1
     // through the first pass.
@@ -126,6 +113,56 @@ pub fn select_largest<const N: usize>(c: &[f32; N], m: usize) -> u64 {
         }
     }
     mask
+}
+
+/// The m-th largest of `bits` (1 ≤ m ≤ bits.len() ≤ 255, counted with multiplicity),
+/// for bit patterns of non-negative floats (below 2^31).
+///
+/// A histogram of the 8 exponent bits, read from the largest exponent down, finds the
+/// binade that holds the m-th largest and how many values lie above it (r of its
+/// members are still wanted); only the members of that binade then go through a
+/// sorted buffer of the r largest. A block of DCT coefficients spreads over many
+/// binades, so that buffer sees a few values where a buffer of all m would see every
+/// coefficient, and the cost is about three passes over the block instead of one pass
+/// with an insertion per new leader. The worst case (every magnitude in one binade)
+/// is the plain buffer again: bounded, with no recursion.
+fn mth_largest<const N: usize>(bits: &[u32; N], m: usize) -> u32 {
+    let mut count = [0u8; 256];
+    let mut top = 0u32;
+    for &b in bits {
+        if let Some(n) = count.get_mut((b >> 23) as usize) {
+            *n = n.wrapping_add(1);
+        }
+        top = top.max(b);
+    }
+    // Down from the largest binade until the m-th value is inside.
+    let mut above = 0usize;
+    let mut binade = 0u32;
+    for (e, &n) in (0u32..256).zip(&count).take((top >> 23) as usize + 1).rev() {
+        binade = e;
+        if above + usize::from(n) >= m {
+            break;
+        }
+        above += usize::from(n);
+    }
+    // At least 1: the loop stops inside the binade of the m-th largest, since all
+    // N ≥ m values are at most `top`.
+    let wanted = m.saturating_sub(above).max(1);
+    // The `wanted` largest members of the binade, descending, in the first slots.
+    // Zeros stand in until enough members have arrived: a member of the binade is at
+    // least its lowest pattern, so when zeros remain the binade is 0 (the zeros and
+    // subnormals), whose members are ≥ 0 too.
+    let mut best = [0u32; N];
+    for &b in bits.iter().filter(|&&b| b >> 23 == binade) {
+        if best.get(wanted - 1).is_some_and(|&smallest| b > smallest) {
+            // Insert before the first smaller entry; the rest move down, the last drops.
+            let mut carry = b;
+            for slot in best.iter_mut().take(wanted).skip_while(|t| **t >= b) {
+                core::mem::swap(slot, &mut carry);
+            }
+        }
+    }
+    best.get(wanted - 1).copied().unwrap_or(0)
 }
 
 /// Mask of the coefficients `selection` keeps out of `c`.
@@ -267,6 +304,47 @@ mod tests {
             let expect = order.iter().take(m).fold(0u64, |mask, &k| mask | 1 << k);
             assert_eq!(select_largest(&c, m), expect, "m = {m}, {c:?}");
         }
+    }
+
+    /// The binade search against a reference sort, on blocks of 8 and 64 whose
+    /// magnitudes spread over many binades or crowd into a few (a binade boundary
+    /// between the m-th and (m+1)-th value, or both inside one), with ties and zeros.
+    #[test]
+    fn selection_matches_a_sort_across_and_within_binades() {
+        fn check<const N: usize>(next: &mut impl FnMut() -> u64) {
+            for round in 0..3000 {
+                let mut c = [0.0f32; N];
+                for v in c.iter_mut() {
+                    let r = next();
+                    let magnitude = match round % 3 {
+                        // Anywhere over 2^-20..2^20, with exact zeros.
+                        0 if r % 9 == 0 => 0.0,
+                        0 => {
+                            libm::ldexpf(1.0 + (r >> 40) as f32 / 16777216.0, (r % 41) as i32 - 20)
+                        }
+                        // Two neighbouring binades, few distinct values (many ties).
+                        1 => 1.0 + (r % 12) as f32 * 0.125,
+                        // One binade, distinct values.
+                        _ => 1.0 + (r >> 41) as f32 / 8388608.0,
+                    };
+                    *v = if r & 1 == 0 { magnitude } else { -magnitude };
+                }
+                let m = (next() % (N as u64 + 1)) as usize;
+                let mut order: std::vec::Vec<usize> = (0..N).collect();
+                order.sort_by(|&a, &b| c[b].abs().total_cmp(&c[a].abs()));
+                let expect = order.iter().take(m).fold(0u64, |mask, &k| mask | 1 << k);
+                assert_eq!(select_largest(&c, m), expect, "N = {N}, m = {m}, {c:?}");
+            }
+        }
+        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        check::<8>(&mut next);
+        check::<64>(&mut next);
     }
 
     #[test]

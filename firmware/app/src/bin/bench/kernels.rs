@@ -139,6 +139,25 @@ pub fn codec_rows<const N: usize>(counter: &mut Counter, m: usize) {
         ),
         None,
     );
+    // The selection alone, on this block's coefficients.
+    let mut c = x;
+    dct.forward(&mut c);
+    row(
+        counter,
+        &named(format_args!(
+            "codec::sdct::select_largest N={N} m={m} (binade histogram)"
+        )),
+        |_| {
+            black_box(kerf::codec::sdct::select_largest(black_box(&c), m));
+        },
+        "sorted buffer of the m largest, one insertion per new leader (kerf before)",
+        |_| {
+            black_box(select_by_insertion(black_box(&c), m));
+        },
+        |_| {
+            black_box(black_box(&c));
+        },
+    );
     row_with_errors(
         counter,
         &named(format_args!("codec::sdct::SdctDecoder::decode N={N}")),
@@ -175,6 +194,41 @@ pub fn codec_rows<const N: usize>(counter: &mut Counter, m: usize) {
         ),
         None,
     );
+}
+
+/// The selection kerf used before the binade histogram, kept as the reference of the
+/// selection row: one pass keeps the m largest magnitudes in a sorted buffer, whose
+/// last entry is the threshold; then the same two passes build the mask (ties to the
+/// lower index).
+fn select_by_insertion<const N: usize>(c: &[f32; N], m: usize) -> u64 {
+    if m == 0 || m >= N {
+        return kerf::codec::prefix_mask(m.min(N));
+    }
+    let bits = c.map(|v| v.abs().to_bits());
+    let mut top = [0u32; N];
+    for &b in &bits {
+        if top.get(m - 1).is_some_and(|&smallest| b > smallest) {
+            let mut carry = b;
+            for slot in top.iter_mut().take(m).skip_while(|t| **t >= b) {
+                core::mem::swap(slot, &mut carry);
+            }
+        }
+    }
+    let threshold = top.get(m - 1).copied().unwrap_or(0);
+    let (mut mask, mut left) = (0u64, m);
+    for (k, &b) in bits.iter().enumerate() {
+        if b > threshold {
+            mask |= 1 << k;
+            left -= 1;
+        }
+    }
+    for (k, &b) in bits.iter().enumerate() {
+        if left > 0 && b == threshold {
+            mask |= 1 << k;
+            left -= 1;
+        }
+    }
+    mask
 }
 
 /// Largest error of a DCT-II `c` of `x` against the defining sum in f64, relative to
@@ -265,6 +319,15 @@ pub fn kinematics_rows(counter: &mut Counter) {
         "kinematics::delta::jacobian_derivative <f32>",
         |k| g32.jacobian_derivative(black_box(&q32[k]), &p32[k], &qd32),
         |k| g64.jacobian_derivative(black_box(&q64[k]), &p64[k], &qd64)
+    );
+    pair!(
+        "kinematics::delta forward + inverse_with_jacobian (IK and Jx in one pass) <f32>",
+        |k| g32
+            .forward(black_box(&q32[k]))
+            .and_then(|p| g32.inverse_with_jacobian(&p)),
+        |k| g64
+            .forward(black_box(&q64[k]))
+            .and_then(|p| g64.inverse_with_jacobian(&p))
     );
     pair!(
         "kinematics::delta forward + inverse + jacobian <f32>",

@@ -9,6 +9,17 @@ impl<T: Float> Actuator<T> {
     /// see [`DeltaGeometry::inverse`].
     #[inline]
     fn displacement(&self, p: &Vector3<T>, index: u8) -> Result<T, KinematicsError> {
+        self.displacement_and_fd(p, index).map(|(d_m, _)| d_m)
+    }
+
+    /// [`Actuator::displacement`] and J1's entry fdi = wi · (vi + di wi) = vi · wi + di,
+    /// which is si √(μ1i²/4 − μ2i) (SPEC velocity: J1 comes free from IK).
+    #[inline]
+    pub(super) fn displacement_and_fd(
+        &self,
+        p: &Vector3<T>,
+        index: u8,
+    ) -> Result<(T, T), KinematicsError> {
         // vi = p + bi in the actuator's frame (radial cθi, sθi; tangential −sθi, cθi; z).
         let radial = self.c_theta * p.x + self.s_theta * p.y + self.offset_m;
         let tangential = self.c_theta * p.y - self.s_theta * p.x;
@@ -19,11 +30,12 @@ impl<T: Float> Actuator<T> {
         if !at_least(disc, T::zero()) {
             return Err(KinematicsError::OutOfReach(index));
         }
-        let d_m = self.ik_sign * disc.fsqrt() - along;
+        let fd_m = self.ik_sign * disc.fsqrt();
+        let d_m = fd_m - along;
         if !self.in_travel(d_m) {
             return Err(KinematicsError::OutsideTravel(index));
         }
-        Ok(d_m)
+        Ok((d_m, fd_m))
     }
 }
 

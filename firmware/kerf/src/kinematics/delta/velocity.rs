@@ -27,10 +27,12 @@ impl<T: Float> VelocityTerms<T> {
 
 /// `m`, or [`KinematicsError::NotFinite`] when an entry overflowed the scalar: finite
 /// inputs far outside the travel (|q| near `f32::MAX`) pass the singularity tests but
-/// not the products after them. One test on the sum of the entries times zero.
+/// not the products after them. One test on the sum of the entries times zero: an
+/// infinite or NaN entry makes the sum ±∞ or NaN (∞ − ∞ is NaN), and so does a sum of
+/// finite entries beyond the scalar's range, which no Jacobian of a robot has.
 #[inline]
 fn finite_matrix<T: Float>(m: Matrix3<T>) -> Result<Matrix3<T>, KinematicsError> {
-    if m.iter().fold(T::zero(), |sum, x| sum + zero_if_finite(*x)) == T::zero() {
+    if zero_if_finite(m.iter().fold(T::zero(), |sum, x| sum + *x)) == T::zero() {
         Ok(m)
     } else {
         Err(KinematicsError::NotFinite)
@@ -61,6 +63,19 @@ impl<T: Float> DeltaGeometry<T> {
             dot3(&act2.rail, &g[1]),
             dot3(&act3.rail, &g[2]),
         );
+        self.terms_of(g, fd)
+            .map_err(|err| or_not_finite(&[q, p], err))
+    }
+
+    /// [`DeltaGeometry::velocity_terms`] from the arm vectors and J1's diagonal, with
+    /// the singularity checks (the caller names non-finite inputs).
+    #[inline(always)]
+    fn terms_of(
+        &self,
+        g: [Vector3<T>; 3],
+        fd: Vector3<T>,
+    ) -> Result<VelocityTerms<T>, KinematicsError> {
+        let [act1, act2, act3] = &self.actuators;
         let err = if fd.x.abs() < act1.singular_fd_m {
             KinematicsError::SingularJ1(0)
         } else if fd.y.abs() < act2.singular_fd_m {
@@ -81,7 +96,33 @@ impl<T: Float> DeltaGeometry<T> {
             }
             KinematicsError::SingularJ2
         };
-        Err(or_not_finite(&[q, p], err))
+        Err(err)
+    }
+
+    /// Inverse kinematics and Jx at the same pose in one pass: q = IK(p) and Jx(q, p),
+    /// equal to [`inverse`](Self::inverse) then [`jacobian`](Self::jacobian) up to
+    /// rounding. The two share each arm's vector: IK gives J1's entry fdi = si √Δi
+    /// and the carriage di, so the arm gi = p + bi + di wi costs one multiply-add per
+    /// component and no dot product (SPEC velocity: J1 comes free from IK).
+    pub fn inverse_with_jacobian(
+        &self,
+        p: &Vector3<T>,
+    ) -> Result<(Vector3<T>, Matrix3<T>), KinematicsError> {
+        let [act1, act2, act3] = &self.actuators;
+        let solved = (|| {
+            let (d1, fd1) = act1.displacement_and_fd(p, 0)?;
+            let (d2, fd2) = act2.displacement_and_fd(p, 1)?;
+            let (d3, fd3) = act3.displacement_and_fd(p, 2)?;
+            let g = [
+                p + act1.half_sigma(d1),
+                p + act2.half_sigma(d2),
+                p + act3.half_sigma(d3),
+            ];
+            let terms = self.terms_of(g, Vector3::new(fd1, fd2, fd3))?;
+            Ok((Vector3::new(d1, d2, d3), terms.jacobian()))
+        })();
+        let (q, jx) = solved.map_err(|err| or_not_finite(&[p], err))?;
+        Ok((q, finite_matrix(jx)?))
     }
 
     /// Jx = J2⁻¹ J1 at the consistent pair (q, p), so that ṗ = Jx q̇ (T eq. 146).
@@ -266,6 +307,45 @@ mod tests {
             }
             assert!(compared > 20, "{name}: {compared}");
         }
+    }
+
+    /// The one-pass IK + Jx against the two maps called one after the other (f64:
+    /// they differ by rounding only, fdi taken as si √Δi instead of wi · gi).
+    #[test]
+    fn inverse_with_jacobian_equals_inverse_then_jacobian() {
+        for (name, c) in all() {
+            let g = geometry::<f64>(&c);
+            let mut compared = 0;
+            for (_, p) in workspace(&c, 10) {
+                let (Ok(q), Ok(both)) = (g.inverse(&p), g.inverse_with_jacobian(&p)) else {
+                    assert!(
+                        g.inverse(&p).is_err() || g.jacobian(&g.inverse(&p).unwrap(), &p).is_err()
+                    );
+                    continue;
+                };
+                let Ok(jx) = g.jacobian(&q, &p) else {
+                    continue;
+                };
+                assert_eq!(both.0, q, "{name}: IK is the same code");
+                let scale = jx.amax().max(1.0);
+                assert!(
+                    (both.1 - jx).amax() < 1e-10 * scale,
+                    "{name} {p}: {} vs {jx}",
+                    both.1
+                );
+                compared += 1;
+            }
+            assert!(compared > 100, "{name}: {compared}");
+        }
+        // Errors as the two maps give them: out of reach, and NaN.
+        let g = geometry::<f32>(&crate::kinematics::delta::DeltaConfig::SLAVE_KEOPS);
+        let far = nalgebra::Vector3::new(1.0f32, 0.0, 0.05);
+        assert_eq!(g.inverse_with_jacobian(&far).err(), g.inverse(&far).err());
+        let nan = nalgebra::Vector3::new(f32::NAN, 0.0, 0.05);
+        assert_eq!(
+            g.inverse_with_jacobian(&nan).err(),
+            Some(crate::kinematics::delta::KinematicsError::NotFinite)
+        );
     }
 
     /// Finite inputs so far outside the travel that the Jacobians' products overflow:

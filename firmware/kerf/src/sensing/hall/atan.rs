@@ -37,13 +37,14 @@ pub(crate) fn atan2_turns_below_2_20(y_negative: bool, x_negative: bool, ay: u32
     let low = (((num << 11) - high * den) << 11) / den;
     let ratio_q22 = (high << 11) | low;
     let index = (ratio_q22 >> FRACTION_BITS) as usize;
-    let fraction = ratio_q22 & ((1 << FRACTION_BITS) - 1);
-    let (lo, hi) = match (ATAN_TURN_Q32.get(index), ATAN_TURN_Q32.get(index + 1)) {
-        (Some(&lo), Some(&hi)) => (lo, hi),
-        (Some(&lo), None) => (lo, lo),
-        _ => return 0, // unreachable: ratio ≤ 1 keeps index ≤ ATAN_INTERVALS
+    // The fraction as a Q32 word (the index bits shift out): the interpolation's
+    // product then ends in the upper word, (d·f) >> FRACTION_BITS without a shift.
+    let fraction_q32 = ratio_q22 << (32 - FRACTION_BITS);
+    // Ratio ≤ 1 keeps index ≤ ATAN_INTERVALS, which the padded table covers.
+    let Some(&[lo, hi]) = ATAN_TURN_Q32.get(index..index + 2) else {
+        return 0;
     };
-    let octant = lo + ((u64::from(hi - lo) * u64::from(fraction)) >> FRACTION_BITS) as u32;
+    let octant = lo + ((u64::from(hi - lo) * u64::from(fraction_q32)) >> 32) as u32;
     const QUARTER: u32 = 1 << 30;
     const HALF: u32 = 1 << 31;
     let first_quadrant = if ay <= ax { octant } else { QUARTER - octant };

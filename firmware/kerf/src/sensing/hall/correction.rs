@@ -98,6 +98,6 @@ impl HallDecoder {
     /// Phase word of a raw sample with the decoder's calibration and no unwrapping,
     /// for learning a correction table (`None` on a fault).
     pub fn raw_phase(&self, raw: [u16; 3]) -> Option<u32> {
-        self.phase(&mut [0; 2], raw).ok()
+        self.phase(&mut [0; 3], raw).ok()
     }
 }

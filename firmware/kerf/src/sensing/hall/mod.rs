@@ -222,18 +222,25 @@ impl HallPosition {
 pub struct HallDecoder {
     arithmetic: HallArithmetic,
     rail_low: [u16; 3],
-    rail_high: [u16; 3],
-    offset_q4: [i32; 3],
+    /// `rail_high − rail_low` per channel: one unsigned comparison checks both rails.
+    rail_span: [u16; 3],
     sin_row_q: [i32; 3],
     cos_row_q: [i32; 3],
+    sum_row_q16: [i32; 3],
+    /// The offsets and the rounding folded into each row's sum at configuration:
+    /// Σ row·(16 r − o) + ½ = Σ row·16 r + (½ − Σ row·o), exact in i64, so the sample
+    /// path multiplies raw counts and adds one constant per row.
+    sin_constant: i64,
+    cos_constant: i64,
+    sum_constant: i64,
     offset_f32: [f32; 3],
     sin_row_f32: [f32; 3],
     cos_row_f32: [f32; 3],
-    sum_row_q16: [i32; 3],
     residual: Option<ResidualTable>,
-    residual_limit_q4: i32,
+    residual_limit_q4: u32,
     magnitude_sq_min: u32,
-    magnitude_sq_max: u32,
+    /// `magnitude_sq_max − magnitude_sq_min`: one unsigned comparison checks the band.
+    magnitude_sq_span: u32,
     magnitude_sq_min_f32: f32,
     magnitude_sq_max_f32: f32,
     correction: Option<HallCorrection>,
@@ -242,9 +249,10 @@ pub struct HallDecoder {
 /// What a decoder remembers between samples.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
 pub struct HallState {
-    /// The two samples before the present one, newest first, packed 16 bits a channel
-    /// (stuck-channel diagnosis).
-    history: [u64; 2],
+    /// Per channel, the two samples before the present one: the newer in the low 16
+    /// bits, the older in the high 16 bits (stuck-channel diagnosis). One shift and
+    /// one OR per channel keep it.
+    history: [u32; 3],
     /// Unwrapped position; `None` until the first good sample (pitch count zero).
     accumulator: Option<i64>,
 }
@@ -282,12 +290,12 @@ impl HallDecoder {
             None => sum_limit * amplitude,
         };
         let mut rail_low = [0u16; 3];
-        let mut rail_high = [0u16; 3];
-        for (([lo, hi], low), high) in cal
+        let mut rail_span = [0u16; 3];
+        for (([lo, hi], low), span) in cal
             .range_counts
             .iter()
             .zip(&mut rail_low)
-            .zip(&mut rail_high)
+            .zip(&mut rail_span)
         {
             let margin = RAIL_MARGIN * amplitude;
             let lo = in_range(
@@ -305,9 +313,10 @@ impl HallDecoder {
             // Exact 0 and full scale stay rails whatever the range says.
             // max/min rather than clamp, which panics on crossed bounds.
             *low = libm::ceil(lo - margin).max(1.0).min(full_scale - 1.0) as u16;
-            *high = libm::floor(hi + margin)
+            let high = libm::floor(hi + margin)
                 .min(full_scale - 1.0)
                 .max(f64::from(*low)) as u16;
+            *span = high - *low;
         }
         let mut offset_q4 = [0i32; 3];
         let mut sin_row_q = [0i32; 3];
@@ -346,24 +355,45 @@ impl HallDecoder {
             let w = in_range("calibration.sum_row", f64::from(*sum), -4.0, 4.0)?;
             *sum_q = libm::round(w * 65536.0) as i32;
         }
+        if let Some(table) = &cal.residual {
+            // Entries far beyond any channel sum (|w| ≤ 4 on 16-bit counts is below
+            // 2^24 in Q4) are not a residual: refusing them keeps the sample path's
+            // difference in i32.
+            if table.value_q4.iter().any(|v| v.unsigned_abs() > 1 << 26) {
+                return Err(ConfigError::out_of_range("calibration.residual"));
+            }
+        }
+        // Σ row·o in i64: |row| < 2^30 and |o| < 2^21 (checked above).
+        let folded = |row: &[i32; 3], rounding: i64| {
+            rounding
+                - row
+                    .iter()
+                    .zip(&offset_q4)
+                    .map(|(&w, &o)| i64::from(w) * i64::from(o))
+                    .sum::<i64>()
+        };
         let nominal = f64::from(DEMODULATED_RADIUS);
+        // In the integer path's 2^-5 scale (see `phase`).
+        let magnitude_sq_min = ((lo * nominal / 32.0) * (lo * nominal / 32.0)) as u32;
+        let magnitude_sq_max = ((hi * nominal / 32.0) * (hi * nominal / 32.0)) as u32;
         Ok(Self {
             arithmetic: config.arithmetic,
             rail_low,
-            rail_high,
-            offset_q4,
+            rail_span,
             sin_row_q,
             cos_row_q,
+            sum_row_q16,
+            sin_constant: folded(&sin_row_q, 1 << (COEFFICIENT_SHIFT - 1)),
+            cos_constant: folded(&cos_row_q, 1 << (COEFFICIENT_SHIFT - 1)),
+            sum_constant: folded(&sum_row_q16, 0),
             offset_f32: cal.offset_counts,
             sin_row_f32: cal.sin_row.map(|v| v * RADIUS_F32),
             cos_row_f32: cal.cos_row.map(|v| v * RADIUS_F32),
-            sum_row_q16,
             residual: cal.residual,
             residual_limit_q4: libm::round(limit_counts * f64::from(1u32 << COUNT_FRACTION_BITS))
-                as i32,
-            // In the integer path's 2^-5 scale (see `phase`).
-            magnitude_sq_min: ((lo * nominal / 32.0) * (lo * nominal / 32.0)) as u32,
-            magnitude_sq_max: ((hi * nominal / 32.0) * (hi * nominal / 32.0)) as u32,
+                .max(0.0) as u32,
+            magnitude_sq_min,
+            magnitude_sq_span: magnitude_sq_max.saturating_sub(magnitude_sq_min),
             magnitude_sq_min_f32: ((lo * nominal) * (lo * nominal)) as f32,
             magnitude_sq_max_f32: ((hi * nominal) * (hi * nominal)) as f32,
             correction: cal.correction,
@@ -415,31 +445,47 @@ impl HallDecoder {
     /// The lowest and highest count of each channel that is not a rail fault.
     pub fn rail_band_counts(&self) -> [[u16; 2]; 3] {
         let [l0, l1, l2] = self.rail_low;
-        let [h0, h1, h2] = self.rail_high;
-        [[l0, h0], [l1, h1], [l2, h2]]
+        let [w0, w1, w2] = self.rail_span;
+        // `new` made each span from a high at or above its low: no overflow.
+        [
+            [l0, l0.saturating_add(w0)],
+            [l1, l1.saturating_add(w1)],
+            [l2, l2.saturating_add(w2)],
+        ]
     }
 
     /// Checks the sample and returns its phase word (no unwrapping, no correction).
-    fn phase(&self, history: &mut [u64; 2], raw: [u16; 3]) -> Result<u32, HallFault> {
-        let bands = self.rail_low.iter().zip(&self.rail_high);
-        for ((channel, &count), (&low, &high)) in raw.iter().enumerate().zip(bands) {
-            // Below `low` wraps to a large value: one comparison catches both sides.
-            if count.wrapping_sub(low) > high - low {
-                return Err(HallFault::AdcRail(channel as u8));
-            }
-        }
+    ///
+    /// The per-sample work is what the sample itself decides: the offsets, the
+    /// rounding and the magnitude band are folded into constants by [`HallDecoder::new`],
+    /// and which channel failed is worked out only once a check has failed.
+    fn phase(&self, history: &mut [u32; 3], raw: [u16; 3]) -> Result<u32, HallFault> {
         let [r0, r1, r2] = raw;
-        let [o0, o1, o2] = self.offset_q4;
-        let u =
-            [(r0, o0), (r1, o1), (r2, o2)].map(|(r, o)| (i32::from(r) << COUNT_FRACTION_BITS) - o);
-        let previous = *history;
-        let packed = pack(raw);
-        *history = [packed, previous[0]];
-        let history = previous;
-        let stuck = || stuck_channel(packed, &history);
+        let [l0, l1, l2] = self.rail_low;
+        let [w0, w1, w2] = self.rail_span;
+        // Below `low` wraps to a large value: one comparison catches both sides.
+        let outside = |r: u16, low: u16, span: u16| {
+            u32::from(r).wrapping_sub(u32::from(low)) > u32::from(span)
+        };
+        if outside(r0, l0, w0) | outside(r1, l1, w1) | outside(r2, l2, w2) {
+            let channel = if outside(r0, l0, w0) {
+                0
+            } else if outside(r1, l1, w1) {
+                1
+            } else {
+                2
+            };
+            return Err(HallFault::AdcRail(channel));
+        }
+        // Counts in Q4; the offsets are in the rows' constants.
+        let v = [r0, r1, r2].map(|r| i32::from(r) << COUNT_FRACTION_BITS);
+        // The health row w·(u − o), Q4 counts: |w| ≤ 4 in Q16 and |u| < 2^21 keep it
+        // below 2^25.
+        let sum = (dot_q(&self.sum_row_q16, self.sum_constant, &v) >> 16) as i32;
         let (phase, in_band) = match self.arithmetic {
             HallArithmetic::Integer => {
-                let (s, c) = (dot_q(&self.sin_row_q, &u), dot_q(&self.cos_row_q, &u));
+                let s = (dot_q(&self.sin_row_q, self.sin_constant, &v) >> COEFFICIENT_SHIFT) as i32;
+                let c = (dot_q(&self.cos_row_q, self.cos_constant, &v) >> COEFFICIENT_SHIFT) as i32;
                 // Only |s|, |c| < 2^20 can pass the band (hi < 2); below that the squares
                 // in a 2^-5 scale fit a u32 sum.
                 let (s_abs, c_abs) = (s.unsigned_abs(), c.unsigned_abs());
@@ -449,8 +495,7 @@ impl HallDecoder {
                     let magnitude_sq = (s_abs >> 5) * (s_abs >> 5) + (c_abs >> 5) * (c_abs >> 5);
                     (
                         atan::atan2_turns_below_2_20(s < 0, c < 0, s_abs, c_abs),
-                        magnitude_sq >= self.magnitude_sq_min
-                            && magnitude_sq <= self.magnitude_sq_max,
+                        magnitude_sq.wrapping_sub(self.magnitude_sq_min) <= self.magnitude_sq_span,
                     )
                 }
             }
@@ -458,21 +503,26 @@ impl HallDecoder {
         };
         // The residual is checked first: it sees every single-channel failure, and its
         // limit is the one derived from the error budget. The table is read at the
-        // faulty phase; that shift is part of the derivation (see `residual`).
-        let [w0, w1, w2] = self.sum_row_q16;
-        let [u0, u1, u2] = u;
-        let sum = (i64::from(w0) * i64::from(u0)
-            + i64::from(w1) * i64::from(u1)
-            + i64::from(w2) * i64::from(u2))
-            >> 16;
-        let healthy = self.residual.as_ref().map_or(0, |t| t.at(phase));
-        if (sum - i64::from(healthy)).abs() > i64::from(self.residual_limit_q4) {
-            return Err(stuck().unwrap_or(HallFault::ResidualOutOfBand));
+        // faulty phase; that shift is part of the derivation (see `residual`). `new`
+        // bounds the table's entries, so the difference stays in i32.
+        let healthy = match &self.residual {
+            Some(table) => table.at(phase),
+            None => 0,
+        };
+        let fault = if sum.wrapping_sub(healthy).unsigned_abs() > self.residual_limit_q4 {
+            Some(HallFault::ResidualOutOfBand)
+        } else if !in_band {
+            Some(HallFault::MagnitudeOutOfBand)
+        } else {
+            None
+        };
+        let previous = *history;
+        *history = [(r0, previous[0]), (r1, previous[1]), (r2, previous[2])]
+            .map(|(r, h)| h << 16 | u32::from(r));
+        match fault {
+            None => Ok(phase),
+            Some(fault) => Err(stuck_channel(raw, &previous).unwrap_or(fault)),
         }
-        if !in_band {
-            return Err(stuck().unwrap_or(HallFault::MagnitudeOutOfBand));
-        }
-        Ok(phase)
     }
 
     /// The f32 path of steps 2–4 (kept out of line so the integer path does not carry
@@ -515,33 +565,29 @@ fn residual_limit_counts(
     Ok(0.5 * (healthy + budget))
 }
 
-/// Three 16-bit channels in one word.
-#[inline]
-fn pack(raw: [u16; 3]) -> u64 {
-    u64::from(raw[0]) | u64::from(raw[1]) << 16 | u64::from(raw[2]) << 32
-}
-
 /// The channel that read the same value in this and the two previous samples while
-/// another channel changed: the suspect once the consistency checks fail.
-fn stuck_channel(raw: u64, history: &[u64; 2]) -> Option<HallFault> {
-    let channel = |word: u64, k: usize| (word >> (16 * k)) & 0xFFFF;
-    let repeated = |k: usize| {
-        channel(raw, k) == channel(history[0], k) && channel(raw, k) == channel(history[1], k)
-    };
-    let moved = raw != history[0];
-    (0..3)
-        .find(|&k| moved && repeated(k))
-        .map(|k| HallFault::StuckChannel(k as u8))
+/// another channel changed: the suspect once the consistency checks fail. `history`
+/// holds per channel the previous sample in the low and the one before in the high
+/// 16 bits.
+fn stuck_channel(raw: [u16; 3], history: &[u32; 3]) -> Option<HallFault> {
+    let moved = raw
+        .iter()
+        .zip(history)
+        .any(|(&r, &h)| u32::from(r) != h & 0xFFFF);
+    let repeated = |(&r, &h): (&u16, &u32)| h == u32::from(r) * 0x0001_0001;
+    (0u8..)
+        .zip(raw.iter().zip(history))
+        .find(|&(_, pair)| moved && repeated(pair))
+        .map(|(k, _)| HallFault::StuckChannel(k))
 }
 
-/// Σ row·u in the integer path, back to the demodulated radius scale.
+/// Σ row·v + constant in the integer path (offsets and rounding in the constant).
 #[inline]
-fn dot_q(row: &[i32; 3], u: &[i32; 3]) -> i32 {
-    let acc = i64::from(row[0]) * i64::from(u[0])
-        + i64::from(row[1]) * i64::from(u[1])
-        + i64::from(row[2]) * i64::from(u[2]);
-    // Round to nearest: halves the demodulation's quantization (0.5/R per component).
-    ((acc + (1 << (COEFFICIENT_SHIFT - 1))) >> COEFFICIENT_SHIFT) as i32
+fn dot_q(row: &[i32; 3], constant: i64, v: &[i32; 3]) -> i64 {
+    constant
+        + i64::from(row[0]) * i64::from(v[0])
+        + i64::from(row[1]) * i64::from(v[1])
+        + i64::from(row[2]) * i64::from(v[2])
 }
 
 /// Radians (−π, π] to a phase word.

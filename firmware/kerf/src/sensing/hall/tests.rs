@@ -580,9 +580,116 @@ fn a_channel_off_by_the_limit_is_flagged_at_every_phase() {
     }
 }
 
+/// The offsets and the rounding folded into each row's constant (`HallDecoder::new`)
+/// give the same integers as removing the offsets first, sample by sample: the
+/// demodulated phase, and the health row's sum against the residual limit.
+#[test]
+fn folded_offsets_give_the_unfolded_integers() {
+    let cfg = HallConfig::LM1247_16BIT;
+    let a = cfg.amplitude_counts;
+    let o = f64::from(cfg.calibration.offset_counts[0]);
+    let ch = Channels {
+        offset: [o + 0.03 * a, o - 0.02 * a, o + 0.01 * a],
+        amplitude: [1.05 * a, 0.96 * a, 1.0 * a],
+        phase_error: [0.0, 0.01, -0.015],
+        harmonic3: [0.020, 0.022, 0.018],
+    };
+    let mut cal = HallCalibrator::<512>::new();
+    for k in 0..512 {
+        cal.push(ch.sample(2.0 * PI * 1.3 * k as f64 / 512.0))
+            .unwrap();
+    }
+    let fit = cal.solve(&cfg.calibration).unwrap();
+    let calibrated = cfg.with_self_calibration(&fit);
+    for dec in [
+        HallDecoder::new(&cfg).unwrap(),
+        HallDecoder::new(&calibrated).unwrap(),
+    ] {
+        let offsets = dec_offsets_q4(&calibrated_or(&dec, &cfg, &calibrated));
+        let mut residual_faults = 0;
+        for k in 0..5000 {
+            let phi = 2.0 * PI * (k as f64 + 0.25) / 5000.0;
+            // Every fifth sample with one channel pushed off, so that both outcomes
+            // of the residual check are compared.
+            let mut raw = ch.sample(phi);
+            if k % 5 == 0 {
+                let push = 0.12 * a * (k % 7) as f64;
+                raw[k % 3] = raw[k % 3].saturating_add(push as u16);
+            }
+            let u: [i64; 3] = core::array::from_fn(|i| {
+                (i64::from(raw[i]) << COUNT_FRACTION_BITS) - i64::from(offsets[i])
+            });
+            let dot = |row: &[i32; 3]| -> i64 {
+                row.iter().zip(&u).map(|(&w, &x)| i64::from(w) * x).sum()
+            };
+            let round = 1i64 << (COEFFICIENT_SHIFT - 1);
+            let s = ((dot(&dec.sin_row_q) + round) >> COEFFICIENT_SHIFT) as i32;
+            let c = ((dot(&dec.cos_row_q) + round) >> COEFFICIENT_SHIFT) as i32;
+            let sum = dot(&dec.sum_row_q16) >> 16;
+            let phase = atan::atan2_turns(s, c);
+            let healthy = dec.residual.as_ref().map_or(0, |t| t.at(phase));
+            let residual_fault =
+                (sum - i64::from(healthy)).abs() > i64::from(dec.residual_limit_q4);
+            let got = dec.raw_phase_checked(raw);
+            if matches!(got, Err(HallFault::AdcRail(_))) {
+                continue;
+            }
+            if residual_fault {
+                residual_faults += 1;
+                assert_eq!(got, Err(HallFault::ResidualOutOfBand), "{k}");
+            } else if let Ok(got) = got {
+                assert_eq!(got, phase, "{k}");
+            }
+        }
+        assert!((100..=1000).contains(&residual_faults), "{residual_faults}");
+    }
+}
+
+/// A healthy-residual table with an entry no channel sum can reach is refused by
+/// name (the sample path keeps the difference in i32 on that bound).
+#[test]
+fn residual_entries_beyond_any_channel_sum_are_refused() {
+    let cfg = HallConfig::LM1247_16BIT;
+    let mut table = ResidualTable {
+        value_q4: [0; RESIDUAL_ENTRIES],
+        systematic_counts: 1.0,
+        noise_gain: 1.0,
+        noise_rms_counts: 1.0,
+        sensitivity_counts_per_rad: [1e6; 3],
+    };
+    let with = |table: ResidualTable| {
+        let mut c = cfg;
+        c.calibration.residual = Some(table);
+        HallDecoder::new(&c)
+    };
+    table.value_q4[5] = 1 << 26;
+    assert!(with(table).is_ok());
+    table.value_q4[5] = -(1 << 26) - 1;
+    assert_eq!(
+        with(table).err().map(|e| e.field()),
+        Some("calibration.residual")
+    );
+}
+
+/// The configuration a decoder of this test was made from.
+fn calibrated_or(dec: &HallDecoder, nominal: &HallConfig, calibrated: &HallConfig) -> HallConfig {
+    if dec.residual.is_some() {
+        *calibrated
+    } else {
+        *nominal
+    }
+}
+
+/// The offsets of `cfg` in Q4 counts, as the decoder rounds them.
+fn dec_offsets_q4(cfg: &HallConfig) -> [i32; 3] {
+    cfg.calibration
+        .offset_counts
+        .map(|o| libm::round(f64::from(o) * f64::from(1u32 << COUNT_FRACTION_BITS)) as i32)
+}
+
 impl HallDecoder {
     /// The checks of one sample without history or unwrapping.
     fn raw_phase_checked(&self, raw: [u16; 3]) -> Result<u32, HallFault> {
-        self.phase(&mut [0; 2], raw)
+        self.phase(&mut [0; 3], raw)
     }
 }
