@@ -158,9 +158,7 @@ fn run(case: &Case) -> Outcome {
             tick_time.insert(tick, t);
             observer.sent();
             let sample = [command.x, command.y, command.z].map(|c| c as f32);
-            let before = forward.link.sent();
             let _ = commands.push_frame(sample, &[], &mut Counted(&mut forward, &mut bytes[0]));
-            assert!(forward.link.sent() >= before);
         }
         let mut header = [0u8; 4];
         let mut block = [[0.0f32; N]; 3];

@@ -110,8 +110,13 @@ impl<V: Copy, const CAP: usize> Playout<V, CAP> {
                 .unwrap_or(self.queue.len()),
         };
         self.queue
-            .insert(at, (tick, value))
-            .map_err(|_| PlayoutRejected::Full)
+            .push((tick, value))
+            .map_err(|_| PlayoutRejected::Full)?;
+        // Into its place in tick order (an overtaken command lands before the newer).
+        if let Some(tail) = self.queue.get_mut(at..) {
+            tail.rotate_right(1);
+        }
+        Ok(())
     }
 
     /// What plays in local period `now`: the newest queued command whose play time has
@@ -122,12 +127,10 @@ impl<V: Copy, const CAP: usize> Playout<V, CAP> {
         };
         let due = |tick: u32| now.wrapping_sub(tick.wrapping_add(offset)) < 1 << 31;
         let ready = self.queue.iter().take_while(|q| due(q.0)).count();
-        if ready > 0 {
-            self.playing = self.queue.get(ready - 1).copied();
-            // Ascending order: the played ones are the front of the queue.
-            for _ in 0..ready {
-                self.queue.remove(0);
-            }
+        if let Some(newest_due) = ready.checked_sub(1) {
+            self.playing = self.queue.get(newest_due).copied();
+            // Ascending order: the due ones are the front of the queue.
+            self.queue.retain(|q| !due(q.0));
             self.held_periods = 0;
         } else {
             self.held_periods = self.held_periods.saturating_add(1);
