@@ -152,6 +152,9 @@ pub struct DeltaPlant {
     pub q_m: Vector3<f64>,
     /// Carriage velocities q̇ in m/s.
     pub q_dot_m_s: Vector3<f64>,
+    /// An external force on the effector (an operator's hand on the master), N in the
+    /// base frame; held over each step. It acts on the carriages as Jxᵀ F.
+    pub effector_force_n: Vector3<f64>,
     /// Current loops' outputs (current × force constant) in N.
     drive_force_n: Vector3<f64>,
     commanded_force_n: Vector3<f64>,
@@ -209,6 +212,7 @@ impl DeltaPlant {
             h_s: ts_s / f64::from(substeps),
             q_m,
             q_dot_m_s: Vector3::zeros(),
+            effector_force_n: Vector3::zeros(),
             drive_force_n: Vector3::zeros(),
             commanded_force_n: Vector3::zeros(),
             applied_force_n: Vector3::zeros(),
@@ -323,7 +327,7 @@ impl DeltaPlant {
         let rail = Vector3::from_fn(|i, _| drive.rail_force_n(i, drive_n[i], q[i]));
         let rhs = rail - q_dot * self.params.viscous_n_s_per_m - self.coulomb_n(q_dot)
             + self.carriage_gravity_n
-            + jx.transpose() * gravity
+            + jx.transpose() * (gravity + self.effector_force_n)
             - jx.transpose() * (jx_dot * q_dot) * me;
         // M is symmetric positive definite wherever Jx exists.
         let q_ddot = mass

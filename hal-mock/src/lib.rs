@@ -13,4 +13,5 @@ pub mod drive;
 pub mod hall_sensor;
 pub mod linear_motor;
 pub mod link;
+pub mod master;
 pub mod noise;

@@ -5,4 +5,5 @@ pub mod depth;
 pub mod hall;
 pub mod machining;
 pub mod plot;
+pub mod remote;
 pub mod signals;

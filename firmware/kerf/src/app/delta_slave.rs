@@ -546,6 +546,16 @@ impl<T: Float> DeltaSlave<T> {
         &self.geometry
     }
 
+    /// The carriages, for a machine that drives them with its own law.
+    pub(crate) fn joints_mut(&mut self) -> &mut Joints<T, 3> {
+        &mut self.joints
+    }
+
+    /// The laser source.
+    pub(crate) fn laser(&self) -> &Laser<T> {
+        &self.laser
+    }
+
     /// The forces of a running job's period (the laser's power is left in
     /// `laser_power_w`).
     fn run_forces(

@@ -343,6 +343,12 @@ impl<T: Real, const N: usize> Joints<T, N> {
         self.control(inputs)
     }
 
+    /// Drops a stop ramp that is under way (a machine that resumes its own law
+    /// after holding).
+    pub(crate) fn cancel_stop(&mut self) {
+        self.stop = None;
+    }
+
     /// The measured half of a period for a law that couples the axes: every axis
     /// decoded, checked and tracked. Returns each axis' position and velocity estimate
     /// (m, m/s); the first fault stops the rest and is named with its axis. Follow with

@@ -12,6 +12,9 @@ pub mod calibrate;
 pub mod delta_slave;
 pub mod joints;
 pub mod playout;
+pub mod remote_link;
+pub mod remote_master;
+pub mod remote_slave;
 pub mod stream;
 pub mod supervisor;
 

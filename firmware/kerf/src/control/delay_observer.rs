@@ -117,6 +117,20 @@ impl<T: Float, const H: usize> DelayObserver<T, H> {
         })
     }
 
+    /// Starts over in place (the history emptied, the correction zero) with the model
+    /// at rest at `slave_position`; the tick keeps counting, so echoes of packets sent
+    /// before cannot match a new one.
+    pub fn restart(&mut self, slave_position: Vector3<T>) {
+        self.model_position = slave_position;
+        self.model_velocity = Vector3::zeros();
+        self.history = [None; H];
+        self.next = 0;
+        self.correction = Vector3::zeros();
+        self.correction_rate_m_s = Vector3::zeros();
+        self.last_echo = None;
+        self.round_trip_periods = 0;
+    }
+
     /// One master control period: the model slave executes `command` (the desired task
     /// acceleration just sent, m/s²). Returns the master's tick for this period.
     pub fn step(&mut self, command: &Vector3<T>) -> u32 {

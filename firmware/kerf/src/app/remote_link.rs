@@ -1,0 +1,279 @@
+//! The two ends of the remote machining link (T 7.2.3): what the master's and the
+//! slave's images put on a [`FrameLink`] and take off it, each period.
+//!
+//! Master → slave: the slave's commands, one sample every `samples_per_command`
+//! periods, in SDCT frames of N samples of the three acceleration channels
+//! ([`StreamSender`]), behind an 8-byte header: the master's session (u16, a new
+//! value at each power-up), the tick of the block's first sample (u32; sample j has
+//! tick first + j · samples_per_command), and the beam's on/off per sample (u16 mask,
+//! so N ≤ 16). Slave → master: the slave's effector position on the same sample
+//! clock, in frames behind a 7-byte header: the tick of the command it was executing
+//! at the block's last sample (u32), the master session it belongs to (u16), and a
+//! flag byte (bit 0: the tick is valid, i.e. a command had played).
+//!
+//! The slave end plays the commands out (`app::playout`) at a fixed latency; a frame
+//! of a new session (the master restarted) restarts the playout, so the new master's
+//! ticks are not refused as stale. The master end passes the newest report to its
+//! machine; a report of another session (the slave has not yet heard from this
+//! master) can start the delay observer but never corrects it. Frames the packet layer
+//! refuses (bad CRC, cut, spliced, replayed, out of order) are dropped and counted.
+
+use crate::app::playout::{Playing, Playout};
+use crate::app::remote_master::SlaveReport;
+use crate::app::remote_slave::RemoteCommand;
+use crate::app::stream::{StreamReceiver, StreamSender};
+use crate::codec::sdct::SdctConfig;
+use crate::error::{positive, ConfigError};
+use crate::hal::FrameLink;
+
+/// Bytes of the master → slave header.
+const COMMAND_HEADER: usize = 8;
+/// Bytes of the slave → master header.
+const REPORT_HEADER: usize = 7;
+
+fn u16_at(bytes: &[u8], at: usize) -> u16 {
+    let mut b = [0u8; 2];
+    if let Some(s) = bytes.get(at..at + 2) {
+        b.copy_from_slice(s);
+    }
+    u16::from_le_bytes(b)
+}
+
+fn u32_at(bytes: &[u8], at: usize) -> u32 {
+    let mut b = [0u8; 4];
+    if let Some(s) = bytes.get(at..at + 4) {
+        b.copy_from_slice(s);
+    }
+    u32::from_le_bytes(b)
+}
+
+fn put(bytes: &mut [u8], at: usize, value: &[u8]) {
+    if let Some(s) = bytes.get_mut(at..at + value.len()) {
+        s.copy_from_slice(value);
+    }
+}
+
+/// Blocks of N ≤ 16 samples (the beam mask is 16 bits).
+fn check_block<const N: usize>() -> Result<(), ConfigError> {
+    if N > 16 {
+        return Err(ConfigError::out_of_range("block_samples"));
+    }
+    Ok(())
+}
+
+/// The master's end.
+#[derive(Clone, Debug)]
+pub struct MasterLink<const N: usize> {
+    commands: StreamSender<3, N>,
+    reports: StreamReceiver<3, N>,
+    session: u16,
+    filled: usize,
+    first_tick: u32,
+    laser_mask: u16,
+    inv_sample_period: f32,
+    refused: u32,
+}
+
+impl<const N: usize> MasterLink<N> {
+    /// The master's end for power-up `session`, coding `sdct.m` of N coefficients,
+    /// one command sample every `sample_period_s`.
+    pub fn new(sdct: &SdctConfig, session: u16, sample_period_s: f64) -> Result<Self, ConfigError> {
+        check_block::<N>()?;
+        Ok(Self {
+            commands: StreamSender::new(sdct)?,
+            reports: StreamReceiver::new()?,
+            session,
+            filled: 0,
+            first_tick: 0,
+            laser_mask: 0,
+            inv_sample_period: (1.0 / positive("sample_period_s", sample_period_s)?) as f32,
+            refused: 0,
+        })
+    }
+
+    /// Queues this period's command (if the machine made one); a full block goes out.
+    pub fn send(&mut self, command: Option<(u32, RemoteCommand)>, link: &mut impl FrameLink) {
+        let Some((tick, c)) = command else { return };
+        if self.filled == 0 {
+            self.first_tick = tick;
+            self.laser_mask = 0;
+        }
+        if c.laser_on {
+            self.laser_mask |= 1 << self.filled;
+        }
+        self.filled = (self.filled + 1) % N.max(1);
+        let mut header = [0u8; COMMAND_HEADER];
+        put(&mut header, 0, &self.session.to_le_bytes());
+        put(&mut header, 2, &self.first_tick.to_le_bytes());
+        put(&mut header, 6, &self.laser_mask.to_le_bytes());
+        // A busy link drops the block; the sender counts it and the slave sees the gap.
+        let _ = self.commands.push_frame(c.acceleration_m_s2, &header, link);
+    }
+
+    /// The newest report that arrived (frames the packet layer refuses are counted).
+    pub fn receive(&mut self, link: &mut impl FrameLink) -> Option<SlaveReport> {
+        let mut newest = None;
+        let mut header = [0u8; REPORT_HEADER];
+        let mut block = [[0.0f32; N]; 3];
+        while let Some(frame) = self.reports.poll_frame(link, &mut header, &mut block) {
+            if frame.is_err() {
+                self.refused = self.refused.saturating_add(1);
+                continue;
+            }
+            let last = |i: usize| block.each_ref().map(|c| c.get(i).copied().unwrap_or(0.0));
+            let (position, before) = (last(N.saturating_sub(1)), last(N.saturating_sub(2)));
+            let valid =
+                header.get(6).is_some_and(|f| f & 1 == 1) && u16_at(&header, 4) == self.session;
+            newest = Some(SlaveReport {
+                echo_tick: valid.then(|| u32_at(&header, 0)),
+                position_m: position,
+                velocity_m_s: [0, 1, 2].map(|k| {
+                    (position.get(k).copied().unwrap_or(0.0)
+                        - before.get(k).copied().unwrap_or(0.0))
+                        * self.inv_sample_period
+                }),
+            });
+        }
+        newest
+    }
+
+    /// Report frames refused so far.
+    pub fn refused(&self) -> u32 {
+        self.refused
+    }
+
+    /// Command blocks the link could not take.
+    pub fn dropped(&self) -> u32 {
+        self.commands.dropped()
+    }
+}
+
+/// The slave's end.
+#[derive(Clone, Debug)]
+pub struct SlaveLink<const N: usize, const CAP: usize> {
+    commands: StreamReceiver<3, N>,
+    playout: Playout<RemoteCommand, CAP>,
+    reports: StreamSender<3, N>,
+    samples_per_command: u32,
+    session: Option<u16>,
+    executing: Option<u32>,
+    phase: u32,
+    refused: u32,
+    restarts: u32,
+}
+
+impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
+    /// The slave's end: commands every `samples_per_command` periods, played
+    /// `margin_periods` behind the first one's arrival; reports coded with `sdct.m`.
+    pub fn new(
+        sdct: &SdctConfig,
+        samples_per_command: u32,
+        margin_periods: u32,
+    ) -> Result<Self, ConfigError> {
+        check_block::<N>()?;
+        if samples_per_command == 0 {
+            return Err(ConfigError::out_of_range("samples_per_command"));
+        }
+        Ok(Self {
+            commands: StreamReceiver::new()?,
+            playout: Playout::new(margin_periods),
+            reports: StreamSender::new(sdct)?,
+            samples_per_command,
+            session: None,
+            executing: None,
+            phase: 0,
+            refused: 0,
+            restarts: 0,
+        })
+    }
+
+    /// Takes what arrived into the playout; returns the command playing in local
+    /// period `now` and whether it started this period.
+    pub fn receive(
+        &mut self,
+        now: u32,
+        link: &mut impl FrameLink,
+    ) -> (Option<RemoteCommand>, bool) {
+        let mut header = [0u8; COMMAND_HEADER];
+        let mut block = [[0.0f32; N]; 3];
+        while let Some(frame) = self.commands.poll_frame(link, &mut header, &mut block) {
+            if frame.is_err() {
+                self.refused = self.refused.saturating_add(1);
+                continue;
+            }
+            let session = u16_at(&header, 0);
+            if self.session != Some(session) {
+                if self.session.is_some() {
+                    self.restarts = self.restarts.saturating_add(1);
+                }
+                self.session = Some(session);
+                self.playout.restart();
+                self.executing = None;
+            }
+            let (first, mask) = (u32_at(&header, 2), u16_at(&header, 6));
+            let [x, y, z] = &block;
+            for (j, ((x, y), z)) in x.iter().zip(y).zip(z).enumerate() {
+                let tick = first.wrapping_add((j as u32).wrapping_mul(self.samples_per_command));
+                let command = RemoteCommand {
+                    acceleration_m_s2: [*x, *y, *z],
+                    laser_on: mask >> j & 1 == 1,
+                };
+                // Stale (a replay, a duplicate) or no room: dropped, as the playout
+                // counts its own.
+                let _ = self.playout.push(now, tick, command);
+            }
+        }
+        match self.playout.next(now) {
+            Playing::Waiting => (None, false),
+            Playing::Command {
+                tick,
+                value,
+                held_periods,
+            } => {
+                self.executing = Some(tick);
+                (Some(value), held_periods == 0)
+            }
+        }
+    }
+
+    /// Every `samples_per_command` periods, the slave's effector goes into the report
+    /// stream (nothing while the position is unknown).
+    pub fn report(&mut self, position_m: Option<[f32; 3]>, link: &mut impl FrameLink) {
+        let due = self.phase == 0;
+        self.phase = (self.phase + 1) % self.samples_per_command;
+        let (true, Some(position)) = (due, position_m) else {
+            return;
+        };
+        let mut header = [0u8; REPORT_HEADER];
+        put(&mut header, 0, &self.executing.unwrap_or(0).to_le_bytes());
+        put(&mut header, 4, &self.session.unwrap_or(0).to_le_bytes());
+        put(&mut header, 6, &[u8::from(self.executing.is_some())]);
+        let _ = self.reports.push_frame(position, &header, link);
+    }
+
+    /// The master tick of the command playing (`None` before the first of this
+    /// session).
+    pub fn executing(&self) -> Option<u32> {
+        self.executing
+    }
+
+    /// Command frames refused so far (bad, replayed, out of order).
+    pub fn refused(&self) -> u32 {
+        self.refused
+    }
+
+    /// Master restarts seen (a new session).
+    pub fn restarts(&self) -> u32 {
+        self.restarts
+    }
+
+    /// Commands that arrived after their play time.
+    pub fn late(&self) -> u32 {
+        self.playout.late()
+    }
+
+    /// The playout's latency behind the master's ticks, periods.
+    pub fn latency_periods(&self) -> Option<u32> {
+        self.playout.offset()
+    }
+}

@@ -1,0 +1,645 @@
+//! The master of remote machining (T ch. 5, 8.3): the horizontal delta the operator
+//! moves by hand, held on the contour by a virtual fixture, computing the slave's
+//! commands over the delayed link.
+//!
+//! Each period, in the data flow's order:
+//!
+//! 1. Sensing: the carriages' 0.5 µm encoders (`sensing::encoder`), a tracking
+//!    observer per carriage for q̇, the effector (x, ẋ) by FK and Jx.
+//! 2. The fixture (`control::constraint`, SPEC control T 5.2): the constrained task
+//!    acceleration ẍc and the projector P onto the constrained subspace. The carriages
+//!    get q̈c = Jx⁻¹(ẍc − P J̇x q̇), and each carriage's disturbance observer runs as a
+//!    monitor: its estimate d̂ (the operator's force, gravity, friction, the rest of
+//!    the inertia, as joint forces) is compensated only in the constrained subspace,
+//!    Jxᵀ P Jx⁻ᵀ d̂. Along the curve nothing resists or cancels the operator's push:
+//!    the fixture is force-transparent there and stiff across it and in z.
+//! 3. Haptics (beyond the seed, T 9.2): with the slave's beam at constant power the
+//!    cut's depth goes as 1/speed; when the operator's speed along the curve leaves
+//!    the band that keeps the energy per length inside its limits, a light force
+//!    along the curve (gain × the speed's excursion, capped) pushes back towards the
+//!    band.
+//! 4. The slave's command (T 5.3.2, eq. 93–96): every `samples_per_command` periods,
+//!    the tracking law (`control::bilateral`) on the master's state and the delay
+//!    observer's estimate of the slave (`control::delay_observer`) gives the slave's
+//!    task acceleration; the observer's model executes it every period. It goes out as
+//!    this period's [`MasterOutputs::command`] with its tick, for the image to stream.
+//!    The slave's reports (its position and the tick it was executing) correct the
+//!    observer. Without the observer (`compensate_delay: false`) the law uses the
+//!    newest report as it is: the comparison case, in which the round trip sits inside
+//!    the loop.
+//!
+//! The slave's acceleration feedforward is left out of the law (the master's
+//! acceleration would be the second difference of 0.5 µm counts); at the law's 5 Hz
+//! poles this costs a tracking error of the slave's acceleration over λK, a few
+//! micrometres on the scenarios' curves.
+
+use crate::app::remote_slave::RemoteCommand;
+use crate::app::supervisor::{Machine, Step};
+use crate::control::bilateral::{Bilateral, BilateralConfig, MasterState};
+use crate::control::constraint::{Fixture, FixtureConfig, FixtureError};
+use crate::control::delay_observer::{DelayObserver, DelayObserverConfig};
+use crate::control::dob::{Dob, DobConfig, DobState};
+use crate::error::{positive, ConfigContext, ConfigError};
+use crate::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
+use crate::scalar::{lit, Float};
+use crate::sensing::encoder::{Encoder, EncoderConfig, EncoderFault, EncoderState};
+use crate::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
+use crate::trajectory::constraint::{ConstraintConfig, MotionConstraint};
+use crate::trajectory::ContourError;
+use nalgebra::{Matrix3, Vector3};
+
+/// Contour points a fixture job can carry.
+pub const FIXTURE_POINTS: usize = 128;
+
+/// Link samples of history the delay observer keeps: 512 ms at 1 kHz samples.
+pub const OBSERVER_HISTORY: usize = 512;
+
+/// The haptic band (item 3 of the module docs).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct HapticConfig {
+    /// The operator's speed band along the curve, m/s (master speed: the slave moves
+    /// at scale × this). `[lo, hi]`, 0 ≤ lo < hi.
+    pub speed_band_m_s: [f64; 2],
+    /// Force per unit of speed outside the band, N·s/m.
+    pub gain_n_s_per_m: f64,
+    /// Largest force rendered, N.
+    pub max_force_n: f64,
+}
+
+/// Everything the master needs, in SI units.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct RemoteMasterConfig {
+    /// Control period, s.
+    pub period_s: f64,
+    /// The master delta's geometry.
+    pub delta: DeltaConfig,
+    /// Each carriage's encoder.
+    pub encoders: [EncoderConfig; 3],
+    /// Carriage positions at power-up (the homing stops), m.
+    pub home_m: [f64; 3],
+    /// Velocity observer of each carriage.
+    pub velocity: TrackingObserverConfig,
+    /// Each carriage's disturbance observer (its `compensate` is ignored: the
+    /// compensation is the projected one).
+    pub dob: DobConfig,
+    /// The fixture's poles across the curve and in z.
+    pub fixture: FixtureConfig,
+    /// How a contour's points become the fixture's windows.
+    pub constraint: ConstraintConfig,
+    /// The slave's tracking law: scale and centres, its poles.
+    pub tracking: BilateralConfig,
+    /// The delay observer (its period is `period_s`).
+    pub observer_bandwidth_rad_s: f64,
+    /// Close the law on the delay observer's estimate (`false`: on the newest report).
+    pub compensate_delay: bool,
+    /// Control periods per link sample.
+    pub samples_per_command: u32,
+    /// The haptic band (`None`: off).
+    pub haptic: Option<HapticConfig>,
+}
+
+/// Why the master stopped.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RemoteMasterFault {
+    /// A carriage's encoder.
+    Encoder {
+        /// Carriage index.
+        axis: u8,
+        /// What it did.
+        fault: EncoderFault,
+    },
+    /// The effector or its Jacobians could not be computed.
+    Kinematics(KinematicsError),
+    /// The effector is too far from the fixture's contour to evaluate it.
+    Constraint(ContourError),
+    /// The fixture's law has no output.
+    Fixture(FixtureError),
+    /// A non-finite value in the period (a force, an estimate).
+    NotFinite,
+}
+
+/// Why a fixture job does not fit.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FixtureJobError {
+    /// The empty default job.
+    NoContour,
+    /// The height is not finite.
+    NotFinite,
+}
+
+/// A fixture session: the contour the operator follows, at a height, and whether the
+/// slave's beam is to be on.
+#[derive(Clone, Debug)]
+pub struct FixtureJob<T: Float> {
+    constraint: Option<MotionConstraint<T, FIXTURE_POINTS>>,
+    z_m: f64,
+    laser_on: bool,
+}
+
+impl<T: Float> Default for FixtureJob<T> {
+    /// The empty job every master refuses.
+    fn default() -> Self {
+        Self {
+            constraint: None,
+            z_m: 0.0,
+            laser_on: false,
+        }
+    }
+}
+
+impl<T: Float> FixtureJob<T> {
+    /// The contour `points` (x, y in the master's frame, m), followed at height `z_m`.
+    pub fn new(
+        points: &[[f64; 2]],
+        config: &ConstraintConfig,
+        z_m: f64,
+        laser_on: bool,
+    ) -> Result<Self, ContourError> {
+        if !z_m.is_finite() {
+            return Err(ContourError::FarFromContour);
+        }
+        Ok(Self {
+            constraint: Some(MotionConstraint::new(points, config)?),
+            z_m,
+            laser_on,
+        })
+    }
+}
+
+/// One period's inputs.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct RemoteMasterInputs {
+    /// The carriages' 16-bit encoder counters.
+    pub encoder_counts: [u16; 3],
+    /// The newest slave report that arrived this period.
+    pub report: Option<SlaveReport>,
+}
+
+/// What the slave reports.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct SlaveReport {
+    /// The master tick of the command it was executing when it measured (`None`: no
+    /// command of this master's session had played).
+    pub echo_tick: Option<u32>,
+    /// Its effector, m.
+    pub position_m: [f32; 3],
+    /// Its effector's velocity, m/s (for the comparison case without the observer).
+    pub velocity_m_s: [f32; 3],
+}
+
+/// One period's outputs.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct MasterOutputs<T> {
+    /// Carriage forces, N.
+    pub force_n: [T; 3],
+    /// The slave's command to send this period, with its tick.
+    pub command: Option<(u32, RemoteCommand)>,
+}
+
+/// One period's telemetry.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct MasterTelemetry<T> {
+    /// The master's effector, m.
+    pub effector_m: [T; 3],
+    /// Its velocity, m/s.
+    pub velocity_m_s: [T; 3],
+    /// φ: the distance across the curve (signed) and below the height, m.
+    pub constraint_m: [T; 2],
+    /// The haptic force along the curve, N.
+    pub haptic_n: T,
+    /// The observer's estimate of the slave, m (or the newest report without it).
+    pub slave_estimate_m: Option<[T; 3]>,
+    /// The round trip the newest echo showed, periods.
+    pub round_trip_periods: u32,
+    /// Reports the observer refused so far.
+    pub rejected_reports: u32,
+}
+
+/// One carriage's state.
+#[derive(Copy, Clone, Debug, PartialEq)]
+struct Carriage<T> {
+    encoder: EncoderState,
+    velocity: TrackingObserverState<T>,
+    dob: DobState<T>,
+    applied_acceleration: T,
+}
+
+/// The master as a [`Machine`].
+#[derive(Clone, Debug)]
+pub struct RemoteMaster<T: Float> {
+    geometry: DeltaGeometry<T>,
+    encoders: [Encoder<T>; 3],
+    home_m: [T; 3],
+    velocity: TrackingObserver<T>,
+    dob: Dob<T>,
+    inv_mass: T,
+    fixture: Fixture<T>,
+    tracking: Bilateral<T>,
+    haptic: Option<(T, T, T, T)>,
+    compensate_delay: bool,
+    samples_per_command: u32,
+    carriages: [Carriage<T>; 3],
+    observer: DelayObserver<T, OBSERVER_HISTORY>,
+    /// The newest report (position, velocity); the observer starts from the first.
+    measured_slave: Option<(Vector3<T>, Vector3<T>)>,
+    observer_ready: bool,
+    command: Vector3<T>,
+    phase_in_sample: u32,
+    telemetry: MasterTelemetry<T>,
+}
+
+impl<T: Float> RemoteMaster<T> {
+    /// Validates `config`; a bad field is named with its path.
+    pub fn new(config: &RemoteMasterConfig) -> Result<Self, ConfigError> {
+        let ts = positive("period_s", config.period_s)?;
+        let encoder = |k: usize, c: &EncoderConfig| {
+            Encoder::new(c, ts)
+                .within("encoders")
+                .map_err(|e| e.indexed(k))
+        };
+        let [e0, e1, e2] = &config.encoders;
+        let mut home_m = [T::zero(); 3];
+        for (k, (h, c)) in home_m.iter_mut().zip(config.home_m).enumerate() {
+            *h = crate::error::representable("home_m", c).map_err(|e| e.indexed(k))?;
+        }
+        let dob_config = DobConfig {
+            compensate: false,
+            ..config.dob
+        };
+        let haptic = match &config.haptic {
+            None => None,
+            Some(h) => {
+                let [lo, hi] = h.speed_band_m_s;
+                if !(lo >= 0.0 && hi > lo && hi.is_finite()) {
+                    return Err(ConfigError::out_of_range("speed_band_m_s").within("haptic"));
+                }
+                let gain = positive("gain_n_s_per_m", h.gain_n_s_per_m).within("haptic")?;
+                let max = positive("max_force_n", h.max_force_n).within("haptic")?;
+                Some((lit(lo), lit(hi), lit(gain), lit(max)))
+            }
+        };
+        if config.samples_per_command == 0 {
+            return Err(ConfigError::out_of_range("samples_per_command"));
+        }
+        let observer = DelayObserver::new(
+            &DelayObserverConfig {
+                period_s: ts,
+                correction_bandwidth_rad_s: config.observer_bandwidth_rad_s,
+            },
+            Vector3::zeros(),
+        )?;
+        Ok(Self {
+            geometry: DeltaGeometry::new(&config.delta).within("delta")?,
+            encoders: [encoder(0, e0)?, encoder(1, e1)?, encoder(2, e2)?],
+            home_m,
+            velocity: TrackingObserver::new(&config.velocity, ts).within("velocity")?,
+            dob: Dob::new(&dob_config, ts).within("dob")?,
+            inv_mass: lit(1.0 / config.dob.nominal_mass_kg),
+            fixture: Fixture::new(&config.fixture).within("fixture")?,
+            tracking: Bilateral::new(&config.tracking).within("tracking")?,
+            haptic,
+            compensate_delay: config.compensate_delay,
+            samples_per_command: config.samples_per_command,
+            carriages: home_m.map(|h| Carriage {
+                encoder: EncoderState::unhomed(),
+                velocity: TrackingObserverState::at_rest(h),
+                dob: DobState::at(T::zero()),
+                applied_acceleration: T::zero(),
+            }),
+            observer,
+            measured_slave: None,
+            observer_ready: false,
+            command: Vector3::zeros(),
+            phase_in_sample: 0,
+            telemetry: MasterTelemetry {
+                effector_m: [T::zero(); 3],
+                velocity_m_s: [T::zero(); 3],
+                constraint_m: [T::zero(); 2],
+                haptic_n: T::zero(),
+                slave_estimate_m: None,
+                round_trip_periods: 0,
+                rejected_reports: 0,
+            },
+        })
+    }
+
+    /// The geometry.
+    pub fn geometry(&self) -> &DeltaGeometry<T> {
+        &self.geometry
+    }
+
+    /// The slave's tracking law.
+    pub fn tracking(&self) -> &Bilateral<T> {
+        &self.tracking
+    }
+
+    /// Reads the encoders and tracks the carriages: (q, q̇), m and m/s.
+    fn measure(
+        &mut self,
+        counts: &[u16; 3],
+    ) -> Result<(Vector3<T>, Vector3<T>), RemoteMasterFault> {
+        let mut q = Vector3::zeros();
+        let mut q_dot = Vector3::zeros();
+        for (k, (carriage, (encoder, (raw, home)))) in self
+            .carriages
+            .iter_mut()
+            .zip(self.encoders.iter().zip(counts.iter().zip(self.home_m)))
+            .enumerate()
+        {
+            let position = encoder
+                .update(&mut carriage.encoder, *raw)
+                .map_err(|fault| RemoteMasterFault::Encoder {
+                    axis: k as u8,
+                    fault,
+                })?
+                + home;
+            let v = self.velocity.update(
+                &mut carriage.velocity,
+                position,
+                carriage.applied_acceleration,
+            );
+            if let (Some(qk), Some(vk)) = (q.get_mut(k), q_dot.get_mut(k)) {
+                *qk = position;
+                *vk = v;
+            }
+        }
+        Ok((q, q_dot))
+    }
+
+    /// The newest report: the observer's correction (or its start).
+    fn take_report(&mut self, report: &Option<SlaveReport>) {
+        let Some(r) = report else { return };
+        let v = |a: [f32; 3]| Vector3::new(a[0], a[1], a[2]).map(|c| lit::<T>(f64::from(c)));
+        let (position, velocity) = (v(r.position_m), v(r.velocity_m_s));
+        if !(position
+            .iter()
+            .chain(velocity.iter())
+            .all(|c| c.is_finite()))
+        {
+            return;
+        }
+        if self.observer_ready {
+            if let Some(echo) = r.echo_tick {
+                let _ = self.observer.received(echo, &position);
+            }
+        } else {
+            self.observer.restart(position);
+            self.observer_ready = true;
+        }
+        self.measured_slave = Some((position, velocity));
+    }
+
+    /// The haptic force along the unit tangent for the speed `v_along` (signed).
+    fn haptic_force(&self, v_along: T) -> T {
+        let Some((lo, hi, gain, max)) = self.haptic else {
+            return T::zero();
+        };
+        let speed = v_along.abs();
+        let excursion = if speed > hi {
+            speed - hi
+        } else if speed < lo {
+            speed - lo
+        } else {
+            return T::zero();
+        };
+        let sign = if v_along < T::zero() {
+            -T::one()
+        } else {
+            T::one()
+        };
+        -(gain * excursion).max(-max).min(max) * sign
+    }
+
+    /// The fixture's period: the carriage forces.
+    fn fixture_forces(
+        &mut self,
+        job: &FixtureJob<T>,
+        q: &Vector3<T>,
+        q_dot: &Vector3<T>,
+    ) -> Result<Vector3<T>, RemoteMasterFault> {
+        let constraint = job
+            .constraint
+            .as_ref()
+            .ok_or(RemoteMasterFault::Constraint(ContourError::TooFewPoints))?;
+        let g = &self.geometry;
+        let kinematics = RemoteMasterFault::Kinematics;
+        let x = g.forward(q).map_err(kinematics)?;
+        let jx = g.jacobian(q, &x).map_err(kinematics)?;
+        let jx_inv = g.jacobian_inverse(q, &x).map_err(kinematics)?;
+        let v = jx * q_dot;
+        let jx_dot = g
+            .jacobian_derivative(q, &x, q_dot)
+            .map_err(RemoteMasterFault::Kinematics)?;
+        let value = constraint
+            .evaluate(x, lit(job.z_m))
+            .map_err(RemoteMasterFault::Constraint)?;
+        let out = self
+            .fixture
+            .task_acceleration(&value, &v)
+            .map_err(RemoteMasterFault::Fixture)?;
+        let p: Matrix3<T> = out.projector;
+        let q_ddot = jx_inv * (out.constrained_acceleration - p * (jx_dot * q_dot));
+        // The tangent: the in-plane gradient of φ₁ turned a quarter.
+        let (gx, gy) = (value.jacobian.m11, value.jacobian.m12);
+        let tangent = Vector3::new(-gy, gx, T::zero());
+        let norm = tangent.norm();
+        let tangent = if norm > T::zero() {
+            tangent / norm
+        } else {
+            tangent
+        };
+        let haptic = self.haptic_force(v.dot(&tangent));
+        let estimate = Vector3::from(self.carriages.map(|c| c.dob.estimate_n));
+        let compensation = jx.transpose() * (p * (jx_inv.transpose() * estimate))
+            + jx.transpose() * (tangent * haptic);
+        self.telemetry.effector_m = [x.x, x.y, x.z];
+        self.telemetry.velocity_m_s = [v.x, v.y, v.z];
+        self.telemetry.constraint_m = [value.phi.x, value.phi.y];
+        self.telemetry.haptic_n = haptic;
+        Ok(q_ddot + compensation * self.inv_mass)
+    }
+
+    /// Each carriage's observer turns its acceleration into a force.
+    fn actuate(
+        &mut self,
+        acceleration: &Vector3<T>,
+        q_dot: &Vector3<T>,
+    ) -> Result<[T; 3], RemoteMasterFault> {
+        let mut forces = [T::zero(); 3];
+        for ((carriage, force), (a, v)) in self
+            .carriages
+            .iter_mut()
+            .zip(forces.iter_mut())
+            .zip(acceleration.iter().zip(q_dot.iter()))
+        {
+            let out = self.dob.update(&mut carriage.dob, *a, *v);
+            carriage.applied_acceleration = self.dob.applied_acceleration(&out);
+            *force = out.force_n;
+            if !(out.force_n + carriage.dob.estimate_n + carriage.applied_acceleration).is_finite()
+            {
+                return Err(RemoteMasterFault::NotFinite);
+            }
+        }
+        Ok(forces)
+    }
+
+    /// The slave's command of this period, if one is due.
+    fn slave_command(&mut self, laser_on: bool) -> Option<(u32, RemoteCommand)> {
+        if !self.observer_ready {
+            return None;
+        }
+        let due = self.phase_in_sample == 0;
+        if due {
+            let slave = if self.compensate_delay {
+                Some(self.observer.estimate())
+            } else {
+                self.measured_slave
+            };
+            if let Some((x, v)) = slave {
+                let [px, py, pz] = self.telemetry.effector_m;
+                let [vx, vy, vz] = self.telemetry.velocity_m_s;
+                let master = MasterState {
+                    position: Vector3::new(px, py, pz),
+                    velocity: Vector3::new(vx, vy, vz),
+                    acceleration: Vector3::zeros(),
+                };
+                self.command = self.tracking.task_acceleration(&master, &x, &v).0;
+                self.telemetry.slave_estimate_m = Some([x.x, x.y, x.z]);
+            }
+        }
+        self.phase_in_sample = (self.phase_in_sample + 1) % self.samples_per_command;
+        let tick = self.observer.step(&self.command);
+        if !due {
+            return None;
+        }
+        self.observer.sent();
+        self.telemetry.round_trip_periods = self.observer.round_trip_periods();
+        self.telemetry.rejected_reports = self.observer.rejected();
+        let c = self.command.map(|a| a.to_f64() as f32);
+        Some((
+            tick,
+            RemoteCommand {
+                acceleration_m_s2: [c.x, c.y, c.z],
+                laser_on,
+            },
+        ))
+    }
+
+    fn safe(&self) -> MasterOutputs<T> {
+        MasterOutputs {
+            force_n: [T::zero(); 3],
+            command: None,
+        }
+    }
+}
+
+impl<T: Float> Machine for RemoteMaster<T> {
+    type Inputs = RemoteMasterInputs;
+    type Outputs = MasterOutputs<T>;
+    type Job = FixtureJob<T>;
+    type JobError = FixtureJobError;
+    type Coefficients = Fixture<T>;
+    type Calibration = ();
+    type Fault = RemoteMasterFault;
+    type Telemetry = MasterTelemetry<T>;
+
+    /// Zero force (the operator holds the handle), no command.
+    fn safe_outputs(&self) -> MasterOutputs<T> {
+        self.safe()
+    }
+
+    fn monitor(&mut self, inputs: &RemoteMasterInputs) -> Result<(), RemoteMasterFault> {
+        let (q, q_dot) = self.measure(&inputs.encoder_counts)?;
+        for c in &mut self.carriages {
+            c.applied_acceleration = T::zero();
+        }
+        let (x, v) = self
+            .geometry
+            .task_state(&q, &q_dot)
+            .map_err(RemoteMasterFault::Kinematics)?;
+        self.telemetry.effector_m = [x.x, x.y, x.z];
+        self.telemetry.velocity_m_s = [v.x, v.y, v.z];
+        Ok(())
+    }
+
+    /// Encoders need no sweep.
+    fn begin_calibration(&mut self) {}
+
+    fn calibrate(
+        &mut self,
+        inputs: &RemoteMasterInputs,
+        _: &mut dyn FnMut(u8, [u16; 3]),
+    ) -> Result<Step<MasterOutputs<T>>, RemoteMasterFault> {
+        self.monitor(inputs)?;
+        Ok(Step::Done(self.safe()))
+    }
+
+    fn finish_calibration(&mut self, _: &()) {}
+
+    fn check_job(&self, job: &FixtureJob<T>) -> Result<(), FixtureJobError> {
+        match job.constraint {
+            None => Err(FixtureJobError::NoContour),
+            Some(_) if !job.z_m.is_finite() => Err(FixtureJobError::NotFinite),
+            Some(_) => Ok(()),
+        }
+    }
+
+    fn begin_job(&mut self, job: &FixtureJob<T>) -> Result<(), FixtureJobError> {
+        self.check_job(job)?;
+        for c in &mut self.carriages {
+            c.dob = DobState::at(c.velocity.velocity);
+        }
+        // The observer starts from the next report.
+        self.observer_ready = false;
+        self.measured_slave = None;
+        self.command = Vector3::zeros();
+        self.phase_in_sample = 0;
+        Ok(())
+    }
+
+    fn run(
+        &mut self,
+        job: &FixtureJob<T>,
+        inputs: &RemoteMasterInputs,
+    ) -> Result<Step<MasterOutputs<T>>, RemoteMasterFault> {
+        let (q, q_dot) = self.measure(&inputs.encoder_counts)?;
+        self.take_report(&inputs.report);
+        let acceleration = self.fixture_forces(job, &q, &q_dot)?;
+        let force_n = self.actuate(&acceleration, &q_dot)?;
+        let command = self.slave_command(job.laser_on);
+        Ok(Step::Continue(MasterOutputs { force_n, command }))
+    }
+
+    fn begin_stop(&mut self) {}
+
+    /// The fixture lets go at once (the operator holds the handle).
+    fn stop(
+        &mut self,
+        inputs: &RemoteMasterInputs,
+    ) -> Result<Step<MasterOutputs<T>>, RemoteMasterFault> {
+        self.monitor(inputs)?;
+        Ok(Step::Done(self.safe()))
+    }
+
+    fn set_coefficients(&mut self, fixture: &Fixture<T>) {
+        self.fixture = *fixture;
+    }
+
+    /// The estimates restart where the carriages are. The encoders keep their count:
+    /// after an encoder fault it is not trusted, and only a power-up at the homing
+    /// stops re-homes them.
+    fn reset(&mut self) {
+        for c in &mut self.carriages {
+            c.velocity = TrackingObserverState::at_rest(c.velocity.position);
+            c.dob = DobState::at(T::zero());
+            c.applied_acceleration = T::zero();
+        }
+        self.observer_ready = false;
+    }
+
+    fn telemetry(&self) -> MasterTelemetry<T> {
+        self.telemetry
+    }
+}
