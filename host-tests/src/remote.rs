@@ -163,6 +163,9 @@ pub struct RemoteSample {
     pub slave_speed_m_s: f64,
     /// The beam's power, W.
     pub laser_w: f64,
+    /// Periods between the master computing the command the slave executes and the
+    /// slave executing it.
+    pub latency_periods: Option<u64>,
 }
 
 /// What a run did.
@@ -172,8 +175,6 @@ pub struct RemoteRun {
     pub samples: Vec<RemoteSample>,
     /// Frame bytes per second, master → slave and back.
     pub bytes_per_s: [f64; 2],
-    /// The playout's latency behind the master, ms.
-    pub latency_ms: Option<f64>,
     /// Frames lost on the links.
     pub lost_frames: u64,
     /// Command frames the slave refused (corrupt, replayed, out of order).
@@ -186,6 +187,8 @@ pub struct RemoteRun {
     pub master_mode: Mode<kerf::app::remote_master::RemoteMasterFault>,
     /// The slave's centre of the mapping, m.
     pub slave_centre_m: [f64; 3],
+    /// The master's centre of the mapping, m.
+    pub master_centre_m: [f64; 3],
     /// The contour the master follows (x, y), m.
     pub contour_m: Vec<[f64; 2]>,
 }
@@ -209,6 +212,19 @@ impl RemoteRun {
         let max = errors.iter().copied().fold(0.0, f64::max);
         let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
         Some((max, rms))
+    }
+
+    /// Mean latency from the master's command to the slave's execution over samples
+    /// with `t_s ≥ from_s`, ms.
+    pub fn latency_ms(&self, from_s: f64) -> Option<f64> {
+        let l: Vec<f64> = self
+            .samples
+            .iter()
+            .filter(|s| s.t_s >= from_s)
+            .filter_map(|s| s.latency_periods)
+            .map(|p| p as f64 * TS * 1e3)
+            .collect();
+        (!l.is_empty()).then(|| l.iter().sum::<f64>() / l.len() as f64)
     }
 }
 
@@ -562,7 +578,8 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
     let mut master = MasterImage::new(&master_config, &sdct, 1, job.clone())?;
     let mut samples = Vec::new();
     let periods = (case.seconds / TS) as u64;
-    let mut tick_reference: std::collections::HashMap<u32, [f64; 3]> = Default::default();
+    // Each command's tick: the scaled master then, and the period it was computed.
+    let mut tick_reference: std::collections::HashMap<u32, ([f64; 3], u64)> = Default::default();
     let mut session = 1;
     for k in 0..periods {
         let t = k as f64 * TS;
@@ -583,8 +600,15 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
             .master_restart_at_s
             .is_some_and(|at| (t - at).abs() < TS / 2.0)
         {
+            // A firmware reset: the carriages re-homed from absolute reference marks
+            // (here, where the plant is), a new session; the hand keeps going.
             session += 1;
-            master = MasterImage::new(&master_config, &sdct, session, job.clone())?;
+            let rehomed = RemoteMasterConfig {
+                home_m: master_plant.plant.q_m.into(),
+                ..master_config
+            };
+            master = MasterImage::new(&rehomed, &sdct, session, job.clone())?;
+            tick_reference.clear();
         }
         // The operator's hand.
         let q = master_plant.plant.q_m;
@@ -618,7 +642,7 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
         master_plant.step(outputs.force_n);
         if let Some((tick, _)) = outputs.command {
             let scaled = Vector3::from(cs) + (x - Vector3::from(cm)) * case.scale;
-            tick_reference.insert(tick, scaled.into());
+            tick_reference.insert(tick, (scaled.into(), now));
         }
         master.link.send(outputs.command, &mut forward);
 
@@ -632,11 +656,13 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
             &mut slave_link,
         );
         operator.poll(&mut from_slave, &mut to_slave);
-        if let Some(e) = master_plant.error.or(slave_plant.error) {
+        if master_plant.error.or(slave_plant.error).is_some() {
             // The mechanism ran away (a loop that diverged): the run ends here.
-            let _ = e;
             break;
         }
+        let executed = slave_link
+            .executing()
+            .and_then(|tick| tick_reference.get(&tick).copied());
         let p = slave_plant
             .plant
             .effector_m()
@@ -653,9 +679,8 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
             push_across_n: push,
             haptic_n: master.supervisor.machine().telemetry().haptic_n,
             slave_m: p.into(),
-            slave_reference_m: slave_link
-                .executing()
-                .and_then(|tick| tick_reference.get(&tick).copied()),
+            slave_reference_m: executed.map(|(r, _)| r),
+            latency_periods: executed.map(|(_, sent)| now - sent),
             slave_speed_m_s: pv.x.hypot(pv.y),
             laser_w: slave_out.laser_duty * slave_config.slave.laser.max_power_w,
         });
@@ -669,15 +694,13 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
             forward.bytes as f64 / seconds,
             backward.bytes as f64 / seconds,
         ],
-        latency_ms: slave_link
-            .latency_periods()
-            .map(|p| f64::from(p) * TS * 1e3),
         lost_frames: forward.end.link.lost() + backward.end.link.lost(),
         refused_frames: slave_link.refused(),
         restarts: slave_link.restarts(),
         slave_mode: slave_supervisor.mode(),
         master_mode: master.supervisor.mode(),
         slave_centre_m: cs,
+        master_centre_m: cm,
         contour_m: points,
     })
 }
