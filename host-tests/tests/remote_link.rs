@@ -8,8 +8,8 @@
 //! `hal_mock::link::FrameEnd`s.
 //!
 //! The slave here is the nominal plant its disturbance observer makes of it (a double
-//! integrator per task axis, 300 rad/s observer against a constant load); the delta
-//! machines over the same link are the next step.
+//! integrator per task axis, 300 rad/s observer against a constant load): the law and
+//! the link alone. `remote_machining` runs the two delta machines over the same link.
 //!
 //! Run with `--nocapture` for the table.
 
