@@ -277,3 +277,116 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
         self.playout.offset()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::codec::sdct::Selection;
+    use crate::hal::LinkBusy;
+    extern crate std;
+    use std::vec::Vec;
+
+    /// What is sent is received, in order.
+    #[derive(Default)]
+    struct Loopback(Vec<Vec<u8>>);
+
+    impl FrameLink for Loopback {
+        fn send(&mut self, frame: &[u8]) -> Result<(), LinkBusy> {
+            self.0.push(frame.to_vec());
+            Ok(())
+        }
+        fn receive(&mut self, buf: &mut [u8]) -> Option<usize> {
+            let frame = (!self.0.is_empty()).then(|| self.0.remove(0))?;
+            buf.get_mut(..frame.len())?.copy_from_slice(&frame);
+            Some(frame.len())
+        }
+    }
+
+    const SDCT: SdctConfig = SdctConfig {
+        m: 8,
+        selection: Selection::Largest,
+    };
+
+    /// Sends 8 commands (one block) of session `session` from tick `first`, the beam
+    /// on for the odd ones.
+    fn block(master: &mut MasterLink<8>, link: &mut Loopback, first: u32) {
+        for j in 0..8u32 {
+            let command = RemoteCommand {
+                acceleration_m_s2: [0.01 * j as f32, -0.02, 0.0],
+                laser_on: j % 2 == 1,
+            };
+            master.send(Some((first + 10 * j, command)), link);
+        }
+    }
+
+    #[test]
+    fn commands_play_in_order_with_their_beam_and_a_new_session_restarts_the_playout() {
+        let mut link = Loopback::default();
+        let mut master = MasterLink::<8>::new(&SDCT, 7, 1e-3).unwrap();
+        let mut slave = SlaveLink::<8, 64>::new(&SDCT, 10, 0).unwrap();
+        block(&mut master, &mut link, 1);
+        // Anchored at arrival: tick 1 plays at period 0, tick 11 at 10, ...
+        let mut played = Vec::new();
+        for now in 0..80u32 {
+            let (command, fresh) = slave.receive(now, &mut link);
+            if fresh {
+                played.push((now, command.unwrap(), slave.executing().unwrap()));
+            }
+        }
+        assert_eq!(played.len(), 8);
+        for (j, (now, command, tick)) in played.iter().enumerate() {
+            assert_eq!((*now, *tick), (10 * j as u32, 1 + 10 * j as u32));
+            assert_eq!(command.laser_on, j % 2 == 1);
+            let want = 0.01 * j as f32;
+            assert!((command.acceleration_m_s2[0] - want).abs() < 1e-3);
+        }
+        // The master restarts: its sequence and ticks start again. Here the old stream
+        // had sent one frame, so the new one's first (sequence 0 again) is refused as
+        // a duplicate and its second follows on; the old playout would refuse its
+        // ticks as stale, and the new session restarts it.
+        let mut restarted = MasterLink::<8>::new(&SDCT, 8, 1e-3).unwrap();
+        for first in [1, 81, 161] {
+            block(&mut restarted, &mut link, first);
+        }
+        let (command, fresh) = slave.receive(100, &mut link);
+        assert!(fresh && command.is_some());
+        assert_eq!(slave.refused(), 1);
+        assert_eq!((slave.restarts(), slave.executing()), (1, Some(81)));
+    }
+
+    #[test]
+    fn reports_carry_the_echo_only_within_the_masters_session() {
+        let mut link = Loopback::default();
+        let mut back = Loopback::default();
+        let mut master = MasterLink::<8>::new(&SDCT, 3, 1e-3).unwrap();
+        let mut slave = SlaveLink::<8, 64>::new(&SDCT, 1, 0).unwrap();
+        // Before any command: reports with no echo.
+        for _ in 0..8 {
+            slave.report(Some([0.001, 0.002, 0.05]), &mut back);
+        }
+        let report = master.receive(&mut back).unwrap();
+        assert_eq!(report.echo_tick, None);
+        assert!((report.position_m[2] - 0.05).abs() < 1e-4);
+        block(&mut master, &mut link, 5);
+        let _ = slave.receive(0, &mut link);
+        for _ in 0..8 {
+            slave.report(Some([0.001, 0.002, 0.05]), &mut back);
+        }
+        assert_eq!(master.receive(&mut back).unwrap().echo_tick, Some(5));
+        // Another master (session) sees the report without an echo.
+        let mut other = MasterLink::<8>::new(&SDCT, 4, 1e-3).unwrap();
+        for _ in 0..8 {
+            slave.report(Some([0.001, 0.002, 0.05]), &mut back);
+        }
+        assert_eq!(other.receive(&mut back).unwrap().echo_tick, None);
+        // A cut frame is refused and counted.
+        for _ in 0..8 {
+            slave.report(Some([0.001, 0.002, 0.05]), &mut back);
+        }
+        if let Some(frame) = back.0.first_mut() {
+            frame.truncate(frame.len() - 3);
+        }
+        assert!(master.receive(&mut back).is_none());
+        assert_eq!(master.refused(), 1);
+    }
+}
