@@ -71,6 +71,23 @@ pub struct Network {
     pub loss: f64,
 }
 
+impl Network {
+    /// The simulated link on a clock of control periods (0.1 ms): the delay uniform in
+    /// [delay − jitter, delay + jitter], one stream in order (a frame overtaken by a
+    /// later one would be dropped by the receiver as late).
+    pub fn link_config(&self, seed: u64) -> LinkConfig {
+        let ticks = |ms: u32| ms * 10;
+        LinkConfig {
+            delay_ticks: ticks(self.delay_ms.saturating_sub(self.jitter_ms)),
+            random_delay_ticks: ticks(2 * self.jitter_ms),
+            jitter_ticks: 0.0,
+            loss_probability: self.loss,
+            reorder: false,
+            seed,
+        }
+    }
+}
+
 /// Faults injected on the master → slave link or the master.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct Faults {
@@ -248,18 +265,8 @@ struct Wire {
 
 impl Wire {
     fn new(network: &Network, seed: u64) -> Self {
-        let ticks = |ms: u32| ms * 10;
-        let end = FrameEnd::new(&LinkConfig {
-            delay_ticks: ticks(network.delay_ms.saturating_sub(network.jitter_ms)),
-            random_delay_ticks: ticks(2 * network.jitter_ms),
-            jitter_ticks: 0.0,
-            loss_probability: network.loss,
-            // One stream, in order (a frame overtaken by a later one would be dropped
-            // by the receiver as late).
-            reorder: false,
-            seed,
-        })
-        .unwrap_or_else(|e| panic!("link: {e:?}"));
+        let end =
+            FrameEnd::new(&network.link_config(seed)).unwrap_or_else(|e| panic!("link: {e:?}"));
         Self {
             end,
             bytes: 0,
@@ -274,8 +281,7 @@ impl Wire {
     fn set_now(&mut self, now: u64) {
         self.now = now;
         self.end.set_now(now);
-        if let Some((at, frame)) = self.replay.take_if(|(at, _)| *at <= now) {
-            let _ = at;
+        if let Some((_, frame)) = self.replay.take_if(|(at, _)| *at <= now) {
             let _ = self.end.send(&frame);
         }
     }
@@ -309,7 +315,6 @@ impl FrameLink for Wire {
 /// The master's image: its supervisor over its own queues, its link end.
 struct MasterImage {
     supervisor: Supervisor<'static, RemoteMaster<f64>>,
-    commands: heapless::spsc::Producer<'static, Command<RemoteMaster<f64>>>,
     link: MasterLink<N>,
 }
 
@@ -342,11 +347,7 @@ impl MasterImage {
         }
         let link = MasterLink::new(sdct, session, TS * f64::from(D))
             .map_err(|e| RemoteError::Setup(format!("master link: {e}")))?;
-        Ok(Self {
-            supervisor,
-            commands: to_machine,
-            link,
-        })
+        Ok(Self { supervisor, link })
     }
 }
 
@@ -687,7 +688,6 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
         now += 1;
     }
     let seconds = samples.len() as f64 * TS;
-    let _ = master.commands.ready();
     Ok(RemoteRun {
         samples,
         bytes_per_s: [

@@ -13,7 +13,8 @@
 //!
 //! Run with `--nocapture` for the table.
 
-use hal_mock::link::{FrameEnd, LinkConfig};
+use hal_mock::link::FrameEnd;
+use host_tests::remote::Network;
 use kerf::app::playout::{Playing, Playout};
 use kerf::app::stream::{StreamReceiver, StreamSender, MAX_FRAME_LEN};
 use kerf::codec::sdct::{SdctConfig, Selection};
@@ -87,18 +88,12 @@ struct Outcome {
 }
 
 fn link(case: &Case, seed: u64) -> FrameEnd<MAX_FRAME_LEN, 256> {
-    let ticks = |ms: u32| ms * 10;
-    FrameEnd::new(&LinkConfig {
-        delay_ticks: ticks(case.delay_ms.saturating_sub(case.jitter_ms)),
-        random_delay_ticks: ticks(2 * case.jitter_ms),
-        jitter_ticks: 0.0,
-        loss_probability: case.loss,
-        // Varying delay on one stream, in order (the stream's receiver drops a frame
-        // that a later one overtook, as lost: see the lossy case for what that costs).
-        reorder: false,
-        seed,
-    })
-    .unwrap()
+    let network = Network {
+        delay_ms: case.delay_ms,
+        jitter_ms: case.jitter_ms,
+        loss: case.loss,
+    };
+    FrameEnd::new(&network.link_config(seed)).unwrap()
 }
 
 fn run(case: &Case) -> Outcome {

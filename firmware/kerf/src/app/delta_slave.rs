@@ -551,6 +551,11 @@ impl<T: Float> DeltaSlave<T> {
         &mut self.joints
     }
 
+    /// The geometry and the carriages together (a law that needs both in a period).
+    pub(crate) fn geometry_and_joints(&mut self) -> (&DeltaGeometry<T>, &mut Joints<T, 3>) {
+        (&self.geometry, &mut self.joints)
+    }
+
     /// The laser source.
     pub(crate) fn laser(&self) -> &Laser<T> {
         &self.laser

@@ -102,10 +102,13 @@ impl<const N: usize> MasterLink<N> {
             self.laser_mask |= 1 << self.filled;
         }
         self.filled = (self.filled + 1) % N.max(1);
+        // The sender reads the header only with a block's last sample.
         let mut header = [0u8; COMMAND_HEADER];
-        put(&mut header, 0, &self.session.to_le_bytes());
-        put(&mut header, 2, &self.first_tick.to_le_bytes());
-        put(&mut header, 6, &self.laser_mask.to_le_bytes());
+        if self.filled == 0 {
+            put(&mut header, 0, &self.session.to_le_bytes());
+            put(&mut header, 2, &self.first_tick.to_le_bytes());
+            put(&mut header, 6, &self.laser_mask.to_le_bytes());
+        }
         // A busy link drops the block; the sender counts it and the slave sees the gap.
         let _ = self.commands.push_frame(c.acceleration_m_s2, &header, link);
     }
@@ -281,26 +284,10 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::codec::sdct::Selection;
-    use crate::hal::LinkBusy;
+    use crate::app::stream::tests::Loopback;
     extern crate std;
+    use crate::codec::sdct::Selection;
     use std::vec::Vec;
-
-    /// What is sent is received, in order.
-    #[derive(Default)]
-    struct Loopback(Vec<Vec<u8>>);
-
-    impl FrameLink for Loopback {
-        fn send(&mut self, frame: &[u8]) -> Result<(), LinkBusy> {
-            self.0.push(frame.to_vec());
-            Ok(())
-        }
-        fn receive(&mut self, buf: &mut [u8]) -> Option<usize> {
-            let frame = (!self.0.is_empty()).then(|| self.0.remove(0))?;
-            buf.get_mut(..frame.len())?.copy_from_slice(&frame);
-            Some(frame.len())
-        }
-    }
 
     const SDCT: SdctConfig = SdctConfig {
         m: 8,

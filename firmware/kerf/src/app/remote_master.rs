@@ -158,7 +158,7 @@ impl<T: Float> FixtureJob<T> {
         laser_on: bool,
     ) -> Result<Self, ContourError> {
         if !z_m.is_finite() {
-            return Err(ContourError::FarFromContour);
+            return Err(ConfigError::not_finite("z_m").into());
         }
         Ok(Self {
             constraint: Some(MotionConstraint::new(points, config)?),
@@ -418,7 +418,7 @@ impl<T: Float> RemoteMaster<T> {
         job: &FixtureJob<T>,
         q: &Vector3<T>,
         q_dot: &Vector3<T>,
-    ) -> Result<Vector3<T>, RemoteMasterFault> {
+    ) -> Result<(Vector3<T>, MasterState<T>), RemoteMasterFault> {
         let constraint = job
             .constraint
             .as_ref()
@@ -458,7 +458,12 @@ impl<T: Float> RemoteMaster<T> {
         self.telemetry.velocity_m_s = [v.x, v.y, v.z];
         self.telemetry.constraint_m = [value.phi.x, value.phi.y];
         self.telemetry.haptic_n = haptic;
-        Ok(q_ddot + compensation * self.inv_mass)
+        let master = MasterState {
+            position: x,
+            velocity: v,
+            acceleration: Vector3::zeros(),
+        };
+        Ok((q_ddot + compensation * self.inv_mass, master))
     }
 
     /// Each carriage's observer turns its acceleration into a force.
@@ -485,8 +490,13 @@ impl<T: Float> RemoteMaster<T> {
         Ok(forces)
     }
 
-    /// The slave's command of this period, if one is due.
-    fn slave_command(&mut self, laser_on: bool) -> Option<(u32, RemoteCommand)> {
+    /// The slave's command of this period, if one is due, for the master's `master`
+    /// state (its acceleration left out: module docs).
+    fn slave_command(
+        &mut self,
+        master: &MasterState<T>,
+        laser_on: bool,
+    ) -> Option<(u32, RemoteCommand)> {
         if !self.observer_ready {
             return None;
         }
@@ -498,14 +508,7 @@ impl<T: Float> RemoteMaster<T> {
                 self.measured_slave
             };
             if let Some((x, v)) = slave {
-                let [px, py, pz] = self.telemetry.effector_m;
-                let [vx, vy, vz] = self.telemetry.velocity_m_s;
-                let master = MasterState {
-                    position: Vector3::new(px, py, pz),
-                    velocity: Vector3::new(vx, vy, vz),
-                    acceleration: Vector3::zeros(),
-                };
-                self.command = self.tracking.task_acceleration(&master, &x, &v).0;
+                self.command = self.tracking.task_acceleration(master, &x, &v).0;
                 self.telemetry.slave_estimate_m = Some([x.x, x.y, x.z]);
             }
         }
@@ -606,9 +609,9 @@ impl<T: Float> Machine for RemoteMaster<T> {
     ) -> Result<Step<MasterOutputs<T>>, RemoteMasterFault> {
         let (q, q_dot) = self.measure(&inputs.encoder_counts)?;
         self.take_report(&inputs.report);
-        let acceleration = self.fixture_forces(job, &q, &q_dot)?;
+        let (acceleration, master) = self.fixture_forces(job, &q, &q_dot)?;
         let force_n = self.actuate(&acceleration, &q_dot)?;
-        let command = self.slave_command(job.laser_on);
+        let command = self.slave_command(&master, job.laser_on);
         Ok(Step::Continue(MasterOutputs { force_n, command }))
     }
 

@@ -243,24 +243,28 @@ impl<T: Float> RemoteSlave<T> {
         }
     }
 
-    /// The job's approach: one joint-space segment to IK(start).
-    fn approach_of(&self, job: &FollowJob) -> Result<JointJob<3>, FollowJobError> {
-        let geometry = self.slave.geometry();
+    /// The job's approach, built in `approach`: one joint-space segment to IK(start),
+    /// checked against the carriages' travel.
+    fn plan_approach(
+        slave: &DeltaSlave<T>,
+        job: &FollowJob,
+        approach: &mut JointJob<3>,
+    ) -> Result<(), FollowJobError> {
         let [x, y, z] = job.start_m.map(lit::<T>);
-        let q = geometry
+        let q = slave
+            .geometry()
             .inverse(&Vector3::new(x, y, z))
             .map_err(FollowJobError::Unreachable)?;
-        let segment = Segment {
+        approach.clear();
+        // Capacity MAX_SEGMENTS ≥ 1.
+        let _ = approach.push(Segment {
             target_m: [q.x, q.y, q.z].map(|c| c.to_f64()),
             duration_s: job.approach_s,
-        };
-        let approach =
-            JointJob::from_slice(&[segment]).ok_or(FollowJobError::Approach(JobError::Empty))?;
-        self.slave
+        });
+        slave
             .joints()
-            .check_job(&approach)
-            .map_err(FollowJobError::Approach)?;
-        Ok(approach)
+            .check_job(approach)
+            .map_err(FollowJobError::Approach)
     }
 
     /// The command's acceleration in `T`, clamped; `None` if a component is not finite.
@@ -281,8 +285,7 @@ impl<T: Float> RemoteSlave<T> {
         hall: &[[u16; 3]; 3],
         acceleration: &Vector3<T>,
     ) -> Result<([T; 3], T), DeltaFault> {
-        let geometry = *self.slave.geometry();
-        let joints = self.slave.joints_mut();
+        let (geometry, joints) = self.slave.geometry_and_joints();
         let (q, q_dot) = joints.measure(hall).map_err(DeltaFault::Joint)?;
         let (q, q_dot) = (Vector3::from(q), Vector3::from(q_dot));
         let (p, v) = geometry
@@ -404,7 +407,8 @@ impl<T: Float> Machine for RemoteSlave<T> {
             .laser()
             .mode(&mode)
             .map_err(|e| FollowJobError::Laser(e.kind))?;
-        self.approach_of(job).map(|_| ())
+        // The slower context's check: a temporary job is fine there.
+        Self::plan_approach(&self.slave, job, &mut JointJob::new())
     }
 
     fn begin_job(&mut self, job: &FollowJob) -> Result<(), FollowJobError> {
@@ -414,7 +418,8 @@ impl<T: Float> Machine for RemoteSlave<T> {
             .laser()
             .mode(&mode)
             .map_err(|e| FollowJobError::Laser(e.kind))?;
-        self.approach = self.approach_of(job)?;
+        // Built in place: begin_job runs in the control period.
+        Self::plan_approach(&self.slave, job, &mut self.approach)?;
         let approach = &self.approach;
         self.slave
             .joints_mut()

@@ -312,14 +312,15 @@ impl<const N: usize> StreamReceiver<1, N> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::codec::sdct::Selection;
     use std::vec::Vec;
 
-    /// A link that hands every frame straight over.
+    /// A link that hands every frame straight over (the frames in flight are open to
+    /// tests that cut or corrupt one).
     #[derive(Default)]
-    struct Loopback(Vec<Vec<u8>>);
+    pub(crate) struct Loopback(pub(crate) Vec<Vec<u8>>);
 
     impl FrameLink for Loopback {
         fn send(&mut self, frame: &[u8]) -> Result<(), LinkBusy> {

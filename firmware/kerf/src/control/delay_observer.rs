@@ -123,7 +123,11 @@ impl<T: Float, const H: usize> DelayObserver<T, H> {
     pub fn restart(&mut self, slave_position: Vector3<T>) {
         self.model_position = slave_position;
         self.model_velocity = Vector3::zeros();
-        self.history = [None; H];
+        // In place: an array temporary of the history's size would land on the
+        // control period's stack.
+        for slot in &mut self.history {
+            *slot = None;
+        }
         self.next = 0;
         self.correction = Vector3::zeros();
         self.correction_rate_m_s = Vector3::zeros();
