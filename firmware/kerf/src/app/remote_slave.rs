@@ -292,8 +292,11 @@ impl<T: Float> RemoteSlave<T> {
             .task_state(&q, &q_dot)
             .map_err(DeltaFault::Kinematics)?;
         // The nominal model executes the command as the master's does (semi-implicit
-        // Euler, `control::delay_observer`); the local loop holds the slave on it.
-        let (mut model_p, mut model_v) = self.model.unwrap_or((p, v));
+        // Euler, `control::delay_observer`); the local loop holds the slave on it. It
+        // starts where the slave rests (waiting, or held after a silence) and at rest,
+        // as the master's observer starts from the slave's report: a measured velocity
+        // would lock its noise into the model as a drift only the round trip corrects.
+        let (mut model_p, mut model_v) = self.model.unwrap_or((p, Vector3::zeros()));
         model_v += acceleration * self.ts;
         model_p += model_v * self.ts;
         self.model = Some((model_p, model_v));
