@@ -6,12 +6,17 @@ use std::env;
 fn main() {
     println!("cargo:rerun-if-changed=../../memory.x");
     println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo:rerun-if-changed=data/remote_commands.krfr");
     if env::var("TARGET").is_ok_and(|t| t.starts_with("thumb")) {
         if env::var_os("CARGO_FEATURE_QEMU").is_some() {
             println!("cargo:rustc-link-arg-bins=--defsym=_kerf_flash_origin=0");
             // The contour image's simulated plant, operator and queues need more than
             // the board's 128 KiB (memory.x); 1 MiB of the model's 4 MiB SRAM.
             println!("cargo:rustc-link-arg-bin=contour=--defsym=_kerf_ram_length=0x100000");
+            // The remote image's slave calibrates in place (the fit's working set on
+            // the stack) and carries the recorded frames (87 KB) beside its code.
+            println!("cargo:rustc-link-arg-bin=remote=--defsym=_kerf_ram_length=0x100000");
+            println!("cargo:rustc-link-arg-bin=remote=--defsym=_kerf_flash_length=0x100000");
             // The benchmark image links every kernel beside its peers: 1 MiB of the
             // model's 4 MiB code memory.
             println!("cargo:rustc-link-arg-bin=bench=--defsym=_kerf_flash_length=0x100000");

@@ -10,18 +10,15 @@
 //! speed), a steady push across it with a 2 N step inside a window (the fixture's
 //! stiffness), 0.3 N of tremor at 8.7 and 11.3 Hz in the plane, 0.5 N down.
 
-use hal_mock::delta::SimulatedDelta;
 use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::link::{FrameEnd, LinkConfig};
 use hal_mock::master::SimulatedMaster;
 use heapless::spsc::Queue;
-use kerf::app::remote_link::{MasterLink, SlaveLink};
+use kerf::app::remote_link::MasterLink;
 use kerf::app::remote_master::{
     FixtureJob, HapticConfig, RemoteMaster, RemoteMasterConfig, RemoteMasterInputs,
 };
-use kerf::app::remote_slave::{
-    FollowJob, FollowPhase, RemoteSlave, RemoteSlaveConfig, RemoteSlaveInputs,
-};
+use kerf::app::remote_slave::{FollowJob, FollowPhase, RemoteSlave, RemoteSlaveConfig};
 use kerf::app::stream::MAX_FRAME_LEN;
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::codec::sdct::{SdctConfig, Selection};
@@ -30,7 +27,7 @@ use kerf::control::constraint::FixtureConfig;
 use kerf::control::dob::DobConfig;
 use kerf::control::laser::LaserMode;
 use kerf::control::preview::PreviewConfig;
-use kerf::hal::{FrameLink, LinkBusy, SampleInputs, WriteOutputs};
+use kerf::hal::{FrameLink, LinkBusy};
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
 use kerf::sensing::encoder::EncoderConfig;
@@ -38,6 +35,7 @@ use kerf::sensing::velocity::TrackingObserverConfig;
 use kerf::trajectory::constraint::ConstraintConfig;
 use kerf::trajectory::shapes::ellipse;
 use kerf_sim::operator::Operator;
+use kerf_sim::remote::{keops_site, RecordingHeader, RecordingWriter, SlaveSite, BLOCK};
 use std::f64::consts::PI;
 
 /// Control period of both machines, s.
@@ -45,7 +43,7 @@ pub const TS: f64 = 1e-4;
 /// Control periods per link sample (1 kHz samples).
 pub const D: u32 = 10;
 /// Samples per SDCT block.
-pub const N: usize = 16;
+pub const N: usize = BLOCK;
 /// The master's carriages at power-up (its homing stops), m.
 pub const MASTER_HOME_M: [f64; 3] = [0.07; 3];
 /// Contour points.
@@ -208,7 +206,14 @@ pub struct RemoteRun {
     pub master_centre_m: [f64; 3],
     /// The contour the master follows (x, y), m.
     pub contour_m: Vec<[f64; 2]>,
+    /// What reached the slave (`kerf_sim::remote::Recording`), tracking counted from
+    /// [`RECORDING_MEASURE_FROM_S`].
+    pub recording: Vec<u8>,
 }
+
+/// Where a recording's tracking summary starts, s after the master's start: where the
+/// scenario's own tracking figures start (past the start from rest).
+pub const RECORDING_MEASURE_FROM_S: f64 = 2.0;
 
 impl RemoteRun {
     /// |slave − scaled master| over samples with `t_s ≥ from_s`: (max, RMS), m;
@@ -309,6 +314,27 @@ impl FrameLink for Wire {
 
     fn receive(&mut self, buf: &mut [u8]) -> Option<usize> {
         self.end.receive(buf)
+    }
+}
+
+/// The command link as the slave's end reads it, every frame recorded with its
+/// arrival period after the master's start.
+struct Tap<'a> {
+    wire: &'a mut Wire,
+    recording: Option<(&'a mut RecordingWriter, u32)>,
+}
+
+impl FrameLink for Tap<'_> {
+    fn send(&mut self, frame: &[u8]) -> Result<(), LinkBusy> {
+        self.wire.send(frame)
+    }
+
+    fn receive(&mut self, buf: &mut [u8]) -> Option<usize> {
+        let len = self.wire.receive(buf)?;
+        if let (Some((writer, arrival)), Some(frame)) = (self.recording.as_mut(), buf.get(..len)) {
+            writer.frame(*arrival, frame);
+        }
+        Some(len)
     }
 }
 
@@ -488,37 +514,36 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
         selection: Selection::Largest,
     };
 
-    let sensors = kerf_sim::slave::SlaveScenario::square().sensors;
-    let mut slave_plant = SimulatedDelta::new(
-        &slave_config.slave.delta,
-        case.slave_plant,
-        sensors,
-        TS,
-        7,
-        slave_config.slave.joints.home_m,
-    )
-    .map_err(setup("slave plant"))?;
-    let slave = RemoteSlave::<f64>::new(&slave_config)
-        .map_err(|e| RemoteError::Setup(format!("slave: {e}")))?;
+    let margin = case.network.jitter_ms * 10 * 3 / 2 + 5;
+    let site = keops_site(case.slave_plant, case.m, D, margin);
     let mut slave_commands: Queue<Command<RemoteSlave<f64>>, 8> = Queue::new();
     let mut slave_reports: Queue<Report<RemoteSlave<f64>>, 64> = Queue::new();
     let (mut to_slave, slave_in) = slave_commands.split();
     let (slave_out, mut from_slave) = slave_reports.split();
-    let mut slave_supervisor = Supervisor::new(slave, slave_in, slave_out);
-    slave_supervisor.set_telemetry_decimation(0);
-    let mut operator = Operator::<RemoteSlave<f64>, 3>::new(
-        slave_config.slave.joints.hall,
-        None,
-        FollowJob {
-            start_m: slave_start,
-            approach_s: 0.5,
-            laser: Some(case.laser),
-        },
-    );
+    let mut slave = SlaveSite::<f64>::new(&site, slave_in, slave_out)
+        .map_err(|e| RemoteError::Setup(format!("slave: {e:?}")))?;
+    let follow = FollowJob {
+        start_m: slave_start,
+        approach_s: 0.5,
+        laser: Some(case.laser),
+    };
+    let mut operator =
+        Operator::<RemoteSlave<f64>, 3>::new(slave_config.slave.joints.hall, None, follow);
     operator.start(&mut to_slave);
-    let margin = case.network.jitter_ms * 10 * 3 / 2 + 5;
-    let mut slave_link = SlaveLink::<N, 256>::new(&sdct, D, margin)
-        .map_err(|e| RemoteError::Setup(format!("slave link: {e}")))?;
+    let periods = (case.seconds / TS) as u64;
+    let mut recording = RecordingWriter::new(RecordingHeader {
+        m: case.m as u8,
+        samples_per_command: D as u16,
+        margin_periods: margin,
+        start_m: slave_start.map(|c| c as f32),
+        laser_power_w: match case.laser {
+            LaserMode::ConstantPower { power_w } => power_w as f32,
+            _ => 0.0,
+        },
+        approach_s: follow.approach_s as f32,
+        periods: periods as u32,
+        measure_from: (RECORDING_MEASURE_FROM_S / TS) as u32,
+    });
 
     let mut master_plant = SimulatedMaster::new(
         &DeltaConfig::MASTER_HORIZONTAL,
@@ -534,41 +559,19 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
 
     // The slave calibrates and starts its follow job first (the master's hand waits).
     let mut now = 0u64;
-    let slave_step = |now: u64,
-                      supervisor: &mut Supervisor<'_, RemoteSlave<f64>>,
-                      plant: &mut SimulatedDelta,
-                      forward: &mut Wire,
-                      backward: &mut Wire,
-                      link: &mut SlaveLink<N, 256>| {
+    while slave.supervisor().machine().phase() != Some(FollowPhase::Waiting) {
         forward.set_now(now);
         backward.set_now(now);
-        let (command, fresh) = link.receive(now as u32, forward);
-        let inputs = RemoteSlaveInputs {
-            hall: plant.sample(),
-            command,
-            fresh,
+        let mut tap = Tap {
+            wire: &mut forward,
+            recording: None,
         };
-        let outputs = supervisor.step(&inputs);
-        plant.write(&outputs);
-        let position = supervisor
-            .machine()
-            .report_position_m()
-            .map(|p| p.map(|c| c as f32));
-        link.report(position, backward);
-        outputs
-    };
-    while slave_supervisor.machine().phase() != Some(FollowPhase::Waiting) {
-        slave_step(
-            now,
-            &mut slave_supervisor,
-            &mut slave_plant,
-            &mut forward,
-            &mut backward,
-            &mut slave_link,
-        );
+        slave
+            .step(now as u32, &mut tap, &mut backward)
+            .map_err(setup("slave plant"))?;
         operator.poll(&mut from_slave, &mut to_slave);
         now += 1;
-        if now > 200_000 || slave_plant.error.is_some() {
+        if now > 200_000 {
             return Err(RemoteError::Setup(format!(
                 "slave did not start: {:?}",
                 operator.state()
@@ -578,7 +581,6 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
 
     let mut master = MasterImage::new(&master_config, &sdct, 1, job.clone())?;
     let mut samples = Vec::new();
-    let periods = (case.seconds / TS) as u64;
     // Each command's tick: the scaled master then, and the period it was computed.
     let mut tick_reference: std::collections::HashMap<u32, ([f64; 3], u64)> = Default::default();
     let mut session = 1;
@@ -644,32 +646,30 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
         if let Some((tick, _)) = outputs.command {
             let scaled = Vector3::from(cs) + (x - Vector3::from(cm)) * case.scale;
             tick_reference.insert(tick, (scaled.into(), now));
+            if session == 1 {
+                recording.reference(tick, scaled.map(|c| c as f32).into());
+            }
         }
         master.link.send(outputs.command, &mut forward);
 
         // The slave's period.
-        let slave_out = slave_step(
-            now,
-            &mut slave_supervisor,
-            &mut slave_plant,
-            &mut forward,
-            &mut backward,
-            &mut slave_link,
-        );
+        let mut tap = Tap {
+            wire: &mut forward,
+            recording: Some((&mut recording, k as u32)),
+        };
+        let slave_out = slave.step(now as u32, &mut tap, &mut backward);
         operator.poll(&mut from_slave, &mut to_slave);
-        if master_plant.error.or(slave_plant.error).is_some() {
+        let (Ok(slave_out), None) = (slave_out, master_plant.error) else {
             // The mechanism ran away (a loop that diverged): the run ends here.
             break;
-        }
-        let executed = slave_link
+        };
+        let executed = slave
+            .link()
             .executing()
             .and_then(|tick| tick_reference.get(&tick).copied());
-        let p = slave_plant
-            .plant
-            .effector_m()
-            .map_err(setup("slave plant"))?;
+        let slave_plant = &slave.plant().plant;
+        let p = slave_plant.effector_m().map_err(setup("slave plant"))?;
         let pv = slave_plant
-            .plant
             .effector_velocity_m_s()
             .map_err(setup("slave plant"))?;
         samples.push(RemoteSample {
@@ -695,12 +695,13 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
             backward.bytes as f64 / seconds,
         ],
         lost_frames: forward.end.link.lost() + backward.end.link.lost(),
-        refused_frames: slave_link.refused(),
-        restarts: slave_link.restarts(),
-        slave_mode: slave_supervisor.mode(),
+        refused_frames: slave.link().refused(),
+        restarts: slave.link().restarts(),
+        slave_mode: slave.supervisor().mode(),
         master_mode: master.supervisor.mode(),
         slave_centre_m: cs,
         master_centre_m: cm,
         contour_m: points,
+        recording: recording.finish(),
     })
 }

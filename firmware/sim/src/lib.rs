@@ -9,6 +9,7 @@ extern crate std;
 
 pub mod contour;
 pub mod operator;
+pub mod remote;
 pub mod scenario;
 pub mod slave;
 #[cfg(feature = "std")]

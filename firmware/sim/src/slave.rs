@@ -14,7 +14,7 @@ use kerf::app::joints::Segment;
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::app::PeriodClock;
 use kerf::hal::Monotonic;
-use kerf::kinematics::delta::{DeltaGeometry, KinematicsError};
+use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
 use kerf::kinematics::Vector3;
 use kerf::scalar::Float;
 use kerf::ConfigError;
@@ -135,6 +135,24 @@ pub struct SlavePeriod {
     pub laser_duty: f64,
 }
 
+/// The simulated delta at rest at carriage positions `home_m` with `substeps` RK4 steps
+/// per period of `period_s`; carriage k's sensors are `sensors[k]`, seeded `seed + k`.
+pub(crate) fn simulated_delta(
+    delta: &DeltaConfig,
+    plant: DeltaPlantParams,
+    sensors: [HallSensorParams; 3],
+    period_s: f64,
+    seed: u64,
+    home_m: [f64; 3],
+    substeps: u32,
+) -> Result<SimulatedDelta, KinematicsError> {
+    let mut simulated = SimulatedDelta::new(delta, plant, sensors, period_s, seed, home_m)?;
+    if substeps != 4 {
+        simulated.plant = DeltaPlant::new(delta, plant, period_s, substeps, Vector3::from(home_m))?;
+    }
+    Ok(simulated)
+}
+
 /// The slave machine and the simulated delta: what the control interrupt owns.
 pub struct SlaveRig<'q, T: Float> {
     scenario: SlaveScenario,
@@ -158,25 +176,16 @@ impl<'q, T: Float> SlaveRig<'q, T> {
         let mut supervisor = Supervisor::new(machine, commands, reports);
         supervisor.set_telemetry_decimation(0);
         let config = &scenario.machine;
-        let mut plant = SimulatedDelta::new(
+        let plant = simulated_delta(
             &config.delta,
             scenario.plant,
             scenario.sensors,
             config.joints.period_s,
             scenario.seed,
             config.joints.home_m,
+            scenario.substeps,
         )
         .map_err(SlaveError::Plant)?;
-        if scenario.substeps != 4 {
-            plant.plant = DeltaPlant::new(
-                &config.delta,
-                scenario.plant,
-                config.joints.period_s,
-                scenario.substeps,
-                Vector3::from(config.joints.home_m),
-            )
-            .map_err(SlaveError::Plant)?;
-        }
         let geometry =
             DeltaGeometry::new(&config.delta).map_err(|e| SlaveError::Config(e.within("delta")))?;
         let clock = PeriodClock::new(config.joints.period_s, plant.tick_hz())
