@@ -283,13 +283,17 @@ impl<T: Float> RemoteMaster<T> {
         if config.samples_per_command == 0 {
             return Err(ConfigError::out_of_range("samples_per_command"));
         }
+        // The observer's only own setting is this config's observer bandwidth: name it so.
+        let observer_bandwidth =
+            positive("observer_bandwidth_rad_s", config.observer_bandwidth_rad_s)?;
         let observer = DelayObserver::new(
             &DelayObserverConfig {
                 period_s: ts,
-                correction_bandwidth_rad_s: config.observer_bandwidth_rad_s,
+                correction_bandwidth_rad_s: observer_bandwidth,
             },
             Vector3::zeros(),
-        )?;
+        )
+        .map_err(|_| ConfigError::out_of_range("observer_bandwidth_rad_s"))?;
         Ok(Self {
             geometry: DeltaGeometry::new(&config.delta).within("delta")?,
             encoders: [encoder(0, e0)?, encoder(1, e1)?, encoder(2, e2)?],

@@ -271,7 +271,8 @@ impl<T: Float> RemoteSlave<T> {
     fn acceleration(&self, command: &RemoteCommand) -> Option<Vector3<T>> {
         let [x, y, z] = command.acceleration_m_s2.map(|a| lit::<T>(f64::from(a)));
         let a = Vector3::new(x, y, z);
-        if !(a.x + a.y + a.z).is_finite() {
+        // Each component (a sum would overflow on finite extremes, which clamp).
+        if !a.iter().all(|c| c.is_finite()) {
             return None;
         }
         let max = self.max_acceleration;
@@ -553,5 +554,105 @@ impl<T: Float> HallMachine<3> for RemoteSlave<T> {
         samples: &CalibrationFit<3>,
     ) -> Result<([HallAxis<T>; 3], [SelfCalibration; 3]), CalibrationFailure> {
         fit_sensors(hall, samples)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::string::ToString;
+
+    fn rejected(config: &RemoteSlaveConfig) -> std::string::String {
+        match RemoteSlave::<f32>::new(config) {
+            Err(e) => e.to_string(),
+            Ok(_) => std::panic!("accepted {config:?}"),
+        }
+    }
+
+    #[test]
+    fn bad_timeouts_and_limits_are_named() {
+        let keops = RemoteSlaveConfig::KEOPS;
+        assert!(RemoteSlave::<f32>::new(&keops).is_ok());
+        for (config, field) in [
+            (
+                RemoteSlaveConfig {
+                    hold_after_s: f64::NAN,
+                    ..keops
+                },
+                "hold_after_s",
+            ),
+            (
+                RemoteSlaveConfig {
+                    hold_after_s: 0.0,
+                    ..keops
+                },
+                "hold_after_s",
+            ),
+            (
+                RemoteSlaveConfig {
+                    give_up_after_s: f64::INFINITY,
+                    ..keops
+                },
+                "give_up_after_s",
+            ),
+            // Giving up before holding would skip the safe stop.
+            (
+                RemoteSlaveConfig {
+                    give_up_after_s: keops.hold_after_s,
+                    ..keops
+                },
+                "give_up_after_s",
+            ),
+            (
+                RemoteSlaveConfig {
+                    max_acceleration_m_s2: -1.0,
+                    ..keops
+                },
+                "max_acceleration_m_s2",
+            ),
+            (
+                RemoteSlaveConfig {
+                    max_acceleration_m_s2: 1e39,
+                    ..keops
+                },
+                "max_acceleration_m_s2",
+            ),
+        ] {
+            let message = rejected(&config);
+            assert!(message.starts_with(field), "{message}");
+        }
+        let mut bad_slave = keops;
+        bad_slave.slave.joints.period_s = 0.0;
+        assert!(
+            rejected(&bad_slave).starts_with("slave."),
+            "{}",
+            rejected(&bad_slave)
+        );
+    }
+
+    #[test]
+    fn commands_are_clamped_and_non_finite_ones_refused() {
+        let slave = RemoteSlave::<f32>::new(&RemoteSlaveConfig::KEOPS).unwrap();
+        let max = RemoteSlaveConfig::KEOPS.max_acceleration_m_s2 as f32;
+        let command = |a: [f32; 3]| RemoteCommand {
+            acceleration_m_s2: a,
+            laser_on: true,
+        };
+        let a = slave.acceleration(&command([0.5, -3.0, 1e-6])).unwrap();
+        assert_eq!([a.x, a.y, a.z], [0.5, -3.0, 1e-6]);
+        let a = slave.acceleration(&command([1e30, -1e30, max])).unwrap();
+        assert_eq!([a.x, a.y, a.z], [max, -max, max]);
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            for k in 0..3 {
+                let mut a = [0.1; 3];
+                a[k] = bad;
+                assert_eq!(slave.acceleration(&command(a)), None, "{a:?}");
+            }
+        }
+        // Finite components whose sum overflows f32 are still finite commands.
+        let a = slave
+            .acceleration(&command([f32::MAX, f32::MAX, 0.0]))
+            .unwrap();
+        assert_eq!([a.x, a.y], [max, max]);
     }
 }
