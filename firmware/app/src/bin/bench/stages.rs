@@ -2,15 +2,17 @@
 //! inputs the period sees. Each measured period's Hall counts and axis states (copied
 //! before the period runs) go through the same public kernels the period calls: the
 //! three decodes with their velocity observers (`AxisLaw::measure`), the contouring law
-//! (`Contouring::joint_acceleration`: FK, Jx, the frame, the law, Jx⁻¹ and J̇x), FK, Jx
-//! and J̇x alone (inside the law), and the three DOBs (`AxisLaw::actuate`). The task
+//! (`Contouring::joint_acceleration`: FK, Jx, the frame, the law, then
+//! q̈ = Jx⁻¹(ẍ − J̇x q̇)), FK, Jx and that last map alone (inside the law:
+//! `DeltaGeometry::joint_acceleration`, J̇x q̇ and Jx⁻¹ applied as vectors), and the
+//! three DOBs (`AxisLaw::actuate`). The task
 //! reference the law is given is the period's effector reference with its velocity,
 //! acceleration and jerk by differences over the last periods. The reference's stages
 //! run on an equivalent follower (the same 10-harmonic octagon, speed, ramps and
 //! period, started with the measured periods): one arc-length step with the curve's
 //! derivatives and the speed ramp, and the joint references of that sample (IK,
-//! Jx⁻¹ṗ, J̇x: `DeltaGeometry::joint_motion`). What is left of the period is the
-//! supervision and the period's own bookkeeping.
+//! Jx⁻¹ṗ, Jx⁻¹(p̈ − J̇x q̇) in one pass: `DeltaGeometry::joint_motion`). What is left of
+//! the period is the supervision and the period's own bookkeeping.
 
 use core::hint::black_box;
 use kerf::app::axis::{AxisLaw, AxisState, HallAxis};
@@ -26,12 +28,12 @@ use kerf_sim::contour::{octagon_efd, OCTAGON_MOTION};
 /// Stage names, in the order [`Stages::measure`] times them.
 pub const STAGES: [&str; 8] = [
     "EFD reference n=10 (derivatives, arc-length step, ramp)",
-    "joint references of the reference (IK, Jx⁻¹ṗ, J̇x)",
+    "joint references of the reference (IK, Jx⁻¹ṗ, Jx⁻¹(p̈ − J̇x q̇), one pass)",
     "three Hall decodes + velocity observers",
-    "contouring law (FK, Jx, frame, law, Jx⁻¹, J̇x)",
+    "contouring law (FK, Jx, frame, law, Jx⁻¹(ẍ − J̇x q̇))",
     "of which FK",
     "of which Jx",
-    "of which J̇x",
+    "of which Jx⁻¹(ẍ − J̇x q̇) (vector forms)",
     "three DOBs",
 ];
 
@@ -142,7 +144,11 @@ impl Stages {
             black_box(geometry.jacobian(black_box(&q), &p).ok());
         });
         let jx_dot = counter.once(&key(STAGES[6]), &mut || {
-            black_box(geometry.jacobian_derivative(black_box(&q), &p, &q_dot).ok());
+            black_box(
+                geometry
+                    .joint_acceleration(black_box(&q), &p, &q_dot, &task.acceleration)
+                    .ok(),
+            );
         });
         let dobs = counter.once(&key(STAGES[7]), &mut || {
             for k in 0..3 {

@@ -23,6 +23,37 @@ impl<T: Float> VelocityTerms<T> {
         let s = self.fd * self.inv_det_j2;
         Matrix3::from_columns(&[self.adj[0] * s.x, self.adj[1] * s.y, self.adj[2] * s.z])
     }
+
+    /// Jx v without forming Jx: adj G (fd ∘ v) / det J2.
+    #[inline(always)]
+    fn jacobian_times(&self, v: &Vector3<T>) -> Vector3<T> {
+        let [c1, c2, c3] = &self.adj;
+        let s = self.fd.component_mul(v) * self.inv_det_j2;
+        c1 * s.x + c2 * s.y + c3 * s.z
+    }
+
+    /// Jx⁻¹ v without forming Jx⁻¹: row i of Jx⁻¹ is −gi / fdi.
+    #[inline(always)]
+    fn inverse_times(&self, v: &Vector3<T>) -> Vector3<T> {
+        let [g1, g2, g3] = &self.g;
+        Vector3::new(
+            -dot3(g1, v) / self.fd.x,
+            -dot3(g2, v) / self.fd.y,
+            -dot3(g3, v) / self.fd.z,
+        )
+    }
+}
+
+#[inline]
+fn finite_vectors<T: Float, const K: usize>(
+    v: [Vector3<T>; K],
+) -> Result<[Vector3<T>; K], KinematicsError> {
+    let sum = v.iter().fold(T::zero(), |sum, v| sum + v.x + v.y + v.z);
+    if zero_if_finite(sum) == T::zero() {
+        Ok(v)
+    } else {
+        Err(KinematicsError::NotFinite)
+    }
 }
 
 /// `m`, or [`KinematicsError::NotFinite`] when an entry overflowed the scalar: finite
@@ -108,6 +139,16 @@ impl<T: Float> DeltaGeometry<T> {
         &self,
         p: &Vector3<T>,
     ) -> Result<(Vector3<T>, Matrix3<T>), KinematicsError> {
+        let (q, terms) = self.inverse_and_terms(p)?;
+        Ok((q, finite_matrix(terms.jacobian())?))
+    }
+
+    /// IK and the velocity terms at p in one pass (see [`Self::inverse_with_jacobian`]).
+    #[inline(always)]
+    fn inverse_and_terms(
+        &self,
+        p: &Vector3<T>,
+    ) -> Result<(Vector3<T>, VelocityTerms<T>), KinematicsError> {
         let [act1, act2, act3] = &self.actuators;
         let solved = (|| {
             let (d1, fd1) = act1.displacement_and_fd(p, 0)?;
@@ -119,10 +160,34 @@ impl<T: Float> DeltaGeometry<T> {
                 p + act3.half_sigma(d3),
             ];
             let terms = self.terms_of(g, Vector3::new(fd1, fd2, fd3))?;
-            Ok((Vector3::new(d1, d2, d3), terms.jacobian()))
+            Ok((Vector3::new(d1, d2, d3), terms))
         })();
-        let (q, jx) = solved.map_err(|err| or_not_finite(&[p], err))?;
-        Ok((q, finite_matrix(jx)?))
+        solved.map_err(|err| or_not_finite(&[p], err))
+    }
+
+    /// J̇x q̇ (m/s²) at the pose of `terms`, moving with q̇ and ṗ = Jx q̇, without forming
+    /// Jx or J̇x: with M = J̇1 + Ġ Jx as in [`Self::jacobian_derivative`], entry i of
+    /// M q̇ is ġi · ṗ + ḟdi q̇i (ġi = ṗ + wi q̇i, ḟdi = wi · ġi), and J̇x q̇ = adj G (M q̇) /
+    /// det J2: about 40 multiply-adds against the matrix products' 110.
+    #[inline(always)]
+    fn jacobian_derivative_times(
+        &self,
+        terms: &VelocityTerms<T>,
+        p_dot: &Vector3<T>,
+        q_dot: &Vector3<T>,
+    ) -> Vector3<T> {
+        let [act1, act2, act3] = &self.actuators;
+        let row = |rail: &Vector3<T>, q_dot_i: T| {
+            let g_dot = p_dot + rail * q_dot_i;
+            dot3(&g_dot, p_dot) + dot3(rail, &g_dot) * q_dot_i
+        };
+        let m = Vector3::new(
+            row(&act1.rail, q_dot.x),
+            row(&act2.rail, q_dot.y),
+            row(&act3.rail, q_dot.z),
+        );
+        let [c1, c2, c3] = &terms.adj;
+        (c1 * m.x + c2 * m.y + c3 * m.z) * terms.inv_det_j2
     }
 
     /// Jx = J2⁻¹ J1 at the consistent pair (q, p), so that ṗ = Jx q̇ (T eq. 146).
@@ -207,11 +272,12 @@ impl<T: Float> DeltaGeometry<T> {
         p_dot: &Vector3<T>,
         p_ddot: &Vector3<T>,
     ) -> Result<[Vector3<T>; 3], KinematicsError> {
-        let q = self.inverse(p)?;
-        let jx_inv = self.jacobian_inverse(&q, p)?;
-        let q_dot = jx_inv * p_dot;
-        let jx_dot = self.jacobian_derivative(&q, p, &q_dot)?;
-        Ok([q, q_dot, jx_inv * (p_ddot - jx_dot * q_dot)])
+        // IK and the velocity terms in one pass; J̇x q̇ and Jx⁻¹ applied as vectors.
+        let (q, terms) = self.inverse_and_terms(p)?;
+        let q_dot = terms.inverse_times(p_dot);
+        let rhs = p_ddot - self.jacobian_derivative_times(&terms, p_dot, &q_dot);
+        let q_ddot = terms.inverse_times(&rhs);
+        finite_vectors([q, q_dot, q_ddot])
     }
 
     /// The joint accelerations that give the effector the acceleration `p_ddot` (m/s²)
@@ -223,9 +289,12 @@ impl<T: Float> DeltaGeometry<T> {
         q_dot: &Vector3<T>,
         p_ddot: &Vector3<T>,
     ) -> Result<Vector3<T>, KinematicsError> {
-        let jx_dot = self.jacobian_derivative(q, p, q_dot)?;
-        let jx_inv = self.jacobian_inverse(q, p)?;
-        Ok(jx_inv * (p_ddot - jx_dot * q_dot))
+        // One set of velocity terms, and J̇x q̇ and Jx⁻¹ applied as vectors.
+        let terms = self.velocity_terms(q, p)?;
+        let p_dot = terms.jacobian_times(q_dot);
+        let rhs = p_ddot - self.jacobian_derivative_times(&terms, &p_dot, q_dot);
+        let [q_ddot] = finite_vectors([terms.inverse_times(&rhs)])?;
+        Ok(q_ddot)
     }
 }
 
@@ -346,6 +415,55 @@ mod tests {
             g.inverse_with_jacobian(&nan).err(),
             Some(crate::kinematics::delta::KinematicsError::NotFinite)
         );
+    }
+
+    /// The vector forms (J̇x q̇ and Jx⁻¹ v without the matrices) against the matrix
+    /// products they replace, over each preset's workspace with velocities and
+    /// accelerations in every direction.
+    #[test]
+    fn joint_motion_and_acceleration_equal_the_matrix_products() {
+        use nalgebra::Vector3;
+        for (name, c) in all() {
+            let g = geometry::<f64>(&c);
+            let mut compared = 0;
+            for (i, (q, p)) in workspace(&c, 8).into_iter().enumerate() {
+                let (Ok(jx_inv), Ok(jx)) = (g.jacobian_inverse(&q, &p), g.jacobian(&q, &p)) else {
+                    continue;
+                };
+                let k = i as f64;
+                let p_dot = Vector3::new((0.7 * k).sin(), (1.3 * k).cos(), (0.4 * k).sin()) * 0.3;
+                let p_ddot = Vector3::new((0.9 * k).cos(), (0.2 * k).sin(), (1.1 * k).cos()) * 20.0;
+                let q_dot = jx_inv * p_dot;
+                let jx_dot = g.jacobian_derivative(&q, &p, &q_dot).unwrap();
+                let q_ddot = jx_inv * (p_ddot - jx_dot * q_dot);
+                let [mq, mq_dot, mq_ddot] = g.joint_motion(&p, &p_dot, &p_ddot).unwrap();
+                let close =
+                    |a: Vector3<f64>, b: Vector3<f64>| (a - b).amax() <= 1e-10 * b.amax().max(1.0);
+                assert_eq!(Ok(mq), g.inverse(&p), "{name} {p}: IK is the same code");
+                assert!(close(mq_dot, q_dot), "{name} {p}: {mq_dot} vs {q_dot}");
+                assert!(close(mq_ddot, q_ddot), "{name} {p}: {mq_ddot} vs {q_ddot}");
+                let measured = g.joint_acceleration(&q, &p, &q_dot, &p_ddot).unwrap();
+                assert!(
+                    close(measured, q_ddot),
+                    "{name} {p}: {measured} vs {q_ddot}"
+                );
+                assert!(close(jx * q_dot, p_dot), "{name} {p}: round trip");
+                compared += 1;
+            }
+            assert!(compared > 100, "{name}: {compared}");
+        }
+        // A non-finite velocity or acceleration is an error, not a NaN.
+        let c = crate::kinematics::delta::DeltaConfig::SLAVE_KEOPS;
+        let g = geometry::<f32>(&c);
+        let (q, p) = workspace(&c, 4)[5];
+        let (q, p) = (q.cast::<f32>(), p.cast::<f32>());
+        let nan = Vector3::new(0.0, f32::NAN, 0.0);
+        let zero = Vector3::zeros();
+        let not_finite = Some(crate::kinematics::delta::KinematicsError::NotFinite);
+        assert_eq!(g.joint_motion(&p, &nan, &zero).err(), not_finite);
+        assert_eq!(g.joint_motion(&p, &zero, &nan).err(), not_finite);
+        assert_eq!(g.joint_acceleration(&q, &p, &nan, &zero).err(), not_finite);
+        assert_eq!(g.joint_acceleration(&q, &p, &zero, &nan).err(), not_finite);
     }
 
     /// Finite inputs so far outside the travel that the Jacobians' products overflow:
