@@ -12,11 +12,17 @@
 //! * [`Dct::forward`] / [`Dct::inverse`]: f32, fast. B. G. Lee's decomposition
 //!   (IEEE TASSP 1984): an N-point DCT is an N/2-point DCT of `x[n] + x[N−1−n]` (even
 //!   outputs) and one of `(x[n] − x[N−1−n]) / (2 cos((2n+1)π/2N))` (odd outputs, each the
-//!   sum of two neighbours). Done iteratively, stage by stage, between the caller's
-//!   buffer and one stack scratch buffer, with the last three levels (8 points)
-//!   unrolled in registers: (N/2) log2 N multiplications and about (3N/2) log2 N
-//!   additions, against N² multiply-adds for the matrix product. The inverse runs the
-//!   transposed stages in reverse order.
+//!   sum of two neighbours): (N/2) log2 N multiplications and about (3N/2) log2 N
+//!   additions, against N² multiply-adds for the matrix product. A 16-point block is
+//!   the recursion unrolled in registers. A 32- or 64-point block does not fit the 32
+//!   FPU registers, so it makes three passes over memory whatever N: the top split
+//!   stage (at N = 64 the top two, as one 4-point butterfly of x[i], x[31−i], x[32+i],
+//!   x[63−i]) from the caller's buffer into a stack array whose rows interleave the
+//!   16-point blocks; each block through the register kernel and back in place; the
+//!   top merge stage (stages) back into the caller's buffer with the orthonormal
+//!   scales applied. A pass per stage, as a radix-2 loop makes, streams the block
+//!   through memory 2 log2 N − 6 times more. The inverse runs the transposed stages in
+//!   reverse order the same way.
 //! * [`Dct::forward_q15`] / [`Dct::inverse_q15`]: integer, for Q15 data. A direct
 //!   O(N²) product with the Q15 cosine table and a 64-bit accumulator, chosen by
 //!   measurement (tests below, 99 blocks of uniform full-scale input per N):
@@ -48,11 +54,9 @@
 //!
 //! Accuracy against the f64 double sum (tests below, inputs uniform in [−1, 1]):
 //! f32 fast forward max error 4.1e-7 / 6.3e-7 / 1.1e-6 / 1.5e-6 and f32 round-trip max
-//! error 4.4e-7 / 9.0e-7 / 1.7e-6 / 3.5e-6 at N = 8 / 16 / 32 / 64 (tested bound
+//! error 4.4e-7 / 9.0e-7 / 1.7e-6 / 3.2e-6 at N = 8 / 16 / 32 / 64 (tested bound
 //! 2e-6 · √N); Q15 forward and inverse max error ≤ 1.5 LSB (bound √(N/2) + 1), Q15 round
 //! trip ≤ 2 LSB (bound 3).
-
-use core::mem::swap;
 
 use crate::error::ConfigError;
 
@@ -141,36 +145,19 @@ impl<const N: usize> Dct<N> {
         })
     }
 
-    fn stage_twiddles(&self, len: usize) -> &[f32] {
-        self.twiddle.get(len / 2..len).unwrap_or(&[])
-    }
-
-    /// Applies the orthonormal scales C(k)·√(2/N) in place.
-    fn orthonormal_scale(&self, v: &mut [f32]) {
-        for (k, x) in v.iter_mut().enumerate() {
-            *x *= if k == 0 { self.scale0 } else { self.scale };
-        }
-    }
-
-    /// Runs the 8-point base `kernel` (the last three levels, in registers) on every
-    /// block of 8 of `v`, in place.
-    #[inline(always)]
-    fn base_blocks<K>(&self, v: &mut [f32], kernel: K)
-    where
-        K: Fn([f32; 8], [f32; 4], [f32; 2], f32) -> [f32; 8],
-    {
-        let (t8, t4, t2) = self.base_twiddles();
-        for chunk in v.chunks_exact_mut(8) {
-            if let Ok(block) = <&mut [f32; 8]>::try_from(chunk) {
-                *block = kernel(*block, t8, t4, t2);
-            }
-        }
+    /// The twiddles of the stage of length 2H (heap slots H..2H), if N has that stage.
+    fn stage<const H: usize>(&self) -> Option<&[f32; H]> {
+        self.twiddle.get(H..)?.first_chunk()
     }
 
     /// Twiddles of the 8-point base kernel: L = 8 (4), L = 4 (2), L = 2 (1).
-    fn base_twiddles(&self) -> ([f32; 4], [f32; 2], f32) {
+    fn base(&self) -> Base {
         let t = |i: usize| self.twiddle.get(i).copied().unwrap_or(0.0);
-        ([t(4), t(5), t(6), t(7)], [t(2), t(3)], t(1))
+        Base {
+            t8: [t(4), t(5), t(6), t(7)],
+            t4: [t(2), t(3)],
+            t2: t(1),
+        }
     }
 
     /// In-place orthonormal DCT-II: `x` holds the samples on entry and c[0..N) on return.
@@ -178,48 +165,44 @@ impl<const N: usize> Dct<N> {
     /// NaN or ±∞ samples, and samples near `f32::MAX` whose sums overflow, pass through
     /// to the coefficients (a pure kernel: `SdctEncoder::encode` refuses them first).
     pub fn forward(&self, x: &mut [f32; N]) {
-        let mut scratch = [0.0f32; N];
-        let (mut src, mut dst): (&mut [f32], &mut [f32]) = (x, &mut scratch);
-        // Split stages, L = N, N/2, …, 16: [a | b] with a[i] = x[i] + x[L−1−i] and
-        // b[i] = (x[i] − x[L−1−i]) / (2 cos((2i+1)π/2L)).
-        let mut len = N;
-        while len > 8 {
-            let tw = self.stage_twiddles(len);
-            for ((s_lo, s_hi), (d_lo, d_hi)) in halved_blocks(src, dst, len) {
-                let pairs = s_lo.iter().zip(s_hi.iter().rev());
-                for (((&p, &q), (lo, hi)), &t) in pairs.zip(d_lo.iter_mut().zip(d_hi)).zip(tw) {
-                    *lo = p + q;
-                    *hi = (p - q) * t;
-                }
+        let base = self.base();
+        let scale = (self.scale0, self.scale);
+        let x: &mut [f32] = x;
+        // One branch per N (a constant, so one survives). N ≤ 16 stays in registers;
+        // N = 32 and 64 make the three passes of the module docs: split stage(s)
+        // into the interleaved rows, the 16-point blocks in place, merge stage(s)
+        // with the orthonormal scales back into `x`.
+        if let Ok(x) = <&mut [f32; 64]>::try_from(&mut *x) {
+            let (Some(t64), Some(t32), Some(t16)) = (self.stage(), self.stage(), self.stage())
+            else {
+                return;
+            };
+            let mut q = split2(x, t64, t32);
+            for c in 0..4 {
+                let y = dct16(&column(&q, c), t16, &base);
+                set_column(&mut q, c, &y);
             }
-            swap(&mut src, &mut dst);
-            len /= 2;
-        }
-        // The last three levels (L = 8, 4, 2) in registers, in place.
-        self.base_blocks(src, dct8);
-        // Merge stages, L = 16, 32, …, N: from A = DCT(a), B = DCT(b),
-        // X[2k] = A[k], X[2k+1] = B[k] + B[k+1] with B[L/2] = 0.
-        let mut len = 16;
-        while len <= N {
-            for (s, d) in src.chunks_exact(len).zip(dst.chunks_exact_mut(len)) {
-                let Some((even, odd)) = s.split_at_checked(len / 2) else {
-                    continue;
-                };
-                // Walk backwards so B[k+1] is the previous iteration's B[k].
-                let mut odd_next = 0.0;
-                for (pair, (&a, &b)) in d.chunks_exact_mut(2).zip(even.iter().zip(odd)).rev() {
-                    if let [x0, x1] = pair {
-                        *x0 = a;
-                        *x1 = b + odd_next;
-                        odd_next = b;
-                    }
-                }
+            merge2_scaled(&q, x, scale);
+        } else if let Ok(x) = <&mut [f32; 32]>::try_from(&mut *x) {
+            let (Some(t32), Some(t16)) = (self.stage(), self.stage()) else {
+                return;
+            };
+            let mut q = split_rows(x, t32);
+            for c in 0..2 {
+                let y = dct16(&column(&q, c), t16, &base);
+                set_column(&mut q, c, &y);
             }
-            swap(&mut src, &mut dst);
-            len *= 2;
+            merge_rows_scaled(&q, x, scale);
+        } else if let Ok(x) = <&mut [f32; 16]>::try_from(&mut *x) {
+            let Some(t16) = self.stage() else {
+                return;
+            };
+            let (a, b) = split::<8>(x, t16);
+            merge_scaled(&dct8(a, &base), &dct8(b, &base), x, scale);
+        } else if let Ok(x) = <&mut [f32; 8]>::try_from(&mut *x) {
+            *x = dct8(*x, &base);
+            scale_in_place(x, scale);
         }
-        // 2 (log2 N − 3) swaps: the result is back in the caller's buffer.
-        self.orthonormal_scale(src);
     }
 
     /// In-place orthonormal DCT-III (inverse of [`forward`](Self::forward)): `c` holds
@@ -228,46 +211,43 @@ impl<const N: usize> Dct<N> {
     /// Non-finite or overflowing coefficients pass through to the samples (a pure
     /// kernel: the packet decoder bounds what reaches it below 2^68).
     pub fn inverse(&self, c: &mut [f32; N]) {
-        // The stages below compute the plain sum Σk X[k] cos(…); fold the orthonormal
-        // scales into X first.
-        self.orthonormal_scale(c);
-        let mut scratch = [0.0f32; N];
-        let (mut src, mut dst): (&mut [f32], &mut [f32]) = (c, &mut scratch);
-        // Transpose of the merge stages, L = N, …, 16: even coefficients to the first
-        // half, odd ones summed with their predecessor to the second half.
-        let mut len = N;
-        while len > 8 {
-            for (s, d) in src.chunks_exact(len).zip(dst.chunks_exact_mut(len)) {
-                let Some((d_lo, d_hi)) = d.split_at_mut_checked(len / 2) else {
-                    continue;
-                };
-                let mut odd_prev = 0.0;
-                for ((pair, lo), hi) in s.chunks_exact(2).zip(d_lo).zip(d_hi) {
-                    if let [even, odd] = pair {
-                        *lo = *even;
-                        *hi = odd + odd_prev;
-                        odd_prev = *odd;
-                    }
-                }
+        let base = self.base();
+        let scale = (self.scale0, self.scale);
+        let c: &mut [f32] = c;
+        // The transposed passes of `forward` in reverse order: the top merge
+        // stage(s) transposed, with the orthonormal scales applied as the
+        // coefficients are read; the 16-point blocks in place; the top split
+        // stage(s) transposed, writing the samples back.
+        if let Ok(c) = <&mut [f32; 64]>::try_from(&mut *c) {
+            let (Some(t64), Some(t32), Some(t16)) = (self.stage(), self.stage(), self.stage())
+            else {
+                return;
+            };
+            let mut q = unmerge2_scaled(c, scale);
+            for k in 0..4 {
+                let y = idct16(&column(&q, k), t16, &base);
+                set_column(&mut q, k, &y);
             }
-            swap(&mut src, &mut dst);
-            len /= 2;
-        }
-        self.base_blocks(src, idct8);
-        // Transpose of the split stages, L = 16, …, N: x[i] = u + v·t, x[L−1−i] = u − v·t.
-        let mut len = 16;
-        while len <= N {
-            let tw = self.stage_twiddles(len);
-            for ((s_lo, s_hi), (d_lo, d_hi)) in halved_blocks(src, dst, len) {
-                let outs = d_lo.iter_mut().zip(d_hi.iter_mut().rev());
-                for (((&u, &v), &t), (lo, hi)) in s_lo.iter().zip(s_hi).zip(tw).zip(outs) {
-                    let y = v * t;
-                    *lo = u + y;
-                    *hi = u - y;
-                }
+            unsplit2(&q, t64, t32, c);
+        } else if let Ok(c) = <&mut [f32; 32]>::try_from(&mut *c) {
+            let (Some(t32), Some(t16)) = (self.stage(), self.stage()) else {
+                return;
+            };
+            let mut q = unmerge_rows_scaled(c, scale);
+            for k in 0..2 {
+                let y = idct16(&column(&q, k), t16, &base);
+                set_column(&mut q, k, &y);
             }
-            swap(&mut src, &mut dst);
-            len *= 2;
+            unsplit_rows(&q, t32, c);
+        } else if let Ok(c) = <&mut [f32; 16]>::try_from(&mut *c) {
+            let Some(t16) = self.stage() else {
+                return;
+            };
+            let (a, b) = unmerge_scaled::<8>(c, scale);
+            unsplit(&idct8(a, &base), &idct8(b, &base), t16, c);
+        } else if let Ok(c) = <&mut [f32; 8]>::try_from(&mut *c) {
+            scale_in_place(c, scale);
+            *c = idct8(*c, &base);
         }
     }
 
@@ -321,24 +301,311 @@ impl<const N: usize> Dct<N> {
     }
 }
 
-/// A block of the source and of the destination, each as (first half, second half).
-type HalvedBlock<'a> = ((&'a [f32], &'a [f32]), (&'a mut [f32], &'a mut [f32]));
+/// Twiddles of the 8-point base kernels, by value (they stay in registers).
+#[derive(Copy, Clone)]
+struct Base {
+    t8: [f32; 4],
+    t4: [f32; 2],
+    t2: f32,
+}
 
-/// The blocks of length `len` of `src` and `dst`, each split into its two halves.
+/// Multiplies c[0] by s_0 and the rest by s (`scale` = (s_0, s)).
 #[inline(always)]
-fn halved_blocks<'a>(
-    src: &'a [f32],
-    dst: &'a mut [f32],
-    len: usize,
-) -> impl Iterator<Item = HalvedBlock<'a>> {
-    src.chunks_exact(len)
-        .zip(dst.chunks_exact_mut(len))
-        .filter_map(move |(s, d)| {
-            Some((
-                s.split_at_checked(len / 2)?,
-                d.split_at_mut_checked(len / 2)?,
-            ))
-        })
+fn scale_in_place(v: &mut [f32], (s0, s): (f32, f32)) {
+    if let Some((first, rest)) = v.split_first_mut() {
+        *first *= s0;
+        for x in rest {
+            *x *= s;
+        }
+    }
+}
+
+/// Lee's split of a block of 2H samples `x` (stage L = 2H): the halves
+/// a[i] = x[i] + x[L−1−i] (their DCT gives the even outputs) and
+/// b[i] = (x[i] − x[L−1−i]) · t[i], t[i] = 1 / (2 cos((2i+1)π/2L)) (the odd ones).
+#[inline(always)]
+fn split<const H: usize>(x: &[f32], t: &[f32; H]) -> ([f32; H], [f32; H]) {
+    let (mut a, mut b) = ([0.0; H], [0.0; H]);
+    if let Some((lo, hi)) = x.split_at_checked(H) {
+        let pairs = lo.iter().zip(hi.iter().rev()).zip(t);
+        for (((&p, &q), &t), (a, b)) in pairs.zip(a.iter_mut().zip(&mut b)) {
+            *a = p + q;
+            *b = (p - q) * t;
+        }
+    }
+    (a, b)
+}
+
+/// Lee's merge of the H-point transforms A = DCT(a), B = DCT(b) of [`split`] into
+/// `out` (2H values): X[2k] = A[k], X[2k+1] = B[k] + B[k+1] with B[H] = 0.
+#[inline(always)]
+fn merge<const H: usize>(a: &[f32; H], b: &[f32; H], out: &mut [f32]) {
+    // Backwards, so that B[k+1] is the previous iteration's B[k].
+    let mut odd_next = 0.0;
+    for (pair, (&a, &b)) in out.chunks_exact_mut(2).zip(a.iter().zip(b)).rev() {
+        if let [x0, x1] = pair {
+            *x0 = a;
+            *x1 = b + odd_next;
+            odd_next = b;
+        }
+    }
+}
+
+/// [`merge`] with the orthonormal scales applied to the outputs: X[0]·s_0, X[k]·s.
+#[inline(always)]
+fn merge_scaled<const H: usize>(a: &[f32; H], b: &[f32; H], out: &mut [f32], (s0, s): (f32, f32)) {
+    let mut odd_next = 0.0;
+    for (pair, (&a, &b)) in out.chunks_exact_mut(2).zip(a.iter().zip(b)).rev() {
+        if let [x0, x1] = pair {
+            *x0 = a * s;
+            *x1 = (b + odd_next) * s;
+            odd_next = b;
+        }
+    }
+    if let (Some(x0), Some(&a0)) = (out.first_mut(), a.first()) {
+        *x0 = a0 * s0;
+    }
+}
+
+/// Transpose of [`merge`]: from 2H coefficients X, A[k] = X[2k] and
+/// B[k] = X[2k+1] + X[2k−1] (X[−1] = 0), each times the orthonormal scale of its
+/// coefficient (X[0]·s_0, the others ·s), which the stages below leave unchanged.
+#[inline(always)]
+fn unmerge_scaled<const H: usize>(c: &[f32], (s0, s): (f32, f32)) -> ([f32; H], [f32; H]) {
+    let (mut a, mut b) = ([0.0; H], [0.0; H]);
+    let mut odd_prev = 0.0;
+    for (pair, (a, b)) in c.chunks_exact(2).zip(a.iter_mut().zip(&mut b)) {
+        if let [even, odd] = pair {
+            *a = even * s;
+            *b = (odd + odd_prev) * s;
+            odd_prev = *odd;
+        }
+    }
+    if let (Some(a0), Some(&c0)) = (a.first_mut(), c.first()) {
+        *a0 = c0 * s0;
+    }
+    (a, b)
+}
+
+/// Transpose of [`merge`] without scales.
+#[inline(always)]
+fn unmerge<const H: usize>(c: &[f32]) -> ([f32; H], [f32; H]) {
+    let (mut a, mut b) = ([0.0; H], [0.0; H]);
+    let mut odd_prev = 0.0;
+    for (pair, (a, b)) in c.chunks_exact(2).zip(a.iter_mut().zip(&mut b)) {
+        if let [even, odd] = pair {
+            *a = *even;
+            *b = odd + odd_prev;
+            odd_prev = *odd;
+        }
+    }
+    (a, b)
+}
+
+/// Transpose of [`split`]: x[i] = u[i] + v[i]·t[i], x[L−1−i] = u[i] − v[i]·t[i] into
+/// `out` (2H values), from the inverse transforms u, v of the two halves.
+#[inline(always)]
+fn unsplit<const H: usize>(u: &[f32; H], v: &[f32; H], t: &[f32; H], out: &mut [f32]) {
+    if let Some((lo, hi)) = out.split_at_mut_checked(H) {
+        let outs = lo.iter_mut().zip(hi.iter_mut().rev());
+        for (((&u, &v), &t), (lo, hi)) in u.iter().zip(v).zip(t).zip(outs) {
+            let y = v * t;
+            *lo = u + y;
+            *hi = u - y;
+        }
+    }
+}
+
+/// Lee's split stages L = 64 and L = 32 in one pass over the 64 samples: row i of the
+/// result holds entry i of the four 16-point blocks [aa, ab, ba, bb] that the two
+/// stages of [`split`] leave (a, b from L = 64, each split again at L = 32). Sample
+/// i, 31 − i, 32 + i and 63 − i meet only each other in these two stages.
+#[inline(always)]
+fn split2(x: &[f32; 64], t64: &[f32; 32], t32: &[f32; 16]) -> [[f32; 4]; 16] {
+    let at = |v: &[f32], i: usize| v.get(i).copied().unwrap_or(0.0);
+    core::array::from_fn(|i| {
+        let j = 31 - i;
+        let (lo, hi) = (at(x, i) + at(x, 63 - i), at(x, j) + at(x, 32 + i));
+        let b_lo = (at(x, i) - at(x, 63 - i)) * at(t64, i);
+        let b_hi = (at(x, j) - at(x, 32 + i)) * at(t64, j);
+        let t = at(t32, i);
+        [lo + hi, (lo - hi) * t, b_lo + b_hi, (b_lo - b_hi) * t]
+    })
+}
+
+/// Lee's merge stages L = 32 and L = 64 in one pass, from the four transformed blocks
+/// [AA, AB, BA, BB] of [`split2`] (row j holds entry j of each) into `out`, with the
+/// orthonormal scales: A = merge(AA, AB), B = merge(BA, BB), X = merge(A, B), so
+/// X[4j] = AA[j], X[4j+1] = BA[j] + BB[j] + BB[j+1], X[4j+2] = AB[j] + AB[j+1],
+/// X[4j+3] = BB[j] + BB[j+1] + BA[j+1] (entries past 15 are 0).
+#[inline(always)]
+fn merge2_scaled(q: &[[f32; 4]; 16], out: &mut [f32; 64], (s0, s): (f32, f32)) {
+    // Backwards, carrying AB[j+1], BA[j+1] and BB[j+1].
+    let (mut ab_next, mut ba_next, mut bb_next) = (0.0, 0.0, 0.0);
+    for (x, &[aa, ab, ba, bb]) in out.chunks_exact_mut(4).zip(q).rev() {
+        if let [x0, x1, x2, x3] = x {
+            let odd = bb + bb_next; // B[2j+1]
+            *x0 = aa * s;
+            *x1 = (ba + odd) * s;
+            *x2 = (ab + ab_next) * s;
+            *x3 = (odd + ba_next) * s;
+            (ab_next, ba_next, bb_next) = (ab, ba, bb);
+        }
+    }
+    if let (Some(x0), Some(&[aa, ..])) = (out.first_mut(), q.first()) {
+        *x0 = aa * s0;
+    }
+}
+
+/// Transpose of [`merge2_scaled`]: from the 64 coefficients, row j of the result holds
+/// entry j of the four blocks [AA, AB, BA, BB] that the transposed merge stages L = 64
+/// and L = 32 leave, the orthonormal scales applied: AA[j] = X[4j],
+/// AB[j] = X[4j+2] + X[4j−2], BA[j] = X[4j+1] + X[4j−1], BB[j] = B[2j+1] + B[2j−1]
+/// with B[2j+1] = X[4j+3] + X[4j+1] (entries before 0 are 0).
+#[inline(always)]
+fn unmerge2_scaled(c: &[f32; 64], (s0, s): (f32, f32)) -> [[f32; 4]; 16] {
+    let at = |i: usize| c.get(i).copied().unwrap_or(0.0);
+    let mut q: [[f32; 4]; 16] = core::array::from_fn(|j| {
+        let (x1, x2, x3) = (at(4 * j + 1), at(4 * j + 2), at(4 * j + 3));
+        // X[4j−1], X[4j−2] and B[2j−1] = X[4j−1] + X[4j−3], zero before the block.
+        let (p1, p2, p3) = if j == 0 {
+            (0.0, 0.0, 0.0)
+        } else {
+            (at(4 * j - 3), at(4 * j - 2), at(4 * j - 1))
+        };
+        [
+            at(4 * j) * s,
+            (x2 + p2) * s,
+            (x1 + p3) * s,
+            ((x3 + x1) + (p3 + p1)) * s,
+        ]
+    });
+    if let (Some([aa, ..]), Some(&c0)) = (q.first_mut(), c.first()) {
+        *aa = c0 * s0;
+    }
+    q
+}
+
+/// Transpose of [`split2`]: the inverse-transformed blocks [aa, ab, ba, bb] (row i
+/// holds entry i of each) through the transposed split stages L = 32 and L = 64 into
+/// the 64 samples `out`.
+#[inline(always)]
+fn unsplit2(q: &[[f32; 4]; 16], t64: &[f32; 32], t32: &[f32; 16], out: &mut [f32; 64]) {
+    let Some((lo, hi)) = out.split_at_mut_checked(32) else {
+        return;
+    };
+    let Some((q0, q1)) = lo.split_at_mut_checked(16) else {
+        return;
+    };
+    let Some((q2, q3)) = hi.split_at_mut_checked(16) else {
+        return;
+    };
+    // Row i writes samples i (q0), 31 − i (q1 reversed), 32 + i (q2), 63 − i (q3
+    // reversed).
+    let outs = q0
+        .iter_mut()
+        .zip(q1.iter_mut().rev())
+        .zip(q2.iter_mut().zip(q3.iter_mut().rev()));
+    let tw = t64.iter().zip(t64.iter().rev()).zip(t32);
+    for ((&[aa, ab, ba, bb], ((&t_lo, &t_hi), &t)), ((x0, x1), (x2, x3))) in
+        q.iter().zip(tw).zip(outs)
+    {
+        let (y, z) = (ab * t, bb * t);
+        let (a_lo, a_hi) = (aa + y, aa - y);
+        let (b_lo, b_hi) = ((ba + z) * t_lo, (ba - z) * t_hi);
+        *x0 = a_lo + b_lo;
+        *x3 = a_lo - b_lo;
+        *x1 = a_hi + b_hi;
+        *x2 = a_hi - b_hi;
+    }
+}
+
+/// [`split`] of 32 samples with the halves interleaved: row i holds [a[i], b[i]].
+#[inline(always)]
+fn split_rows(x: &[f32; 32], t32: &[f32; 16]) -> [[f32; 2]; 16] {
+    let at = |v: &[f32], i: usize| v.get(i).copied().unwrap_or(0.0);
+    core::array::from_fn(|i| {
+        let (p, q) = (at(x, i), at(x, 31 - i));
+        [p + q, (p - q) * at(t32, i)]
+    })
+}
+
+/// [`merge_scaled`] from interleaved halves: row k holds [A[k], B[k]].
+#[inline(always)]
+fn merge_rows_scaled(q: &[[f32; 2]; 16], out: &mut [f32; 32], (s0, s): (f32, f32)) {
+    let mut odd_next = 0.0;
+    for (pair, &[a, b]) in out.chunks_exact_mut(2).zip(q).rev() {
+        if let [x0, x1] = pair {
+            *x0 = a * s;
+            *x1 = (b + odd_next) * s;
+            odd_next = b;
+        }
+    }
+    if let (Some(x0), Some(&[a0, _])) = (out.first_mut(), q.first()) {
+        *x0 = a0 * s0;
+    }
+}
+
+/// [`unmerge_scaled`] of 32 coefficients with the halves interleaved: row k holds
+/// [A[k], B[k]].
+#[inline(always)]
+fn unmerge_rows_scaled(c: &[f32; 32], (s0, s): (f32, f32)) -> [[f32; 2]; 16] {
+    let at = |i: usize| c.get(i).copied().unwrap_or(0.0);
+    let mut q: [[f32; 2]; 16] = core::array::from_fn(|k| {
+        let odd_prev = if k == 0 { 0.0 } else { at(2 * k - 1) };
+        [at(2 * k) * s, (at(2 * k + 1) + odd_prev) * s]
+    });
+    if let (Some([a0, _]), Some(&c0)) = (q.first_mut(), c.first()) {
+        *a0 = c0 * s0;
+    }
+    q
+}
+
+/// [`unsplit`] from interleaved halves (row i holds [u[i], v[i]]) into 32 samples.
+#[inline(always)]
+fn unsplit_rows(q: &[[f32; 2]; 16], t32: &[f32; 16], out: &mut [f32; 32]) {
+    if let Some((lo, hi)) = out.split_at_mut_checked(16) {
+        let outs = lo.iter_mut().zip(hi.iter_mut().rev());
+        for ((&[u, v], &t), (lo, hi)) in q.iter().zip(t32).zip(outs) {
+            let y = v * t;
+            *lo = u + y;
+            *hi = u - y;
+        }
+    }
+}
+
+/// Column `c` of the interleaved blocks of [`split2`].
+#[inline(always)]
+fn column<const C: usize>(q: &[[f32; C]; 16], c: usize) -> [f32; 16] {
+    core::array::from_fn(|i| q.get(i).and_then(|row| row.get(c)).copied().unwrap_or(0.0))
+}
+
+/// Writes `v` into column `c` of the interleaved blocks.
+#[inline(always)]
+fn set_column<const C: usize>(q: &mut [[f32; C]; 16], c: usize, v: &[f32; 16]) {
+    for (row, &v) in q.iter_mut().zip(v) {
+        if let Some(slot) = row.get_mut(c) {
+            *slot = v;
+        }
+    }
+}
+
+/// Unnormalized 16-point DCT-II: Lee's split into two [`dct8`] and the merge.
+#[inline(always)]
+fn dct16(x: &[f32; 16], t16: &[f32; 8], base: &Base) -> [f32; 16] {
+    let (a, b) = split::<8>(x, t16);
+    let mut y = [0.0; 16];
+    merge(&dct8(a, base), &dct8(b, base), &mut y);
+    y
+}
+
+/// Transpose of [`dct16`].
+#[inline(always)]
+fn idct16(c: &[f32; 16], t16: &[f32; 8], base: &Base) -> [f32; 16] {
+    let (a, b) = unmerge::<8>(c);
+    let mut y = [0.0; 16];
+    unsplit(&idct8(a, base), &idct8(b, base), t16, &mut y);
+    y
 }
 
 /// Unnormalized 2-point DCT-II (Lee's split with L = 2; the merge is the identity).
@@ -358,7 +625,7 @@ fn dct4([y0, y1, y2, y3]: [f32; 4], [ta, tb]: [f32; 2], t2: f32) -> [f32; 4] {
 /// Unnormalized 8-point DCT-II, Σn x[n] cos((2n+1)kπ/16): the last three levels of
 /// Lee's recursion unrolled so they run in registers.
 #[inline(always)]
-fn dct8(x: [f32; 8], t8: [f32; 4], t4: [f32; 2], t2: f32) -> [f32; 8] {
+fn dct8(x: [f32; 8], &Base { t8, t4, t2 }: &Base) -> [f32; 8] {
     let [x0, x1, x2, x3, x4, x5, x6, x7] = x;
     let [ta, tb, tc, td] = t8;
     let a = [x0 + x7, x1 + x6, x2 + x5, x3 + x4];
@@ -391,7 +658,7 @@ fn idct4([y0, y1, y2, y3]: [f32; 4], [ta, tb]: [f32; 2], t2: f32) -> [f32; 4] {
 
 /// Transpose of [`dct8`]: Σk X[k] cos((2n+1)kπ/16).
 #[inline(always)]
-fn idct8(c: [f32; 8], t8: [f32; 4], t4: [f32; 2], t2: f32) -> [f32; 8] {
+fn idct8(c: [f32; 8], &Base { t8, t4, t2 }: &Base) -> [f32; 8] {
     let [c0, c1, c2, c3, c4, c5, c6, c7] = c;
     let [ta, tb, tc, td] = t8;
     let [u0, u1, u2, u3] = idct4([c0, c2, c4, c6], t4, t2);
