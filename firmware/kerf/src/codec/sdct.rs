@@ -81,10 +81,29 @@ impl<const N: usize> Block<N> {
     }
 }
 
-/// Mask of the `m` largest |c\[k\]|, ties to the lower index. No allocation and no
-/// panic path. The m-th largest magnitude T is found first (`mth_largest`); then every
-/// |c| > T is kept and the remaining slots go to the lowest indices with |c| = T, which
-/// is the order a stable sort by descending magnitude gives.
+/// Mask of the `m` largest |c\[k\]|, ties to the lower index (the order a stable sort
+/// by descending magnitude gives). No allocation and no panic path.
+///
+/// For non-negative floats the IEEE bit pattern orders like the value, so the
+/// selection runs on integers, and mostly on the 8 exponent bits (NaN is rejected
+/// before the transform). Three passes over the block, none of them with a branch
+/// per value:
+///
+/// 1. the largest exponent E;
+/// 2. a histogram of how many binades below E each magnitude lies (0..=30, and 31 for
+///    everything further down: zeros, subnormals, values below 2^−31 of the peak),
+///    read from the top until it holds m values: the bucket d* that holds the m-th
+///    largest, and r ≥ 1 of its members still wanted;
+/// 3. two comparisons per magnitude against the bounds of d*, shifted into two `u32`
+///    masks (32 indices at a time, so no 64-bit variable shift per index): the
+///    magnitudes above d* are kept, and the members of d* are the candidates.
+///
+/// The candidates then go, in index order, through a sorted buffer of the r largest,
+/// each entering after every member at least as large, so an equal later one never
+/// displaces an earlier one. A block of DCT coefficients spreads over many binades,
+/// so the buffer sees a few values; the worst case (every magnitude in one binade, in
+/// ascending order) is N insertions into a buffer of r ≤ m: bounded, with no
+/// recursion.
 pub fn select_largest<const N: usize>(c: &[f32; N], m: usize) -> u64 {
     if m == 0 {
         return 0;
@@ -92,77 +111,75 @@ pub fn select_largest<const N: usize>(c: &[f32; N], m: usize) -> u64 {
     if m >= N {
         return prefix_mask(N);
     }
-    // For non-negative floats the IEEE bit pattern orders like the value, so the
-    // selection runs on integers. NaN is rejected before the transform.
-    let bits = c.map(|v| v.abs().to_bits());
-    let threshold = mth_largest(&bits, m);
-    let mut mask = 0u64;
-    // At most m − 1 magnitudes are strictly above the m-th largest, so `left` stays ≥ 1
-    // through the first pass.
-    let mut left = m;
-    for (k, &b) in bits.iter().enumerate() {
-        if b > threshold {
-            mask |= 1 << k;
-            left -= 1;
-        }
-    }
-    for (k, &b) in bits.iter().enumerate() {
-        if left > 0 && b == threshold {
-            mask |= 1 << k;
-            left -= 1;
-        }
-    }
-    mask
-}
-
-/// The m-th largest of `bits` (1 ≤ m ≤ bits.len() ≤ 255, counted with multiplicity),
-/// for bit patterns of non-negative floats (below 2^31).
-///
-/// A histogram of the 8 exponent bits, read from the largest exponent down, finds the
-/// binade that holds the m-th largest and how many values lie above it (r of its
-/// members are still wanted); only the members of that binade then go through a
-/// sorted buffer of the r largest. A block of DCT coefficients spreads over many
-/// binades, so that buffer sees a few values where a buffer of all m would see every
-/// coefficient, and the cost is about three passes over the block instead of one pass
-/// with an insertion per new leader. The worst case (every magnitude in one binade)
-/// is the plain buffer again: bounded, with no recursion.
-fn mth_largest<const N: usize>(bits: &[u32; N], m: usize) -> u32 {
-    let mut count = [0u8; 256];
-    let mut top = 0u32;
-    for &b in bits {
-        if let Some(n) = count.get_mut((b >> 23) as usize) {
+    let exponent = |v: &f32| (v.to_bits() >> 23) & 0xFF;
+    let top = c.iter().map(exponent).max().unwrap_or(0);
+    // Binades below the top, the last bucket taking everything further down. The top
+    // is the largest exponent, so the difference cannot wrap.
+    let bucket = |v: &f32| top.wrapping_sub(exponent(v)).min(31) as usize;
+    let mut count = [0u8; 32];
+    for v in c {
+        if let Some(n) = count.get_mut(bucket(v)) {
             *n = n.wrapping_add(1);
         }
-        top = top.max(b);
     }
-    // Down from the largest binade until the m-th value is inside.
-    let mut above = 0usize;
-    let mut binade = 0u32;
-    for (e, &n) in (0u32..256).zip(&count).take((top >> 23) as usize + 1).rev() {
-        binade = e;
+    // Down from the top until the m-th value is inside; the last bucket holds the
+    // rest of the N > m values, so the loop always stops.
+    let (mut above, mut cut) = (0usize, 31usize);
+    for (d, &n) in count.iter().enumerate() {
         if above + usize::from(n) >= m {
+            cut = d;
             break;
         }
         above += usize::from(n);
     }
-    // At least 1: the loop stops inside the binade of the m-th largest, since all
-    // N ≥ m values are at most `top`.
-    let wanted = m.saturating_sub(above).max(1);
-    // The `wanted` largest members of the binade, descending, in the first slots.
-    // Zeros stand in until enough members have arrived: a member of the binade is at
-    // least its lowest pattern, so when zeros remain the binade is 0 (the zeros and
-    // subnormals), whose members are ≥ 0 too.
-    let mut best = [0u32; N];
-    for &b in bits.iter().filter(|&&b| b >> 23 == binade) {
-        if best.get(wanted - 1).is_some_and(|&smallest| b > smallest) {
-            // Insert before the first smaller entry; the rest move down, the last drops.
-            let mut carry = b;
-            for slot in best.iter_mut().take(wanted).skip_while(|t| **t >= b) {
-                core::mem::swap(slot, &mut carry);
+    let wanted = m - above;
+    // Binade `cut` is the exponent top − cut (the last bucket: everything at or below
+    // it). Magnitudes from the next binade up are kept; those from `cut` itself are
+    // the candidates.
+    let binade = top.saturating_sub(cut as u32);
+    let keep_from = (binade + 1) << 23;
+    let candidate_from = if cut == 31 { 0 } else { binade << 23 };
+    let magnitude = |v: &f32| v.to_bits() & 0x7FFF_FFFF;
+    let weight = |k: u32| c.get(k as usize).map_or(0, magnitude);
+    let mut mask = 0u64;
+    // Indices of the `wanted` largest candidates seen so far, by descending magnitude,
+    // ties in index order.
+    let mut best = [0u8; N];
+    let mut filled = 0usize;
+    for (start, chunk) in (0u32..).step_by(32).zip(c.chunks(32)) {
+        // Bit i of the chunk enters at the top and moves down one place per sample.
+        let (mut keep, mut candidates) = (0u32, 0u32);
+        for v in chunk {
+            let b = magnitude(v);
+            keep = keep >> 1 | u32::from(b >= keep_from) << 31;
+            candidates = candidates >> 1 | u32::from(b >= candidate_from) << 31;
+        }
+        let shift = 32u32.saturating_sub(chunk.len() as u32);
+        let keep = keep.checked_shr(shift).unwrap_or(0);
+        mask |= u64::from(keep) << start;
+        let mut candidates = candidates.checked_shr(shift).unwrap_or(0) & !keep;
+        while candidates != 0 {
+            let k = start + candidates.trailing_zeros();
+            candidates &= candidates - 1;
+            let b = weight(k);
+            let at = best
+                .iter()
+                .take(filled)
+                .rposition(|&j| weight(u32::from(j)) >= b)
+                .map_or(0, |p| p + 1);
+            if at < wanted {
+                filled = (filled + 1).min(wanted);
+                let mut carry = k as u8;
+                for slot in best.iter_mut().take(filled).skip(at) {
+                    core::mem::swap(slot, &mut carry);
+                }
             }
         }
     }
-    best.get(wanted - 1).copied().unwrap_or(0)
+    for &k in best.iter().take(filled) {
+        mask |= 1u64.checked_shl(u32::from(k)).unwrap_or(0);
+    }
+    mask
 }
 
 /// Mask of the coefficients `selection` keeps out of `c`.
