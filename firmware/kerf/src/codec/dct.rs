@@ -15,14 +15,14 @@
 //!   sum of two neighbours): (N/2) log2 N multiplications and about (3N/2) log2 N
 //!   additions, against N² multiply-adds for the matrix product. A 16-point block is
 //!   the recursion unrolled in registers. A 32- or 64-point block does not fit the 32
-//!   FPU registers, so it makes three passes over memory whatever N: the top split
-//!   stage (at N = 64 the top two, as one 4-point butterfly of x[i], x[31−i], x[32+i],
-//!   x[63−i]) from the caller's buffer into a stack array whose rows interleave the
+//!   FPU registers, so it makes three passes over memory: the top split stage (at
+//!   N = 64 the top two, one 4-point butterfly of samples `i, 31−i, 32+i, 63−i` per
+//!   row) from the caller's buffer into a stack array whose rows interleave the
 //!   16-point blocks; each block through the register kernel and back in place; the
 //!   top merge stage (stages) back into the caller's buffer with the orthonormal
-//!   scales applied. A pass per stage, as a radix-2 loop makes, streams the block
-//!   through memory 2 log2 N − 6 times more. The inverse runs the transposed stages in
-//!   reverse order the same way.
+//!   scales applied. A radix-2 loop with one pass per stage and one for the scales
+//!   makes 2 log2 N − 4 (8 at N = 64). The inverse runs the transposed passes in
+//!   reverse order.
 //! * [`Dct::forward_q15`] / [`Dct::inverse_q15`]: integer, for Q15 data. A direct
 //!   O(N²) product with the Q15 cosine table and a 64-bit accumulator, chosen by
 //!   measurement (tests below, 99 blocks of uniform full-scale input per N):
