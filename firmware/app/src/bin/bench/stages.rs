@@ -28,7 +28,7 @@ use kerf_sim::contour::{octagon_efd, OCTAGON_MOTION};
 /// Stage names, in the order [`Stages::measure`] times them.
 pub const STAGES: [&str; 8] = [
     "EFD reference n=10 (derivatives, arc-length step, ramp)",
-    "joint references of the reference (IK, Jx⁻¹ṗ, Jx⁻¹(p̈ − J̇x q̇), one pass)",
+    "joint references (IK, Jx⁻¹ṗ, Jx⁻¹(p̈ − J̇x q̇) in one pass)",
     "three Hall decodes + velocity observers",
     "contouring law (FK, Jx, frame, law, Jx⁻¹(ẍ − J̇x q̇))",
     "of which FK",
@@ -50,12 +50,17 @@ pub struct Stages {
 }
 
 /// Keys of the stage rows (the traced run names its loops by them).
-pub fn key(stage: &str) -> heapless::String<96> {
+pub fn key(stage: &str) -> heapless::String<128> {
     let mut key = heapless::String::new();
-    let _ = core::fmt::write(
+    // A name cut short would name its row wrongly: stop the run instead.
+    if core::fmt::write(
         &mut key,
         format_args!("app::delta_slave contour period: {stage}"),
-    );
+    )
+    .is_err()
+    {
+        panic!("stage name too long for its key: {stage}");
+    }
     key
 }
 
