@@ -646,8 +646,10 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
         if let Some((tick, _)) = outputs.command {
             let scaled = Vector3::from(cs) + (x - Vector3::from(cm)) * case.scale;
             tick_reference.insert(tick, (scaled.into(), now));
-            if session == 1 {
-                recording.reference(tick, scaled.map(|c| c as f32).into());
+            // The recording holds the first session (a restarted master's ticks start
+            // again).
+            if session == 1 && !recording.reference(tick, scaled.map(|c| c as f32).into()) {
+                return Err(RemoteError::Setup(format!("tick {tick} does not rise")));
             }
         }
         master.link.send(outputs.command, &mut forward);

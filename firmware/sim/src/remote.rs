@@ -294,13 +294,16 @@ impl<'a> Recording<'a> {
             frames,
             frame_count,
         };
-        let mut ticks_rising = references
+        // The ticks rise (the lookup is a binary search).
+        let mut previous = None;
+        for tick in references
             .chunks_exact(REFERENCE_LEN)
             .filter_map(|r| u32_at(r, 0))
-            .zip(references.chunks_exact(REFERENCE_LEN).skip(1))
-            .map(|(a, r)| u32_at(r, 0).is_some_and(|b| b > a));
-        if !ticks_rising.all(|rising| rising) {
-            return Err(RecordingError::TicksNotRising);
+        {
+            if previous.is_some_and(|p| tick <= p) {
+                return Err(RecordingError::TicksNotRising);
+            }
+            previous = Some(tick);
         }
         // Every frame complete, in arrival order, nothing after the last.
         let mut cursor = 0;
