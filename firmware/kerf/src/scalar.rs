@@ -28,7 +28,8 @@ pub trait Real:
     /// `bits / 2^32`: the exact form of a wrapping phase accumulator
     /// (one magnetic pitch = 2^32).
     fn from_q32(bits: i64) -> Self;
-    /// `round(self · 2^32)`, saturating (NaN → 0): the inverse of [`Real::from_q32`].
+    /// `self · 2^32` truncated toward zero, saturating (NaN → 0): the inverse of
+    /// [`Real::from_q32`].
     fn to_q32(self) -> i64;
     /// `false` for NaN and ±∞ (always `true` for fixed point).
     fn is_finite(self) -> bool;
@@ -47,8 +48,18 @@ pub trait Real:
 }
 
 /// [`Real`] for the primitive floats: conversions are `as` casts (round to nearest,
-/// saturating to integers), and the Q32 scale is an exact power of two, so
-/// `from_q32` rounds once (i64 → float).
+/// saturating to integers), and the Q32 scale is an exact power of two.
+///
+/// The Q32 conversions go through 32-bit words: a Cortex-M4F converts between `f32`
+/// and a 32-bit integer in one VCVT, while an `i64` conversion is a software routine
+/// of about 30 instructions (`__aeabi_l2f`, `__aeabi_f2lz`). `from_q32` adds the two
+/// words of the magnitude (the integer part, exact below 2^24 for `f32`, and the
+/// fraction scaled by 2^-32; no cancellation, both are positive) and restores the
+/// sign: one rounding for `f64` (the sum of two exact terms, the same result as
+/// `bits as f64 · 2^-32`), two for `f32` (the fraction, then the sum: within one ulp).
+/// `to_q32` takes the 32-bit conversion whenever the result fits one (|x| < 1/2, a
+/// predicted phase step) and the saturating `i64` cast otherwise (and for NaN); both
+/// truncate toward zero, so the result is the `i64` cast's in every case.
 macro_rules! impl_real_for_float {
     ($($float:ty),*) => {$(
         impl Real for $float {
@@ -63,11 +74,24 @@ macro_rules! impl_real_for_float {
             }
             #[inline]
             fn from_q32(bits: i64) -> Self {
-                bits as $float * (1.0 / 4_294_967_296.0)
+                let magnitude = bits.unsigned_abs();
+                let integer = (magnitude >> 32) as u32;
+                let fraction = magnitude as u32;
+                let value = integer as $float + fraction as $float * (1.0 / 4_294_967_296.0);
+                if bits < 0 {
+                    -value
+                } else {
+                    value
+                }
             }
             #[inline]
             fn to_q32(self) -> i64 {
-                (self * 4_294_967_296.0) as i64
+                let scaled = self * 4_294_967_296.0;
+                if scaled.abs() < 2_147_483_648.0 {
+                    i64::from(scaled as i32)
+                } else {
+                    scaled as i64
+                }
             }
             #[inline]
             fn is_finite(self) -> bool {
@@ -189,6 +213,14 @@ impl Float for f32 {
     fn fsin_cos(self) -> (Self, Self) {
         sin_cos_f32(self)
     }
+}
+
+/// Euclidean norm by [`Float::fsqrt`]: nalgebra's `norm` takes its square root from
+/// `libm` (`sqrtf`, about 50 instructions in software), where `fsqrt` is the FPU's
+/// VSQRT on the firmware targets.
+#[inline]
+pub(crate) fn norm<T: Float, const D: usize>(v: &nalgebra::SVector<T, D>) -> T {
+    v.norm_squared().fsqrt()
 }
 
 /// A configuration constant or formula literal in `T` (`Real::from_f64`, named so
@@ -395,6 +427,52 @@ mod tests {
             let e32 = (f32::from_q32(bits) as f64 - exact).abs();
             assert!(e32 <= exact.abs() * 1.2e-7 + 1e-12, "{bits}: {e32}");
         }
+    }
+
+    /// The 32-bit-word conversions against the single `i64` casts they replace: `f32`
+    /// within one ulp of the correctly rounded `bits as f32 · 2^-32` (its two
+    /// roundings), `f64` and `to_q32` bit for bit, over a sweep of magnitudes from
+    /// 2^-32 to 2^31 pitches, both signs, and the edges of the 32-bit path.
+    #[test]
+    fn q32_conversions_match_the_i64_casts() {
+        let mut bits = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            bits ^= bits << 13;
+            bits ^= bits >> 7;
+            bits ^= bits << 17;
+            bits
+        };
+        for shift in 0..63 {
+            for _ in 0..200 {
+                let q = (next() >> shift) as i64 * if next() & 1 == 0 { 1 } else { -1 };
+                let exact32 = q as f32 * (1.0 / 4_294_967_296.0);
+                let ulps = (f32::from_q32(q).to_bits() as i64 - exact32.to_bits() as i64).abs();
+                assert!(ulps <= 1, "{q}: {} against {exact32}", f32::from_q32(q));
+                assert_eq!(f64::from_q32(q), q as f64 * (1.0 / 4_294_967_296.0), "{q}");
+                for x in [exact32, f32::from_bits(exact32.to_bits() + 1)] {
+                    assert_eq!(x.to_q32(), (x * 4_294_967_296.0) as i64, "{x:e}");
+                }
+                let x = q as f64 / 4_294_967_296.0 * 1.000_000_1;
+                assert_eq!(x.to_q32(), (x * 4_294_967_296.0) as i64, "{x:e}");
+            }
+        }
+        let half = 0.5f32;
+        for x in [
+            half,
+            -half,
+            f32::from_bits(half.to_bits() - 1),
+            -f32::from_bits(half.to_bits() - 1),
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            3e9,
+            -3e9,
+        ] {
+            assert_eq!(x.to_q32(), (x * 4_294_967_296.0) as i64, "{x:e}");
+        }
+        assert_eq!(f32::NAN.to_q32(), 0);
+        assert_eq!((-half).to_q32(), -(1 << 31));
+        assert_eq!(half.to_q32(), 1 << 31);
     }
 
     #[test]

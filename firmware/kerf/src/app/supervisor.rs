@@ -320,6 +320,9 @@ struct Core<'q, M: Machine> {
     period: u64,
     dropped_reports: u32,
     telemetry_decimation: u32,
+    /// Periods until the next telemetry report (a countdown: no 64-bit division of
+    /// the period count in the control period).
+    telemetry_due_in: u32,
 }
 
 impl<'q, M: Machine> Supervisor<'q, M> {
@@ -342,13 +345,15 @@ impl<'q, M: Machine> Supervisor<'q, M> {
                 period: 0,
                 dropped_reports: 0,
                 telemetry_decimation: 1,
+                telemetry_due_in: 0,
             },
         }
     }
 
-    /// Telemetry every `every` periods (0: none).
+    /// Telemetry every `every` periods (0: none), starting with the next period.
     pub fn set_telemetry_decimation(&mut self, every: u32) {
         self.core.telemetry_decimation = every;
+        self.core.telemetry_due_in = 0;
     }
 
     /// The present mode.
@@ -373,6 +378,17 @@ impl<'q, M: Machine> Supervisor<'q, M> {
 
     /// One control period: commands, then the mode's step; returns the outputs to write.
     pub fn step(&mut self, inputs: &M::Inputs) -> M::Outputs {
+        if self.commands.ready() {
+            self.handle_commands();
+        }
+        self.core.step(inputs)
+    }
+
+    /// Handles the queued commands. Out of line: most periods have none, and inlined
+    /// into the step its set-up (the addresses of everything a command can change)
+    /// ran every period.
+    #[inline(never)]
+    fn handle_commands(&mut self) {
         // At most the queue's capacity: bounded, and each command is O(1).
         for _ in 0..self.commands.capacity() {
             // Handled where it lies: a calibration or a job is kilobytes, and moving it
@@ -384,7 +400,6 @@ impl<'q, M: Machine> Supervisor<'q, M> {
             // Frees the slot (the payload is plain data: nothing to drop or use).
             let _ = self.commands.dequeue();
         }
-        self.core.step(inputs)
     }
 }
 
@@ -435,8 +450,14 @@ impl<M: Machine> Core<'_, M> {
                 step.outputs()
             }
         };
-        if self.telemetry_decimation != 0 && self.period % u64::from(self.telemetry_decimation) == 0
-        {
+        let telemetry_due = self.telemetry_decimation != 0 && self.telemetry_due_in == 0;
+        if self.telemetry_decimation != 0 {
+            self.telemetry_due_in = match self.telemetry_due_in {
+                0 => self.telemetry_decimation - 1,
+                due_in => due_in - 1,
+            };
+        }
+        if telemetry_due {
             let report = Report::Telemetry {
                 period: self.period,
                 mode: self.mode,

@@ -22,6 +22,7 @@
 use super::efd::{gauss3, Efd, EfdSample};
 use super::{lit, to_f64, ContourError, Float};
 use crate::error::{positive, representable, ConfigError};
+use crate::scalar::norm;
 use core::f64::consts::PI;
 use nalgebra::Vector2;
 
@@ -614,15 +615,15 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
     /// Δθ such that the arc from θ to θ + Δθ is `ds` (Newton on the arc-length integral).
     fn solve_step(&self, ds: T) -> T {
         let d1 = self.sample.d1;
-        let sigma = d1.norm();
+        let sigma = norm(&d1);
         if ds <= T::ZERO || sigma <= T::ZERO {
             return T::ZERO;
         }
         let sigma_theta = d1.dot(&self.sample.d2) / sigma;
         let mut dth = ds / sigma - sigma_theta * ds * ds / (lit::<T>(2.0) * sigma * sigma * sigma);
         for _ in 0..self.newton_steps {
-            let arc = gauss3(dth, |u| self.curve.tangent(self.theta + u).norm());
-            let speed = self.curve.tangent(self.theta + dth).norm();
+            let arc = gauss3(dth, |u| norm(&self.curve.tangent(self.theta + u)));
+            let speed = norm(&self.curve.tangent(self.theta + dth));
             if speed <= T::ZERO {
                 break;
             }
@@ -671,16 +672,19 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
         }
         let sample = self.curve.evaluate(theta);
         // The chord can only be shorter than the arc; allow the rounding of the two
-        // positions (a few ulps of their size) and 1 % of the step.
-        let chord = (sample.position - self.sample.position).norm();
-        let rounding = (sample.position.norm() + self.sample.position.norm())
-            * lit::<T>(8.0)
-            * T::default_epsilon();
+        // positions (a few ulps of their size; their 1-norms bound it, no square root
+        // needed) and 1 % of the step. Squared on both sides: the bound is not negative.
+        let chord_sq = (sample.position - self.sample.position).norm_squared();
+        let size = sample.position.x.abs()
+            + sample.position.y.abs()
+            + self.sample.position.x.abs()
+            + self.sample.position.y.abs();
+        let bound = target.max(T::ZERO) * lit(1.01) + size * lit::<T>(8.0) * T::default_epsilon();
         let solved = dth.is_finite()
             && dth < lit(PI)
             && sample.position.is_finite_all()
             && sample.d1.is_finite_all()
-            && chord <= target.max(T::ZERO) * lit(1.01) + rounding;
+            && chord_sq <= bound * bound;
         if !solved {
             self.lost = true;
             return Err(ContourError::LostContour);
@@ -691,7 +695,7 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
         self.theta = theta;
         self.sample = sample;
         let s = &self.sample;
-        let sigma = s.d1.norm();
+        let sigma = norm(&s.d1);
         self.carry = if target > T::ZERO {
             (dth - taken - wrap) * sigma
         } else {

@@ -37,7 +37,7 @@ use crate::control::pd::Reference;
 use crate::control::preview::{PreviewConfig, PreviewWindow};
 use crate::error::{positive, ConfigError};
 use crate::kinematics::delta::DeltaGeometry;
-use crate::scalar::{lit, Float};
+use crate::scalar::{lit, norm, Float};
 use crate::trajectory::efd::{Efd, EfdSample};
 use crate::trajectory::open_path::OpenPath;
 use crate::trajectory::tangential::{
@@ -600,7 +600,7 @@ impl<T: Float> DeltaSlave<T> {
             0
         };
         // The measured speed along the reference's tangent (zero where it has none).
-        let reference_speed = task.velocity.norm();
+        let reference_speed = norm(&task.velocity);
         let tangential_speed_m_s = if reference_speed > T::zero() {
             effector_velocity.dot(&task.velocity) / reference_speed
         } else {

@@ -463,3 +463,36 @@ fn a_full_report_queue_drops_and_counts_instead_of_waiting() {
     assert!(s.dropped_reports() >= 90, "{}", s.dropped_reports());
     assert_eq!(s.period(), 100);
 }
+
+/// Telemetry comes every `every` periods from the period after the setting, at the
+/// periods an independent count (period number modulo `every`) names; 0 stops it.
+#[test]
+fn telemetry_comes_every_decimation_periods() {
+    with_supervisor(|s, _to, drain| {
+        for every in [1u32, 3, 7] {
+            s.set_telemetry_decimation(every);
+            let first = s.period();
+            for _ in 0..25 {
+                s.step(&true);
+            }
+            let periods: Vec<u64> = drain()
+                .iter()
+                .filter_map(|r| match r {
+                    Report::Telemetry { period, .. } => Some(*period),
+                    _ => None,
+                })
+                .collect();
+            let expected: Vec<u64> = (first..first + 25)
+                .filter(|p| (p - first) % u64::from(every) == 0)
+                .collect();
+            assert_eq!(periods, expected, "every {every}");
+        }
+        s.set_telemetry_decimation(0);
+        for _ in 0..5 {
+            s.step(&true);
+        }
+        assert!(!drain()
+            .iter()
+            .any(|r| matches!(r, Report::Telemetry { .. })));
+    });
+}
