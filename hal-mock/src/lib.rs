@@ -10,6 +10,7 @@ pub mod axis;
 pub mod delta;
 pub mod delta_plant;
 pub mod drive;
+pub mod grinding;
 pub mod hall_sensor;
 pub mod linear_motor;
 pub mod link;
