@@ -45,13 +45,14 @@ pub struct PiezoModel {
 impl PiezoModel {
     /// The piezo stage as identified in G eq. 34: G(z) = 0.001333 z / (z² − 1.949 z +
     /// 0.9503) at 1 ms (poles 0.9748 e^(±0.025 i): about 5.7 Hz, damping 0.72; DC gain
-    /// 1.025). Stroke 100 µm (the class of stage in G 3.1.1).
+    /// 1.025). Stroke 1 mm: the P-602 stage of G 3.1.1 (0–10 V for 0–1 mm, closed
+    /// loop on its strain gauges).
     pub const IDENTIFIED: Self = Self {
         b1: 0.001333,
         a1: -1.949,
         a2: 0.9503,
         ts_s: 1e-3,
-        stroke_m: 100e-6,
+        stroke_m: 1e-3,
     };
 
     /// Static gain G(1).
