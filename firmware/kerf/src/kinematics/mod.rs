@@ -5,6 +5,7 @@
 //! dependency) and is generic over nalgebra's `RealField` (`f32` on the MCU, `f64` as
 //! the host reference).
 
+pub mod arrow;
 pub mod contour_frame;
 pub mod delta;
 

@@ -1,0 +1,176 @@
+//! The differential model of the parallel module (A eq. 13–14) and its singularities
+//! (eq. 30–32).
+//!
+//! Eq. 13 gives Jq q̇ = Jx Ẋ with Jq diagonal, Jq,ii = (m_i·e_x)(e_z·(L_i × μ_i)), and
+//! the rows of Jx: [(e_z·(L_i × μ_i))(e_x·m_i), (e_z·(L_i × μ_i))(e_y·m_i),
+//! (e_z·(n_i × μ_i))(e_z·m_i), −(e_z·(L_i × μ_i))(e_z·(m_i × PD_i))]. Row i of
+//! Jm = Jq⁻¹ Jx is therefore
+//!
+//!   [1, m_y/m_x, ((n × μ)_z/(L × μ)_z) m_z/m_x, −(m × PD)_z/m_x]_i,
+//!
+//! and since n_i and L_i have the same horizontal direction u_i (A†, B, C collinear)
+//! with horizontal lengths ℓ_i + r_i and ℓ_i, (n × μ)_z/(L × μ)_z = (ℓ_i + r_i)/ℓ_i.
+//! [`ArrowGeometry::jacobian_rate`] differentiates that form. The redundancy makes
+//! Jm 6×4: the forward differential model is its pseudo-inverse Jm⁺ = (JmᵀJm)⁻¹Jmᵀ
+//! (eq. 14).
+
+use super::{ArmClosure, ArrowError, ArrowGeometry, Joints, Pose, ACTUATORS};
+use crate::scalar::Float;
+use nalgebra::{Matrix4, SMatrix, Vector3};
+
+/// Jm: 6 × 4.
+pub type InverseJacobian<T> = SMatrix<T, ACTUATORS, 4>;
+/// Jm⁺: 4 × 6.
+pub type ForwardJacobian<T> = SMatrix<T, 4, ACTUATORS>;
+
+/// How far a pose is from each singularity of eq. 30–32, as sines of the angles whose
+/// zero is the singularity (1: as far as it gets; the maps fail below 1e-3).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct SingularityDistance<T> {
+    /// Eq. 30, min over the arms of |e_x·m_i| / |m_i|: the reach's angle to the wall.
+    pub across_rails: T,
+    /// Eq. 30–31, min over the arms of |e_z·(L_i × μ_i)| / L_i: the arm's angle to the
+    /// vertical.
+    pub vertical: T,
+    /// Eq. 32, the larger over the two parallelograms of |e_z·(m_i × r_c)| /
+    /// (|m_i| |r_c|), with r_c = D_1D_3: the plate's turning lever against the
+    /// parallelogram's reach (eq. 32 needs both terms zero).
+    pub plate: T,
+}
+
+impl<T: Float> SingularityDistance<T> {
+    /// The smallest of the three.
+    pub fn min(&self) -> T {
+        self.across_rails.min(self.vertical).min(self.plate)
+    }
+}
+
+impl<T: Float> ArrowGeometry<T> {
+    fn closures(&self, pose: &Pose<T>) -> Result<[ArmClosure<T>; ACTUATORS], ArrowError> {
+        let mut out = [ArmClosure::zero(); ACTUATORS];
+        for (i, (arm, slot)) in self.arms.iter().zip(out.iter_mut()).enumerate() {
+            *slot = Self::closure(arm, pose, i)?;
+        }
+        Ok(out)
+    }
+
+    /// How far `pose` is from the singularities of eq. 30–32.
+    pub fn singularity_distance(
+        &self,
+        pose: &Pose<T>,
+    ) -> Result<SingularityDistance<T>, ArrowError> {
+        let closures = self.closures(pose)?;
+        let mut d = SingularityDistance {
+            across_rails: T::one(),
+            vertical: T::one(),
+            plate: T::one(),
+        };
+        let d1 = closures
+            .first()
+            .map(|c| c.plate)
+            .unwrap_or_else(Vector3::zeros);
+        for (arm, c) in self.arms.iter().zip(closures.iter()) {
+            d.across_rails = d.across_rails.min(c.reach.x.abs() / c.reach.norm());
+            d.vertical = d.vertical.min(c.arm.cross(&c.mu).z.abs() / arm.length_m);
+        }
+        // Eq. 32 with r_c = D1D3 (the print moves P onto D1 for this test): singular
+        // when both parallelograms' terms vanish together, so the larger one counts.
+        let mut plate = T::zero();
+        for c in closures.iter().skip(2).take(2) {
+            let r_c = c.plate - d1;
+            let sine = c.reach.cross(&r_c).z.abs() / (c.reach.norm() * r_c.norm());
+            plate = plate.max(sine);
+        }
+        d.plate = plate;
+        Ok(d)
+    }
+
+    /// Joint positions and Jm = Jq⁻¹ Jx at `pose` (eq. 7, 13). Errors on the
+    /// singularities of eq. 30–32 (sines below 1e-3, see [`SingularityDistance`]).
+    pub fn jacobian(&self, pose: &Pose<T>) -> Result<(Joints<T>, InverseJacobian<T>), ArrowError> {
+        let closures = self.closures(pose)?;
+        let mut q = Joints::zeros();
+        let mut jm = InverseJacobian::zeros();
+        let rows = self.arms.iter().zip(closures.iter()).zip(q.iter_mut());
+        for (i, (((arm, c), q_i), mut row)) in rows.zip(jm.row_iter_mut()).enumerate() {
+            let index = i as u8;
+            let ez = |v: Vector3<T>| v.z;
+            let l_mu = ez(c.arm.cross(&c.mu));
+            let n_mu = ez(c.to_c.cross(&c.mu));
+            let m = &c.reach;
+            if m.x.abs() <= self.singular_sine * m.norm() {
+                return Err(ArrowError::ArmAcrossRails(index));
+            }
+            if l_mu.abs() <= self.singular_sine * arm.length_m {
+                return Err(ArrowError::ArmVertical(index));
+            }
+            // Eq. 13 as printed: the diagonal of Jq and the row of Jx.
+            let jq = m.x * l_mu;
+            let jx = [
+                l_mu * m.x,
+                l_mu * m.y,
+                n_mu * m.z,
+                -l_mu * ez(m.cross(&c.plate)),
+            ];
+            for (out, v) in row.iter_mut().zip(jx) {
+                *out = v / jq;
+            }
+            *q_i = c.q_m;
+        }
+        let distance = self.singularity_distance(pose)?;
+        if distance.plate <= self.singular_sine {
+            return Err(ArrowError::PlateSingular);
+        }
+        Ok((q, jm))
+    }
+
+    /// J̇m at `pose` moving at `rate` (Ẋ): the time derivative of [`Self::jacobian`]'s
+    /// rows in the form of the module docs, for q̈ = Jm Ẍ + J̇m Ẋ.
+    pub fn jacobian_rate(
+        &self,
+        pose: &Pose<T>,
+        rate: &Pose<T>,
+    ) -> Result<InverseJacobian<T>, ArrowError> {
+        let (_, jm) = self.jacobian(pose)?;
+        let closures = self.closures(pose)?;
+        let q_dot = jm * rate;
+        let mut jm_dot = InverseJacobian::zeros();
+        let theta_dot = rate.w;
+        let rows = self.arms.iter().zip(closures.iter()).zip(q_dot.iter());
+        for (((arm, c), &q_dot_i), mut row) in rows.zip(jm_dot.row_iter_mut()) {
+            let m = &c.reach;
+            let a = &c.plate;
+            // ȧ = θ̇ e_z × a; Ḋ = Ṗ + ȧ; ṁ = Ḋ − Ȧ with Ȧ = q̇ e_x.
+            let a_dot = Vector3::new(-a.y, a.x, T::zero()) * theta_dot;
+            let m_dot = Vector3::new(rate.x + a_dot.x - q_dot_i, rate.y + a_dot.y, rate.z);
+            let (l, r) = (c.horizontal_m, arm.bc_m);
+            // ℓ = √(L² − Δz²) with Δz = m_z: ℓ̇ = −m_z ṁ_z / ℓ; g = (ℓ + r)/ℓ.
+            let l_dot = -m.z * m_dot.z / l;
+            let g = (l + r) / l;
+            let g_dot = -r * l_dot / (l * l);
+            let inv = T::one() / m.x;
+            let inv_dot = -m_dot.x * inv * inv;
+            let e1 = m.y * inv;
+            let e1_dot = m_dot.y * inv + m.y * inv_dot;
+            let e2_dot = (g_dot * m.z + g * m_dot.z) * inv + g * m.z * inv_dot;
+            // −(m × a)_z / m_x = e1 a_x − a_y.
+            let e3_dot = e1_dot * a.x + e1 * a_dot.x - a_dot.y;
+            for (out, v) in row.iter_mut().skip(1).zip([e1_dot, e2_dot, e3_dot]) {
+                *out = v;
+            }
+        }
+        Ok(jm_dot)
+    }
+
+    /// Jm⁺ = (JmᵀJm)⁻¹Jmᵀ (eq. 14): Ẋ = Jm⁺ q̇ in the least-squares sense.
+    pub fn pseudo_inverse(jm: &InverseJacobian<T>) -> Result<ForwardJacobian<T>, ArrowError> {
+        let normal: Matrix4<T> = jm.transpose() * jm;
+        let inverse = normal.try_inverse().ok_or(ArrowError::PlateSingular)?;
+        let out = inverse * jm.transpose();
+        if out.iter().all(|v| v.is_finite()) {
+            Ok(out)
+        } else {
+            Err(ArrowError::PlateSingular)
+        }
+    }
+}
