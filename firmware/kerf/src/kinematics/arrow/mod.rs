@@ -38,14 +38,16 @@
 //! Two motors turn the table about x in opposite senses (eq. 8): q_T1 = θx, q_T2 = −θx.
 
 mod config;
+mod dynamics;
 mod forward;
 #[cfg(test)]
 mod tests;
 mod velocity;
 
 pub use config::{ArmConfig, ArrowConfig, ArrowWorkspace};
+pub use dynamics::{ArrowDynamics, ArrowMasses, Feedforward};
 pub use forward::ForwardConfig;
-pub use velocity::SingularityDistance;
+pub use velocity::{ForwardJacobian, InverseJacobian, SingularityDistance};
 
 use crate::error::ConfigError;
 use crate::scalar::{lit, Float};
