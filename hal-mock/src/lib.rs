@@ -6,6 +6,7 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+pub mod arrow;
 pub mod axis;
 pub mod delta;
 pub mod delta_plant;

@@ -1,0 +1,214 @@
+//! The simulated ARROW (A 2.2.3, 3.2.1): the parallel module moved by the direct
+//! dynamic model (eq. 20) under six actuator forces, the turntable by eq. 23, and the
+//! encoders that measure them.
+//!
+//! The plant is built from its own geometry, which differs from the controller's model
+//! by a geometric error (A 3.2.1: model inaccuracies, assembly errors): joint
+//! references computed with the model then ask for joint positions no pose of the
+//! plant meets exactly, and the part of the error outside Jm's column space is what
+//! redundant actuators fight over. Forces are clipped at the actuators' limit (the
+//! drives), the motion is integrated by RK4 in substeps of the control period, and
+//! the encoders quantize: the linear actuators' scales (not printed; 1 µm, a common
+//! incremental scale) and the turntable motors' 5,000 pulses per revolution (A 5.1)
+//! counted in quadrature (20,000 counts per turn).
+
+use kerf::kinematics::arrow::{
+    ArrowConfig, ArrowDynamics, ArrowError, ArrowGeometry, ArrowMasses, Joints, Pose,
+};
+
+/// Everything that makes a simulated ARROW.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct ArrowPlantConfig {
+    /// The machine as built (the controller's model plus the geometric error).
+    pub geometry: ArrowConfig,
+    /// Masses and the actuators' force limit.
+    pub masses: ArrowMasses,
+    /// Control period, s.
+    pub period_s: f64,
+    /// RK4 substeps per period.
+    pub substeps: u32,
+    /// Linear encoder resolution, m.
+    pub encoder_resolution_m: f64,
+    /// Turntable encoder counts per turn.
+    pub turntable_counts_per_turn: u32,
+}
+
+impl ArrowPlantConfig {
+    /// ARROW at 5 kHz (A 5.1) with the geometric error of an assembled machine:
+    /// arm 1 0.2 mm long, arm 4 0.15 mm short, the top rail 0.3 mm high, the bottom
+    /// one 0.1 mm towards the plate (each within a machine shop's assembly tolerance,
+    /// and together about 0.2–0.3 mm of joint inconsistency).
+    pub fn with_geometric_error() -> Self {
+        let mut geometry = ArrowConfig::ARROW;
+        geometry.arms[0].length_m += 0.2e-3;
+        geometry.arms[3].length_m -= 0.15e-3;
+        geometry.arms[0].rail_z_m += 0.3e-3;
+        geometry.arms[1].rail_z_m += 0.3e-3;
+        geometry.arms[4].rail_y_m += 0.1e-3;
+        geometry.arms[5].rail_y_m += 0.1e-3;
+        Self {
+            geometry,
+            masses: ArrowMasses::ARROW,
+            period_s: 2e-4,
+            substeps: 4,
+            encoder_resolution_m: 1e-6,
+            turntable_counts_per_turn: 20_000,
+        }
+    }
+}
+
+/// The encoders' reading at the end of a period.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct ArrowReading {
+    /// Linear actuator positions, quantized, m.
+    pub joints_m: Joints<f64>,
+    /// Turntable motor angles (q_T1 = θx, q_T2 = −θx, eq. 8), quantized, rad.
+    pub turntable_rad: [f64; 2],
+}
+
+/// The simulated machine.
+#[derive(Clone, Debug)]
+pub struct ArrowPlant {
+    config: ArrowPlantConfig,
+    geometry: ArrowGeometry<f64>,
+    dynamics: ArrowDynamics<f64>,
+    turntable_inertia: f64,
+    force_limit_n: f64,
+    pose: Pose<f64>,
+    rate: Pose<f64>,
+    theta_x: f64,
+    theta_x_rate: f64,
+}
+
+impl ArrowPlant {
+    /// At rest at `pose` with the table at `theta_x_rad`.
+    pub fn new(
+        config: &ArrowPlantConfig,
+        pose: Pose<f64>,
+        theta_x_rad: f64,
+    ) -> Result<Self, ArrowError> {
+        let geometry = ArrowGeometry::new(&config.geometry).map_err(|_| ArrowError::NotFinite)?;
+        let arms = &config.geometry.arms;
+        let dynamics = ArrowDynamics::new(&config.masses, arms[0].length_m, arms[2].length_m)
+            .map_err(|_| ArrowError::NotFinite)?;
+        geometry.inverse(&pose)?;
+        Ok(Self {
+            config: *config,
+            geometry,
+            dynamics,
+            turntable_inertia: config.masses.turntable_inertia_kg_m2,
+            force_limit_n: config.masses.actuator_force_limit_n,
+            pose,
+            rate: Pose::zeros(),
+            theta_x: theta_x_rad,
+            theta_x_rate: 0.0,
+        })
+    }
+
+    /// The true pose and rate (what the encoders only see through the joints).
+    pub fn state(&self) -> (Pose<f64>, Pose<f64>) {
+        (self.pose, self.rate)
+    }
+
+    /// The table's true angle, rad.
+    pub fn theta_x_rad(&self) -> f64 {
+        self.theta_x
+    }
+
+    /// The plant's own geometry.
+    pub fn geometry(&self) -> &ArrowGeometry<f64> {
+        &self.geometry
+    }
+
+    /// One control period under `forces_n` (clipped at the limit) and the turntable
+    /// motors' torques; returns the encoders at its end, or the error that stopped
+    /// the model (the plate driven out of reach).
+    pub fn step(
+        &mut self,
+        forces_n: &Joints<f64>,
+        torques_n_m: [f64; 2],
+    ) -> Result<ArrowReading, ArrowError> {
+        let limit = self.force_limit_n;
+        let forces = forces_n.map(|f| {
+            if f.is_finite() {
+                f.clamp(-limit, limit)
+            } else {
+                0.0
+            }
+        });
+        let h = self.config.period_s / f64::from(self.config.substeps.max(1));
+        let (g, d) = (&self.geometry, &self.dynamics);
+        let f = |x: &Pose<f64>, v: &Pose<f64>| d.acceleration(g, x, v, &forces);
+        for _ in 0..self.config.substeps.max(1) {
+            let (x, v) = (self.pose, self.rate);
+            let k1 = (v, f(&x, &v)?);
+            let k2 = (
+                v + k1.1 * (h / 2.0),
+                f(&(x + k1.0 * (h / 2.0)), &(v + k1.1 * (h / 2.0)))?,
+            );
+            let k3 = (
+                v + k2.1 * (h / 2.0),
+                f(&(x + k2.0 * (h / 2.0)), &(v + k2.1 * (h / 2.0)))?,
+            );
+            let k4 = (v + k3.1 * h, f(&(x + k3.0 * h), &(v + k3.1 * h))?);
+            self.pose += (k1.0 + k2.0 * 2.0 + k3.0 * 2.0 + k4.0) * (h / 6.0);
+            self.rate += (k1.1 + k2.1 * 2.0 + k3.1 * 2.0 + k4.1) * (h / 6.0);
+        }
+        // Eq. 23–24: both motors turn the table, the second in the opposite sense.
+        let torque = torques_n_m.map(|t| if t.is_finite() { t } else { 0.0 });
+        let accel = (torque[0] - torque[1]) / self.turntable_inertia;
+        let dt = self.config.period_s;
+        self.theta_x += self.theta_x_rate * dt + 0.5 * accel * dt * dt;
+        self.theta_x_rate += accel * dt;
+        let q = self.geometry.inverse(&self.pose)?;
+        let lsb = self.config.encoder_resolution_m;
+        let turn = core::f64::consts::TAU / f64::from(self.config.turntable_counts_per_turn);
+        let quantize = |v: f64, step: f64| libm::round(v / step) * step;
+        Ok(ArrowReading {
+            joints_m: q.map(|v| quantize(v, lsb)),
+            turntable_rad: [quantize(self.theta_x, turn), quantize(-self.theta_x, turn)],
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Held by the feedforward of its own model against gravity, the plant stays at
+    /// rest (to the RK4 round-off); the encoders read its joints to their resolution.
+    #[test]
+    fn feedforward_of_the_plant_model_holds_it_still() {
+        let config = ArrowPlantConfig::with_geometric_error();
+        let pose = Pose::new(0.1, 0.5, 0.0, 0.1);
+        let mut plant = ArrowPlant::new(&config, pose, 0.0).unwrap();
+        let ff = plant
+            .dynamics
+            .feedforward(&plant.geometry, &pose, &Pose::zeros(), &Pose::zeros())
+            .unwrap();
+        let mut reading = None;
+        for _ in 0..500 {
+            reading = Some(plant.step(&ff.forces_n, [0.0, 0.0]).unwrap());
+        }
+        let (x, v) = plant.state();
+        assert!((x - pose).amax() < 1e-9 && v.amax() < 1e-8, "{x:?} {v:?}");
+        let q = plant.geometry.inverse(&pose).unwrap();
+        assert!((reading.unwrap().joints_m - q).amax() <= 0.5e-6 + 1e-12);
+    }
+
+    /// Without force the plate falls at g (the actuators' carts ride along: the
+    /// vertical acceleration is m_P g over the whole effective mass, below g).
+    #[test]
+    fn unsupported_plate_falls_and_the_table_turns() {
+        let config = ArrowPlantConfig::with_geometric_error();
+        let mut plant = ArrowPlant::new(&config, Pose::new(0.0, 0.5, 0.0, 0.0), 0.0).unwrap();
+        for _ in 0..100 {
+            plant.step(&Joints::zeros(), [1.204, -1.204]).unwrap();
+        }
+        let (x, v) = plant.state();
+        assert!(v.z < 0.0 && v.z > -9.8 * 0.02, "{v:?}");
+        assert!(x.z < 0.0);
+        // θ̈x = (Γ1 − Γ2)/I_T = 2 rad/s² for 20 ms.
+        assert!((plant.theta_x_rad() - 0.5 * 2.0 * 0.02 * 0.02).abs() < 1e-12);
+    }
+}
