@@ -21,3 +21,4 @@ pub mod dob;
 pub mod laser;
 pub mod pd;
 pub mod preview;
+pub mod redundant_pid;

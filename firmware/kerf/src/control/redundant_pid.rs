@@ -1,0 +1,333 @@
+//! PID for redundantly actuated machines (SPEC `control` PID for redundant robots,
+//! A 3.2–3.3): N actuators moving fewer degrees of freedom, regularized so that the
+//! actuators do not fight, with back-calculation anti-windup.
+//!
+//! With more actuators than degrees of freedom, a joint error q̃ measured against
+//! references from an imperfect model has a part outside the column space of Jm that
+//! no motion of the machine can remove; integrated, it becomes antagonistic internal
+//! forces (A 3.2.1). The regularization Rm = Jm Jm⁺ (the projector onto Jm's column
+//! space: eq. 38 and 41, equal in the velocity and force spaces) is applied on the
+//! input, the output and the integral state each period (A 3.2.2, eq. 43–45):
+//!
+//!   q̃_reg = Rm q̃,
+//!   Γ_I(k) = Rm (Γ_I(k−1) + K_I Ts (q̃_reg(k) + K_AWP ΔΓ(k−1))),
+//!   U = Rm (K_P q̃_reg + Γ_I + K_D (q̃_reg(k) − q̃_reg(k−1))/Ts) + Γ_ff   (eq. 46),
+//!   ΔΓ = sat(U) − U.
+//!
+//! The back-calculation term's sign is SPEC's correction: eq. 45 as printed
+//! subtracts K_AWP ΔΓ, which with ΔΓ = sat − unsat pushes a saturated integrator
+//! further; here it is added, so that a saturated output pulls its integrator back.
+//! ΔΓ is the previous period's (the current one exists only after the output). The
+//! feedforward Γ_ff (eq. 46: the inverse dynamic model on the desired motion) is
+//! added before the saturation, so the anti-windup sees the force actually asked.
+//!
+//! Without regularization (`regularize: false`) the same law is the plain joint PID
+//! of eq. 35 with anti-windup, the baseline of A 3.2.1.
+
+use crate::error::{coefficient, positive, ConfigError};
+use crate::scalar::{lit, Float};
+use nalgebra::{SMatrix, SVector};
+
+/// Gains of one machine part (A table 2), the force limit and the period.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct RedundantPidConfig {
+    /// K_P, N/m (or N·m/rad).
+    pub kp: f64,
+    /// K_D, N·s/m (or N·m·s/rad).
+    pub kd: f64,
+    /// K_I, N/(m·s) (or N·m/(rad·s)).
+    pub ki: f64,
+    /// Back-calculation gain K_AWP, m/N (or rad/(N·m)).
+    pub k_awp: f64,
+    /// Output saturation |U_i| ≤ limit, N (or N·m).
+    pub force_limit: f64,
+    /// Project input, output and integral onto Jm's column space each period.
+    pub regularize: bool,
+}
+
+impl RedundantPidConfig {
+    /// ARROW's parallel module (A table 2), the ETEL ILM12-060's 2,500 N (A 5.1).
+    pub const ARROW_PARALLEL: Self = Self {
+        kp: 5_860_796.8,
+        kd: 8_070.24,
+        ki: 20_425_584.8,
+        k_awp: 0.00166,
+        force_limit: 2_500.0,
+        regularize: true,
+    };
+
+    /// ARROW's turntable (A table 2), the TMB0140's 127 N·m peak torque (A 5.1).
+    pub const ARROW_TURNTABLE: Self = Self {
+        kp: 5_550.0,
+        kd: 25.9,
+        ki: 7_400.0,
+        k_awp: 0.000_037,
+        force_limit: 127.0,
+        regularize: true,
+    };
+}
+
+/// Coefficients in `T` for `N` actuators.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct RedundantPid<T> {
+    kp: T,
+    kd_per_ts: T,
+    ki_ts: T,
+    k_awp: T,
+    limit: T,
+    regularize: bool,
+}
+
+/// State of the N actuators' loops.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct RedundantPidState<T, const N: usize> {
+    /// Γ_I: the (regularized) integral forces, N.
+    pub integral: SVector<T, N>,
+    /// q̃_reg of the last period, m.
+    pub last_error: SVector<T, N>,
+    /// ΔΓ = sat(U) − U of the last period, N.
+    pub last_excess: SVector<T, N>,
+    /// Whether `last_error` holds a period's error (no derivative kick at start).
+    pub primed: bool,
+}
+
+impl<T: Float, const N: usize> RedundantPidState<T, N> {
+    /// Nothing integrated.
+    pub fn new() -> Self {
+        Self {
+            integral: SVector::zeros(),
+            last_error: SVector::zeros(),
+            last_excess: SVector::zeros(),
+            primed: false,
+        }
+    }
+}
+
+impl<T: Float, const N: usize> Default for RedundantPidState<T, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// One period's command.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct RedundantPidOutput<T, const N: usize> {
+    /// The saturated command U, N.
+    pub forces: SVector<T, N>,
+    /// Whether any actuator is at its limit.
+    pub saturated: bool,
+}
+
+/// Why a period's command could not be computed.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RedundantPidError {
+    /// An error, feedforward or regularization entry was NaN or infinite.
+    NotFinite,
+}
+
+impl<T: Float> RedundantPid<T> {
+    /// Coefficients for period `ts_s` (gains finite and positive, K_I and K_AWP may
+    /// be zero).
+    pub fn new(config: &RedundantPidConfig, ts_s: f64) -> Result<Self, ConfigError> {
+        let ts = positive("ts_s", ts_s)?;
+        let nonneg = |name, v: f64| {
+            if !v.is_finite() {
+                Err(ConfigError::not_finite(name))
+            } else if v < 0.0 {
+                Err(ConfigError::out_of_range(name))
+            } else {
+                Ok(lit::<T>(v))
+            }
+        };
+        Ok(Self {
+            kp: coefficient("kp", positive("kp", config.kp)?)?,
+            kd_per_ts: nonneg("kd", config.kd / ts)?,
+            ki_ts: nonneg("ki", config.ki * ts)?,
+            k_awp: nonneg("k_awp", config.k_awp)?,
+            limit: coefficient("force_limit", positive("force_limit", config.force_limit)?)?,
+            regularize: config.regularize,
+        })
+    }
+
+    /// One period: `error` q̃ = q_d − q, `rm` = Jm Jm⁺ of the present pose (ignored
+    /// without regularization), `feedforward` Γ_ff. A non-finite input leaves the
+    /// state untouched and returns the error: the caller's outputs go safe.
+    pub fn update<const N: usize>(
+        &self,
+        state: &mut RedundantPidState<T, N>,
+        error: &SVector<T, N>,
+        rm: &SMatrix<T, N, N>,
+        feedforward: &SVector<T, N>,
+    ) -> Result<RedundantPidOutput<T, N>, RedundantPidError> {
+        let finite = |v: &[T]| v.iter().all(|x| x.is_finite());
+        if !(finite(error.as_slice()) && finite(rm.as_slice()) && finite(feedforward.as_slice())) {
+            return Err(RedundantPidError::NotFinite);
+        }
+        let project = |v: SVector<T, N>| if self.regularize { rm * v } else { v };
+        let e = project(*error);
+        let last = if state.primed { state.last_error } else { e };
+        // Eq. 45 with the corrected back-calculation sign (module docs).
+        let integral = project(state.integral + (e + state.last_excess * self.k_awp) * self.ki_ts);
+        let feedback = project(e * self.kp + integral + (e - last) * self.kd_per_ts);
+        let unsaturated = feedback + feedforward;
+        let forces = unsaturated.map(|u| u.clamp_abs(self.limit));
+        let excess = forces - unsaturated;
+        let saturated = excess.iter().any(|x| *x != T::zero());
+        state.integral = integral;
+        state.last_error = e;
+        state.last_excess = excess;
+        state.primed = true;
+        Ok(RedundantPidOutput { forces, saturated })
+    }
+}
+
+/// Rm = Jm Jm⁺ (eq. 38) from Jm (N × D, full column rank) and its pseudo-inverse.
+pub fn regularization<T: Float, const N: usize, const D: usize>(
+    jm: &SMatrix<T, N, D>,
+    jm_pinv: &SMatrix<T, D, N>,
+) -> SMatrix<T, N, N> {
+    jm * jm_pinv
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix2, Vector2};
+
+    fn turntable_rm() -> Matrix2<f64> {
+        // Jm = (1, −1)ᵀ (eq. 15): Rm = Jm (JmᵀJm)⁻¹ Jmᵀ = ½ [[1, −1], [−1, 1]].
+        let jm = SMatrix::<f64, 2, 1>::new(1.0, -1.0);
+        let pinv = SMatrix::<f64, 1, 2>::new(0.5, -0.5);
+        regularization(&jm, &pinv)
+    }
+
+    /// Unsaturated and without regularization, the law is eq. 35 term by term,
+    /// computed here from its own definitions (sums of errors and differences).
+    #[test]
+    fn unregularized_law_is_the_discrete_pid_of_eq_35() {
+        let config = RedundantPidConfig {
+            regularize: false,
+            force_limit: 1e12,
+            ..RedundantPidConfig::ARROW_TURNTABLE
+        };
+        let ts = 2e-4;
+        let pid = RedundantPid::<f64>::new(&config, ts).unwrap();
+        let mut state = RedundantPidState::<f64, 2>::new();
+        let errors = [0.01, 0.02, -0.005, 0.0, 0.03];
+        let mut sum = 0.0;
+        let mut prev = errors[0];
+        for e in errors {
+            sum += e;
+            let out = pid
+                .update(
+                    &mut state,
+                    &Vector2::new(e, -2.0 * e),
+                    &Matrix2::identity(),
+                    &Vector2::zeros(),
+                )
+                .unwrap();
+            let expected = config.kp * e + config.ki * ts * sum + config.kd * (e - prev) / ts;
+            assert!((out.forces[0] - expected).abs() < 1e-9 * expected.abs().max(1.0));
+            assert!((out.forces[1] + 2.0 * expected).abs() < 1e-9 * expected.abs().max(1.0));
+            prev = e;
+        }
+    }
+
+    /// The turntable's two motors against a constant inconsistent error (both
+    /// encoders reading the same offset, which no table angle explains: eq. 8 wants
+    /// opposite angles): without regularization both integrators grow, the motors
+    /// push against each other; with it, the output and integral stay in Jm's column
+    /// space, the two torques are equal and opposite (no internal torque), and the
+    /// inconsistent part integrates to nothing.
+    #[test]
+    fn regularization_removes_the_internal_part() {
+        let ts = 2e-4;
+        let rm = turntable_rm();
+        // (1, 1) is the null space of Jmᵀ = (1, −1): the motors pushing each other.
+        let inconsistent = Vector2::new(1e-4, 1e-4);
+        for regularize in [false, true] {
+            let config = RedundantPidConfig {
+                regularize,
+                ..RedundantPidConfig::ARROW_TURNTABLE
+            };
+            let pid = RedundantPid::<f64>::new(&config, ts).unwrap();
+            let mut state = RedundantPidState::new();
+            let mut out = None;
+            for _ in 0..5000 {
+                out = Some(
+                    pid.update(&mut state, &inconsistent, &rm, &Vector2::zeros())
+                        .unwrap(),
+                );
+            }
+            let internal = (out.unwrap().forces[0] + out.unwrap().forces[1]).abs();
+            if regularize {
+                assert!(
+                    internal < 1e-9 && state.integral.amax() < 1e-12,
+                    "{internal}"
+                );
+            } else {
+                // K_P e + K_I e t = 5550e-4 + 7400e-4 × 1 s, per motor.
+                assert!((internal - 2.0 * (0.555 + 0.74)).abs() < 1e-3, "{internal}");
+            }
+        }
+    }
+
+    /// A saturating step held (a blocked table): with back-calculation the integral
+    /// settles where the pull-back balances the error, e + K_AWP ΔΓ = 0, i.e. at
+    /// Γ_I = limit + e/K_AWP − K_P e (the output's excess ΔΓ = −e/K_AWP); with
+    /// K_AWP = 0 it grows as K_I Ts Σe without bound (and the printed sign, which
+    /// a negative K_AWP would be, is refused by the configuration).
+    #[test]
+    fn back_calculation_bounds_the_integral() {
+        let ts = 2e-4;
+        let e = 0.05;
+        let step = Vector2::new(e, -e);
+        let config = RedundantPidConfig::ARROW_TURNTABLE;
+        let run = |k_awp: f64, periods: usize| {
+            let config = RedundantPidConfig { k_awp, ..config };
+            let pid = RedundantPid::<f64>::new(&config, ts).unwrap();
+            let mut state = RedundantPidState::new();
+            for _ in 0..periods {
+                let out = pid.update(&mut state, &step, &turntable_rm(), &Vector2::zeros()).unwrap();
+                assert!(out.saturated);
+            }
+            state.integral[0]
+        };
+        let bound = config.force_limit + e / config.k_awp - config.kp * e;
+        let settled = run(config.k_awp, 200_000);
+        assert!((settled - bound).abs() < 1e-3 * bound, "{settled} vs {bound}");
+        assert!(run(config.k_awp, 400_000) <= bound * (1.0 + 1e-9));
+        let without = run(0.0, 200_000);
+        assert!((without - config.ki * ts * e * 200_000.0).abs() < 1e-6 * without, "{without}");
+        assert!(without > 2.0 * bound);
+    }
+
+    /// Bad input: NaN anywhere is refused and changes nothing.
+    #[test]
+    fn nan_is_refused_without_touching_the_state() {
+        let pid = RedundantPid::<f64>::new(&RedundantPidConfig::ARROW_TURNTABLE, 2e-4).unwrap();
+        let mut state = RedundantPidState::<f64, 2>::new();
+        pid.update(
+            &mut state,
+            &Vector2::new(1e-3, -1e-3),
+            &turntable_rm(),
+            &Vector2::zeros(),
+        )
+        .unwrap();
+        let before = state;
+        for (e, ff) in [
+            (Vector2::new(f64::NAN, 0.0), Vector2::zeros()),
+            (Vector2::zeros(), Vector2::new(0.0, f64::INFINITY)),
+        ] {
+            assert_eq!(
+                pid.update(&mut state, &e, &turntable_rm(), &ff),
+                Err(RedundantPidError::NotFinite)
+            );
+            assert_eq!(state, before);
+        }
+        let mut bad = RedundantPidConfig::ARROW_TURNTABLE;
+        bad.kd = -1.0;
+        assert!(RedundantPid::<f64>::new(&bad, 2e-4).is_err());
+    }
+}
