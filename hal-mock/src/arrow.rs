@@ -128,14 +128,31 @@ impl ArrowPlant {
         forces_n: &Joints<f64>,
         torques_n_m: [f64; 2],
     ) -> Result<ArrowReading, ArrowError> {
+        self.step_loaded(forces_n, torques_n_m, &Pose::zeros())
+    }
+
+    /// [`Self::step`] with an external wrench on the plate (N along x, y, z and N·m
+    /// about z: a tool stalled in the workpiece, a collision), carried to the
+    /// actuators' joints as the minimum-norm forces (Jmᵀ)⁺ w it loads them with.
+    pub fn step_loaded(
+        &mut self,
+        forces_n: &Joints<f64>,
+        torques_n_m: [f64; 2],
+        load_n: &Pose<f64>,
+    ) -> Result<ArrowReading, ArrowError> {
         let limit = self.force_limit_n;
+        let (_, jm) = self.geometry.jacobian(&self.pose)?;
+        let normal = (jm.transpose() * jm)
+            .try_inverse()
+            .ok_or(ArrowError::PlateSingular)?;
+        let transmitted = jm * (normal * load_n);
         let forces = forces_n.map(|f| {
             if f.is_finite() {
                 f.clamp(-limit, limit)
             } else {
                 0.0
             }
-        });
+        }) + transmitted;
         let h = self.config.period_s / f64::from(self.config.substeps.max(1));
         let (g, d) = (&self.geometry, &self.dynamics);
         let f = |x: &Pose<f64>, v: &Pose<f64>| d.acceleration(g, x, v, &forces);
@@ -160,6 +177,11 @@ impl ArrowPlant {
         let dt = self.config.period_s;
         self.theta_x += self.theta_x_rate * dt + 0.5 * accel * dt * dt;
         self.theta_x_rate += accel * dt;
+        self.read()
+    }
+
+    /// The encoders now.
+    pub fn read(&self) -> Result<ArrowReading, ArrowError> {
         let q = self.geometry.inverse(&self.pose)?;
         let lsb = self.config.encoder_resolution_m;
         let turn = core::f64::consts::TAU / f64::from(self.config.turntable_counts_per_turn);

@@ -1,5 +1,6 @@
 //! Shared helpers for the host scenario tests.
 
+pub mod arrow;
 pub mod contours;
 pub mod depth;
 pub mod hall;

@@ -1,0 +1,168 @@
+//! ARROW in closed loop on the host: the simulated plant of `hal-mock` (with its
+//! geometric error) under the PID with computed feedforward of A eq. 46, the
+//! references and the feedforward computed from the controller's nominal model.
+
+use hal_mock::arrow::{ArrowPlant, ArrowPlantConfig};
+use kerf::control::redundant_pid::{
+    regularization, RedundantPid, RedundantPidConfig, RedundantPidState,
+};
+use kerf::kinematics::arrow::{
+    ArrowConfig, ArrowDynamics, ArrowError, ArrowGeometry, ArrowMasses, Joints, Pose,
+};
+use nalgebra::{Matrix2, SMatrix, Vector2};
+
+/// The desired motion at time t: pose, rate, acceleration, and θx with its
+/// acceleration.
+pub type Reference = dyn Fn(f64) -> (Pose<f64>, Pose<f64>, Pose<f64>, f64, f64);
+
+/// How a run is set up.
+#[derive(Copy, Clone, Debug)]
+pub struct ArrowRunConfig {
+    /// Parallel module gains (regularization and anti-windup in it).
+    pub parallel: RedundantPidConfig,
+    /// Turntable gains.
+    pub turntable: RedundantPidConfig,
+    /// Add the inverse dynamic model's forces (eq. 46's Γ_ff).
+    pub feedforward: bool,
+    /// Control periods.
+    pub periods: usize,
+    /// A stiff wall the plate meets while it moves along +x: its position and when
+    /// it goes (m, s), as a tool stalled in hard material and then free.
+    pub wall: Option<(f64, f64)>,
+}
+
+/// One period's record.
+#[derive(Copy, Clone, Debug)]
+pub struct ArrowSample {
+    /// Time, s.
+    pub t_s: f64,
+    /// The plate's true pose minus the desired one.
+    pub pose_error: Pose<f64>,
+    /// Measured minus desired joints, m.
+    pub joint_error_m: Joints<f64>,
+    /// The commanded actuator forces, N.
+    pub forces_n: Joints<f64>,
+    /// Their part outside Jm's column space (what the actuators push against each
+    /// other with), N: |(I − Rm) Γ|.
+    pub internal_force_n: f64,
+    /// The integral state Γ_I, N.
+    pub integral_n: Joints<f64>,
+    /// Whether a force was at its limit.
+    pub saturated: bool,
+    /// Table angle error, rad.
+    pub theta_x_error_rad: f64,
+}
+
+/// Runs the plant from rest at the reference's start.
+pub fn run(config: &ArrowRunConfig, reference: &Reference) -> Result<Vec<ArrowSample>, ArrowError> {
+    let plant_config = ArrowPlantConfig::with_geometric_error();
+    let model = ArrowConfig::ARROW;
+    let geometry = ArrowGeometry::<f64>::new(&model).map_err(|_| ArrowError::NotFinite)?;
+    let dynamics = ArrowDynamics::<f64>::new(
+        &ArrowMasses::ARROW,
+        model.arms[0].length_m,
+        model.arms[2].length_m,
+    )
+    .map_err(|_| ArrowError::NotFinite)?;
+    let ts = plant_config.period_s;
+    let pid = RedundantPid::<f64>::new(&config.parallel, ts).map_err(|_| ArrowError::NotFinite)?;
+    let table_pid =
+        RedundantPid::<f64>::new(&config.turntable, ts).map_err(|_| ArrowError::NotFinite)?;
+    let (x0, _, _, tx0, _) = reference(0.0);
+    let mut plant = ArrowPlant::new(&plant_config, x0, tx0)?;
+    let mut state = RedundantPidState::<f64, 6>::new();
+    let mut table_state = RedundantPidState::<f64, 2>::new();
+    // Eq. 15: Jm of the turntable is (1, −1)ᵀ, Rm = ½[[1, −1], [−1, 1]].
+    let table_rm = Matrix2::new(0.5, -0.5, -0.5, 0.5);
+    let mut reading = plant.read()?;
+    let mut samples = Vec::with_capacity(config.periods);
+    for k in 0..config.periods {
+        let t = k as f64 * ts;
+        let (xd, vd, ad, txd, txd_acc) = reference(t);
+        let (qd, jm) = geometry.jacobian(&xd)?;
+        let pinv = ArrowGeometry::pseudo_inverse(&jm)?;
+        let rm: SMatrix<f64, 6, 6> = regularization(&jm, &pinv);
+        let ff = if config.feedforward {
+            dynamics.feedforward(&geometry, &xd, &vd, &ad)?.forces_n
+        } else {
+            Joints::zeros()
+        };
+        let out = pid
+            .update(&mut state, &(qd - reading.joints_m), &rm, &ff)
+            .map_err(|_| ArrowError::NotFinite)?;
+        let table_ff = if config.feedforward {
+            let [a, b] = dynamics.turntable_torques(txd_acc);
+            Vector2::new(a, b)
+        } else {
+            Vector2::zeros()
+        };
+        let table_error = Vector2::new(txd, -txd) - Vector2::from(reading.turntable_rad);
+        let table_out = table_pid
+            .update(&mut table_state, &table_error, &table_rm, &table_ff)
+            .map_err(|_| ArrowError::NotFinite)?;
+        let load = match config.wall {
+            Some((x_wall, until_s)) if t < until_s => {
+                let (x, v) = plant.state();
+                let depth = x.x - x_wall;
+                // 1e8 N/m with damping that stops the plate within a few periods.
+                let push = if depth > 0.0 {
+                    -(1e8 * depth + 2e5 * v.x.max(0.0))
+                } else {
+                    0.0
+                };
+                Pose::new(push, 0.0, 0.0, 0.0)
+            }
+            _ => Pose::zeros(),
+        };
+        reading = plant.step_loaded(
+            &out.forces,
+            [table_out.forces[0], table_out.forces[1]],
+            &load,
+        )?;
+        let (x, _) = plant.state();
+        let internal = (out.forces - rm * out.forces).amax();
+        samples.push(ArrowSample {
+            t_s: t + ts,
+            pose_error: x - reference(t + ts).0,
+            joint_error_m: reading.joints_m - geometry.inverse(&reference(t + ts).0)?,
+            forces_n: out.forces,
+            internal_force_n: internal,
+            integral_n: state.integral,
+            saturated: out.saturated,
+            theta_x_error_rad: plant.theta_x_rad() - reference(t + ts).3,
+        });
+    }
+    Ok(samples)
+}
+
+/// A hold at `pose` (the table at 0).
+pub fn hold(pose: Pose<f64>) -> impl Fn(f64) -> (Pose<f64>, Pose<f64>, Pose<f64>, f64, f64) {
+    move |_| (pose, Pose::zeros(), Pose::zeros(), 0.0, 0.0)
+}
+
+/// A rest-to-rest move of `step` from `pose` between `start_s` and `start_s +
+/// duration_s` along a quintic (zero velocity and acceleration at both ends), with
+/// its rate and acceleration.
+pub fn quintic_move(
+    pose: Pose<f64>,
+    step: Pose<f64>,
+    start_s: f64,
+    duration_s: f64,
+) -> impl Fn(f64) -> (Pose<f64>, Pose<f64>, Pose<f64>, f64, f64) {
+    move |t| {
+        let u = ((t - start_s) / duration_s).clamp(0.0, 1.0);
+        let inside = t > start_s && t < start_s + duration_s;
+        let s = u * u * u * (10.0 - 15.0 * u + 6.0 * u * u);
+        let ds = if inside {
+            30.0 * u * u * (1.0 - u) * (1.0 - u) / duration_s
+        } else {
+            0.0
+        };
+        let dds = if inside {
+            60.0 * u * (1.0 - u) * (1.0 - 2.0 * u) / (duration_s * duration_s)
+        } else {
+            0.0
+        };
+        (pose + step * s, step * ds, step * dds, 0.0, 0.0)
+    }
+}
