@@ -98,12 +98,14 @@ impl<const N: usize> Block<N> {
 ///    masks (32 indices at a time, so no 64-bit variable shift per index): the
 ///    magnitudes above d* are kept, and the members of d* are the candidates.
 ///
-/// The candidates then go, in index order, through a sorted buffer of the r largest,
-/// each entering after every member at least as large, so an equal later one never
-/// displaces an earlier one. A block of DCT coefficients spreads over many binades,
-/// so the buffer sees a few values; the worst case (every magnitude in one binade, in
-/// ascending order) is N insertions into a buffer of r ≤ m: bounded, with no
-/// recursion.
+/// When d* holds exactly r values they are all kept. Otherwise the candidates go, in
+/// index order, through a sorted buffer of the r largest, each entering after every
+/// member at least as large, so an equal later one never displaces an earlier one; one
+/// not larger than the buffer's last is appended or dropped at once (ties, such as the
+/// zeros of a constant block, and descending runs). A block of DCT coefficients
+/// spreads over many binades, so the buffer sees a few values; the worst case (every
+/// magnitude in one binade, in ascending order) is N insertions into a buffer of
+/// r ≤ m: bounded, with no recursion.
 pub fn select_largest<const N: usize>(c: &[f32; N], m: usize) -> u64 {
     if m == 0 {
         return 0;
@@ -141,40 +143,57 @@ pub fn select_largest<const N: usize>(c: &[f32; N], m: usize) -> u64 {
     let candidate_from = if cut == 31 { 0 } else { binade << 23 };
     let magnitude = |v: &f32| v.to_bits() & 0x7FFF_FFFF;
     let weight = |k: u32| c.get(k as usize).map_or(0, magnitude);
-    let mut mask = 0u64;
-    // Indices of the `wanted` largest candidates seen so far, by descending magnitude,
-    // ties in index order.
-    let mut best = [0u8; N];
-    let mut filled = 0usize;
+    let (mut mask, mut candidates) = (0u64, 0u64);
     for (start, chunk) in (0u32..).step_by(32).zip(c.chunks(32)) {
         // Bit i of the chunk enters at the top and moves down one place per sample.
-        let (mut keep, mut candidates) = (0u32, 0u32);
+        let (mut keep, mut member) = (0u32, 0u32);
         for v in chunk {
             let b = magnitude(v);
             keep = keep >> 1 | u32::from(b >= keep_from) << 31;
-            candidates = candidates >> 1 | u32::from(b >= candidate_from) << 31;
+            member = member >> 1 | u32::from(b >= candidate_from) << 31;
         }
         let shift = 32u32.saturating_sub(chunk.len() as u32);
         let keep = keep.checked_shr(shift).unwrap_or(0);
+        let member = member.checked_shr(shift).unwrap_or(0) & !keep;
         mask |= u64::from(keep) << start;
-        let mut candidates = candidates.checked_shr(shift).unwrap_or(0) & !keep;
-        while candidates != 0 {
-            let k = start + candidates.trailing_zeros();
-            candidates &= candidates - 1;
-            let b = weight(k);
-            let at = best
-                .iter()
-                .take(filled)
-                .rposition(|&j| weight(u32::from(j)) >= b)
-                .map_or(0, |p| p + 1);
-            if at < wanted {
-                filled = (filled + 1).min(wanted);
-                let mut carry = k as u8;
-                for slot in best.iter_mut().take(filled).skip(at) {
-                    core::mem::swap(slot, &mut carry);
-                }
+        candidates |= u64::from(member) << start;
+    }
+    if count.get(cut).is_some_and(|&n| usize::from(n) == wanted) {
+        // Every member of the binade is wanted.
+        return mask | candidates;
+    }
+    // Indices of the `wanted` largest candidates so far, by descending magnitude, ties
+    // in index order, and the magnitude of the last one.
+    let mut best = [0u8; N];
+    let (mut filled, mut last) = (0usize, 0u32);
+    while candidates != 0 {
+        let k = candidates.trailing_zeros();
+        candidates &= candidates - 1;
+        let b = weight(k);
+        if filled > 0 && b <= last {
+            // Not larger than the last one kept (ties, descending runs): to the end.
+            if let Some(slot) = best.get_mut(filled).filter(|_| filled < wanted) {
+                *slot = k as u8;
+                filled += 1;
+                last = b;
             }
+            continue;
         }
+        // Larger than the last one: in after every entry at least as large, the
+        // rest moving down one place, the last dropping out when the buffer is full.
+        let at = best
+            .iter()
+            .take(filled)
+            .rposition(|&j| weight(u32::from(j)) >= b)
+            .map_or(0, |p| p + 1);
+        filled = (filled + 1).min(wanted);
+        let mut carry = k as u8;
+        for slot in best.iter_mut().take(filled).skip(at) {
+            core::mem::swap(slot, &mut carry);
+        }
+        last = best
+            .get(filled.wrapping_sub(1))
+            .map_or(0, |&j| weight(u32::from(j)));
     }
     for &k in best.iter().take(filled) {
         mask |= 1u64.checked_shl(u32::from(k)).unwrap_or(0);
