@@ -19,10 +19,12 @@
 //!   N = 64 the top two, one 4-point butterfly of samples `i, 31−i, 32+i, 63−i` per
 //!   row) from the caller's buffer into a stack array whose rows interleave the
 //!   16-point blocks; each block through the register kernel and back in place; the
-//!   top merge stage (stages) back into the caller's buffer with the orthonormal
-//!   scales applied. A radix-2 loop with one pass per stage and one for the scales
-//!   makes 2 log2 N − 4 (8 at N = 64). The inverse runs the transposed passes in
-//!   reverse order.
+//!   top merge stage (stages) back into the caller's buffer. The orthonormal scales
+//!   ride along: at N = 32 the split pass applies s (through the top stage's factors
+//!   on the odd half, one multiplication per sum on the even half) and the merge pass
+//!   only turns X\[0\]'s s into s_0; at N = 64 the merge pass applies them. A radix-2
+//!   loop with one pass per stage and one for the scales makes 2 log2 N − 4 passes
+//!   (8 at N = 64). The inverse runs the transposed passes in reverse order.
 //! * [`Dct::forward_q15`] / [`Dct::inverse_q15`]: integer, for Q15 data. A direct
 //!   O(N²) product with the Q15 cosine table and a 64-bit accumulator, chosen by
 //!   measurement (tests below, 99 blocks of uniform full-scale input per N):
@@ -57,6 +59,8 @@
 //! error 4.4e-7 / 9.0e-7 / 1.7e-6 / 3.2e-6 at N = 8 / 16 / 32 / 64 (tested bound
 //! 2e-6 · √N); Q15 forward and inverse max error ≤ 1.5 LSB (bound √(N/2) + 1), Q15 round
 //! trip ≤ 2 LSB (bound 3).
+
+use core::f32::consts::FRAC_1_SQRT_2;
 
 use crate::error::ConfigError;
 
@@ -111,6 +115,9 @@ const fn round_shift(v: i64, shift: u32) -> i64 {
 pub struct Dct<const N: usize> {
     /// Lee's butterfly factors 1 / (2 cos((2i+1)π/2L)) for the stage of length L at
     /// indices L/2..L (heap layout: L = N, N/2, …, 2 fill N/2..N, N/4..N/2, …, 1..2).
+    /// At N = 32 the top stage's factors carry the orthonormal scale s as well (see
+    /// [`split_rows`]; at N = 64 the scales go with the merge pass, which measured
+    /// faster there).
     twiddle: [f32; N],
     scale0: f32,
     scale: f32,
@@ -136,6 +143,11 @@ impl<const N: usize> Dct<N> {
             *t = 0.5 / cos_f32(j);
         }
         let (s0, s) = scales(N);
+        if N == 32 {
+            for t in twiddle.iter_mut().skip(N / 2) {
+                *t = (f64::from(*t) * s) as f32;
+            }
+        }
         Ok(Self {
             twiddle,
             scale0: s0 as f32,
@@ -187,12 +199,12 @@ impl<const N: usize> Dct<N> {
             let (Some(t32), Some(t16)) = (self.stage(), self.stage()) else {
                 return;
             };
-            let mut q = split_rows(x, t32);
+            let mut q = split_rows(x, t32, self.scale);
             for c in 0..2 {
                 let y = dct16(&column(&q, c), t16, &base);
                 set_column(&mut q, c, &y);
             }
-            merge_rows_scaled(&q, x, scale);
+            merge_rows(&q, x);
         } else if let Ok(x) = <&mut [f32; 16]>::try_from(&mut *x) {
             let Some(t16) = self.stage() else {
                 return;
@@ -233,12 +245,12 @@ impl<const N: usize> Dct<N> {
             let (Some(t32), Some(t16)) = (self.stage(), self.stage()) else {
                 return;
             };
-            let mut q = unmerge_rows_scaled(c, scale);
+            let mut q = unmerge_rows(c);
             for k in 0..2 {
                 let y = idct16(&column(&q, k), t16, &base);
                 set_column(&mut q, k, &y);
             }
-            unsplit_rows(&q, t32, c);
+            unsplit_rows(&q, t32, self.scale, c);
         } else if let Ok(c) = <&mut [f32; 16]>::try_from(&mut *c) {
             let Some(t16) = self.stage() else {
                 return;
@@ -520,54 +532,59 @@ fn unsplit2(q: &[[f32; 4]; 16], t64: &[f32; 32], t32: &[f32; 16], out: &mut [f32
     }
 }
 
-/// [`split`] of 32 samples with the halves interleaved: row i holds [a[i], b[i]].
+/// [`split`] of 32 samples with the halves interleaved (row i holds [a[i], b[i]]),
+/// times the orthonormal scale `s`: b through `t32`, which holds
+/// s · 1 / (2 cos((2i+1)π/64)), and a by one multiplication.
 #[inline(always)]
-fn split_rows(x: &[f32; 32], t32: &[f32; 16]) -> [[f32; 2]; 16] {
+fn split_rows(x: &[f32; 32], t32: &[f32; 16], s: f32) -> [[f32; 2]; 16] {
     let at = |v: &[f32], i: usize| v.get(i).copied().unwrap_or(0.0);
     core::array::from_fn(|i| {
         let (p, q) = (at(x, i), at(x, 31 - i));
-        [p + q, (p - q) * at(t32, i)]
+        [(p + q) * s, (p - q) * at(t32, i)]
     })
 }
 
-/// [`merge_scaled`] from interleaved halves: row k holds [A[k], B[k]].
+/// [`merge`] from interleaved halves (row k holds [A[k], B[k]]), which carry the scale
+/// s from [`split_rows`]; X[0] takes s_0 = s / √2.
 #[inline(always)]
-fn merge_rows_scaled(q: &[[f32; 2]; 16], out: &mut [f32; 32], (s0, s): (f32, f32)) {
+fn merge_rows(q: &[[f32; 2]; 16], out: &mut [f32; 32]) {
     let mut odd_next = 0.0;
     for (pair, &[a, b]) in out.chunks_exact_mut(2).zip(q).rev() {
         if let [x0, x1] = pair {
-            *x0 = a * s;
-            *x1 = (b + odd_next) * s;
+            *x0 = a;
+            *x1 = b + odd_next;
             odd_next = b;
         }
     }
-    if let (Some(x0), Some(&[a0, _])) = (out.first_mut(), q.first()) {
-        *x0 = a0 * s0;
+    if let Some(x0) = out.first_mut() {
+        *x0 *= FRAC_1_SQRT_2;
     }
 }
 
-/// [`unmerge_scaled`] of 32 coefficients with the halves interleaved: row k holds
-/// [A[k], B[k]].
+/// Transpose of [`merge_rows`]: row k of the result holds [A[k], B[k]] with
+/// A[k] = X[2k] (X[0] / √2) and B[k] = X[2k+1] + X[2k−1]. [`unsplit_rows`] applies
+/// the scale s.
 #[inline(always)]
-fn unmerge_rows_scaled(c: &[f32; 32], (s0, s): (f32, f32)) -> [[f32; 2]; 16] {
+fn unmerge_rows(c: &[f32; 32]) -> [[f32; 2]; 16] {
     let at = |i: usize| c.get(i).copied().unwrap_or(0.0);
     let mut q: [[f32; 2]; 16] = core::array::from_fn(|k| {
         let odd_prev = if k == 0 { 0.0 } else { at(2 * k - 1) };
-        [at(2 * k) * s, (at(2 * k + 1) + odd_prev) * s]
+        [at(2 * k), at(2 * k + 1) + odd_prev]
     });
-    if let (Some([a0, _]), Some(&c0)) = (q.first_mut(), c.first()) {
-        *a0 = c0 * s0;
+    if let Some([a0, _]) = q.first_mut() {
+        *a0 *= FRAC_1_SQRT_2;
     }
     q
 }
 
-/// [`unsplit`] from interleaved halves (row i holds [u[i], v[i]]) into 32 samples.
+/// Transpose of [`split_rows`] (row i holds [u[i], v[i]]) into 32 samples:
+/// x[i] = s·u[i] + v[i]·t[i], x[31−i] = s·u[i] − v[i]·t[i], `t32` carrying s.
 #[inline(always)]
-fn unsplit_rows(q: &[[f32; 2]; 16], t32: &[f32; 16], out: &mut [f32; 32]) {
+fn unsplit_rows(q: &[[f32; 2]; 16], t32: &[f32; 16], s: f32, out: &mut [f32; 32]) {
     if let Some((lo, hi)) = out.split_at_mut_checked(16) {
         let outs = lo.iter_mut().zip(hi.iter_mut().rev());
         for ((&[u, v], &t), (lo, hi)) in q.iter().zip(t32).zip(outs) {
-            let y = v * t;
+            let (u, y) = (u * s, v * t);
             *lo = u + y;
             *hi = u - y;
         }
