@@ -20,4 +20,5 @@ pub mod delay_observer;
 pub mod dob;
 pub mod laser;
 pub mod pd;
+pub mod pid;
 pub mod preview;
