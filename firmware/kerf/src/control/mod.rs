@@ -13,6 +13,7 @@
 //!
 //! The scenario tests record every signal's peak and check these ranges.
 
+pub mod adrc;
 pub mod bilateral;
 pub mod constraint;
 pub mod contouring;
