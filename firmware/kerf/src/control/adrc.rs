@@ -10,7 +10,7 @@
 //!    e = z1 − y; z1 ← z1 + h z2 − β01 e; z2 ← z2 + h (z3 + b0 u) − β02 fal(e, 0.5, δo);
 //!    z3 ← z3 − β03 fal(e, 0.25, δo), with u the command applied last period.
 //! 3. Nonlinear state-error feedback and disturbance rejection (G fig. 29, after Han,
-//!    the reference [54] of G 4.2): e1 = v1 − z1, e2 = v2 − z2,
+//!    the reference 54 of G 4.2): e1 = v1 − z1, e2 = v2 − z2,
 //!    u0 = Kp fal(e1, α, δ) + Kd fal(e2, α, δ), u = (u0 − z3)/b0.
 //!
 //! What the seed's Kp, Kd, α, b0 mean: the seed tunes four numbers "Kp, Kd, alpha,

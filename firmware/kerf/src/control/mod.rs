@@ -19,6 +19,7 @@ pub mod constraint;
 pub mod contouring;
 pub mod delay_observer;
 pub mod dob;
+pub mod hybrid_force;
 pub mod laser;
 pub mod pd;
 pub mod pid;

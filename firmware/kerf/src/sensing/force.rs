@@ -12,7 +12,7 @@
 //!   M = x Fy − y Fx, the spindle axis sits at (Δx, −Δy) in the sensor's frame.
 //!   Whatever the convention, the fit below estimates them in the same formula.
 //! - Eccentricity (G ch. 4: "simple least squares parameter estimation", after its
-//!   ref. [23]): from samples with a known moment about the spindle axis M_s
+//!   ref. 23): from samples with a known moment about the spindle axis M_s
 //!   (zero when the spindle turns freely, as in the seed's contour tracking, G 7.3; or
 //!   Ft·r for a known tangential load), eq. 2 gives the linear model
 //!   Mz − M_s = Fy Δx + Fx Δy, fitted by least squares ([`EccentricityFit`]).
