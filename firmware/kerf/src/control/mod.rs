@@ -13,12 +13,15 @@
 //!
 //! The scenario tests record every signal's peak and check these ranges.
 
+pub mod adrc;
 pub mod bilateral;
 pub mod constraint;
 pub mod contouring;
 pub mod delay_observer;
 pub mod dob;
+pub mod hybrid_force;
 pub mod laser;
 pub mod pd;
+pub mod pid;
 pub mod preview;
 pub mod redundant_pid;

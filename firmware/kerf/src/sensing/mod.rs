@@ -1,5 +1,6 @@
 //! Raw samples to physical quantities.
 
 pub mod encoder;
+pub mod force;
 pub mod hall;
 pub mod velocity;
