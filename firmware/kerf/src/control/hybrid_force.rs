@@ -79,16 +79,24 @@ pub struct HybridForceConfig {
 impl HybridForceConfig {
     /// The seed's cell (G 3.1.1, 7.1): P-602 travel 0–1 mm; set feed 0.1 mm/s; the rate
     /// limiter at the set feed ("to prevent the piezo actuator to exceed the set
-    /// feedrate", G ch. 7). The seed does not print the unit of its laws' output;
-    /// assumed here: 1 µm per unit (the scale at which the piezo's 7 nm resolution and
-    /// 1 mm travel are both comfortable numbers) — to be confirmed against the
-    /// simulated cell before the seed's gains are compared with its results.
+    /// feedrate", G ch. 7). The seed does not print the unit of its laws' output.
+    /// On the simulated cell (Werner's force model, about 0.5 N per µm of depth at
+    /// the seed's operating point, and the seed's 0.8 N² force noise) the seed's PID
+    /// gains engage and hold the force only at 3·10⁻¹¹ m per unit or less: at larger
+    /// units the proportional and derivative terms alone turn the force noise into
+    /// piezo steps beyond the rate limit (0.1 µm per period), and the piezo chatters
+    /// in place without reaching the surface (the scan is the scenario test
+    /// `grinding_cell::seed_gain_unit_scan`). 1·10⁻¹¹ m (10 pm) per unit is used: the
+    /// seed's gains then give a loop gain of 4·10⁻⁴ per period on 0.5 N/µm (a force
+    /// time constant of about 2.4 s). A different
+    /// force model would move this scale by its stiffness; the gains tuned on the cell
+    /// are in `control::pid` and `control::adrc` presets with their own units.
     pub const GRINDING_SEED: Self = Self {
         piezo_min_m: 0.0,
         piezo_max_m: 1e-3,
         piezo_rate_m_s: 1e-4,
         feed_m_s: 1e-4,
-        increment_unit_m: 1e-6,
+        increment_unit_m: 1e-11,
     };
 }
 

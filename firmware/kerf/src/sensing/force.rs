@@ -289,6 +289,11 @@ pub struct ToolConfig {
     pub tool_radius_m: f64,
     /// Sensor eccentricity, m (measure it with [`EccentricityFit`]).
     pub eccentricity: Eccentricity,
+    /// Standard deviation of the force noise the readings carry, N (0 for exact
+    /// data). Out of contact Fx, Fy and Ft are noise alone, and Ft² exceeds
+    /// Fx² + Fy² about half the time; a radicand within (4σ)² below zero is that
+    /// noise and clamps to Fn = 0, not a fault.
+    pub noise_n: f64,
 }
 
 /// Local tangential and normal grinding forces.
@@ -308,6 +313,8 @@ pub struct ToolGeometry<T> {
     dy: T,
     /// 16 ε of `T`: the radicand's rounding allowance (see [`ToolGeometry::local`]).
     rounding: T,
+    /// (4σ)² of the readings' noise, N².
+    noise_sq: T,
 }
 
 impl<T: Float> ToolGeometry<T> {
@@ -324,6 +331,10 @@ impl<T: Float> ToolGeometry<T> {
             dx: crate::error::representable("dx_m", dx).map_err(|x| x.within("eccentricity"))?,
             dy: crate::error::representable("dy_m", dy).map_err(|x| x.within("eccentricity"))?,
             rounding: lit::<T>(16.0) * T::default_epsilon(),
+            noise_sq: lit({
+                let noise = crate::error::in_range("noise_n", config.noise_n, 0.0, 1e3)?;
+                16.0 * noise * noise
+            }),
         })
     }
 
@@ -334,7 +345,8 @@ impl<T: Float> ToolGeometry<T> {
     /// computed Ft is off by at most about 4u·S, so Ft² by 8u·S² (plus its own
     /// rounding); Fx² + Fy² carries 3u(Fx² + Fy²) and the subtraction u of the larger
     /// side: in all below 10u (Fx² + Fy² + S²). A radicand above −16ε(Fx² + Fy² + S²)
-    /// (= −32u·…, three times that bound) is rounding and clamps to Fn = 0; below
+    /// (= −32u·…, three times that bound) is rounding, and so is one within the
+    /// readings' noise, (4σ)² ([`ToolConfig::noise_n`]): both clamp to Fn = 0; below
     /// that it is [`ForceError::NegativeRadicand`]. NaN in any input is
     /// [`ForceError::NotFinite`].
     pub fn local(&self, wrench: &Wrench<T>) -> Result<LocalForces<T>, ForceError> {
@@ -355,7 +367,7 @@ impl<T: Float> ToolGeometry<T> {
             });
         }
         let s = (mz.abs() + (fx * self.dy).abs() + (fy * self.dx).abs()) * self.inv_radius;
-        if radicand >= -self.rounding * (planar + s * s) {
+        if radicand >= -(self.rounding * (planar + s * s) + self.noise_sq) {
             Ok(LocalForces {
                 tangential_n: ft,
                 normal_n: T::ZERO,

@@ -162,6 +162,7 @@ fn tool(dx_m: f64, dy_m: f64) -> ToolConfig {
     ToolConfig {
         tool_radius_m: 2e-3,
         eccentricity: Eccentricity { dx_m, dy_m },
+        noise_n: 0.0,
     }
 }
 
@@ -366,4 +367,59 @@ fn rejects_bad_config() {
         BiasCapture::<f32>::new(&capture_config(0)).err(),
         Some(ConfigError::not_positive("samples"))
     );
+}
+
+/// Out of contact the readings are noise alone: with the seed's 0.8 N² (σ = 0.89 N on
+/// Fx, Fy and on Ft), a radicand within (4σ)² below zero clamps to Fn = 0 — over
+/// 10,000 noise samples none faults — while the same readings with σ = 0 declared
+/// fault on the first Ft² > Fx² + Fy²; and a reading 10 N² further below still faults.
+#[test]
+fn noise_out_of_contact_clamps_to_zero() {
+    let sigma = 0.8f64.sqrt();
+    let noisy = ToolGeometry::<f64>::new(&ToolConfig {
+        noise_n: sigma,
+        ..tool(0.0, 0.0)
+    })
+    .unwrap();
+    let exact = ToolGeometry::<f64>::new(&tool(0.0, 0.0)).unwrap();
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    let mut normal = || {
+        // Irwin–Hall: the sum of 12 uniforms minus 6, unit variance.
+        (0..12)
+            .map(|_| {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                (seed >> 11) as f64 / (1u64 << 53) as f64
+            })
+            .sum::<f64>()
+            - 6.0
+    };
+    let (mut exact_faults, mut zeros) = (0, 0);
+    for _ in 0..10_000 {
+        let (fx, fy, ft) = (sigma * normal(), sigma * normal(), sigma * normal());
+        let w = Wrench {
+            force_n: [fx, fy, 0.0],
+            torque_n_m: [0.0, 0.0, ft * 2e-3],
+        };
+        let local = noisy.local(&w).unwrap();
+        if local.normal_n == 0.0 {
+            zeros += 1;
+        }
+        if exact.local(&w).is_err() {
+            exact_faults += 1;
+        }
+    }
+    assert!(
+        zeros > 2000 && exact_faults == zeros,
+        "{zeros} {exact_faults}"
+    );
+    let far = Wrench {
+        force_n: [1.0, 0.0, 0.0],
+        torque_n_m: [0.0, 0.0, (1.0f64 + 16.0 * 0.8 + 10.0).sqrt() * 2e-3],
+    };
+    assert!(matches!(
+        noisy.local(&far),
+        Err(ForceError::NegativeRadicand { .. })
+    ));
 }
