@@ -291,8 +291,9 @@ pub struct ToolConfig {
     pub eccentricity: Eccentricity,
     /// Standard deviation of the force noise the readings carry, N (0 for exact
     /// data). Out of contact Fx, Fy and Ft are noise alone, and Ft² exceeds
-    /// Fx² + Fy² about half the time; a radicand within (4σ)² below zero is that
-    /// noise and clamps to Fn = 0, not a fault.
+    /// Fx² + Fy² about half the time; a radicand within (7σ)² below zero is that
+    /// noise and clamps to Fn = 0, not a fault (Ft beyond 7σ: 2.6·10⁻¹² of readings,
+    /// once in 12 years at 1 kHz; at 4σ a pass of a minute would fault).
     pub noise_n: f64,
 }
 
@@ -313,7 +314,7 @@ pub struct ToolGeometry<T> {
     dy: T,
     /// 16 ε of `T`: the radicand's rounding allowance (see [`ToolGeometry::local`]).
     rounding: T,
-    /// (4σ)² of the readings' noise, N².
+    /// (7σ)² of the readings' noise, N².
     noise_sq: T,
 }
 
@@ -333,7 +334,7 @@ impl<T: Float> ToolGeometry<T> {
             rounding: lit::<T>(16.0) * T::default_epsilon(),
             noise_sq: lit({
                 let noise = crate::error::in_range("noise_n", config.noise_n, 0.0, 1e3)?;
-                16.0 * noise * noise
+                49.0 * noise * noise
             }),
         })
     }
@@ -346,7 +347,7 @@ impl<T: Float> ToolGeometry<T> {
     /// rounding); Fx² + Fy² carries 3u(Fx² + Fy²) and the subtraction u of the larger
     /// side: in all below 10u (Fx² + Fy² + S²). A radicand above −16ε(Fx² + Fy² + S²)
     /// (= −32u·…, three times that bound) is rounding, and so is one within the
-    /// readings' noise, (4σ)² ([`ToolConfig::noise_n`]): both clamp to Fn = 0; below
+    /// readings' noise, (7σ)² ([`ToolConfig::noise_n`]): both clamp to Fn = 0; below
     /// that it is [`ForceError::NegativeRadicand`]. NaN in any input is
     /// [`ForceError::NotFinite`].
     pub fn local(&self, wrench: &Wrench<T>) -> Result<LocalForces<T>, ForceError> {

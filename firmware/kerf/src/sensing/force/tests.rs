@@ -370,7 +370,7 @@ fn rejects_bad_config() {
 }
 
 /// Out of contact the readings are noise alone: with the seed's 0.8 N² (σ = 0.89 N on
-/// Fx, Fy and on Ft), a radicand within (4σ)² below zero clamps to Fn = 0 — over
+/// Fx, Fy and on Ft), a radicand within (7σ)² below zero clamps to Fn = 0 — over
 /// 10,000 noise samples none faults — while the same readings with σ = 0 declared
 /// fault on the first Ft² > Fx² + Fy²; and a reading 10 N² further below still faults.
 #[test]
@@ -416,7 +416,7 @@ fn noise_out_of_contact_clamps_to_zero() {
     );
     let far = Wrench {
         force_n: [1.0, 0.0, 0.0],
-        torque_n_m: [0.0, 0.0, (1.0f64 + 16.0 * 0.8 + 10.0).sqrt() * 2e-3],
+        torque_n_m: [0.0, 0.0, (1.0f64 + 49.0 * 0.8 + 10.0).sqrt() * 2e-3],
     };
     assert!(matches!(
         noisy.local(&far),
