@@ -20,6 +20,7 @@ pub mod contouring;
 pub mod delay_observer;
 pub mod dob;
 pub mod hybrid_force;
+pub mod identify;
 pub mod laser;
 pub mod pd;
 pub mod pid;
