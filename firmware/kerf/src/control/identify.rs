@@ -2,9 +2,9 @@
 //! stage's G(z) = b1 z / (z² + a1 z + a2) identified on the MCU from its command u and
 //! measured position y, one sample per control period, in fixed memory.
 //!
-//! The model (eq. 30 with n_a = 2, n_b = 1, n_k = 0): y[k] = −a1 y[k−1] − a2 y[k−2] +
-//! b1 u[k−1] + e[k], i.e. y[k] = φ[k]ᵀ θ + e[k] with θ = (a1, a2, b1) and
-//! φ[k] = (−y[k−1], −y[k−2], u[k−1]). Each sample updates (λ the forgetting factor):
+//! The model (eq. 30 with n_a = 2, n_b = 1, n_k = 0): y(k) = −a1 y(k−1) − a2 y(k−2) +
+//! b1 u(k−1) + e(k), i.e. y(k) = φ(k)ᵀ θ + e(k) with θ = (a1, a2, b1) and
+//! φ(k) = (−y(k−1), −y(k−2), u(k−1)). Each sample updates (λ the forgetting factor):
 //!
 //!   K = P φ / (λ + φᵀ P φ),   θ ← θ + K (y − φᵀ θ),   P ← (P − K φᵀ P) / λ.
 //!
