@@ -93,7 +93,7 @@ impl<T: Float> Rls<T> {
         })
     }
 
-    /// One sample: the measurement y[k] and the command u[k] applied from now on.
+    /// One sample: the measurement y(k) and the command u(k) applied from now on.
     /// The first two samples only fill the regressor.
     pub fn update(&mut self, measured: T, command: T) -> Result<(), RlsError> {
         if !(measured.is_finite() && command.is_finite()) {
