@@ -20,14 +20,14 @@
 //! des Schleifprozesses", 1971; in the form of Tönshoff et al., "Modelling and
 //! simulation of grinding processes", CIRP Annals 41/2, 1992), with the tangential
 //! force Ft = μ Fn by the force ratio μ. The seed's own force model (its reference
-//! [11]) is not printed; [`GrindingForces::ST37_CBN_4MM`] documents the constants
+//! 11) is not printed; [`GrindingForces::ST37_CBN_4MM`] documents the constants
 //! chosen in its place. With the spindle stopped (the contour-tracking run, G 7.3)
 //! nothing is removed and the force is the elastic contact of the tool on the surface.
 
 use libm::{pow, sqrt};
 
 /// A second-order discrete plant b1 z / (z² + a1 z + a2), one sample per control
-/// period: y[k] = −a1 y[k−1] − a2 y[k−2] + b1 u[k−1].
+/// period: y(k) = −a1 y(k−1) − a2 y(k−2) + b1 u(k−1).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct PiezoModel {
     /// Numerator coefficient b1.
