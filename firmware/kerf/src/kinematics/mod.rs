@@ -8,5 +8,6 @@
 pub mod arrow;
 pub mod contour_frame;
 pub mod delta;
+pub mod tool;
 
 pub use nalgebra::{Matrix3, Vector3};
