@@ -18,3 +18,4 @@ pub mod linear_motor;
 pub mod link;
 pub mod master;
 pub mod noise;
+pub mod spindle;

@@ -1,5 +1,6 @@
-//! What crosses the master/slave link: the Selected-DCT block codec
-//! (SPEC `codec::sdct`, T 7.2.3).
+//! What crosses a link: the Selected-DCT block codec between master and slave
+//! (SPEC `codec::sdct`, T 7.2.3), and the grinding cell's device protocols
+//! ([`spindle`]: the spindle converter's frames, G app. B).
 //!
 //! Data flow of one block of N samples (N = 8, 16, 32 or 64):
 //!
@@ -16,6 +17,7 @@
 pub mod dct;
 pub mod packet;
 pub mod sdct;
+pub mod spindle;
 
 /// The largest supported block length; index sets fit one `u64` bit mask.
 pub const MAX_N: usize = 64;
