@@ -3,13 +3,12 @@
 //! references and the feedforward computed from the controller's nominal model.
 
 use hal_mock::arrow::{ArrowPlant, ArrowPlantConfig};
-use kerf::control::redundant_pid::{
-    regularization, RedundantPid, RedundantPidConfig, RedundantPidState,
-};
+use kerf::app::arrow::{ArrowDesired, ArrowLaw, ArrowLoopState, ArrowPeriodError};
+use kerf::control::redundant_pid::{regularization, RedundantPid, RedundantPidConfig};
 use kerf::kinematics::arrow::{
     ArrowConfig, ArrowDynamics, ArrowError, ArrowGeometry, ArrowMasses, Joints, Pose,
 };
-use nalgebra::{Matrix2, SMatrix, Vector2};
+use nalgebra::SMatrix;
 
 /// The desired motion at time t: pose, rate, acceleration, and θx with its
 /// acceleration.
@@ -53,53 +52,50 @@ pub struct ArrowSample {
     pub theta_x_error_rad: f64,
 }
 
-/// Runs the plant from rest at the reference's start.
+/// Runs the plant from rest at the reference's start, with `kerf::app::arrow`'s period.
 pub fn run(config: &ArrowRunConfig, reference: &Reference) -> Result<Vec<ArrowSample>, ArrowError> {
     let plant_config = ArrowPlantConfig::with_geometric_error();
     let model = ArrowConfig::ARROW;
-    let geometry = ArrowGeometry::<f64>::new(&model).map_err(|_| ArrowError::NotFinite)?;
-    let dynamics = ArrowDynamics::<f64>::new(
-        &ArrowMasses::ARROW,
-        model.arms[0].length_m,
-        model.arms[2].length_m,
-    )
-    .map_err(|_| ArrowError::NotFinite)?;
+    let bad = |_| ArrowError::NotFinite;
     let ts = plant_config.period_s;
-    let pid = RedundantPid::<f64>::new(&config.parallel, ts).map_err(|_| ArrowError::NotFinite)?;
-    let table_pid =
-        RedundantPid::<f64>::new(&config.turntable, ts).map_err(|_| ArrowError::NotFinite)?;
+    let law = ArrowLaw {
+        geometry: ArrowGeometry::<f64>::new(&model).map_err(bad)?,
+        dynamics: ArrowDynamics::<f64>::new(
+            &ArrowMasses::ARROW,
+            model.arms[0].length_m,
+            model.arms[2].length_m,
+        )
+        .map_err(bad)?,
+        parallel: RedundantPid::<f64>::new(&config.parallel, ts).map_err(bad)?,
+        turntable: RedundantPid::<f64>::new(&config.turntable, ts).map_err(bad)?,
+        feedforward: config.feedforward,
+    };
     let (x0, _, _, tx0, _) = reference(0.0);
     let mut plant = ArrowPlant::new(&plant_config, x0, tx0)?;
-    let mut state = RedundantPidState::<f64, 6>::new();
-    let mut table_state = RedundantPidState::<f64, 2>::new();
-    // Eq. 15: Jm of the turntable is (1, −1)ᵀ, Rm = ½[[1, −1], [−1, 1]].
-    let table_rm = Matrix2::new(0.5, -0.5, -0.5, 0.5);
+    let mut state = ArrowLoopState::<f64>::default();
     let mut reading = plant.read()?;
     let mut samples = Vec::with_capacity(config.periods);
     for k in 0..config.periods {
         let t = k as f64 * ts;
-        let (xd, vd, ad, txd, txd_acc) = reference(t);
-        let (qd, jm) = geometry.jacobian(&xd)?;
-        let pinv = ArrowGeometry::pseudo_inverse(&jm)?;
-        let rm: SMatrix<f64, 6, 6> = regularization(&jm, &pinv);
-        let ff = if config.feedforward {
-            dynamics.feedforward(&geometry, &xd, &vd, &ad)?.forces_n
-        } else {
-            Joints::zeros()
+        let (pose, rate, acceleration, theta_x_rad, theta_x_accel_rad_s2) = reference(t);
+        let desired = ArrowDesired {
+            pose,
+            rate,
+            acceleration,
+            theta_x_rad,
+            theta_x_accel_rad_s2,
         };
-        let out = pid
-            .update(&mut state, &(qd - reading.joints_m), &rm, &ff)
-            .map_err(|_| ArrowError::NotFinite)?;
-        let table_ff = if config.feedforward {
-            let [a, b] = dynamics.turntable_torques(txd_acc);
-            Vector2::new(a, b)
-        } else {
-            Vector2::zeros()
-        };
-        let table_error = Vector2::new(txd, -txd) - Vector2::from(reading.turntable_rad);
-        let table_out = table_pid
-            .update(&mut table_state, &table_error, &table_rm, &table_ff)
-            .map_err(|_| ArrowError::NotFinite)?;
+        let command = law
+            .period(
+                &mut state,
+                &desired,
+                &reading.joints_m,
+                reading.turntable_rad,
+            )
+            .map_err(|e| match e {
+                ArrowPeriodError::Model(e) => e,
+                ArrowPeriodError::Law(_) => ArrowError::NotFinite,
+            })?;
         let load = match config.wall {
             Some((x_wall, until_s)) if t < until_s => {
                 let (x, v) = plant.state();
@@ -114,22 +110,20 @@ pub fn run(config: &ArrowRunConfig, reference: &Reference) -> Result<Vec<ArrowSa
             }
             _ => Pose::zeros(),
         };
-        reading = plant.step_loaded(
-            &out.forces,
-            [table_out.forces[0], table_out.forces[1]],
-            &load,
-        )?;
+        reading = plant.step_loaded(&command.forces_n, command.torques_n_m, &load)?;
         let (x, _) = plant.state();
-        let internal = (out.forces - rm * out.forces).amax();
+        let (_, jm) = law.geometry.jacobian(&pose)?;
+        let rm: SMatrix<f64, 6, 6> = regularization(&jm, &ArrowGeometry::pseudo_inverse(&jm)?);
+        let next = reference(t + ts);
         samples.push(ArrowSample {
             t_s: t + ts,
-            pose_error: x - reference(t + ts).0,
-            joint_error_m: reading.joints_m - geometry.inverse(&reference(t + ts).0)?,
-            forces_n: out.forces,
-            internal_force_n: internal,
-            integral_n: state.integral,
-            saturated: out.saturated,
-            theta_x_error_rad: plant.theta_x_rad() - reference(t + ts).3,
+            pose_error: x - next.0,
+            joint_error_m: reading.joints_m - law.geometry.inverse(&next.0)?,
+            forces_n: command.forces_n,
+            internal_force_n: (command.forces_n - rm * command.forces_n).amax(),
+            integral_n: state.parallel.integral,
+            saturated: command.saturated,
+            theta_x_error_rad: plant.theta_x_rad() - next.3,
         });
     }
     Ok(samples)

@@ -291,6 +291,7 @@ fn kernel_rows(counter: &mut Counter) {
     );
     peers::rows(counter, &vectors);
     kernels::kinematics_rows(counter);
+    kernels::arrow_rows(counter);
     peers::efd_rows(counter);
     kernels::codec_rows::<32>(counter, 8);
     kernels::codec_rows::<64>(counter, 16);

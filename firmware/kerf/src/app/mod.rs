@@ -7,6 +7,7 @@
 //! joint-space jobs (the single LM1247 axis is its N = 1 case); [`calibrate`] is the
 //! calibration sweep and the fit the slower context runs on the streamed samples.
 
+pub mod arrow;
 pub mod axis;
 pub mod calibrate;
 pub mod delta_slave;

@@ -339,3 +339,89 @@ pub fn kinematics_rows(counter: &mut Counter) {
             .and_then(|p| g64.inverse(&p).and_then(|q| g64.jacobian(&q, &p)))
     );
 }
+
+/// One ARROW control period (`kerf::app::arrow::ArrowLaw::period`: IK and Jm at the
+/// desired pose, Jm⁺ and Rm, the inverse dynamic model, the regularized PID of the six
+/// actuators and of the two table motors) in f32 against the same period in f64, on
+/// 64 desired poses along a move with the measured joints 20 µm off.
+#[inline(never)]
+pub fn arrow_rows(counter: &mut Counter) {
+    use kerf::app::arrow::{ArrowDesired, ArrowLaw, ArrowLoopState};
+    use kerf::control::redundant_pid::{RedundantPid, RedundantPidConfig};
+    use kerf::kinematics::arrow::{ArrowConfig, ArrowDynamics, ArrowGeometry, ArrowMasses, Pose};
+    use kerf::Float;
+    fn law<T: Float>() -> Option<ArrowLaw<T>> {
+        let model = ArrowConfig::ARROW;
+        Some(ArrowLaw {
+            geometry: ArrowGeometry::new(&model).ok()?,
+            dynamics: ArrowDynamics::new(
+                &ArrowMasses::ARROW,
+                model.arms[0].length_m,
+                model.arms[2].length_m,
+            )
+            .ok()?,
+            parallel: RedundantPid::new(&RedundantPidConfig::ARROW_PARALLEL, 2e-4).ok()?,
+            turntable: RedundantPid::new(&RedundantPidConfig::ARROW_TURNTABLE, 2e-4).ok()?,
+            feedforward: true,
+        })
+    }
+    let (Some(law32), Some(law64)) = (law::<f32>(), law::<f64>()) else {
+        exit(false)
+    };
+    let desired64: [ArrowDesired<f64>; INPUTS] = core::array::from_fn(|k| {
+        let t = k as f64 / INPUTS as f64;
+        ArrowDesired {
+            pose: Pose::new(0.2 * t - 0.1, 0.5 + 0.05 * t, 0.02 * t, 0.3 * t),
+            rate: Pose::new(0.2, 0.05, 0.02, 0.3),
+            acceleration: Pose::new(0.5, -0.2, 0.1, 1.0),
+            theta_x_rad: 0.2 * t,
+            theta_x_accel_rad_s2: 0.5,
+        }
+    });
+    let joints64: [kerf::kinematics::arrow::Joints<f64>; INPUTS] = core::array::from_fn(|k| {
+        law64
+            .geometry
+            .inverse(&desired64[k].pose)
+            .unwrap_or_else(|_| exit(false))
+            .map(|q| q + 20e-6)
+    });
+    let desired32 = desired64.map(|d| ArrowDesired {
+        pose: d.pose.map(|v| v as f32),
+        rate: d.rate.map(|v| v as f32),
+        acceleration: d.acceleration.map(|v| v as f32),
+        theta_x_rad: d.theta_x_rad as f32,
+        theta_x_accel_rad_s2: d.theta_x_accel_rad_s2 as f32,
+    });
+    let joints32 = joints64.map(|q| q.map(|v| v as f32));
+    let (mut s32, mut s64) = (
+        ArrowLoopState::<f32>::default(),
+        ArrowLoopState::<f64>::default(),
+    );
+    let mask = INPUTS as u32 - 1;
+    row(
+        counter,
+        "app::arrow::ArrowLaw::period <f32> (IK, Jm, Jm⁺, Rm, feedforward, PID ×6 + ×2)",
+        |i| {
+            let k = (i & mask) as usize;
+            let table = [desired32[k].theta_x_rad, -desired32[k].theta_x_rad];
+            black_box(
+                law32
+                    .period(&mut s32, &desired32[k], black_box(&joints32[k]), table)
+                    .ok(),
+            );
+        },
+        "same period <f64> (software double)",
+        |i| {
+            let k = (i & mask) as usize;
+            let table = [desired64[k].theta_x_rad, -desired64[k].theta_x_rad];
+            black_box(
+                law64
+                    .period(&mut s64, &desired64[k], black_box(&joints64[k]), table)
+                    .ok(),
+            );
+        },
+        |i| {
+            black_box(i);
+        },
+    );
+}

@@ -136,21 +136,6 @@ struct ArmClosure<T> {
     horizontal_m: T,
 }
 
-impl<T: Float> ArmClosure<T> {
-    fn zero() -> Self {
-        let zero = Vector3::zeros();
-        Self {
-            q_m: T::zero(),
-            reach: zero,
-            arm: zero,
-            to_c: zero,
-            mu: zero,
-            plate: zero,
-            horizontal_m: T::zero(),
-        }
-    }
-}
-
 impl<T: Float> ArrowGeometry<T> {
     /// Coefficients of a checked configuration.
     pub fn new(config: &ArrowConfig) -> Result<Self, ConfigError> {

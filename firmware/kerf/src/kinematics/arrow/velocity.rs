@@ -14,8 +14,8 @@
 //! Jm 6×4: the forward differential model is its pseudo-inverse Jm⁺ = (JmᵀJm)⁻¹Jmᵀ
 //! (eq. 14).
 
-use super::{ArmClosure, ArrowError, ArrowGeometry, Joints, Pose, ACTUATORS};
-use crate::scalar::Float;
+use super::{ArrowError, ArrowGeometry, Joints, Pose, ACTUATORS};
+use crate::scalar::{norm, Float};
 use nalgebra::{Matrix4, SMatrix, Vector3};
 
 /// Jm: 6 × 4.
@@ -46,59 +46,57 @@ impl<T: Float> SingularityDistance<T> {
 }
 
 impl<T: Float> ArrowGeometry<T> {
-    fn closures(&self, pose: &Pose<T>) -> Result<[ArmClosure<T>; ACTUATORS], ArrowError> {
-        let mut out = [ArmClosure::zero(); ACTUATORS];
-        for (i, (arm, slot)) in self.arms.iter().zip(out.iter_mut()).enumerate() {
-            *slot = Self::closure(arm, pose, i)?;
-        }
-        Ok(out)
-    }
-
     /// How far `pose` is from the singularities of eq. 30–32.
     pub fn singularity_distance(
         &self,
         pose: &Pose<T>,
     ) -> Result<SingularityDistance<T>, ArrowError> {
-        let closures = self.closures(pose)?;
         let mut d = SingularityDistance {
             across_rails: T::one(),
             vertical: T::one(),
-            plate: T::one(),
+            plate: T::zero(),
         };
-        let d1 = closures
-            .first()
-            .map(|c| c.plate)
-            .unwrap_or_else(Vector3::zeros);
-        for (arm, c) in self.arms.iter().zip(closures.iter()) {
-            d.across_rails = d.across_rails.min(c.reach.x.abs() / c.reach.norm());
+        let mut d1 = Vector3::zeros();
+        // Arm by arm, each closure used where it is computed (no array of them copied
+        // through the period).
+        for (i, arm) in self.arms.iter().enumerate() {
+            let c = Self::closure(arm, pose, i)?;
+            let reach = norm(&c.reach);
+            d.across_rails = d.across_rails.min(c.reach.x.abs() / reach);
             d.vertical = d.vertical.min(c.arm.cross(&c.mu).z.abs() / arm.length_m);
+            if i == 0 {
+                d1 = c.plate;
+            }
+            // Eq. 32 with r_c = D1D3 (the print moves P onto D1 for this test):
+            // singular when both parallelograms' terms vanish together, so the larger
+            // one counts.
+            if i == 2 || i == 3 {
+                let r_c = c.plate - d1;
+                d.plate = d
+                    .plate
+                    .max(c.reach.cross(&r_c).z.abs() / (reach * norm(&r_c)));
+            }
         }
-        // Eq. 32 with r_c = D1D3 (the print moves P onto D1 for this test): singular
-        // when both parallelograms' terms vanish together, so the larger one counts.
-        let mut plate = T::zero();
-        for c in closures.iter().skip(2).take(2) {
-            let r_c = c.plate - d1;
-            let sine = c.reach.cross(&r_c).z.abs() / (c.reach.norm() * r_c.norm());
-            plate = plate.max(sine);
-        }
-        d.plate = plate;
         Ok(d)
     }
 
     /// Joint positions and Jm = Jq⁻¹ Jx at `pose` (eq. 7, 13). Errors on the
     /// singularities of eq. 30–32 (sines below 1e-3, see [`SingularityDistance`]).
     pub fn jacobian(&self, pose: &Pose<T>) -> Result<(Joints<T>, InverseJacobian<T>), ArrowError> {
-        let closures = self.closures(pose)?;
         let mut q = Joints::zeros();
         let mut jm = InverseJacobian::zeros();
-        let rows = self.arms.iter().zip(closures.iter()).zip(q.iter_mut());
-        for (i, (((arm, c), q_i), mut row)) in rows.zip(jm.row_iter_mut()).enumerate() {
+        let mut d1 = Vector3::zeros();
+        let mut plate = T::zero();
+        let rows = self.arms.iter().zip(q.iter_mut());
+        for (i, ((arm, q_i), mut row)) in rows.zip(jm.row_iter_mut()).enumerate() {
             let index = i as u8;
+            let c = Self::closure(arm, pose, i)?;
             let ez = |v: Vector3<T>| v.z;
             let l_mu = ez(c.arm.cross(&c.mu));
             let n_mu = ez(c.to_c.cross(&c.mu));
             let m = &c.reach;
-            if m.x.abs() <= self.singular_sine * m.norm() {
+            let reach = norm(m);
+            if m.x.abs() <= self.singular_sine * reach {
                 return Err(ArrowError::ArmAcrossRails(index));
             }
             if l_mu.abs() <= self.singular_sine * arm.length_m {
@@ -116,9 +114,16 @@ impl<T: Float> ArrowGeometry<T> {
                 *out = v / jq;
             }
             *q_i = c.q_m;
+            // Eq. 32, as in `singularity_distance`.
+            if i == 0 {
+                d1 = c.plate;
+            }
+            if i == 2 || i == 3 {
+                let r_c = c.plate - d1;
+                plate = plate.max(m.cross(&r_c).z.abs() / (reach * norm(&r_c)));
+            }
         }
-        let distance = self.singularity_distance(pose)?;
-        if distance.plate <= self.singular_sine {
+        if plate <= self.singular_sine {
             return Err(ArrowError::PlateSingular);
         }
         Ok((q, jm))
@@ -132,12 +137,12 @@ impl<T: Float> ArrowGeometry<T> {
         rate: &Pose<T>,
     ) -> Result<InverseJacobian<T>, ArrowError> {
         let (_, jm) = self.jacobian(pose)?;
-        let closures = self.closures(pose)?;
         let q_dot = jm * rate;
         let mut jm_dot = InverseJacobian::zeros();
         let theta_dot = rate.w;
-        let rows = self.arms.iter().zip(closures.iter()).zip(q_dot.iter());
-        for (((arm, c), &q_dot_i), mut row) in rows.zip(jm_dot.row_iter_mut()) {
+        let rows = self.arms.iter().zip(q_dot.iter());
+        for (i, ((arm, &q_dot_i), mut row)) in rows.zip(jm_dot.row_iter_mut()).enumerate() {
+            let c = Self::closure(arm, pose, i)?;
             let m = &c.reach;
             let a = &c.plate;
             // ȧ = θ̇ e_z × a; Ḋ = Ṗ + ȧ; ṁ = Ḋ − Ȧ with Ȧ = q̇ e_x.
