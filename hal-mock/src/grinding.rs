@@ -171,13 +171,9 @@ impl<const N: usize> Workpiece<N> {
             let u = x - centre_x_m;
             centre_y - sqrt((radius_m * radius_m - u * u).max(0.0))
         };
-        let first = ((centre_x_m - radius_m - self.x0_m) / self.dx_m)
-            .ceil()
-            .max(0.0) as usize;
-        let last = (((centre_x_m + radius_m - self.x0_m) / self.dx_m)
-            .floor()
-            .max(-1.0)
-            + 1.0) as usize;
+        let first = libm::ceil((centre_x_m - radius_m - self.x0_m) / self.dx_m).max(0.0) as usize;
+        let last =
+            (libm::floor((centre_x_m + radius_m - self.x0_m) / self.dx_m).max(-1.0) + 1.0) as usize;
         let range = first.min(N)..last.min(N);
         // Leading intersection: the furthest sample ahead of the centre still inside
         // the circle.
