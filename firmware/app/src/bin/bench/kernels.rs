@@ -393,20 +393,21 @@ pub fn arrow_rows(counter: &mut Counter) {
         theta_x_accel_rad_s2: d.theta_x_accel_rad_s2 as f32,
     });
     let joints32 = joints64.map(|q| q.map(|v| v as f32));
-    let (mut s32, mut s64) = (
-        ArrowLoopState::<f32>::default(),
-        ArrowLoopState::<f64>::default(),
-    );
+    // Each call from the same loop state, so that a call costs the same however many
+    // calls a run makes (software f64's cost depends on the values it meets).
+    let s32 = ArrowLoopState::<f32>::default();
+    let s64 = ArrowLoopState::<f64>::default();
     let mask = INPUTS as u32 - 1;
-    row(
+    row_with_errors(
         counter,
         "app::arrow::ArrowLaw::period <f32> (IK, Jm, Jm⁺, Rm, feedforward, PID ×6 + ×2)",
         |i| {
             let k = (i & mask) as usize;
             let table = [desired32[k].theta_x_rad, -desired32[k].theta_x_rad];
+            let mut state = black_box(s32);
             black_box(
                 law32
-                    .period(&mut s32, &desired32[k], black_box(&joints32[k]), table)
+                    .period(&mut state, &desired32[k], black_box(&joints32[k]), table)
                     .ok(),
             );
         },
@@ -414,14 +415,21 @@ pub fn arrow_rows(counter: &mut Counter) {
         |i| {
             let k = (i & mask) as usize;
             let table = [desired64[k].theta_x_rad, -desired64[k].theta_x_rad];
+            let mut state = black_box(s64);
             black_box(
                 law64
-                    .period(&mut s64, &desired64[k], black_box(&joints64[k]), table)
+                    .period(&mut state, &desired64[k], black_box(&joints64[k]), table)
                     .ok(),
             );
         },
-        |i| {
-            black_box(i);
-        },
+        (
+            |i| {
+                black_box((i, black_box(s32)));
+            },
+            |i| {
+                black_box((i, black_box(s64)));
+            },
+        ),
+        None,
     );
 }
