@@ -11,6 +11,7 @@
 
 pub mod constraint;
 pub mod efd;
+pub mod gcode;
 pub mod open_path;
 pub mod quintic;
 pub mod resample;
