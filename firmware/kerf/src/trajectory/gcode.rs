@@ -565,5 +565,38 @@ pub fn parse<const N: usize>(
     Ok(program)
 }
 
+/// The runs of a program a constant-feed path follows ([`super::feed`]): each is a
+/// maximal run of consecutive [`MoveKind::Feed`] moves at one feed, preceded by the
+/// point it starts from (the point before its first move; a run at the very start of
+/// the program starts from its first target). Rapid moves between runs are left out.
+pub fn feed_runs(points: &[GcodePoint]) -> FeedRuns<'_> {
+    FeedRuns { points, next: 0 }
+}
+
+/// Iterator of [`feed_runs`].
+#[derive(Clone, Debug)]
+pub struct FeedRuns<'a> {
+    points: &'a [GcodePoint],
+    next: usize,
+}
+
+impl<'a> Iterator for FeedRuns<'a> {
+    type Item = &'a [GcodePoint];
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let rest = self.points.get(self.next..)?;
+        let first = self.next + rest.iter().position(|p| p.kind == MoveKind::Feed)?;
+        let feed = self.points.get(first)?.feed_m_s;
+        let len = self
+            .points
+            .get(first..)?
+            .iter()
+            .take_while(|p| p.kind == MoveKind::Feed && p.feed_m_s == feed)
+            .count();
+        self.next = first + len;
+        self.points.get(first.saturating_sub(1)..first + len)
+    }
+}
+
 #[cfg(test)]
 mod tests;

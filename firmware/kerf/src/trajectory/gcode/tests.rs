@@ -297,3 +297,16 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn feed_runs_split_at_rapids_and_feed_changes() {
+    let (points, _) =
+        parse_str::<16>("G0 X1\nG1 X2 F60\nX3\nX4 F120\nG0 X5\nG1 X6\nX7\nG0 X8\n").unwrap();
+    let runs: std::vec::Vec<std::vec::Vec<u32>> = feed_runs(&points)
+        .map(|r| r.iter().map(|p| p.line).collect())
+        .collect();
+    // Each run starts at the point before its first feed move.
+    assert_eq!(runs, [vec![1, 2, 3], vec![3, 4], vec![5, 6, 7]]);
+    let (points, _) = parse_str::<4>("G1 X1 F60\nX2\n").unwrap();
+    assert_eq!(feed_runs(&points).next().map(<[_]>::len), Some(2));
+}
