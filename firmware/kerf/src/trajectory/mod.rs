@@ -9,10 +9,11 @@
 //! [`constraint`] (circle/line motion constraints for manual machining), [`shapes`]
 //! (the test contours of T fig. 8.1, 8.2 and 8.4), and the G-code path of A §4:
 //! [`gcode`] (the file), [`task_spline`] (a natural cubic spline through its points in
-//! task space).
+//! task space) and [`feed`] (constant feed along it with S-curve start and stop).
 
 pub mod constraint;
 pub mod efd;
+pub mod feed;
 pub mod gcode;
 pub mod open_path;
 pub mod quintic;
