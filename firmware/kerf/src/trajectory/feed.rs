@@ -30,7 +30,8 @@
 //! Derivatives in time follow by the chain rule through arc length, as for the
 //! contour follower: ṗ = p′θ̇, p̈ = p″θ̇² + p′θ̈, p⃛ = p‴θ̇³ + 3p″θ̇θ̈ + p′θ⃛.
 
-use super::tangential::{arc_step, parameter_rates, SpeedRamp};
+use super::arc::{arc_step, parameter_rates};
+use super::tangential::SpeedRamp;
 use super::task_spline::{Pose, TaskSpline};
 use super::{lit, Float};
 use crate::error::{positive, ConfigError};

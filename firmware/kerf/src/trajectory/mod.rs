@@ -11,6 +11,7 @@
 //! [`gcode`] (the file), [`task_spline`] (a natural cubic spline through its points in
 //! task space) and [`feed`] (constant feed along it with S-curve start and stop).
 
+mod arc;
 pub mod constraint;
 pub mod efd;
 pub mod feed;
