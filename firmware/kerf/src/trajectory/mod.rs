@@ -6,17 +6,23 @@
 //! along either curve, with a jerk-limited start and stop),
 //! [`resample`] (open contours: quadratic densification and arc-length resampling),
 //! [`spline`] (joint references: IK of the samples and a C² cubic spline in time),
-//! [`constraint`] (circle/line motion constraints for manual machining) and [`shapes`]
-//! (the test contours of T fig. 8.1, 8.2 and 8.4).
+//! [`constraint`] (circle/line motion constraints for manual machining), [`shapes`]
+//! (the test contours of T fig. 8.1, 8.2 and 8.4), and the G-code path of A §4:
+//! [`gcode`] (the file), [`task_spline`] (a natural cubic spline through its points in
+//! task space) and [`feed`] (constant feed along it with S-curve start and stop).
 
+mod arc;
 pub mod constraint;
 pub mod efd;
+pub mod feed;
+pub mod gcode;
 pub mod open_path;
 pub mod quintic;
 pub mod resample;
 pub mod shapes;
 pub mod spline;
 pub mod tangential;
+pub mod task_spline;
 
 use crate::error::ConfigError;
 

@@ -19,15 +19,18 @@ use super::efd::EfdSample;
 use super::tangential::Curve;
 use super::{lit, ContourError, Float};
 use crate::error::{representable, ConfigError};
-use nalgebra::Vector2;
+use nalgebra::{SVector, Vector2};
 
-/// One knot: chord-length parameter, position (relative to the points' centroid) and
-/// the spline's second derivative there.
+/// One knot: spline parameter (here chord length), position (relative to the points'
+/// centroid) and the spline's second derivative there, in `D` coordinates.
 #[derive(Copy, Clone, Debug, PartialEq)]
-struct Knot<T> {
-    u: T,
-    p: Vector2<T>,
-    m: Vector2<T>,
+pub(crate) struct Knot<T, const D: usize> {
+    /// Parameter at the knot.
+    pub(crate) u: T,
+    /// Position.
+    pub(crate) p: SVector<T, D>,
+    /// Second derivative in the parameter.
+    pub(crate) m: SVector<T, D>,
 }
 
 /// An open planar curve through up to `N` points (module docs). `Copy`, so that a
@@ -36,7 +39,7 @@ struct Knot<T> {
 pub struct OpenPath<T: Float, const N: usize> {
     centre: Vector2<T>,
     /// The first `len` are the knots.
-    knots: [Knot<T>; N],
+    knots: [Knot<T, 2>; N],
     len: usize,
 }
 
@@ -65,7 +68,7 @@ impl<T: Float, const N: usize> OpenPath<T, N> {
             points.iter().map(|p| p[0]).sum::<f64>() / n,
             points.iter().map(|p| p[1]).sum::<f64>() / n,
         ];
-        let mut knots: heapless::Vec<Knot<f64>, N> = heapless::Vec::new();
+        let mut knots: heapless::Vec<Knot<f64, 2>, N> = heapless::Vec::new();
         let mut u = 0.0;
         let mut previous: Option<&[f64; 2]> = None;
         for (i, p) in points.iter().enumerate() {
@@ -113,7 +116,7 @@ impl<T: Float, const N: usize> OpenPath<T, N> {
     }
 
     /// The centre and knots, converted to `T`, into `self`.
-    fn assign(&mut self, centre: Vector2<f64>, knots: &[Knot<f64>]) -> Result<(), ContourError> {
+    fn assign(&mut self, centre: Vector2<f64>, knots: &[Knot<f64, 2>]) -> Result<(), ContourError> {
         let v = |w: Vector2<f64>| -> Result<Vector2<T>, ConfigError> {
             Ok(Vector2::new(
                 representable("points", w.x)?,
@@ -136,7 +139,7 @@ impl<T: Float, const N: usize> OpenPath<T, N> {
     }
 
     /// The knots in use.
-    fn knots(&self) -> &[Knot<T>] {
+    fn knots(&self) -> &[Knot<T, 2>] {
         self.knots.get(..self.len).unwrap_or(&[])
     }
 
@@ -180,15 +183,19 @@ impl<T: Float, const N: usize> OpenPath<T, N> {
     }
 }
 
-/// Second derivatives of the natural spline through `knots` (module docs), both
-/// coordinates at once; `knots` holds at least 3 with increasing u.
-fn solve_natural<const N: usize>(knots: &mut heapless::Vec<Knot<f64>, N>) {
+/// Second derivatives of the natural spline through `knots` (module docs), all `D`
+/// coordinates at once (one tridiagonal matrix, `D` right-hand sides); `knots` holds
+/// at least 3 with increasing u. Shared with the task-space spline of
+/// [`super::task_spline`].
+pub(crate) fn solve_natural<const D: usize, const N: usize>(
+    knots: &mut heapless::Vec<Knot<f64, D>, N>,
+) {
     let inner = knots.len().saturating_sub(2);
     // Forward sweep over the inner knots, window (i − 1, i, i + 1) at index i − 1: c′
     // (upper diagonal) and d′ (right side) of the Thomas algorithm; M = 0 at the ends.
     let mut upper = [0.0; N];
-    let mut rhs = [Vector2::<f64>::zeros(); N];
-    let (mut previous_upper, mut previous_rhs) = (0.0, Vector2::zeros());
+    let mut rhs = [SVector::<f64, D>::zeros(); N];
+    let (mut previous_upper, mut previous_rhs) = (0.0, SVector::<f64, D>::zeros());
     for (j, ((w, up), r)) in knots
         .windows(3)
         .zip(upper.iter_mut())
@@ -205,7 +212,7 @@ fn solve_natural<const N: usize>(knots: &mut heapless::Vec<Knot<f64>, N>) {
         (previous_upper, previous_rhs) = (*up, *r);
     }
     // Back substitution, from the last inner knot: Mi = d′i − c′i Mi+1.
-    let mut next_m = Vector2::zeros();
+    let mut next_m = SVector::<f64, D>::zeros();
     for (knot, (r, up)) in knots
         .iter_mut()
         .skip(1)

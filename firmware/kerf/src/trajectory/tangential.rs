@@ -19,6 +19,7 @@
 //! speed the acceleration is centripetal, V²κ, so a speed is accepted only if
 //! V²·κmax does not exceed the acceleration limit ([`max_speed_m_s`]).
 
+use super::arc::{arc_step, parameter_rates};
 use super::efd::{gauss3, Efd, EfdSample};
 use super::{lit, to_f64, ContourError, Float};
 use crate::error::{positive, representable, ConfigError};
@@ -94,8 +95,31 @@ impl<T: Float> SpeedRamp<T> {
         if n_jerk + n_flat > 1e8 {
             return Err(ConfigError::out_of_range("speed_m_s"));
         }
-        let a_used = v / ((n_jerk + n_flat) * ts);
-        let j_used = a_used / (n_jerk * ts);
+        Self::from_periods(v, n_jerk as u32, n_flat as u32, ts)
+    }
+
+    /// The same profile with its phase lengths given in whole periods: jerk +J′ for
+    /// `n_jerk` periods, 0 for `n_flat`, −J′ for `n_jerk` (A eq. 51), where
+    /// J′ = V/(nj(nj + nf)Ts²) and A′ = J′·nj·Ts = V/((nj + nf)Ts) land the speed
+    /// exactly on V (A eq. 53 at t3). A planner that chose the periods under its own
+    /// limits (a rest-to-rest move, [`super::feed`]) builds its ramp here.
+    ///
+    /// Errors: V or Ts not finite and positive, `n_jerk` zero (`OutOfRange` naming
+    /// `n_jerk`), or per-period terms the scalar `T` cannot hold (`NotRepresentable`).
+    pub fn from_periods(
+        speed_m_s: f64,
+        n_jerk: u32,
+        n_flat: u32,
+        ts_s: f64,
+    ) -> Result<Self, ConfigError> {
+        let v = positive("speed_m_s", speed_m_s)?;
+        let ts = positive("ts_s", ts_s)?;
+        if n_jerk == 0 {
+            return Err(ConfigError::out_of_range("n_jerk"));
+        }
+        let (n_jerk_f, n_flat_f) = (f64::from(n_jerk), f64::from(n_flat));
+        let a_used = v / ((n_jerk_f + n_flat_f) * ts);
+        let j_used = a_used / (n_jerk_f * ts);
         // `step` forms Ts², A·Ts² and J·Ts³ in T: each must be finite there (a period
         // of 1e30 s in f32, or near f64::MAX in f64, overflows them).
         let per_period = |value: f64| {
@@ -113,16 +137,21 @@ impl<T: Float> SpeedRamp<T> {
             speed: representable("speed_m_s", v)?,
             jerk: representable("jerk_m_s3", j_used)?,
             ts: representable("ts_s", ts)?,
-            n_jerk: n_jerk as u32,
-            n_flat: n_flat as u32,
+            n_jerk,
+            n_flat,
             phase: Phase::Rest,
             count: 0,
             stop_pending: false,
             v: T::ZERO,
             a: T::ZERO,
             // Symmetric S-curve: the mean speed over the ramp is V/2.
-            ramp_distance_m: 0.5 * v * (2.0 * n_jerk + n_flat) * ts,
+            ramp_distance_m: 0.5 * v * (2.0 * n_jerk_f + n_flat_f) * ts,
         })
+    }
+
+    /// Jerk J′ of the ramp's jerk phases, m/s³ (at most the configured jerk).
+    pub fn jerk(&self) -> T {
+        self.jerk
     }
 
     /// Arc length covered by one ramp (start or stop), m.
@@ -616,20 +645,13 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
     fn solve_step(&self, ds: T) -> T {
         let d1 = self.sample.d1;
         let sigma = norm(&d1);
-        if ds <= T::ZERO || sigma <= T::ZERO {
+        if sigma <= T::ZERO {
             return T::ZERO;
         }
         let sigma_theta = d1.dot(&self.sample.d2) / sigma;
-        let mut dth = ds / sigma - sigma_theta * ds * ds / (lit::<T>(2.0) * sigma * sigma * sigma);
-        for _ in 0..self.newton_steps {
-            let arc = gauss3(dth, |u| norm(&self.curve.tangent(self.theta + u)));
-            let speed = norm(&self.curve.tangent(self.theta + dth));
-            if speed <= T::ZERO {
-                break;
-            }
-            dth -= (arc - ds) / speed;
-        }
-        dth
+        arc_step(sigma, sigma_theta, ds, self.newton_steps, |u| {
+            norm(&self.curve.tangent(self.theta + u))
+        })
     }
 
     /// Whether a step has failed (see [`ContourFollower::step`]): the follower holds.
@@ -709,18 +731,9 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
             (sp.v, sp.a, sp.j)
         };
         let (th_dot, th_ddot, th_dddot) = if sigma > T::ZERO {
-            let inv = T::one() / sigma;
-            let s_t = s.d1.dot(&s.d2) * inv;
-            let s_tt = (s.d2.norm_squared() + s.d1.dot(&s.d3)) * inv - s_t * s_t * inv;
-            let (i2, i3) = (inv * inv, inv * inv * inv);
-            let t1 = inv;
-            let t2 = -s_t * i3;
-            let t3 = -s_tt * i2 * i2 + lit::<T>(3.0) * s_t * s_t * i3 * i2;
-            (
-                t1 * v,
-                t2 * v * v + t1 * a,
-                t3 * v * v * v + lit::<T>(3.0) * t2 * v * a + t1 * j,
-            )
+            let s_t = s.d1.dot(&s.d2) / sigma;
+            let s_tt = (s.d2.norm_squared() + s.d1.dot(&s.d3)) / sigma - s_t * s_t / sigma;
+            parameter_rates(sigma, s_t, s_tt, v, a, j)
         } else {
             (T::ZERO, T::ZERO, T::ZERO)
         };
