@@ -14,6 +14,7 @@ pub mod drive;
 pub mod grinding;
 pub mod grinding_cell;
 pub mod hall_sensor;
+pub mod hexapod;
 pub mod linear_motor;
 pub mod link;
 pub mod master;

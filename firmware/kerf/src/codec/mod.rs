@@ -15,6 +15,7 @@
 //! link delay. At 10 kHz, N = 32 adds 3.2 ms and N = 64 adds 6.4 ms.
 
 pub mod dct;
+pub mod gcs;
 pub mod packet;
 pub mod sdct;
 pub mod spindle;
