@@ -263,7 +263,6 @@ pub struct GrindingCell<T: Float + crate::control::adrc::FalPower> {
     fed_m: T,
     ts: T,
     force_limit: T,
-    piezo_m: T,
     telemetry: GrindingTelemetry<T>,
 }
 
@@ -291,7 +290,6 @@ impl<T: Float + crate::control::adrc::FalPower> GrindingCell<T> {
             fed_m: zero,
             ts: lit(config.period_s),
             force_limit: lit(positive("force_limit_n", config.force_limit_n)?),
-            piezo_m: lit(config.hybrid.piezo_min_m),
             telemetry: GrindingTelemetry {
                 forces: LocalForces {
                     tangential_n: zero,
@@ -340,7 +338,6 @@ impl<T: Float + crate::control::adrc::FalPower> GrindingCell<T> {
     }
 
     fn record(&mut self, forces: LocalForces<T>, out: &HybridOutput<T>) {
-        self.piezo_m = out.piezo_m;
         self.telemetry = GrindingTelemetry {
             forces,
             reference_n: self.reference_n,
@@ -577,7 +574,6 @@ impl<T: Float + crate::control::adrc::FalPower> Machine for GrindingCell<T> {
         self.pass = None;
         self.spindle_rpm = T::zero();
         self.reference_n = T::zero();
-        self.piezo_m = lit(self.config.hybrid.piezo_min_m);
     }
 
     fn telemetry(&self) -> GrindingTelemetry<T> {
