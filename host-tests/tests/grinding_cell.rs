@@ -3,7 +3,7 @@
 //! stopped. Pictures in `<target>/<profile>/plots/grinding_*.svg`.
 
 use hal_mock::grinding_cell::CellConfig;
-use host_tests::grinding::{figures, run_pass, seed_pass, PassRun};
+use host_tests::grinding::{figures, run_pass, seed_pass, PassFigures, PassRun};
 use host_tests::plot::{line_plot, plots_dir, time_series, Series};
 use kerf::app::grinding::{ForceLawKind, GrindingConfig, GrindingFault};
 use kerf::app::supervisor::Mode;
@@ -57,6 +57,33 @@ fn plot_pass(name: &str, title: &str, run: &PassRun, reference_n: f64) {
     .unwrap();
 }
 
+/// One experiment: the pass of `config` with `law` at `force`, its figures printed
+/// beside the seed's surface MSE, and its pictures.
+fn experiment(
+    config: GrindingConfig,
+    law: ForceLawKind,
+    force: f64,
+    name: &str,
+    title: &str,
+    seed_mse: f64,
+) -> (Mode<GrindingFault>, PassFigures) {
+    let mut setup = seed_pass(law, force, LENGTH_M);
+    setup.config = config;
+    let run = run_pass(&setup, MAX_PERIODS);
+    let f = figures(&run, force, 5.0, setup.cell.tool_radius_m);
+    println!(
+        "{title}: {:?} after {:.1} s; force RMS error {:.3} N true, {:.3} N measured; mean depth {:.1} µm; surface form MSE {:.6} mm² (seed {seed_mse} mm²)",
+        run.mode,
+        run.samples.len() as f64 * 1e-3,
+        f.force_rms_error_n,
+        f.measured_rms_error_n,
+        f.mean_depth_um,
+        f.form_mse_mm2,
+    );
+    plot_pass(name, title, &run, force);
+    (run.mode, f)
+}
+
 /// The seed's three grinding experiments with its gains (G 8.1–8.3) at the unit where
 /// they work (10 pm per unit, `seed_gain_unit_scan`), and whether PID beats ADRC on
 /// the surface form as the seed found (0.00174 against 0.0043 mm²).
@@ -81,21 +108,9 @@ fn seed_experiments() {
     ];
     let (mut mse, mut modes): (Vec<f64>, Vec<Mode<GrindingFault>>) = (Vec::new(), Vec::new());
     for (law, force, name, title, seed_mse) in cases {
-        let setup = seed_pass(law, force, LENGTH_M);
-        let run = run_pass(&setup, MAX_PERIODS);
-        let f = figures(&run, force, 5.0, setup.cell.tool_radius_m);
-        println!(
-            "{title}: {:?} after {:.1} s; force RMS error {:.3} N true, {:.3} N measured; mean depth {:.1} µm; surface form MSE {:.6} mm² (seed {seed_mse} mm²)",
-            run.mode,
-            run.samples.len() as f64 * 1e-3,
-            f.force_rms_error_n,
-            f.measured_rms_error_n,
-            f.mean_depth_um,
-            f.form_mse_mm2,
-        );
-        plot_pass(name, title, &run, force);
+        let (mode, f) = experiment(GrindingConfig::SEED, law, force, name, title, seed_mse);
         mse.push(f.form_mse_mm2);
-        modes.push(run.mode);
+        modes.push(mode);
     }
     // The seed's PID gains complete both passes; its ADRC gains drive the tool into
     // the workpiece past the crash limit on this cell (the fault stops it safely).
@@ -136,21 +151,8 @@ fn tuned_experiments() {
     ];
     let mut results = Vec::new();
     for (law, force, name, title, seed_mse) in cases {
-        let mut setup = seed_pass(law, force, LENGTH_M);
-        setup.config = GrindingConfig::TUNED;
-        let run = run_pass(&setup, MAX_PERIODS);
-        let f = figures(&run, force, 5.0, setup.cell.tool_radius_m);
-        println!(
-            "{title}: {:?} after {:.1} s; force RMS error {:.3} N true, {:.3} N measured; mean depth {:.1} µm; surface form MSE {:.6} mm² (seed {seed_mse} mm²)",
-            run.mode,
-            run.samples.len() as f64 * 1e-3,
-            f.force_rms_error_n,
-            f.measured_rms_error_n,
-            f.mean_depth_um,
-            f.form_mse_mm2,
-        );
-        plot_pass(name, title, &run, force);
-        assert_eq!(run.mode, Mode::Ready, "{title}");
+        let (mode, f) = experiment(GrindingConfig::TUNED, law, force, name, title, seed_mse);
+        assert_eq!(mode, Mode::Ready, "{title}");
         // The tuned ADRC completes the pass but touches only in places (its force
         // error is the best the search found, 6 N RMS); the PID grinds all along.
         if law == ForceLawKind::Pid {
