@@ -89,8 +89,9 @@ impl<T: Float> ArrowLaw<T> {
         let rm = regularization(&jm, &pinv);
         let ff = if self.feedforward {
             self.dynamics
-                .feedforward(
+                .feedforward_with(
                     &self.geometry,
+                    &jm,
                     &desired.pose,
                     &desired.rate,
                     &desired.acceleration,

@@ -87,8 +87,8 @@ pub struct ArrowDynamics<T> {
     force_limit: T,
 }
 
-/// Jm, the mass matrix M and the velocity term of the plate's equation.
-type PlateTerms<T> = (InverseJacobian<T>, Matrix4<T>, Pose<T>);
+/// The mass matrix M and the velocity term of the plate's equation.
+type PlateTerms<T> = (Matrix4<T>, Pose<T>);
 
 /// What eq. 22 asks of the actuators.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -178,15 +178,16 @@ impl<T: Float> ArrowDynamics<T> {
         Pose::new(-bm * c, -bm * s, T::zero(), T::zero())
     }
 
-    /// Jm, M = M_P + Jmᵀ M_a Jm and the velocity term (Jmᵀ M_a J̇m + Λc) Ẋ − m_P g.
+    /// M = M_P + Jmᵀ M_a Jm and the velocity term (Jmᵀ M_a J̇m + Λc) Ẋ − m_P g, for Jm
+    /// of `pose`.
     fn terms(
         &self,
         geometry: &ArrowGeometry<T>,
+        jm: &InverseJacobian<T>,
         pose: &Pose<T>,
         rate: &Pose<T>,
     ) -> Result<PlateTerms<T>, ArrowError> {
-        let (_, jm) = geometry.jacobian(pose)?;
-        let jm_dot = geometry.jacobian_rate(pose, rate)?;
+        let jm_dot = geometry.jacobian_rate_with(jm, pose, rate)?;
         let ma = SMatrix::<T, ACTUATORS, ACTUATORS>::from_diagonal(&Joints::from(self.actuator_kg));
         let mass = self.plate_matrix(pose.w) + jm.transpose() * ma * jm;
         let gravity = Pose::new(
@@ -197,7 +198,7 @@ impl<T: Float> ArrowDynamics<T> {
         );
         let velocity =
             jm.transpose() * (ma * (jm_dot * rate)) + self.centrifugal(pose, rate) - gravity;
-        Ok((jm, mass, velocity))
+        Ok((mass, velocity))
     }
 
     /// Direct model (eq. 20): the plate's acceleration under actuator forces Γ.
@@ -208,7 +209,8 @@ impl<T: Float> ArrowDynamics<T> {
         rate: &Pose<T>,
         forces_n: &Joints<T>,
     ) -> Result<Pose<T>, ArrowError> {
-        let (jm, mass, velocity) = self.terms(geometry, pose, rate)?;
+        let (_, jm) = geometry.jacobian(pose)?;
+        let (mass, velocity) = self.terms(geometry, &jm, pose, rate)?;
         let rhs = jm.transpose() * forces_n - velocity;
         mass.lu().solve(&rhs).ok_or(ArrowError::PlateSingular)
     }
@@ -222,7 +224,21 @@ impl<T: Float> ArrowDynamics<T> {
         rate: &Pose<T>,
         acceleration: &Pose<T>,
     ) -> Result<Feedforward<T>, ArrowError> {
-        let (jm, mass, velocity) = self.terms(geometry, pose, rate)?;
+        let (_, jm) = geometry.jacobian(pose)?;
+        self.feedforward_with(geometry, &jm, pose, rate, acceleration)
+    }
+
+    /// [`Self::feedforward`] with Jm of `pose` already at hand (the control period has
+    /// it for its regularization: the arms are not evaluated again).
+    pub fn feedforward_with(
+        &self,
+        geometry: &ArrowGeometry<T>,
+        jm: &InverseJacobian<T>,
+        pose: &Pose<T>,
+        rate: &Pose<T>,
+        acceleration: &Pose<T>,
+    ) -> Result<Feedforward<T>, ArrowError> {
+        let (mass, velocity) = self.terms(geometry, jm, pose, rate)?;
         let wrench = mass * acceleration + velocity;
         let normal: Matrix4<T> = jm.transpose() * jm;
         let forces_n = jm
@@ -331,7 +347,8 @@ mod tests {
         assert_eq!(ff.over_limit, None);
         let back = d.acceleration(&g, &x, &v, &ff.forces_n).unwrap();
         assert!((back - a).amax() < 1e-9, "{back:?}");
-        let (jm, mass, velocity) = d.terms(&g, &x, &v).unwrap();
+        let (_, jm) = g.jacobian(&x).unwrap();
+        let (mass, velocity) = d.terms(&g, &jm, &x, &v).unwrap();
         let minv = mass.try_inverse().unwrap();
         let h = minv * jm.transpose();
         let lambda_x = minv * velocity; // ΛẊ − A_G

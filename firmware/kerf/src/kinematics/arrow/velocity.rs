@@ -137,6 +137,17 @@ impl<T: Float> ArrowGeometry<T> {
         rate: &Pose<T>,
     ) -> Result<InverseJacobian<T>, ArrowError> {
         let (_, jm) = self.jacobian(pose)?;
+        self.jacobian_rate_with(&jm, pose, rate)
+    }
+
+    /// [`Self::jacobian_rate`] with Jm of `pose` already at hand (a control period
+    /// that has it does not evaluate the arms again for it).
+    pub fn jacobian_rate_with(
+        &self,
+        jm: &InverseJacobian<T>,
+        pose: &Pose<T>,
+        rate: &Pose<T>,
+    ) -> Result<InverseJacobian<T>, ArrowError> {
         let q_dot = jm * rate;
         let mut jm_dot = InverseJacobian::zeros();
         let theta_dot = rate.w;
