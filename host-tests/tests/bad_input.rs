@@ -1864,7 +1864,7 @@ fn joints_sites<T: Real>(s: &mut Sweep, scalar: &str) {
         }
         m.begin_stop();
         for _ in 0..5 {
-            out = out.and(machine_step(m.stop(&[here])));
+            out = out.and(machine_step(m.stop(&job, &[here])));
         }
         out
     };

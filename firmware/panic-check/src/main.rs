@@ -99,7 +99,7 @@ where
         5 => sink(machine.begin_job(&opaque(job.clone()))),
         6 => sink(machine.run(&opaque(job.clone()), &inputs)),
         7 => machine.begin_stop(),
-        8 => sink(machine.stop(&inputs)),
+        8 => sink(machine.stop(&opaque(job.clone()), &inputs)),
         9 => machine.reset(),
         10 => sink(machine.safe_outputs()),
         _ => sink(machine.telemetry()),

@@ -641,6 +641,20 @@ impl<T: Float> DeltaSlave<T> {
             periods: libm::round(segment.duration_s / self.limits.period_s) as u32,
         })
     }
+
+    /// One period of the stop ramp begun by `begin_stop` with the beam off, then rest
+    /// (the job is not needed: the ramp starts from the present motion).
+    pub fn ramp_to_rest(
+        &mut self,
+        inputs: &[[u16; 3]; 3],
+    ) -> Result<Step<SlaveOutputs<T>>, DeltaFault> {
+        self.laser_power_w = T::zero();
+        let step = self
+            .joints
+            .ramp_to_rest(inputs)
+            .map_err(DeltaFault::Joint)?;
+        Ok(step.map(Self::beam_off))
+    }
 }
 
 impl<T: Float> Machine for DeltaSlave<T> {
@@ -742,10 +756,12 @@ impl<T: Float> Machine for DeltaSlave<T> {
         self.joints.begin_stop();
     }
 
-    fn stop(&mut self, inputs: &[[u16; 3]; 3]) -> Result<Step<SlaveOutputs<T>>, DeltaFault> {
-        self.laser_power_w = T::zero();
-        let step = self.joints.stop(inputs).map_err(DeltaFault::Joint)?;
-        Ok(step.map(Self::beam_off))
+    fn stop(
+        &mut self,
+        _job: &Self::Job,
+        inputs: &[[u16; 3]; 3],
+    ) -> Result<Step<SlaveOutputs<T>>, DeltaFault> {
+        self.ramp_to_rest(inputs)
     }
 
     fn set_coefficients(&mut self, law: &AxisLaw<T>) {

@@ -528,6 +528,7 @@ impl<T: Float + crate::control::adrc::FalPower> Machine for GrindingCell<T> {
     /// the travel.
     fn stop(
         &mut self,
+        _job: &Self::Job,
         inputs: &GrindingInputs<T>,
     ) -> Result<Step<GrindingOutputs<T>>, GrindingFault> {
         let forces = self.forces(inputs)?;

@@ -518,6 +518,39 @@ impl<T: Real, const N: usize> Joints<T, N> {
         run.periods = libm::round(segment.duration_s / self.period_s) as u32;
         Ok(())
     }
+
+    /// One period of the stop ramp begun by `begin_stop`, then rest under the PD
+    /// (the job is not needed: the ramp starts from the present motion).
+    pub fn ramp_to_rest(&mut self, inputs: &[[u16; 3]; N]) -> Result<Step<[T; N]>, JointFault> {
+        let mut done = true;
+        if let Some(ramp) = self.stop.as_mut() {
+            ramp.period = (ramp.period + 1).min(ramp.periods);
+            let t = T::from_q32(i64::from(ramp.period) << 32) * self.ts;
+            let half_t_sq = T::from_f64(0.5) * t * t;
+            for ((r, s), a) in self
+                .reference
+                .iter_mut()
+                .zip(ramp.start.iter())
+                .zip(ramp.deceleration.iter())
+            {
+                *r = Reference {
+                    position: s.position + s.velocity * t + *a * half_t_sq,
+                    velocity: s.velocity + *a * t,
+                    acceleration: *a,
+                };
+            }
+            done = ramp.period >= ramp.periods;
+            if done {
+                self.reference = self.reference.map(|r| rest(r.position));
+            }
+        }
+        let forces = self.control(inputs)?;
+        if done {
+            self.stop = None;
+            return Ok(Step::Done(forces));
+        }
+        Ok(Step::Continue(forces))
+    }
 }
 
 impl<T: Real, const N: usize> Machine for Joints<T, N> {
@@ -725,35 +758,12 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
         });
     }
 
-    fn stop(&mut self, inputs: &[[u16; 3]; N]) -> Result<Step<[T; N]>, JointFault> {
-        let mut done = true;
-        if let Some(ramp) = self.stop.as_mut() {
-            ramp.period = (ramp.period + 1).min(ramp.periods);
-            let t = T::from_q32(i64::from(ramp.period) << 32) * self.ts;
-            let half_t_sq = T::from_f64(0.5) * t * t;
-            for ((r, s), a) in self
-                .reference
-                .iter_mut()
-                .zip(ramp.start.iter())
-                .zip(ramp.deceleration.iter())
-            {
-                *r = Reference {
-                    position: s.position + s.velocity * t + *a * half_t_sq,
-                    velocity: s.velocity + *a * t,
-                    acceleration: *a,
-                };
-            }
-            done = ramp.period >= ramp.periods;
-            if done {
-                self.reference = self.reference.map(|r| rest(r.position));
-            }
-        }
-        let forces = self.control(inputs)?;
-        if done {
-            self.stop = None;
-            return Ok(Step::Done(forces));
-        }
-        Ok(Step::Continue(forces))
+    fn stop(
+        &mut self,
+        _job: &Self::Job,
+        inputs: &[[u16; 3]; N],
+    ) -> Result<Step<[T; N]>, JointFault> {
+        self.ramp_to_rest(inputs)
     }
 
     fn set_coefficients(&mut self, law: &AxisLaw<T>) {

@@ -624,6 +624,7 @@ impl<T: Float> Machine for RemoteMaster<T> {
     /// The fixture lets go at once (the operator holds the handle).
     fn stop(
         &mut self,
+        _job: &Self::Job,
         inputs: &RemoteMasterInputs,
     ) -> Result<Step<MasterOutputs<T>>, RemoteMasterFault> {
         self.monitor(inputs)?;

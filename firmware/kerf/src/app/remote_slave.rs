@@ -342,7 +342,7 @@ impl<T: Float> RemoteSlave<T> {
         let forces = self
             .slave
             .joints_mut()
-            .stop(hall)
+            .ramp_to_rest(hall)
             .map_err(DeltaFault::Joint)?;
         self.measure_effector();
         Ok(match forces {
@@ -513,12 +513,13 @@ impl<T: Float> Machine for RemoteSlave<T> {
 
     fn stop(
         &mut self,
+        _job: &Self::Job,
         inputs: &RemoteSlaveInputs,
     ) -> Result<Step<ForceAndLaser<T, 3>>, RemoteSlaveFault> {
         self.laser_power_w = T::zero();
         let step = self
             .slave
-            .stop(&inputs.hall)
+            .ramp_to_rest(&inputs.hall)
             .map_err(RemoteSlaveFault::Slave)?;
         self.measure_effector();
         Ok(step)

@@ -60,7 +60,7 @@
 //! #     fn begin_job(&mut self, job: &u32) -> Result<(), ()> { self.left = *job; Ok(()) }
 //! #     fn run(&mut self, _: &u32, ok: &bool) -> Result<Step<f32>, ()> { self.monitor(ok)?; self.left -= 1; Ok(if self.left == 0 { Step::Done(1.0) } else { Step::Continue(1.0) }) }
 //! #     fn begin_stop(&mut self) {}
-//! #     fn stop(&mut self, ok: &bool) -> Result<Step<f32>, ()> { self.monitor(ok)?; Ok(Step::Done(0.5)) }
+//! #     fn stop(&mut self, _job: &Self::Job, ok: &bool) -> Result<Step<f32>, ()> { self.monitor(ok)?; Ok(Step::Done(0.5)) }
 //! #     fn set_coefficients(&mut self, _: &()) {}
 //! #     fn reset(&mut self) {}
 //! #     fn telemetry(&self) -> u32 { self.left }
@@ -168,8 +168,12 @@ pub trait Machine {
     ) -> Result<Step<Self::Outputs>, Self::Fault>;
     /// Starts the controlled ramp to rest from the present motion.
     fn begin_stop(&mut self);
-    /// One period of the ramp to rest.
-    fn stop(&mut self, inputs: &Self::Inputs) -> Result<Step<Self::Outputs>, Self::Fault>;
+    /// One period of the ramp to rest, along the job (lent as to [`Machine::run`]).
+    fn stop(
+        &mut self,
+        job: &Self::Job,
+        inputs: &Self::Inputs,
+    ) -> Result<Step<Self::Outputs>, Self::Fault>;
     /// Replaces the coefficients (copied from the command queue's slot), keeping every
     /// state.
     fn set_coefficients(&mut self, coefficients: &Self::Coefficients);
@@ -429,7 +433,7 @@ impl<M: Machine> Core<'_, M> {
             }
             // `Start` needs a loaded job, and no `LoadJob` replaces it while it runs.
             Mode::Running => self.machine.run(&self.job, inputs),
-            Mode::Stopping => self.machine.stop(inputs),
+            Mode::Stopping => self.machine.stop(&self.job, inputs),
         };
         let outputs = match (self.mode, result) {
             // A latched fault stays; the monitor's own errors do not re-enter it.

@@ -69,8 +69,9 @@ impl From<ConfigError> for FeedError {
     }
 }
 
-/// A rest-to-rest move of length L in whole control periods (module docs).
-#[derive(Copy, Clone, Debug, PartialEq)]
+/// A rest-to-rest move of length L in whole control periods (module docs). The
+/// default is the empty plan (no periods), what a job holds before one is loaded.
+#[derive(Copy, Clone, Debug, PartialEq, Default)]
 pub struct FeedPlan {
     /// Path length L, m.
     pub length_m: f64,
@@ -236,6 +237,9 @@ pub struct FeedFollower<T: Float> {
     segment: usize,
     t: T,
     lost: bool,
+    /// Stopped before the plan's end ([`FeedFollower::stop`]): rests where the stop
+    /// ramp ends instead of at the end of the path.
+    stopped: bool,
 }
 
 /// Newton corrections per arc-length step (module docs).
@@ -261,6 +265,7 @@ impl<T: Float> FeedFollower<T> {
             segment: 0,
             t: T::ZERO,
             lost: false,
+            stopped: false,
         })
     }
 
@@ -272,6 +277,22 @@ impl<T: Float> FeedFollower<T> {
     /// Periods stepped so far.
     pub fn period(&self) -> u32 {
         self.period
+    }
+
+    /// Stops early along the path with the plan's stop ramp: at once when cruising,
+    /// after the start ramp while still accelerating (A eq. 51–54 mirrored). No
+    /// effect once the planned stop ramp has begun. The follower then rests where
+    /// the ramp ends, short of the path's end.
+    pub fn stop(&mut self) {
+        let planned_stop = self.ramp_periods + self.n_cruise;
+        if self.is_done() || self.period >= planned_stop {
+            return;
+        }
+        self.ramp.stop();
+        // Down at once when cruising, else once the start ramp is over.
+        self.total = self.period.max(self.ramp_periods) + self.ramp_periods;
+        self.n_cruise = 0;
+        self.stopped = true;
     }
 
     /// Moves the parameter by the arc `ds` (m); false if a step was not finite.
@@ -328,7 +349,9 @@ impl<T: Float> FeedFollower<T> {
         if self.n_cruise > 0 && self.period == self.ramp_periods + self.n_cruise {
             self.ramp.stop();
         }
-        let sp = if self.is_done() {
+        let sp = if self.is_done() && self.stopped {
+            None
+        } else if self.is_done() {
             let last = spline.segments().saturating_sub(1);
             self.segment = last;
             self.t = spline.segment_parameter(last);
@@ -343,7 +366,7 @@ impl<T: Float> FeedFollower<T> {
                 return Err(FeedError::Lost);
             }
         }
-        if self.is_done() {
+        if self.is_done() && !self.stopped {
             // The plan covers exactly the path: what rounding left is closed here.
             let last = spline.segments().saturating_sub(1);
             self.segment = last;

@@ -100,12 +100,44 @@ struct Node<T: Float> {
 }
 
 /// The natural cubic spline through up to `N` task-space points (module docs).
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct TaskSpline<T: Float, const N: usize> {
     centre: Pose<T>,
     weights: Pose<T>,
     nodes: heapless::Vec<Node<T>, N>,
     spacing: KnotSpacing,
+}
+
+/// The empty spline: no points, every evaluation the origin. What a job holds before
+/// one is loaded; anything that runs a path refuses it (fewer than 2 points).
+impl<T: Float, const N: usize> Default for TaskSpline<T, N> {
+    fn default() -> Self {
+        Self {
+            centre: Pose::zeros(),
+            weights: Pose::zeros(),
+            nodes: heapless::Vec::new(),
+            spacing: KnotSpacing::Centripetal,
+        }
+    }
+}
+
+/// `clone_from` copies the nodes in place: a spline is kilobytes, and a job that
+/// holds one is copied in the control period (the supervisor's `LoadJob`).
+impl<T: Float, const N: usize> Clone for TaskSpline<T, N> {
+    fn clone(&self) -> Self {
+        let mut spline = Self::default();
+        spline.clone_from(self);
+        spline
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.centre = source.centre;
+        self.weights = source.weights;
+        self.spacing = source.spacing;
+        self.nodes.clear();
+        // Same capacity on both sides: every node fits.
+        let _ = self.nodes.extend_from_slice(&source.nodes);
+    }
 }
 
 /// Weighted dot product of the metric (module docs): weights (1, 1, 1, ρ², ρ²).

@@ -88,7 +88,7 @@ impl Machine for Toy {
     fn begin_stop(&mut self) {
         self.left = 2;
     }
-    fn stop(&mut self, ok: &bool) -> Result<Step<u8>, &'static str> {
+    fn stop(&mut self, _job: &Self::Job, ok: &bool) -> Result<Step<u8>, &'static str> {
         self.run(&0, ok).map(|s| match s {
             Step::Continue(_) => Step::Continue(RAMP),
             Step::Done(_) => Step::Done(RAMP),

@@ -240,6 +240,55 @@ fn every_step_moves_the_planned_arc_and_the_move_ends_on_the_last_point() {
     assert_eq!(end.velocity.amax(), 0.0);
 }
 
+/// A stop while cruising and one while still accelerating: the speed falls to zero
+/// along the plan's mirrored ramp (its jerk, no faster), the distance travelled after
+/// the stop is what the ramp covers (summed independently from the per-period
+/// speeds), and the follower rests short of the end, where it stopped.
+#[test]
+fn an_early_stop_ramps_down_along_the_path_and_rests_there() {
+    let config = TaskSplineConfig {
+        knots: KnotSpacing::Centripetal,
+        angle_length_m_per_rad: 0.05,
+    };
+    let spline = TaskSpline::<f64, 64>::through(&helix(), &config).unwrap();
+    let plan = FeedPlan::rest_to_rest(spline.length_m(), &LIMITS).unwrap();
+    let ramp = plan.ramp_periods();
+    for stop_at in [ramp + 100, ramp / 2] {
+        let mut follower = FeedFollower::<f64>::new(&plan).unwrap();
+        let mut before = None;
+        let (mut travelled, mut after_stop) = (0.0, Vec::new());
+        for _ in 0..stop_at {
+            before = Some(follower.step(&spline).unwrap());
+        }
+        follower.stop();
+        while !follower.is_done() {
+            let s = follower.step(&spline).unwrap();
+            travelled += s.step_m;
+            after_stop.push(s);
+        }
+        let speed_at_stop = before.unwrap().speed_m_s;
+        // Cruising: the stop ramp at once. Accelerating: the rest of the start ramp,
+        // then the stop ramp.
+        let expected_periods = stop_at.max(ramp) + ramp - stop_at;
+        assert_eq!(after_stop.len() as u32, expected_periods);
+        let jerk = plan.jerk_m_s3() * (1.0 + 1e-9);
+        assert!(after_stop.iter().all(|s| s.jerk_m_s3.abs() <= jerk));
+        let last = *after_stop.last().unwrap();
+        assert_eq!(last.speed_m_s, 0.0);
+        if stop_at > ramp {
+            // From cruise: the ramp covers V·Ts·(2nj + nf)/2 (symmetric S-curve).
+            let ramp_m = 0.5 * speed_at_stop * LIMITS.ts_s * f64::from(ramp);
+            assert!((travelled - ramp_m).abs() < 1e-12, "{travelled} {ramp_m}");
+        }
+        // At rest short of the end, and it stays there.
+        let end = spline.point(47).unwrap();
+        assert!((last.pose - end).amax() > 1e-3);
+        let held = follower.step(&spline).unwrap();
+        assert_eq!(held.pose, last.pose);
+        assert_eq!(held.velocity.amax(), 0.0);
+    }
+}
+
 #[test]
 fn velocity_and_acceleration_match_finite_differences_of_the_pose() {
     let config = TaskSplineConfig {

@@ -7,6 +7,9 @@
 //! unreachable or singular desired pose, a NaN) is returned; the caller's outputs go
 //! to zero force.
 
+pub mod job;
+pub mod machine;
+
 use crate::control::redundant_pid::{
     regularization, RedundantPid, RedundantPidError, RedundantPidState,
 };
@@ -38,6 +41,8 @@ pub struct ArrowCommand<T> {
     pub torques_n_m: [T; 2],
     /// Whether an output is at its limit.
     pub saturated: bool,
+    /// The joint references of the desired pose on the nominal model (eq. 7), m.
+    pub joints_ref_m: Joints<T>,
 }
 
 /// Why a period has no command.
@@ -51,12 +56,22 @@ pub enum ArrowPeriodError {
 }
 
 /// The state of both parts' loops.
-#[derive(Copy, Clone, Debug, PartialEq, Default)]
+#[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ArrowLoopState<T: Float> {
     /// Parallel module.
     pub parallel: RedundantPidState<T, 6>,
     /// Turntable.
     pub turntable: RedundantPidState<T, 2>,
+}
+
+/// At rest: integrators empty.
+impl<T: Float> Default for ArrowLoopState<T> {
+    fn default() -> Self {
+        Self {
+            parallel: RedundantPidState::default(),
+            turntable: RedundantPidState::default(),
+        }
+    }
 }
 
 /// The laws and the model, coefficients only.
@@ -126,6 +141,7 @@ impl<T: Float> ArrowLaw<T> {
             forces_n: out.forces,
             torques_n_m: [table.forces.x, table.forces.y],
             saturated: out.saturated || table.saturated,
+            joints_ref_m: qd,
         })
     }
 }
