@@ -2,7 +2,8 @@
 //!
 //! This image calls every control-period entry point of kerf — each machine's
 //! per-period methods and its supervisor step, the axis law, Hall decoding, velocity
-//! observation, delta kinematics, the contour and joint references, the DCT/SDCT
+//! observation, delta kinematics, ARROW's machine, the
+//! contour and joint references, the DCT/SDCT
 //! codec and the packet format with its stream ends — and the constructors and
 //! planners that feed them, on inputs the optimiser cannot see through (`core::hint::black_box`).
 //! Its panic handler calls a symbol that no object defines, so the image links only if
@@ -20,6 +21,9 @@
 use core::hint::black_box;
 use cortex_m_rt::entry;
 use heapless::spsc::Queue;
+use kerf::app::arrow::job::ArrowJob;
+use kerf::app::arrow::machine::{ArrowInputs, ArrowLimits, ArrowMachine};
+use kerf::app::arrow::ArrowLaw;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
 use kerf::app::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
@@ -30,7 +34,11 @@ use kerf::codec::packet::{self, PacketDecoder, MAX_PACKET_LEN};
 use kerf::codec::sdct::{SdctConfig, SdctDecoder, SdctEncoder, Selection};
 use kerf::control::dob::{Dob, DobState};
 use kerf::control::pd::{Pd, Reference};
+use kerf::control::redundant_pid::{RedundantPid, RedundantPidConfig};
 use kerf::hal::{FrameLink, LinkBusy};
+use kerf::kinematics::arrow::{
+    ArrowConfig, ArrowDynamics, ArrowGeometry, ArrowMasses, Joints as Joints6,
+};
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
 use kerf::sensing::hall::{HallConfig, HallDecoder, HallState};
@@ -77,6 +85,7 @@ fn main() -> ! {
             6 => contours(),
             7 => codec::<32>(),
             8 => codec::<64>(),
+            9 => arrow_machine(),
             _ => stream(),
         }
     }
@@ -142,6 +151,38 @@ fn joints_machine() {
         sink(changed);
     }
     periods(machine, [[0u16; 3]; 1], job, [axis]);
+}
+
+fn arrow_machine() {
+    let model = opaque(ArrowConfig::ARROW);
+    let masses = opaque(ArrowMasses::ARROW);
+    let ts = opaque(2e-4);
+    let (Ok(geometry), Ok(dynamics), Ok(parallel), Ok(turntable)) = (
+        ArrowGeometry::<f32>::new(&model),
+        ArrowDynamics::<f32>::new(&masses, model.arms[0].length_m, model.arms[2].length_m),
+        RedundantPid::<f32>::new(&opaque(RedundantPidConfig::ARROW_PARALLEL), ts),
+        RedundantPid::<f32>::new(&opaque(RedundantPidConfig::ARROW_TURNTABLE), ts),
+    ) else {
+        return;
+    };
+    let law = ArrowLaw {
+        geometry,
+        dynamics,
+        parallel,
+        turntable,
+        feedforward: opaque(true),
+    };
+    let Ok(machine) = ArrowMachine::<f32, 16, 2>::new(law, ts, &opaque(ArrowLimits::ARROW)) else {
+        return;
+    };
+    // The load-time loader (f64, the slower context) is not part of the period; the
+    // machine's per-period methods see a job the optimiser cannot see through.
+    let job = opaque(ArrowJob::<f32, 16, 2>::default());
+    let inputs = ArrowInputs {
+        joints_m: opaque(Joints6::zeros()),
+        table_rad: opaque([0.0; 2]),
+    };
+    periods(machine, inputs, job, ());
 }
 
 fn delta_machine() {

@@ -240,12 +240,14 @@ impl<T: Float> ArrowDynamics<T> {
     ) -> Result<Feedforward<T>, ArrowError> {
         let (mass, velocity) = self.terms(geometry, jm, pose, rate)?;
         let wrench = mass * acceleration + velocity;
+        // JmᵀJm is symmetric positive definite away from the singularities: Cholesky,
+        // which (unlike nalgebra's pivoting LU) compiles without bounds checks.
         let normal: Matrix4<T> = jm.transpose() * jm;
         let forces_n = jm
             * normal
-                .lu()
-                .solve(&wrench)
-                .ok_or(ArrowError::PlateSingular)?;
+                .cholesky()
+                .ok_or(ArrowError::PlateSingular)?
+                .solve(&wrench);
         if !forces_n.iter().all(|f| f.is_finite()) {
             return Err(ArrowError::NotFinite);
         }
