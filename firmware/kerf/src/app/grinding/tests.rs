@@ -19,6 +19,7 @@ const BIAS: [f64; 6] = [0.3, -0.2, 0.1, 0.05, -0.4, 0.25];
 fn pressing(fn_n: f64) -> GrindingInputs<f64> {
     GrindingInputs {
         ft_raw_v: raw_for([0.0, fn_n, 0.0, 0.0, 0.0, 0.0], BIAS),
+        device_fault: None,
     }
 }
 
@@ -169,13 +170,16 @@ fn a_pass_runs_and_a_stop_retracts() {
 fn bad_readings_fault_with_safe_outputs() {
     let nan = GrindingInputs {
         ft_raw_v: [0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0],
+        device_fault: None,
     };
     let clipped = GrindingInputs {
         ft_raw_v: [0.0, 0.0, 0.0, 9.99, 0.0, 0.0],
+        device_fault: None,
     };
     // Mz alone: a tangential force with no resultant in the plane.
     let inconsistent = GrindingInputs {
         ft_raw_v: raw_for([0.5, 0.0, 0.0, 0.0, 0.0, 0.02], BIAS),
+        device_fault: None,
     };
     let cases = [
         (
