@@ -360,7 +360,11 @@ impl DeviceLink {
             state.fault = Some(fault);
             // The halt and the stop, whatever failed (a dead link refuses them too).
             if !state.halted {
-                let _ = exchange(hexapod, &Command::Hlt(AxisSet::EMPTY), &mut [0; MAX_REPLY_LEN]);
+                let _ = exchange(
+                    hexapod,
+                    &Command::Hlt(AxisSet::EMPTY),
+                    &mut [0; MAX_REPLY_LEN],
+                );
                 let _ = check_errors(hexapod, gcs::code::STOPPED);
                 state.halted = true;
             }
@@ -433,7 +437,11 @@ impl DeviceLink {
         link: &mut impl Transact,
         reply: &mut [u8; MAX_REPLY_LEN],
     ) -> Result<f64, HexapodFault> {
-        let bytes = exchange(link, &Command::PosQuery(AxisSet::EMPTY.with(self.axis)), reply)?;
+        let bytes = exchange(
+            link,
+            &Command::PosQuery(AxisSet::EMPTY.with(self.axis)),
+            reply,
+        )?;
         gcs::parse_axis_values(bytes)
             .map_err(HexapodFault::Reply)?
             .get(self.axis)

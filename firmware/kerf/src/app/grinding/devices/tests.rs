@@ -35,8 +35,10 @@ impl Transact for FakeHexapod {
                     out[..g.len()].copy_from_slice(g);
                     g.len()
                 }
-                None => reply::encode_axis_values(&AxisValues::uniform(AxisSet::ALL, self.x_mm), out)
-                    .unwrap(),
+                None => {
+                    reply::encode_axis_values(&AxisValues::uniform(AxisSet::ALL, self.x_mm), out)
+                        .unwrap()
+                }
             },
             _ => 0,
         };
@@ -94,7 +96,9 @@ fn a_feeding_tick_sends_the_seeds_commands() {
             ..Default::default()
         },
     );
-    let r = l.tick(&mut s, &feed(1e-4, 25_000.0), &mut hex, &mut sp).unwrap();
+    let r = l
+        .tick(&mut s, &feed(1e-4, 25_000.0), &mut hex, &mut sp)
+        .unwrap();
     assert_eq!(
         hex.log,
         ["POS? X", "VLS 0.1", "MOV X 2.501", "ERR?", "POS? X"]
@@ -105,13 +109,16 @@ fn a_feeding_tick_sends_the_seeds_commands() {
     assert_eq!(sp.log, [vec![0x01, 0xC4, 0x09], vec![0x24], vec![0x43]]);
     hex.log.clear();
     sp.log.clear();
-    let r = l.tick(&mut s, &feed(1e-4, 25_000.0), &mut hex, &mut sp).unwrap();
+    let r = l
+        .tick(&mut s, &feed(1e-4, 25_000.0), &mut hex, &mut sp)
+        .unwrap();
     assert_eq!(hex.log, ["MOV X 2.502", "ERR?", "POS? X"]);
     assert!((r.position_mm - 2.502).abs() < 1e-12);
     assert_eq!(sp.log, [vec![0x43]]);
     // The feed stops: nothing moves, the platform is checked where the path ends.
     hex.log.clear();
-    l.tick(&mut s, &feed(0.0, 25_000.0), &mut hex, &mut sp).unwrap();
+    l.tick(&mut s, &feed(0.0, 25_000.0), &mut hex, &mut sp)
+        .unwrap();
     assert_eq!(hex.log, ["ERR?", "POS? X"]);
 }
 
@@ -124,7 +131,8 @@ fn a_controller_error_halts_and_latches() {
     let (mut hex, mut sp) = (FakeHexapod::default(), FakeSpindle::default());
     sp.rpm = 25_000;
     for _ in 0..3 {
-        l.tick(&mut s, &feed(1e-4, 25_000.0), &mut hex, &mut sp).unwrap();
+        l.tick(&mut s, &feed(1e-4, 25_000.0), &mut hex, &mut sp)
+            .unwrap();
     }
     hex.log.clear();
     sp.log.clear();
@@ -175,13 +183,17 @@ fn spindle_silence_and_speed() {
     let (l, mut s) = (link(), DeviceLinkState::new());
     let (mut hex, mut sp) = (FakeHexapod::default(), FakeSpindle::default());
     sp.rpm = 25_000;
-    l.tick(&mut s, &feed(0.0, 25_000.0), &mut hex, &mut sp).unwrap();
+    l.tick(&mut s, &feed(0.0, 25_000.0), &mut hex, &mut sp)
+        .unwrap();
     sp.silent = true;
     for _ in 0..4 {
-        assert!(l.tick(&mut s, &feed(0.0, 25_000.0), &mut hex, &mut sp).is_ok());
+        assert!(l
+            .tick(&mut s, &feed(0.0, 25_000.0), &mut hex, &mut sp)
+            .is_ok());
     }
     sp.silent = false;
-    l.tick(&mut s, &feed(0.0, 25_000.0), &mut hex, &mut sp).unwrap();
+    l.tick(&mut s, &feed(0.0, 25_000.0), &mut hex, &mut sp)
+        .unwrap();
     sp.silent = true;
     let mut ticks = 0;
     let fault = loop {
@@ -191,7 +203,10 @@ fn spindle_silence_and_speed() {
         }
     };
     assert_eq!(ticks, 5);
-    assert_eq!(fault, DeviceFault::Spindle(SpindleFault::Silent { ticks: 5 }));
+    assert_eq!(
+        fault,
+        DeviceFault::Spindle(SpindleFault::Silent { ticks: 5 })
+    );
     assert_eq!(hex.log.last().map(String::as_str), Some("ERR?"));
 
     // Off speed: 20,000 rpm measured against 25,000 (beyond 10 %).
