@@ -47,6 +47,11 @@ pub struct CellConfig {
     pub sensor_offset_m: [f64; 2],
     /// Seed of the noise.
     pub seed: u64,
+    /// A bias that drifts: each wrench component [Fx, Fy, Fz, Mx, My, Mz] gains this
+    /// much per second (N/s, N·m/s) from `bias_drift_start_s` on (zero: no drift).
+    pub bias_drift_per_s: [f64; 6],
+    /// Time since the cell's start when the drift begins, s.
+    pub bias_drift_start_s: f64,
 }
 
 impl CellConfig {
@@ -73,6 +78,8 @@ impl CellConfig {
         force_noise_n2: 0.8,
         sensor_offset_m: [3e-3, 2e-3],
         seed: 17,
+        bias_drift_per_s: [0.0; 6],
+        bias_drift_start_s: 0.0,
     };
 }
 
@@ -80,7 +87,8 @@ impl CellConfig {
 /// knows.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct CellReading {
-    /// F/T wrench in the sensor frame [Fx, Fy, Fz, Mx, My, Mz], N and N·m, with noise.
+    /// F/T wrench in the sensor frame [Fx, Fy, Fz, Mx, My, Mz], N and N·m, with noise
+    /// (and the bias drift, if configured).
     pub wrench: [f64; 6],
     /// The piezo's extension (its strain gauge), m.
     pub piezo_position_m: f64,
@@ -105,6 +113,8 @@ pub struct Cell<const N: usize> {
     x_m: f64,
     feed_m_s: f64,
     noise: Noise,
+    /// Periods stepped.
+    periods: u64,
 }
 
 impl<const N: usize> Cell<N> {
@@ -118,6 +128,7 @@ impl<const N: usize> Cell<N> {
             x_m: config.start_x_m,
             feed_m_s: 0.0,
             noise: Noise::new(config.seed),
+            periods: 0,
         }
     }
 
@@ -170,8 +181,14 @@ impl<const N: usize> Cell<N> {
             + fx * dy
             + fy * dx
             + sigma * c.tool_radius_m * self.noise.normal();
+        self.periods += 1;
+        let drifted_s = (self.periods as f64 * ts - c.bias_drift_start_s).max(0.0);
+        let mut wrench = [fx, fy, 0.0, 0.0, 0.0, mz];
+        for (w, rate) in wrench.iter_mut().zip(c.bias_drift_per_s) {
+            *w += rate * drifted_s;
+        }
         CellReading {
-            wrench: [fx, fy, 0.0, 0.0, 0.0, mz],
+            wrench,
             piezo_position_m: piezo_m,
             feed_m_s: self.feed_m_s,
             x_m: self.x_m,

@@ -84,6 +84,7 @@ pub fn run_pass(setup: &PassSetup, max_periods: usize) -> PassRun {
     let mut step = |supervisor: &mut Supervisor<'_, GrindingCell<f64>>, reading: &CellReading| {
         let inputs = GrindingInputs {
             ft_raw_v: raw_for(&setup.config, reading.wrench),
+            device_fault: None,
         };
         let out = supervisor.step(&inputs);
         while report_from.dequeue().is_some() {}

@@ -56,3 +56,28 @@ pub trait FrameLink {
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LinkBusy;
+
+/// A request/reply byte link to a device on a serial line or a socket (the grinding
+/// cell's hexapod controller and spindle converter, SPEC device protocols): the
+/// request is written whole, then the reply read until the device's framing says it
+/// is complete or the link's reply timeout expires. Called from a slower task than
+/// the control period; a board bounds the wait with its timeout.
+pub trait Transact {
+    /// Writes `request` and reads the reply into `reply`; returns the bytes received
+    /// (0: the device stayed silent for the whole timeout; fewer than a full reply: it
+    /// stopped mid-reply). An empty `reply` means no answer is expected: the call
+    /// returns once the request is written.
+    fn transact(&mut self, request: &[u8], reply: &mut [u8]) -> Result<usize, LinkError>;
+}
+
+/// The link itself failed (not the device: a silent device is `Ok(0)`).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LinkError {
+    /// The port or socket is not open (cable out, connection closed).
+    Down,
+    /// The request could not be written whole (the transmit queue is full).
+    Busy,
+    /// More bytes arrived than `reply` holds (the rest were dropped).
+    Overrun,
+}

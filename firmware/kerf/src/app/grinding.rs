@@ -25,6 +25,20 @@
 //! A job is one pass: the law, the normal force, the feed and the length along the
 //! surface; it ends when the hexapod has fed that far, and a stop retracts the piezo at
 //! its rate limit with the feed at zero.
+//!
+//! Devices: the hexapod and the spindle are driven by the slower task through
+//! [`devices::DeviceLink`]; a fault it finds reaches the control period in
+//! [`GrindingInputs::device_fault`] and faults the cell in that period, in any mode.
+//!
+//! Bias drift: at rest (Idle, Ready, or waiting for the calibration's fit: the piezo
+//! retracted, the tool off the surface) for longer than the watch's settling time,
+//! the bias-compensated forces feed a [`BiasDriftWatch`]; a window mean beyond its
+//! bound faults the cell with [`GrindingFault::BiasDrift`]. The cell does not
+//! recapture the bias by itself: at rest a drifted reading looks the same as a tool
+//! resting on something or a loosened sensor mount, which a new bias would hide; the
+//! operator's `Calibrate` (after `ResetFault`) is the recapture, one command away.
+//! Between periods of contact the watch starts a new window, so only readings at rest
+//! are ever averaged; a drift during a pass shows at the first rest after it.
 
 use crate::app::supervisor::{Machine, Step};
 use crate::control::adrc::{Adrc, AdrcConfig, AdrcState};
@@ -35,9 +49,12 @@ use crate::control::pid::{Pid, PidConfig, PidState};
 use crate::error::{positive, ConfigContext, ConfigError};
 use crate::scalar::{lit, Float};
 use crate::sensing::force::{
-    BiasCapture, BiasCaptureConfig, Eccentricity, ForceError, FtBias, FtSensor, FtSensorConfig,
-    LocalForces, ToolConfig, ToolGeometry,
+    BiasCapture, BiasCaptureConfig, BiasDrift, BiasDriftConfig, BiasDriftWatch, Eccentricity,
+    ForceError, FtBias, FtSensor, FtSensorConfig, LocalForces, ToolConfig, ToolGeometry,
 };
+
+pub mod devices;
+pub use devices::{DeviceFault, HexapodFault, SpindleFault};
 
 #[cfg(test)]
 mod tests;
@@ -53,6 +70,9 @@ pub struct GrindingConfig {
     pub tool: ToolConfig,
     /// Bias capture at rest.
     pub bias: BiasCaptureConfig,
+    /// The watch for a drifting bias at rest (its bound follows `tool.noise_n` and
+    /// `bias.samples`).
+    pub bias_drift: BiasDriftConfig,
     /// The piezo stage and the feed's default (a job sets its own feed).
     pub hybrid: HybridForceConfig,
     /// The PID law's gains.
@@ -69,8 +89,9 @@ impl GrindingConfig {
     /// The seed's cell (G 3, 7): 1 ms, the ATI Gamma with its printed calibration, the
     /// 4 mm CBN tool (no eccentricity until one is measured), a 500-sample bias capture
     /// (0.5 s; at rest the spread is the sensor's noise: 500 samples of the seed's
-    /// 0.8 N² span about 6σ ≈ 5.4 N, so 8 N and 0.05 N·m are allowed), the P-602 stage and 0.1 mm/s feed, the seed's PID and
-    /// ADRC gains. A normal force above 40 N (four times the seed's largest reference)
+    /// 0.8 N² span about 6σ ≈ 5.4 N, so 8 N and 0.05 N·m are allowed), the drift watch
+    /// of [`BiasDriftConfig::SEED`] (a bound of 0.294 N on 1 s means), the P-602 stage
+    /// and 0.1 mm/s feed, the seed's PID and ADRC gains. A normal force above 40 N (four times the seed's largest reference)
     /// is a crash; a job may ask up to 20 N.
     pub const SEED: Self = Self {
         period_s: 1e-3,
@@ -89,6 +110,7 @@ impl GrindingConfig {
             max_force_spread_n: 8.0,
             max_torque_spread_n_m: 0.05,
         },
+        bias_drift: BiasDriftConfig::SEED,
         hybrid: HybridForceConfig::GRINDING_SEED,
         pid: PidConfig::GRINDING_SEED,
         adrc: AdrcConfig::GRINDING_SEED,
@@ -173,6 +195,22 @@ pub enum GrindingFault {
     ForceLimit,
     /// The force loop could not produce a finite command.
     Loop(HybridForceError),
+    /// The hexapod's link reported a fault ([`devices`]).
+    Hexapod(HexapodFault),
+    /// The spindle's link reported a fault ([`devices`]).
+    Spindle(SpindleFault),
+    /// At rest, the compensated forces' mean left the noise bound: the sensor's bias
+    /// moved since its capture.
+    BiasDrift(BiasDrift),
+}
+
+impl From<DeviceFault> for GrindingFault {
+    fn from(fault: DeviceFault) -> Self {
+        match fault {
+            DeviceFault::Hexapod(f) => Self::Hexapod(f),
+            DeviceFault::Spindle(f) => Self::Spindle(f),
+        }
+    }
 }
 
 /// One period's inputs, sampled together.
@@ -180,6 +218,9 @@ pub enum GrindingFault {
 pub struct GrindingInputs<T> {
     /// The F/T sensor's six gauge voltages, V.
     pub ft_raw_v: [T; 6],
+    /// The device link's latched fault as the slower task last reported it (None:
+    /// the devices answer as commanded).
+    pub device_fault: Option<DeviceFault>,
 }
 
 /// One period's outputs, written together.
@@ -252,6 +293,10 @@ pub struct GrindingCell<T: Float + crate::control::adrc::FalPower> {
     laws: GrindingLaws<T>,
     capture: BiasCapture<T>,
     bias: Option<FtBias<T>>,
+    drift: Option<BiasDriftWatch>,
+    /// Periods at rest since the last contact (saturating at the settling time).
+    rest_periods: u32,
+    settle_periods: u32,
     pass: Option<PassLoop<T>>,
     /// The running pass's loop configuration (to rebuild it on new coefficients).
     pass_hybrid: HybridForceConfig,
@@ -274,6 +319,10 @@ impl<T: Float + crate::control::adrc::FalPower> GrindingCell<T> {
         // The loop's own checks (travel, rate, unit) once, with the default feed.
         HybridForce::new(laws.pid, &config.hybrid, config.period_s).within("hybrid")?;
         let zero = T::zero();
+        let drift =
+            BiasDriftWatch::new(&config.bias_drift, config.tool.noise_n, config.bias.samples)
+                .within("bias_drift")?;
+        let settle = positive("settle_s", config.bias_drift.settle_s).within("bias_drift")?;
         Ok(Self {
             config: *config,
             sensor: FtSensor::new(&config.sensor).within("sensor")?,
@@ -281,6 +330,9 @@ impl<T: Float + crate::control::adrc::FalPower> GrindingCell<T> {
             laws,
             capture: BiasCapture::new(&config.bias).within("bias")?,
             bias: None,
+            drift,
+            rest_periods: 0,
+            settle_periods: libm::ceil(settle / config.period_s).min(f64::from(u32::MAX)) as u32,
             pass: None,
             pass_hybrid: config.hybrid,
             fresh: false,
@@ -311,6 +363,19 @@ impl<T: Float + crate::control::adrc::FalPower> GrindingCell<T> {
     /// The bias in use, if captured.
     pub fn bias(&self) -> Option<&FtBias<T>> {
         self.bias.as_ref()
+    }
+
+    /// A fault the device link reported.
+    fn devices(inputs: &GrindingInputs<T>) -> Result<(), GrindingFault> {
+        inputs.device_fault.map_or(Ok(()), |f| Err(f.into()))
+    }
+
+    /// Not at rest this period: the next rest starts a new settling time and window.
+    fn leave_rest(&mut self) {
+        self.rest_periods = 0;
+        if let Some(watch) = self.drift.as_mut() {
+            watch.restart();
+        }
     }
 
     /// Local forces from a reading (checks, calibration, eq. 2–4), and the crash limit.
@@ -421,10 +486,25 @@ impl<T: Float + crate::control::adrc::FalPower> Machine for GrindingCell<T> {
         }
     }
 
+    /// Checks the reading and the devices; at rest after the settling time, watches
+    /// the compensated forces for a drifting bias.
     fn monitor(&mut self, inputs: &GrindingInputs<T>) -> Result<(), GrindingFault> {
+        Self::devices(inputs)?;
         self.sensor
             .check_raw(&inputs.ft_raw_v)
-            .map_err(GrindingFault::Sensor)
+            .map_err(GrindingFault::Sensor)?;
+        let (Some(bias), Some(watch)) = (self.bias.as_ref(), self.drift.as_mut()) else {
+            return Ok(());
+        };
+        if self.rest_periods < self.settle_periods {
+            self.rest_periods += 1;
+            return Ok(());
+        }
+        let wrench = self
+            .sensor
+            .wrench(&inputs.ft_raw_v, bias)
+            .map_err(GrindingFault::Sensor)?;
+        watch.push(&wrench).map_err(GrindingFault::BiasDrift)
     }
 
     fn begin_calibration(&mut self) {
@@ -439,6 +519,8 @@ impl<T: Float + crate::control::adrc::FalPower> Machine for GrindingCell<T> {
         inputs: &GrindingInputs<T>,
         _record: &mut dyn FnMut(u8, [u16; 3]),
     ) -> Result<Step<GrindingOutputs<T>>, GrindingFault> {
+        Self::devices(inputs)?;
+        self.leave_rest();
         self.capture
             .push(&self.sensor, &inputs.ft_raw_v)
             .map_err(GrindingFault::Sensor)?;
@@ -507,6 +589,8 @@ impl<T: Float + crate::control::adrc::FalPower> Machine for GrindingCell<T> {
         _job: &GrindingJob,
         inputs: &GrindingInputs<T>,
     ) -> Result<Step<GrindingOutputs<T>>, GrindingFault> {
+        Self::devices(inputs)?;
+        self.leave_rest();
         let forces = self.forces(inputs)?;
         let out = self
             .step_loop(forces.normal_n)
@@ -531,6 +615,8 @@ impl<T: Float + crate::control::adrc::FalPower> Machine for GrindingCell<T> {
         _job: &Self::Job,
         inputs: &GrindingInputs<T>,
     ) -> Result<Step<GrindingOutputs<T>>, GrindingFault> {
+        Self::devices(inputs)?;
+        self.leave_rest();
         let forces = self.forces(inputs)?;
         let out = match self.pass.as_mut() {
             Some(PassLoop::Pid(l, s)) => l.retract(s),
@@ -572,6 +658,7 @@ impl<T: Float + crate::control::adrc::FalPower> Machine for GrindingCell<T> {
     }
 
     fn reset(&mut self) {
+        self.leave_rest();
         self.pass = None;
         self.spindle_rpm = T::zero();
         self.reference_n = T::zero();

@@ -16,6 +16,8 @@
 //!   (zero when the spindle turns freely, as in the seed's contour tracking, G 7.3; or
 //!   Ft·r for a known tangential load), eq. 2 gives the linear model
 //!   Mz − M_s = Fy Δx + Fx Δy, fitted by least squares ([`EccentricityFit`]).
+//! - Bias drift: window means of the compensated forces out of contact against a
+//!   bound from the noise ([`BiasDriftWatch`]).
 
 use crate::error::{coefficient, positive, ConfigError};
 use crate::scalar::{lit, to_f64, Float};
@@ -442,6 +444,9 @@ impl EccentricityFit {
         })
     }
 }
+
+mod drift;
+pub use drift::{BiasDrift, BiasDriftConfig, BiasDriftWatch};
 
 #[cfg(test)]
 mod tests;

@@ -19,6 +19,7 @@ const BIAS: [f64; 6] = [0.3, -0.2, 0.1, 0.05, -0.4, 0.25];
 fn pressing(fn_n: f64) -> GrindingInputs<f64> {
     GrindingInputs {
         ft_raw_v: raw_for([0.0, fn_n, 0.0, 0.0, 0.0, 0.0], BIAS),
+        device_fault: None,
     }
 }
 
@@ -169,13 +170,16 @@ fn a_pass_runs_and_a_stop_retracts() {
 fn bad_readings_fault_with_safe_outputs() {
     let nan = GrindingInputs {
         ft_raw_v: [0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0],
+        device_fault: None,
     };
     let clipped = GrindingInputs {
         ft_raw_v: [0.0, 0.0, 0.0, 9.99, 0.0, 0.0],
+        device_fault: None,
     };
     // Mz alone: a tangential force with no resultant in the plane.
     let inconsistent = GrindingInputs {
         ft_raw_v: raw_for([0.5, 0.0, 0.0, 0.0, 0.0, 0.02], BIAS),
+        device_fault: None,
     };
     let cases = [
         (
@@ -187,6 +191,20 @@ fn bad_readings_fault_with_safe_outputs() {
             GrindingFault::Sensor(ForceError::Saturated { channel: 3 }),
         ),
         (pressing(45.0), GrindingFault::ForceLimit),
+        (
+            GrindingInputs {
+                device_fault: Some(DeviceFault::Hexapod(HexapodFault::Controller(7))),
+                ..pressing(5.0)
+            },
+            GrindingFault::Hexapod(HexapodFault::Controller(7)),
+        ),
+        (
+            GrindingInputs {
+                device_fault: Some(DeviceFault::Spindle(SpindleFault::Silent { ticks: 5 })),
+                ..pressing(5.0)
+            },
+            GrindingFault::Spindle(SpindleFault::Silent { ticks: 5 }),
+        ),
     ];
     for (input, fault) in cases {
         with_ready_cell(|s, send, _| {
@@ -235,4 +253,44 @@ fn a_disturbed_bias_capture_faults() {
         s.mode(),
         Mode::Fault(GrindingFault::Sensor(ForceError::NotAtRest { .. }))
     ));
+}
+
+/// At rest after calibration the drift watch sees the compensated force: 0.29 N on
+/// Fy (inside the seed's 0.294 N bound) for 3 s raises nothing; 0.30 N faults
+/// `BiasDrift` on Fy at the end of the first window, in the 1500th period at rest
+/// (500 settling, 1000 averaged); a device fault at rest faults too.
+#[test]
+fn a_drift_at_rest_faults_at_the_end_of_a_window() {
+    with_ready_cell(|s, _, _| {
+        for _ in 0..3000 {
+            s.step(&pressing(0.29));
+        }
+        assert_eq!(s.mode(), Mode::Ready);
+    });
+    with_ready_cell(|s, _, _| {
+        // The first period at rest was the one that took the calibration's fit.
+        let mut periods = 1;
+        while s.mode() == Mode::Ready && periods < 5000 {
+            s.step(&pressing(0.30));
+            periods += 1;
+        }
+        assert_eq!(periods, 500 + 1000);
+        match s.mode() {
+            Mode::Fault(GrindingFault::BiasDrift(d)) => {
+                assert_eq!(d.component, 1);
+                assert!((d.mean_n - 0.30).abs() < 1e-6, "{d:?}");
+            }
+            other => panic!("{other:?}"),
+        }
+    });
+    with_ready_cell(|s, _, _| {
+        s.step(&GrindingInputs {
+            device_fault: Some(DeviceFault::Spindle(SpindleFault::Silent { ticks: 5 })),
+            ..pressing(0.0)
+        });
+        assert_eq!(
+            s.mode(),
+            Mode::Fault(GrindingFault::Spindle(SpindleFault::Silent { ticks: 5 }))
+        );
+    });
 }
