@@ -3,16 +3,13 @@
 //! references and the feedforward computed from the controller's nominal model.
 
 use hal_mock::arrow::{ArrowPlant, ArrowPlantConfig, ArrowReading};
-use heapless::spsc::Queue;
-use kerf::app::arrow::job::{ArrowJob, ArrowJobConfig, ArrowJobError, ArrowJobErrorKind};
-use kerf::app::arrow::machine::{ArrowFault, ArrowInputs, ArrowLimits, ArrowMachine, ArrowOutputs};
+use kerf::app::arrow::job::ArrowJobError;
+use kerf::app::arrow::machine::{ArrowFault, ArrowOutputs};
 use kerf::app::arrow::{ArrowDesired, ArrowLaw, ArrowLoopState, ArrowPeriodError};
-use kerf::app::supervisor::{Command, Machine as _, Mode, Report, Supervisor};
-use kerf::control::redundant_pid::{regularization, RedundantPid, RedundantPidConfig};
-use kerf::kinematics::arrow::{
-    ArrowConfig, ArrowDynamics, ArrowError, ArrowGeometry, ArrowMasses, ForwardConfig, Joints, Pose,
-};
-use kerf::trajectory::gcode::GcodePoint;
+use kerf::app::supervisor::Mode;
+use kerf::control::redundant_pid::{regularization, RedundantPidConfig};
+use kerf::kinematics::arrow::{ArrowError, ArrowGeometry, Joints, Pose};
+use kerf_sim::arrow::{load_job, ArrowPeriod, ArrowScenario, TrackingRms, TrackingSums};
 use nalgebra::SMatrix;
 
 /// The desired motion at time t: pose, rate, acceleration, and θx with its
@@ -59,21 +56,7 @@ pub struct ArrowSample {
 
 /// The law of a run on the controller's nominal model.
 pub fn law(config: &ArrowRunConfig) -> Result<ArrowLaw<f64>, ArrowError> {
-    let model = ArrowConfig::ARROW;
-    let bad = |_| ArrowError::NotFinite;
-    let ts = ArrowPlantConfig::with_geometric_error().period_s;
-    Ok(ArrowLaw {
-        geometry: ArrowGeometry::<f64>::new(&model).map_err(bad)?,
-        dynamics: ArrowDynamics::<f64>::new(
-            &ArrowMasses::ARROW,
-            model.arms[0].length_m,
-            model.arms[2].length_m,
-        )
-        .map_err(bad)?,
-        parallel: RedundantPid::<f64>::new(&config.parallel, ts).map_err(bad)?,
-        turntable: RedundantPid::<f64>::new(&config.turntable, ts).map_err(bad)?,
-        feedforward: config.feedforward,
-    })
+    scenario(config).law()
 }
 
 /// Runs the plant from rest at the reference's start, with `kerf::app::arrow`'s period.
@@ -172,213 +155,60 @@ pub fn quintic_move(
     }
 }
 
-/// Points a move of a host job holds (the pyramid's contour has 166).
-pub const JOB_POINTS: usize = 192;
-/// Moves a host job holds.
-pub const JOB_MOVES: usize = 4;
-/// A job on the host.
-pub type Job = ArrowJob<f64, JOB_POINTS, JOB_MOVES>;
-/// The machine on the host.
-pub type Machine = ArrowMachine<f64, JOB_POINTS, JOB_MOVES>;
-
-/// The pyramid of A §5 as the G-code file the firmware image carries.
-pub const PYRAMID_GCODE: &str = include_str!("../../firmware/app/data/pyramid.gcode");
+/// A job on the host (the scenario's capacities).
+pub type Job = kerf_sim::arrow::Job<f64>;
 
 /// A checked job from G-code on the nominal model.
 #[allow(clippy::result_large_err)]
-pub fn job_from_gcode(text: &str) -> Result<Job, ArrowJobError> {
-    let geometry = ArrowGeometry::<f64>::new(&ArrowConfig::ARROW).map_err(|e| ArrowJobError {
-        line: 0,
-        kind: ArrowJobErrorKind::Config(e),
-    })?;
-    let mut points: heapless::Vec<GcodePoint, 1024> = heapless::Vec::new();
-    Job::from_gcode(
-        text.as_bytes(),
-        &mut points,
-        &geometry,
-        &ArrowJobConfig::ARROW,
-    )
+pub fn job_from_gcode(text: &str) -> Result<Box<Job>, ArrowJobError> {
+    let mut points = Box::new(heapless::Vec::new());
+    let mut job = Box::<Job>::default();
+    load_job(text, &mut points, &mut job)?;
+    Ok(job)
 }
 
-/// One period of a job run, errors measured at the end of the period against the
-/// period's reference (the follower's pose for that instant).
-#[derive(Copy, Clone, Debug)]
-pub struct JobSample {
-    /// Time, s.
-    pub t_s: f64,
-    /// Desired plate pose and table angle.
-    pub desired: Pose<f64>,
-    /// θx desired, rad.
-    pub theta_x_rad: f64,
-    /// Encoders minus the joint references (eq. 57's q̃), m.
-    pub joint_error_m: Joints<f64>,
-    /// Table motors minus their references (eq. 58's q̃), rad.
-    pub table_error_rad: [f64; 2],
-    /// The Cartesian error the encoders show through the model, X̃ = Jm⁺ q̃ (eq. 13),
-    /// as the seed monitors it (A §5).
-    pub cartesian_error: Pose<f64>,
-    /// The part of q̃ that moves the plate, Rm q̃ = Jm X̃ (eq. 38): what is left is
-    /// the geometric error's inconsistency, which the regularized law leaves alone.
-    pub joint_error_consistent_m: Joints<f64>,
-    /// θx error from the table motors, (q̃T1 − q̃T2)/2, rad.
-    pub theta_x_error_rad: f64,
-    /// The plate's true pose minus the desired one (includes the geometric error the
-    /// encoders cannot see).
-    pub true_pose_error: Pose<f64>,
-    /// Commanded actuator forces, N.
-    pub forces_n: Joints<f64>,
-    /// Whether a command was at its limit.
-    pub saturated: bool,
+/// The scenario of a run configuration on the plant with its geometric error.
+pub fn scenario(config: &ArrowRunConfig) -> ArrowScenario {
+    ArrowScenario {
+        parallel: config.parallel,
+        turntable: config.turntable,
+        feedforward: config.feedforward,
+        ..ArrowScenario::seed()
+    }
 }
 
-/// How a job run ended.
+/// How a job run ended, with every period.
 #[derive(Clone, Debug)]
 pub struct JobRun {
-    /// Every period while the machine ran.
-    pub samples: Vec<JobSample>,
+    /// Every period while the machine ran (not the one that faulted).
+    pub samples: Vec<ArrowPeriod<f64>>,
     /// The supervisor's mode at the end.
     pub mode: Mode<ArrowFault>,
     /// The outputs written in the last period.
     pub last_outputs: ArrowOutputs<f64>,
 }
 
-/// Runs `job` on the simulated ARROW through the supervisor: calibrate, load, start,
-/// then one period at a time until the machine leaves `Running` (done or faulted) or
-/// `max_periods` pass. `disturb(k, reading)` may corrupt the encoders before the
-/// machine reads them in period k. The plant starts at rest where its joints are the
-/// job's start joints on the model (its least-squares pose for them: the geometric
-/// error leaves a joint inconsistency the regularized law does not fight).
+/// Runs `job` through `kerf_sim::arrow::run_job` in f64 and keeps every period.
 pub fn run_job(
     config: &ArrowRunConfig,
     job: &Job,
-    max_periods: usize,
-    disturb: &mut dyn FnMut(usize, &mut ArrowReading),
+    max_periods: u64,
+    disturb: &mut dyn FnMut(u64, &mut ArrowReading),
 ) -> Result<JobRun, ArrowError> {
-    let plant_config = ArrowPlantConfig::with_geometric_error();
-    let law = law(config)?;
-    let machine = Machine::new(law, plant_config.period_s, &ArrowLimits::ARROW)
-        .map_err(|_| ArrowError::NotFinite)?;
-    let (start, theta_x0) = job.start();
-    let plant_geometry =
-        ArrowGeometry::<f64>::new(&plant_config.geometry).map_err(|_| ArrowError::NotFinite)?;
-    let loose = ForwardConfig {
-        residual_tolerance_m: 1e-3,
-        ..ForwardConfig::MONITOR
-    };
-    let start_true = plant_geometry.forward(job.start_joints_m(), &start, &loose)?;
-    let mut plant = ArrowPlant::new(&plant_config, start_true, theta_x0)?;
-    let mut commands: Box<Queue<Command<Machine>, 2>> = Box::new(Queue::new());
-    let mut reports: Box<Queue<Report<Machine>, 64>> = Box::new(Queue::new());
-    let (mut to_machine, from_sender) = commands.split();
-    let (to_sender, mut from_machine) = reports.split();
-    let mut supervisor = Supervisor::new(machine, from_sender, to_sender);
-    supervisor.set_telemetry_decimation(u32::MAX);
-    let read = |plant: &ArrowPlant| {
-        plant.read().map(|r| ArrowInputs {
-            joints_m: r.joints_m,
-            table_rad: r.turntable_rad,
-        })
-    };
-    let mut inputs = read(&plant)?;
-    let mut setup = [
-        Command::Calibrate,
-        Command::FinishCalibration(()),
-        Command::LoadJob(job.clone()),
-        Command::Start,
-    ]
-    .into_iter();
-    let mut outputs = supervisor.step(&inputs);
-    while supervisor.mode() != Mode::Running {
-        let Some(command) = setup.next() else {
-            break;
-        };
-        to_machine.enqueue(command).ok();
-        outputs = supervisor.step(&inputs);
-        while from_machine.dequeue().is_some() {}
-    }
-    let ts = plant_config.period_s;
     let mut samples = Vec::new();
-    for k in 0..max_periods {
-        if supervisor.mode() != Mode::Running {
-            break;
-        }
-        let mut reading = plant.read()?;
-        disturb(k, &mut reading);
-        inputs = ArrowInputs {
-            joints_m: reading.joints_m,
-            table_rad: reading.turntable_rad,
-        };
-        outputs = supervisor.step(&inputs);
-        while from_machine.dequeue().is_some() {}
-        let telemetry = supervisor.machine().telemetry();
-        let after = plant.step(&outputs.forces_n, outputs.torques_n_m)?;
-        if supervisor.mode() != Mode::Running && !matches!(supervisor.mode(), Mode::Ready) {
-            break;
-        }
-        // The period's references, recovered from the telemetry's errors against
-        // the inputs it saw.
-        let q_ref = telemetry.joint_error_m + inputs.joints_m;
-        let table_ref = [telemetry.theta_x_rad, -telemetry.theta_x_rad];
-        let joint_error_m = after.joints_m - q_ref;
-        let table_error_rad = [
-            after.turntable_rad[0] - table_ref[0],
-            after.turntable_rad[1] - table_ref[1],
-        ];
-        let (_, jm) = law.geometry.jacobian(&telemetry.desired)?;
-        let cartesian_error = ArrowGeometry::pseudo_inverse(&jm)? * joint_error_m;
-        let (true_pose, _) = plant.state();
-        samples.push(JobSample {
-            t_s: (k + 1) as f64 * ts,
-            desired: telemetry.desired,
-            theta_x_rad: telemetry.theta_x_rad,
-            joint_error_m,
-            table_error_rad,
-            cartesian_error,
-            joint_error_consistent_m: jm * cartesian_error,
-            theta_x_error_rad: 0.5 * (table_error_rad[0] - table_error_rad[1]),
-            true_pose_error: true_pose - telemetry.desired,
-            forces_n: outputs.forces_n,
-            saturated: telemetry.saturated,
-        });
-    }
+    let end = kerf_sim::arrow::run_job(&scenario(config), job, max_periods, disturb, &mut |p| {
+        samples.push(*p)
+    })?;
     Ok(JobRun {
         samples,
-        mode: supervisor.mode(),
-        last_outputs: outputs,
+        mode: end.mode,
+        last_outputs: end.last_outputs,
     })
 }
 
-/// RMS tracking errors of A eq. 55–58.
-#[derive(Copy, Clone, Debug, Default)]
-pub struct TrackingRms {
-    /// Eq. 55, Cartesian translation, m.
-    pub cartesian_m: f64,
-    /// Eq. 56, Cartesian rotation (θz and θx), deg.
-    pub cartesian_deg: f64,
-    /// Eq. 57, the six actuators, m.
-    pub joint_m: f64,
-    /// Eq. 58, the two table motors, deg.
-    pub joint_deg: f64,
-    /// Eq. 57 on Rm q̃ (the joints' error that moves the plate), m.
-    pub joint_consistent_m: f64,
-    /// Eq. 55 on the true pose (geometric error included), m.
-    pub true_cartesian_m: f64,
-}
-
-impl TrackingRms {
-    /// Over `samples`.
-    pub fn of(samples: &[JobSample]) -> Self {
-        let n = samples.len().max(1) as f64;
-        let mean = |f: &dyn Fn(&JobSample) -> f64| (samples.iter().map(f).sum::<f64>() / n).sqrt();
-        Self {
-            cartesian_m: mean(&|s| s.cartesian_error.fixed_rows::<3>(0).norm_squared()),
-            cartesian_deg: mean(&|s| s.cartesian_error.w.powi(2) + s.theta_x_error_rad.powi(2))
-                .to_degrees(),
-            joint_m: mean(&|s| s.joint_error_m.norm_squared()),
-            joint_consistent_m: mean(&|s| s.joint_error_consistent_m.norm_squared()),
-            joint_deg: mean(&|s| s.table_error_rad[0].powi(2) + s.table_error_rad[1].powi(2))
-                .to_degrees(),
-            true_cartesian_m: mean(&|s| s.true_pose_error.fixed_rows::<3>(0).norm_squared()),
-        }
-    }
+/// A eq. 55–58 over recorded periods.
+pub fn rms(samples: &[ArrowPeriod<f64>]) -> TrackingRms {
+    let mut sums = TrackingSums::default();
+    samples.iter().for_each(|s| sums.push(s));
+    sums.rms()
 }

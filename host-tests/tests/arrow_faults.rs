@@ -2,13 +2,14 @@
 //! naming the line, and encoder faults during a run that must end in `Fault` with zero
 //! force and torque in the same period.
 
-use host_tests::arrow::{job_from_gcode, run_job, ArrowRunConfig, Job, JobRun, PYRAMID_GCODE};
+use host_tests::arrow::{job_from_gcode, run_job, ArrowRunConfig, Job, JobRun};
 use kerf::app::arrow::job::{ArrowJobConfig, ArrowJobErrorKind};
 use kerf::app::arrow::machine::ArrowFault;
 use kerf::app::supervisor::Mode;
 use kerf::control::redundant_pid::RedundantPidConfig;
 use kerf::kinematics::arrow::{ArrowConfig, ArrowError, ArrowGeometry};
 use kerf::trajectory::gcode::{GcodeErrorKind, GcodePoint};
+use kerf_sim::arrow::PYRAMID_GCODE;
 
 const HEAD: &str = "G21 G90\nG0 X0 Y500 Z0 A0 B0\n";
 
@@ -114,7 +115,7 @@ fn config() -> ArrowRunConfig {
 }
 
 /// Runs the pyramid for up to 1 s with `disturb` on the encoders.
-fn faulted(disturb: &mut dyn FnMut(usize, &mut hal_mock::arrow::ArrowReading)) -> JobRun {
+fn faulted(disturb: &mut dyn FnMut(u64, &mut hal_mock::arrow::ArrowReading)) -> JobRun {
     let job = job_from_gcode(PYRAMID_GCODE).unwrap();
     run_job(&config(), &job, 5000, disturb).unwrap()
 }

@@ -4,12 +4,11 @@
 //! and the RMS tracking errors of eq. 55–58 beside A table 3, with and without the
 //! computed feedforward and the regularization. Pictures in `<target>/<profile>/plots/`.
 
-use host_tests::arrow::{
-    job_from_gcode, run_job, ArrowRunConfig, JobRun, TrackingRms, PYRAMID_GCODE,
-};
+use host_tests::arrow::{job_from_gcode, rms as tracking, run_job, ArrowRunConfig, JobRun};
 use host_tests::plot::{line_plot, plots_dir, time_series, Series};
 use kerf::app::supervisor::Mode;
 use kerf::control::redundant_pid::RedundantPidConfig;
+use kerf_sim::arrow::{TrackingRms, PYRAMID_GCODE};
 
 /// A table 3: Cartesian 7.06 µm and 0.0170°, joint 6.88 µm and 0.0240°.
 const SEED: TrackingRms = TrackingRms {
@@ -42,7 +41,7 @@ fn run(feedforward: bool, regularize: bool) -> JobRun {
     run_job(
         &config(feedforward, regularize),
         &job,
-        usize::MAX,
+        u64::MAX,
         &mut |_, _| {},
     )
     .unwrap()
@@ -68,12 +67,12 @@ fn the_pyramid_is_tracked_within_the_seeds_figures_with_feedforward() {
     );
     let mut rms = Vec::new();
     for (ff, reg, run) in &runs {
-        let r = TrackingRms::of(&run.samples);
+        let r = tracking(&run.samples);
         let saturated = run.samples.iter().filter(|s| s.saturated).count();
         let peak = run
             .samples
             .iter()
-            .map(|s| s.forces_n.amax())
+            .map(|s| s.outputs.forces_n.amax())
             .fold(0.0, f64::max);
         println!(
             "feedforward {ff:5}, regularization {reg:5}: {} periods ({:.2} s), mode {:?}; eq. 55 {:.2} µm, eq. 56 {:.4}°, eq. 57 {:.2} µm (Rm q̃ {:.2} µm), eq. 58 {:.4}°; true pose {:.1} µm; peak force {peak:.0} N, saturated periods {saturated}",
@@ -159,7 +158,12 @@ fn the_pyramid_is_tracked_within_the_seeds_figures_with_feedforward() {
             .2
             .samples
             .iter()
-            .map(|s| (s.t_s, s.cartesian_error.fixed_rows::<3>(0).norm() * 1e6))
+            .map(|s| {
+                (
+                    s.k as f64 * 2e-4,
+                    s.cartesian_error.fixed_rows::<3>(0).norm() * 1e6,
+                )
+            })
             .collect()
     };
     let (a, b) = (err(0), err(1));
@@ -177,14 +181,19 @@ fn the_pyramid_is_tracked_within_the_seeds_figures_with_feedforward() {
         .map(|j| {
             best.samples
                 .iter()
-                .map(|s| (s.t_s, s.forces_n[j]))
+                .map(|s| (s.k as f64 * 2e-4, s.outputs.forces_n[j]))
                 .collect()
         })
         .collect();
     let saturated: Vec<(f64, f64)> = best
         .samples
         .iter()
-        .map(|s| (s.t_s, if s.saturated { 2500.0 } else { f64::NAN }))
+        .map(|s| {
+            (
+                s.k as f64 * 2e-4,
+                if s.saturated { 2500.0 } else { f64::NAN },
+            )
+        })
         .collect();
     let labels = ["Γ1", "Γ2", "Γ3", "Γ4", "Γ5", "Γ6"];
     let mut series: Vec<Series> = forces
@@ -201,4 +210,36 @@ fn the_pyramid_is_tracked_within_the_seeds_figures_with_feedforward() {
         &series,
     )
     .unwrap();
+}
+
+/// The QEMU image's scenario (one RK4 step per period) in f64, printed in the image's
+/// format for `scripts/smoke` to compare within `ARROW_F32_TOLERANCE`.
+#[test]
+fn the_smoke_pyramid_in_f64() {
+    let mut points = Box::new(heapless::Vec::new());
+    let mut job = Box::<kerf_sim::arrow::Job<f64>>::default();
+    kerf_sim::arrow::load_job(PYRAMID_GCODE, &mut points, &mut job).unwrap();
+    let mut sums = kerf_sim::arrow::TrackingSums::default();
+    let end = kerf_sim::arrow::run_job::<f64>(
+        &kerf_sim::arrow::ArrowScenario::smoke(),
+        &job,
+        u64::MAX,
+        &mut |_, _| {},
+        &mut |p| sums.push(p),
+    )
+    .unwrap();
+    let r = sums.rms();
+    let nm = |m: f64| (m * 1e9).round() as i64;
+    let udeg = |d: f64| (d * 1e6).round() as i64;
+    println!(
+        "host arrow (f64): {} periods, eq. 55 {} nm, eq. 56 {} udeg, eq. 57 {} nm (Rm q {} nm), eq. 58 {} udeg",
+        end.periods,
+        nm(r.cartesian_m),
+        udeg(r.cartesian_deg),
+        nm(r.joint_m),
+        nm(r.joint_consistent_m),
+        udeg(r.joint_deg)
+    );
+    assert_eq!(end.mode, Mode::Ready);
+    assert!(kerf_sim::arrow::ARROW_SMOKE_BOUNDS.holds(&r), "{r:?}");
 }

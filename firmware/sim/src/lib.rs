@@ -7,6 +7,7 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+pub mod arrow;
 pub mod contour;
 pub mod operator;
 pub mod remote;
