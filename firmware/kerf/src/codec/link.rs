@@ -1,0 +1,388 @@
+//! The host link (issue 16): messages between the operator's host tool and the
+//! machine over a byte stream (a UART, USB CDC), and their framing.
+//!
+//! # Frame
+//!
+//! | bytes | field |
+//! |---|---|
+//! | 1 | version (= [`VERSION`]) |
+//! | n | the message, postcard-encoded ([`HostFrame`] to the machine, [`MachineFrame`] from it) |
+//! | 4 | CRC-32 (ISO-HDLC, as Ethernet and zlib) of the version and the message, little-endian |
+//!
+//! The whole is COBS-encoded and ends with a 0x00 delimiter, so a receiver that
+//! joins mid-stream, or sees garbage, resynchronises at the next zero byte and loses at
+//! most the frame it was in. A frame carries at most [`MAX_PAYLOAD`] bytes before
+//! COBS; job data travels in chunks of at most [`MAX_CHUNK`] bytes.
+//!
+//! # Conversation
+//!
+//! The host numbers its requests ([`HostFrame::seq`]); the machine answers each with a
+//! [`MachineMessage::Reply`] carrying the same number: [`Reply::Ack`], a typed
+//! [`Reply::Refused`], a value or the upload's progress. Telemetry and events come
+//! unasked. A job is uploaded as [`Request::JobBegin`] (kind, size, CRC of the whole),
+//! [`Request::JobChunk`]s at increasing offsets and [`Request::JobCommit`]; after a
+//! lost reply the host asks [`Request::JobStatus`] and resumes at the offset the
+//! machine reports.
+
+use serde::{Deserialize, Serialize};
+
+/// Version of the frame and the messages in it.
+pub const VERSION: u8 = 1;
+
+/// Most bytes of a frame before COBS: version, message and CRC.
+pub const MAX_PAYLOAD: usize = 256;
+
+/// Most bytes of an encoded frame: COBS adds one byte per 254 and one more, then the
+/// delimiter.
+pub const MAX_FRAME: usize = MAX_PAYLOAD + MAX_PAYLOAD / 254 + 2;
+
+/// Most job bytes in one [`Request::JobChunk`] (the rest of the payload holds the
+/// message's own fields).
+pub const MAX_CHUNK: usize = 192;
+
+/// The frame check.
+const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// What an uploaded job holds.
+#[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum JobKind {
+    /// Elliptic Fourier coefficients of a closed contour.
+    Efd,
+    /// A point list of an open contour.
+    Points,
+    /// G-code text.
+    Gcode,
+}
+
+/// A request of the host.
+#[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq)]
+pub enum Request<'a> {
+    /// Who are you: the machine answers [`Reply::Hello`].
+    Hello,
+    /// The host is still there (the machine stops a running job when they cease).
+    Heartbeat,
+    /// An upload begins: `total_bytes` of `kind`, whose CRC-32 is `crc32`.
+    JobBegin {
+        /// What the job holds.
+        kind: JobKind,
+        /// Its size, bytes.
+        total_bytes: u32,
+        /// CRC-32 (ISO-HDLC) of all its bytes.
+        crc32: u32,
+    },
+    /// Job bytes at `offset`.
+    JobChunk {
+        /// Where they go.
+        offset: u32,
+        /// At most [`MAX_CHUNK`] bytes.
+        #[serde(borrow)]
+        data: &'a [u8],
+    },
+    /// How far the upload got: [`Reply::JobProgress`].
+    JobStatus,
+    /// The upload is complete: check and load it.
+    JobCommit,
+    /// Start the loaded job.
+    Start,
+    /// Stop (a controlled ramp to rest).
+    Stop,
+    /// Leave a fault.
+    ResetFault,
+    /// A setting's value, as JSON: [`Reply::Value`].
+    Get {
+        /// Its path in the settings tree, such as `/dob/bandwidth_hz`.
+        #[serde(borrow)]
+        path: &'a str,
+    },
+    /// Sets a setting from JSON; validated as a configuration, applied bumplessly.
+    Set {
+        /// Its path.
+        #[serde(borrow)]
+        path: &'a str,
+        /// The value, JSON.
+        #[serde(borrow)]
+        value: &'a [u8],
+    },
+    /// Telemetry every `every_periods` control periods (0: none).
+    Telemetry {
+        /// Decimation.
+        every_periods: u32,
+    },
+}
+
+/// A request with its number.
+#[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq)]
+pub struct HostFrame<'a> {
+    /// The host's request number, echoed in the reply.
+    pub seq: u16,
+    /// The request.
+    #[serde(borrow)]
+    pub request: Request<'a>,
+}
+
+/// Why a request was refused.
+#[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Refusal {
+    /// A chunk not at the offset the upload has reached (`expected`), or past the
+    /// announced size.
+    ChunkOffset {
+        /// The offset the machine expects next.
+        expected: u32,
+    },
+    /// The job is larger than the machine holds.
+    TooLarge,
+    /// The uploaded bytes do not match the announced CRC, or fall short of its size.
+    Incomplete,
+    /// No upload in progress, or no job loaded.
+    NoJob,
+    /// The job does not fit the machine (its code, per machine).
+    Job(u16),
+    /// Not in this mode.
+    InvalidInMode,
+    /// No setting at that path.
+    UnknownPath,
+    /// The value does not parse, or fails the configuration's validation.
+    BadValue,
+    /// The machine's command queue is full; try again.
+    Busy,
+}
+
+/// The answer to a request.
+#[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq)]
+pub enum Reply<'a> {
+    /// The machine: link version, name, largest chunk.
+    Hello {
+        /// [`VERSION`].
+        version: u8,
+        /// The machine's name.
+        #[serde(borrow)]
+        machine: &'a str,
+        /// Largest [`Request::JobChunk`] it takes, bytes.
+        max_chunk: u16,
+    },
+    /// Done.
+    Ack,
+    /// Refused, nothing changed.
+    Refused(Refusal),
+    /// Bytes of the upload received so far, in order.
+    JobProgress {
+        /// Bytes.
+        received: u32,
+    },
+    /// A setting's value, JSON.
+    Value {
+        /// The value.
+        #[serde(borrow)]
+        value: &'a [u8],
+    },
+}
+
+/// A decimated telemetry sample.
+#[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq, Default)]
+pub struct TelemetrySample {
+    /// Control period count.
+    pub period: u32,
+    /// Supervisor mode ([`ModeCode`]).
+    pub mode: ModeCode,
+    /// Measured position of the tool, m.
+    pub position_m: [f32; 3],
+    /// Its reference, m.
+    pub reference_m: [f32; 3],
+    /// Tracking (or contour) error, m.
+    pub error_m: f32,
+    /// Force commands, N.
+    pub force_n: [f32; 3],
+    /// Laser power, W.
+    pub laser_w: f32,
+}
+
+/// The supervisor's mode on the wire.
+#[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ModeCode {
+    /// Idle.
+    #[default]
+    Idle,
+    /// Calibrating.
+    Calibrating,
+    /// Ready.
+    Ready,
+    /// Running a job.
+    Running,
+    /// Ramping to rest.
+    Stopping,
+    /// Faulted.
+    Fault,
+}
+
+/// Something that happened on the machine.
+#[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Event {
+    /// The mode changed.
+    Mode {
+        /// From.
+        from: ModeCode,
+        /// To.
+        to: ModeCode,
+    },
+    /// The machine faulted: a code per machine (its fault enum's order) and its
+    /// detail (an axis or a line).
+    Fault {
+        /// What.
+        code: u16,
+        /// Where.
+        detail: u16,
+    },
+    /// The host's heartbeats stopped while a job ran: the machine stopped it.
+    HostLost,
+}
+
+/// What the machine sends.
+#[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq)]
+pub enum MachineMessage<'a> {
+    /// The answer to request `seq`.
+    Reply {
+        /// The request's number.
+        seq: u16,
+        /// The answer.
+        #[serde(borrow)]
+        reply: Reply<'a>,
+    },
+    /// A telemetry sample.
+    Telemetry(TelemetrySample),
+    /// An event.
+    Event(Event),
+}
+
+/// A machine message (the frame's name for symmetry with [`HostFrame`]).
+pub type MachineFrame<'a> = MachineMessage<'a>;
+
+/// Why bytes are not a message.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FrameError {
+    /// The frame outgrew the receive buffer (the rest up to the next delimiter is
+    /// dropped).
+    TooLong,
+    /// Not valid COBS.
+    Cobs,
+    /// Shorter than a version and a CRC.
+    TooShort,
+    /// Another link version.
+    Version(u8),
+    /// The CRC does not match.
+    Crc,
+    /// The message does not decode (or has bytes left over).
+    Message,
+    /// The output buffer is too small for the frame.
+    NoRoom,
+}
+
+/// Encodes `message` into `out` as one delimited frame; returns its length.
+///
+/// Errors: [`FrameError::NoRoom`] when the message exceeds [`MAX_PAYLOAD`] or `out`
+/// holds less than the encoded frame.
+pub fn encode<M: Serialize>(message: &M, out: &mut [u8]) -> Result<usize, FrameError> {
+    let mut payload = [0u8; MAX_PAYLOAD];
+    let (version, rest) = payload.split_first_mut().ok_or(FrameError::NoRoom)?;
+    *version = VERSION;
+    let body = rest.len().saturating_sub(4);
+    let used = postcard::to_slice(message, rest.get_mut(..body).ok_or(FrameError::NoRoom)?)
+        .map_err(|_| FrameError::NoRoom)?
+        .len();
+    let checked = 1 + used;
+    let crc = CRC32.checksum(payload.get(..checked).ok_or(FrameError::NoRoom)?);
+    payload
+        .get_mut(checked..checked + 4)
+        .ok_or(FrameError::NoRoom)?
+        .copy_from_slice(&crc.to_le_bytes());
+    let frame = payload.get(..checked + 4).ok_or(FrameError::NoRoom)?;
+    let n = cobs::try_encode(frame, out).map_err(|_| FrameError::NoRoom)?;
+    *out.get_mut(n).ok_or(FrameError::NoRoom)? = 0;
+    Ok(n + 1)
+}
+
+/// Decodes one frame (its COBS bytes, without the delimiter) in place and reads the
+/// message, which may borrow from `frame`.
+///
+/// Errors: bad COBS, too short, another version, a CRC mismatch, a message that does
+/// not decode or leaves bytes over.
+pub fn decode<'a, M: Deserialize<'a>>(frame: &'a mut [u8]) -> Result<M, FrameError> {
+    let n = cobs::decode_in_place(frame).map_err(|_| FrameError::Cobs)?;
+    let frame: &'a [u8] = frame.get(..n).ok_or(FrameError::Cobs)?;
+    if n < 5 {
+        return Err(FrameError::TooShort);
+    }
+    let (checked, crc) = frame.split_at(n - 4);
+    let mut crc_bytes = [0u8; 4];
+    crc_bytes.copy_from_slice(crc);
+    if CRC32.checksum(checked) != u32::from_le_bytes(crc_bytes) {
+        return Err(FrameError::Crc);
+    }
+    let (version, body) = checked.split_first().ok_or(FrameError::TooShort)?;
+    if *version != VERSION {
+        return Err(FrameError::Version(*version));
+    }
+    match postcard::take_from_bytes::<M>(body) {
+        Ok((message, [])) => Ok(message),
+        _ => Err(FrameError::Message),
+    }
+}
+
+/// Collects a byte stream into frames: bytes up to each 0x00 delimiter, in a buffer of
+/// `N` bytes. Allocation-free; one byte at a time, as a UART delivers them.
+#[derive(Clone, Debug)]
+pub struct FrameReader<const N: usize> {
+    buf: [u8; N],
+    len: usize,
+    overflowed: bool,
+}
+
+impl<const N: usize> Default for FrameReader<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> FrameReader<N> {
+    /// An empty reader.
+    pub const fn new() -> Self {
+        Self {
+            buf: [0; N],
+            len: 0,
+            overflowed: false,
+        }
+    }
+
+    /// Takes one byte. At a delimiter returns the frame collected since the last one
+    /// (its COBS bytes, for [`decode`]), or [`FrameError::TooLong`] when it did not
+    /// fit; empty frames (two delimiters in a row) are skipped.
+    pub fn push(&mut self, byte: u8) -> Option<Result<&mut [u8], FrameError>> {
+        if byte != 0 {
+            match self.buf.get_mut(self.len) {
+                Some(slot) if !self.overflowed => {
+                    *slot = byte;
+                    self.len += 1;
+                }
+                _ => self.overflowed = true,
+            }
+            return None;
+        }
+        let (len, overflowed) = (self.len, self.overflowed);
+        self.len = 0;
+        self.overflowed = false;
+        if overflowed {
+            return Some(Err(FrameError::TooLong));
+        }
+        if len == 0 {
+            return None;
+        }
+        self.buf.get_mut(..len).map(Ok)
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,255 @@
+use super::*;
+use std::vec::Vec;
+
+/// CRC-32/ISO-HDLC bit by bit (reflected polynomial 0xEDB88320, init and xor-out all
+/// ones): an independent route to the frame check.
+fn crc32_bitwise(bytes: &[u8]) -> u32 {
+    let mut crc = !0u32;
+    for &b in bytes {
+        crc ^= u32::from(b);
+        for _ in 0..8 {
+            crc = if crc & 1 == 1 {
+                (crc >> 1) ^ 0xEDB8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    !crc
+}
+
+fn host_frames(chunk: &[u8]) -> Vec<HostFrame<'_>> {
+    let requests = [
+        Request::Hello,
+        Request::Heartbeat,
+        Request::JobBegin {
+            kind: JobKind::Efd,
+            total_bytes: 1234,
+            crc32: 0xDEAD_BEEF,
+        },
+        Request::JobChunk {
+            offset: 4096,
+            data: chunk,
+        },
+        Request::JobStatus,
+        Request::JobCommit,
+        Request::Start,
+        Request::Stop,
+        Request::ResetFault,
+        Request::Get {
+            path: "/dob/bandwidth_hz",
+        },
+        Request::Set {
+            path: "/pd/kp_per_s2",
+            value: b"1.5e6",
+        },
+        Request::Telemetry { every_periods: 100 },
+    ];
+    requests
+        .into_iter()
+        .enumerate()
+        .map(|(i, request)| HostFrame {
+            seq: 65_530u16.wrapping_add(i as u16),
+            request,
+        })
+        .collect()
+}
+
+#[test]
+fn every_message_round_trips_and_frames_hold_no_zero_before_the_delimiter() {
+    let chunk: Vec<u8> = (0..MAX_CHUNK).map(|i| i as u8).collect();
+    for frame in host_frames(&chunk) {
+        let mut out = [0u8; MAX_FRAME];
+        let n = encode(&frame, &mut out).unwrap();
+        assert!(n <= MAX_FRAME);
+        let (body, delimiter) = out[..n].split_at_mut(n - 1);
+        assert_eq!(delimiter, [0]);
+        assert!(body.iter().all(|&b| b != 0), "{frame:?}");
+        let mut copy = body.to_vec();
+        assert_eq!(decode::<HostFrame>(&mut copy).unwrap(), frame);
+    }
+    let replies = [
+        MachineMessage::Reply {
+            seq: 7,
+            reply: Reply::Hello {
+                version: VERSION,
+                machine: "keops-slave",
+                max_chunk: MAX_CHUNK as u16,
+            },
+        },
+        MachineMessage::Reply {
+            seq: 8,
+            reply: Reply::Refused(Refusal::ChunkOffset { expected: 192 }),
+        },
+        MachineMessage::Reply {
+            seq: 9,
+            reply: Reply::Value { value: b"250.0" },
+        },
+        MachineMessage::Telemetry(TelemetrySample {
+            period: u32::MAX,
+            mode: ModeCode::Running,
+            position_m: [1e-3, -2e-3, 0.05],
+            reference_m: [1e-3, -2e-3, 0.05],
+            error_m: 3e-7,
+            force_n: [1.0, -2.5, 9.0],
+            laser_w: 12.5,
+        }),
+        MachineMessage::Event(Event::Fault { code: 3, detail: 1 }),
+        MachineMessage::Event(Event::Mode {
+            from: ModeCode::Running,
+            to: ModeCode::Fault,
+        }),
+    ];
+    for message in replies {
+        let mut out = [0u8; MAX_FRAME];
+        let n = encode(&message, &mut out).unwrap();
+        let mut body = out[..n - 1].to_vec();
+        assert_eq!(decode::<MachineMessage>(&mut body).unwrap(), message);
+    }
+}
+
+#[test]
+fn the_check_is_crc32_iso_hdlc() {
+    // The catalogue's check value, and a frame's trailer against the bitwise route.
+    assert_eq!(crc32_bitwise(b"123456789"), 0xCBF4_3926);
+    let frame = HostFrame {
+        seq: 3,
+        request: Request::Start,
+    };
+    let mut out = [0u8; MAX_FRAME];
+    let n = encode(&frame, &mut out).unwrap();
+    let mut raw = out[..n - 1].to_vec();
+    let len = cobs::decode_in_place(&mut raw).unwrap();
+    let (checked, crc) = raw[..len].split_at(len - 4);
+    assert_eq!(checked[0], VERSION);
+    assert_eq!(
+        u32::from_le_bytes(crc.try_into().unwrap()),
+        crc32_bitwise(checked)
+    );
+}
+
+#[test]
+fn damaged_frames_are_refused_by_kind() {
+    let frame = HostFrame {
+        seq: 1,
+        request: Request::Get { path: "/a/b" },
+    };
+    let mut out = [0u8; MAX_FRAME];
+    let n = encode(&frame, &mut out).unwrap();
+    let good = out[..n - 1].to_vec();
+    // Every single-bit flip is caught (CRC-32 detects all of them); most show as a
+    // CRC mismatch, some break the COBS structure first.
+    for byte in 0..good.len() {
+        for bit in 0..8 {
+            let mut bad = good.clone();
+            bad[byte] ^= 1 << bit;
+            let e = decode::<HostFrame>(&mut bad).unwrap_err();
+            assert!(
+                matches!(e, FrameError::Crc | FrameError::Cobs | FrameError::TooShort),
+                "{byte} {bit}: {e:?}"
+            );
+        }
+    }
+    // Truncated.
+    let mut short = good[..good.len() - 3].to_vec();
+    assert!(decode::<HostFrame>(&mut short).is_err());
+    // Another version, with a correct CRC.
+    let mut payload = Vec::from([2u8]);
+    let mut body = [0u8; 64];
+    payload.extend_from_slice(postcard::to_slice(&frame, &mut body).unwrap());
+    let crc = crc32_bitwise(&payload);
+    payload.extend_from_slice(&crc.to_le_bytes());
+    let mut encoded = [0u8; MAX_FRAME];
+    let m = cobs::encode(&payload, &mut encoded);
+    assert_eq!(
+        decode::<HostFrame>(&mut encoded[..m]),
+        Err(FrameError::Version(2))
+    );
+    // A well-framed message of the other direction, or with bytes left over.
+    let message = MachineMessage::Event(Event::HostLost);
+    let n = encode(&message, &mut out).unwrap();
+    let mut body = out[..n - 1].to_vec();
+    assert_eq!(decode::<HostFrame>(&mut body), Err(FrameError::Message));
+}
+
+#[test]
+fn the_reader_resynchronises_after_garbage_and_overlong_frames() {
+    let frame = HostFrame {
+        seq: 42,
+        request: Request::Telemetry { every_periods: 10 },
+    };
+    let mut out = [0u8; MAX_FRAME];
+    let n = encode(&frame, &mut out).unwrap();
+    // Garbage (no zero), an overlong run, a lone delimiter pair, then the frame twice.
+    let mut stream: Vec<u8> = (1..=200u8).collect();
+    stream.push(0);
+    stream.extend(core::iter::repeat_n(0x55, 600));
+    stream.extend([0, 0]);
+    stream.extend_from_slice(&out[..n]);
+    stream.extend_from_slice(&out[..n]);
+    let mut reader = FrameReader::<MAX_FRAME>::new();
+    let mut results = Vec::new();
+    for b in stream {
+        if let Some(r) = reader.push(b) {
+            results.push(r.and_then(|f| decode::<HostFrame>(f).map(|h| h == frame)));
+        }
+    }
+    assert_eq!(results.len(), 4, "{results:?}");
+    assert!(results[0].is_err(), "garbage");
+    assert_eq!(results[1], Err(FrameError::TooLong));
+    assert_eq!(results[2], Ok(true));
+    assert_eq!(results[3], Ok(true));
+}
+
+#[test]
+fn a_message_past_the_payload_is_refused_not_truncated() {
+    let big = [1u8; MAX_PAYLOAD];
+    let frame = HostFrame {
+        seq: 0,
+        request: Request::JobChunk {
+            offset: 0,
+            data: &big,
+        },
+    };
+    let mut out = [0u8; 2 * MAX_FRAME];
+    assert_eq!(encode(&frame, &mut out), Err(FrameError::NoRoom));
+    let mut small = [0u8; 16];
+    let ok = HostFrame {
+        seq: 0,
+        request: Request::Hello,
+    };
+    assert!(encode(&ok, &mut small).is_ok());
+    let mut tiny = [0u8; 4];
+    assert_eq!(encode(&ok, &mut tiny), Err(FrameError::NoRoom));
+}
+
+proptest::proptest! {
+    /// The fuzz target's property on random streams, in the test suite: frames or
+    /// typed errors, never a panic; an accepted message encodes back to itself.
+    #[test]
+    fn random_streams_give_frames_or_typed_errors(data in proptest::collection::vec(proptest::num::u8::ANY, 0..600)) {
+        let mut reader = FrameReader::<MAX_FRAME>::new();
+        for byte in data {
+            if let Some(Ok(frame)) = reader.push(byte) {
+                if let Ok(message) = decode::<HostFrame>(frame) {
+                    let mut out = [0u8; MAX_FRAME];
+                    let n = encode(&message, &mut out).unwrap();
+                    proptest::prop_assert_eq!(decode::<HostFrame>(&mut out[..n - 1]).unwrap(), message);
+                }
+            }
+        }
+    }
+
+    /// Random requests (a chunk of random bytes at a random offset, a random path
+    /// and value) round-trip through a frame.
+    #[test]
+    fn random_requests_round_trip(seq: u16, offset: u32, data in proptest::collection::vec(proptest::num::u8::ANY, 0..MAX_CHUNK), path in "/[a-z_/]{0,40}") {
+        let chunk = HostFrame { seq, request: Request::JobChunk { offset, data: &data } };
+        let set = HostFrame { seq, request: Request::Set { path: &path, value: &data } };
+        for frame in [chunk, set] {
+            let mut out = [0u8; MAX_FRAME];
+            let n = encode(&frame, &mut out).unwrap();
+            proptest::prop_assert_eq!(decode::<HostFrame>(&mut out[..n - 1]).unwrap(), frame);
+        }
+    }
+}
