@@ -16,6 +16,7 @@
 
 pub mod dct;
 pub mod gcs;
+pub mod job;
 pub mod link;
 pub mod packet;
 pub mod sdct;
