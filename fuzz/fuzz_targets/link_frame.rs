@@ -23,12 +23,12 @@ fuzz_target!(|data: &[u8]| {
         if let Ok(message) = decode::<HostFrame>(frame) {
             let mut out = [0u8; MAX_FRAME];
             let n = encode(&message, &mut out).unwrap();
-            assert_eq!(decode::<HostFrame>(&mut out[..n - 1]).unwrap(), message);
+            assert_eq!(decode::<HostFrame>(&mut out[1..n - 1]).unwrap(), message);
         }
         if let Ok(message) = decode::<MachineMessage>(copy) {
             let mut out = [0u8; MAX_FRAME];
             let n = encode(&message, &mut out).unwrap();
-            assert_eq!(decode::<MachineMessage>(&mut out[..n - 1]).unwrap(), message);
+            assert_eq!(decode::<MachineMessage>(&mut out[1..n - 1]).unwrap(), message);
         }
     }
 });

@@ -12,6 +12,7 @@ pub mod axis;
 pub mod calibrate;
 pub mod delta_slave;
 pub mod grinding;
+pub mod host_link;
 pub mod joints;
 pub mod playout;
 pub mod remote_link;

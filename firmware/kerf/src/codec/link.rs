@@ -9,9 +9,9 @@
 //! | n | the message, postcard-encoded ([`HostFrame`] to the machine, [`MachineFrame`] from it) |
 //! | 4 | CRC-32 (ISO-HDLC, as Ethernet and zlib) of the version and the message, little-endian |
 //!
-//! The whole is COBS-encoded and ends with a 0x00 delimiter, so a receiver that
-//! joins mid-stream, or sees garbage, resynchronises at the next zero byte and loses at
-//! most the frame it was in. A frame carries at most [`MAX_PAYLOAD`] bytes before
+//! The whole is COBS-encoded between two 0x00 delimiters, so a receiver that joins
+//! mid-stream, or sees garbage, resynchronises at the next zero byte: the leading
+//! delimiter ends whatever garbage came before, and the frame itself is not lost. A frame carries at most [`MAX_PAYLOAD`] bytes before
 //! COBS; job data travels in chunks of at most [`MAX_CHUNK`] bytes.
 //!
 //! # Conversation
@@ -32,9 +32,9 @@ pub const VERSION: u8 = 1;
 /// Most bytes of a frame before COBS: version, message and CRC.
 pub const MAX_PAYLOAD: usize = 256;
 
-/// Most bytes of an encoded frame: COBS adds one byte per 254 and one more, then the
-/// delimiter.
-pub const MAX_FRAME: usize = MAX_PAYLOAD + MAX_PAYLOAD / 254 + 2;
+/// Most bytes of an encoded frame: COBS adds one byte per 254 and one more, and the
+/// two delimiters.
+pub const MAX_FRAME: usize = MAX_PAYLOAD + MAX_PAYLOAD / 254 + 3;
 
 /// Most job bytes in one [`Request::JobChunk`] (the rest of the payload holds the
 /// message's own fields).
@@ -281,7 +281,7 @@ pub enum FrameError {
     NoRoom,
 }
 
-/// Encodes `message` into `out` as one delimited frame; returns its length.
+/// Encodes `message` into `out` as one frame between delimiters; returns its length.
 ///
 /// Errors: [`FrameError::NoRoom`] when the message exceeds [`MAX_PAYLOAD`] or `out`
 /// holds less than the encoded frame.
@@ -300,9 +300,11 @@ pub fn encode<M: Serialize>(message: &M, out: &mut [u8]) -> Result<usize, FrameE
         .ok_or(FrameError::NoRoom)?
         .copy_from_slice(&crc.to_le_bytes());
     let frame = payload.get(..checked + 4).ok_or(FrameError::NoRoom)?;
-    let n = cobs::try_encode(frame, out).map_err(|_| FrameError::NoRoom)?;
-    *out.get_mut(n).ok_or(FrameError::NoRoom)? = 0;
-    Ok(n + 1)
+    let (lead, rest) = out.split_first_mut().ok_or(FrameError::NoRoom)?;
+    *lead = 0;
+    let n = cobs::try_encode(frame, rest).map_err(|_| FrameError::NoRoom)?;
+    *rest.get_mut(n).ok_or(FrameError::NoRoom)? = 0;
+    Ok(n + 2)
 }
 
 /// Decodes one frame (its COBS bytes, without the delimiter) in place and reads the

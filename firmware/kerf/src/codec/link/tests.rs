@@ -62,8 +62,8 @@ fn every_message_round_trips_and_frames_hold_no_zero_before_the_delimiter() {
         let mut out = [0u8; MAX_FRAME];
         let n = encode(&frame, &mut out).unwrap();
         assert!(n <= MAX_FRAME);
-        let (body, delimiter) = out[..n].split_at_mut(n - 1);
-        assert_eq!(delimiter, [0]);
+        assert_eq!((out[0], out[n - 1]), (0, 0));
+        let body = &mut out[1..n - 1];
         assert!(body.iter().all(|&b| b != 0), "{frame:?}");
         let mut copy = body.to_vec();
         assert_eq!(decode::<HostFrame>(&mut copy).unwrap(), frame);
@@ -103,7 +103,7 @@ fn every_message_round_trips_and_frames_hold_no_zero_before_the_delimiter() {
     for message in replies {
         let mut out = [0u8; MAX_FRAME];
         let n = encode(&message, &mut out).unwrap();
-        let mut body = out[..n - 1].to_vec();
+        let mut body = out[1..n - 1].to_vec();
         assert_eq!(decode::<MachineMessage>(&mut body).unwrap(), message);
     }
 }
@@ -118,7 +118,7 @@ fn the_check_is_crc32_iso_hdlc() {
     };
     let mut out = [0u8; MAX_FRAME];
     let n = encode(&frame, &mut out).unwrap();
-    let mut raw = out[..n - 1].to_vec();
+    let mut raw = out[1..n - 1].to_vec();
     let len = cobs::decode_in_place(&mut raw).unwrap();
     let (checked, crc) = raw[..len].split_at(len - 4);
     assert_eq!(checked[0], VERSION);
@@ -136,7 +136,7 @@ fn damaged_frames_are_refused_by_kind() {
     };
     let mut out = [0u8; MAX_FRAME];
     let n = encode(&frame, &mut out).unwrap();
-    let good = out[..n - 1].to_vec();
+    let good = out[1..n - 1].to_vec();
     // Every single-bit flip is caught (CRC-32 detects all of them); most show as a
     // CRC mismatch, some break the COBS structure first.
     for byte in 0..good.len() {
@@ -168,7 +168,7 @@ fn damaged_frames_are_refused_by_kind() {
     // A well-framed message of the other direction, or with bytes left over.
     let message = MachineMessage::Event(Event::HostLost);
     let n = encode(&message, &mut out).unwrap();
-    let mut body = out[..n - 1].to_vec();
+    let mut body = out[1..n - 1].to_vec();
     assert_eq!(decode::<HostFrame>(&mut body), Err(FrameError::Message));
 }
 
@@ -234,7 +234,7 @@ proptest::proptest! {
                 if let Ok(message) = decode::<HostFrame>(frame) {
                     let mut out = [0u8; MAX_FRAME];
                     let n = encode(&message, &mut out).unwrap();
-                    proptest::prop_assert_eq!(decode::<HostFrame>(&mut out[..n - 1]).unwrap(), message);
+                    proptest::prop_assert_eq!(decode::<HostFrame>(&mut out[1..n - 1]).unwrap(), message);
                 }
             }
         }
@@ -249,7 +249,7 @@ proptest::proptest! {
         for frame in [chunk, set] {
             let mut out = [0u8; MAX_FRAME];
             let n = encode(&frame, &mut out).unwrap();
-            proptest::prop_assert_eq!(decode::<HostFrame>(&mut out[..n - 1]).unwrap(), frame);
+            proptest::prop_assert_eq!(decode::<HostFrame>(&mut out[1..n - 1]).unwrap(), frame);
         }
     }
 }

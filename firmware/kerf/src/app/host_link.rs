@@ -1,0 +1,450 @@
+//! The machine's side of the host link (issue 16): the slower task that reads the
+//! host's frames ([`crate::codec::link`]), turns them into supervisor commands,
+//! answers, and forwards telemetry and events. It never touches the control period:
+//! it talks to the supervisor only through its command and report queues, and does
+//! everything expensive (assembling and checking an uploaded job, validating a
+//! setting into coefficients) before a command is queued.
+//!
+//! - **Jobs** arrive in chunks into a buffer of `J` bytes: `JobBegin` (kind, size,
+//!   CRC), `JobChunk`s at the offset reached so far (any other offset is refused with
+//!   the offset expected, so the host resumes there after a lost reply), `JobCommit`:
+//!   size and CRC checked, the job file read ([`crate::codec::job`]) and built into
+//!   the machine's job ([`LinkMachine::load_job`]), then `LoadJob` queued. Nothing of a
+//!   refused upload reaches the machine.
+//! - **Settings** are the machine's [`LinkMachine::Settings`] tree, addressed by path
+//!   (miniconf, JSON values: `/dob/bandwidth_hz`). A `Set` is applied to a copy, the
+//!   copy validated into coefficients as a configuration is, and only then kept and
+//!   sent (`ChangeSettings`, bumpless); a bad path or value changes nothing.
+//! - **Commands** (`Start`, `Stop`, `ResetFault`, `LoadJob`, `ChangeSettings`) are
+//!   answered when the supervisor reports them carried out or refused.
+//! - **Telemetry** goes out every `every_periods` control periods as the host asked;
+//!   mode changes and faults go out as events.
+//! - **Heartbeat**: while a job runs, a host silent for longer than
+//!   [`HostLinkConfig::heartbeat_timeout_s`] (no frame at all) stops the job, and the
+//!   host is told [`Event::HostLost`] should it come back.
+
+use crate::app::supervisor::{Command, CommandError, CommandKind, Machine, Mode, Report};
+use crate::codec::job::JobFile;
+use crate::codec::link::{
+    decode, encode, Event, FrameReader, HostFrame, JobKind, MachineMessage, ModeCode, Refusal,
+    Reply, Request, TelemetrySample, MAX_CHUNK, MAX_FRAME, VERSION,
+};
+use crate::error::{positive, ConfigError};
+use heapless::spsc::Producer;
+use heapless::Deque;
+use miniconf::{json_core, TreeDeserialize, TreeSerialize};
+
+/// A machine the host link can drive: its settings tree, how a job file becomes its
+/// job, and how its telemetry and faults go on the wire.
+pub trait LinkMachine: Machine {
+    /// The settings tree (miniconf): what `Get`/`Set` address.
+    type Settings: TreeSerialize + for<'de> TreeDeserialize<'de> + Copy;
+    /// The machine's name in `Hello`.
+    const NAME: &'static str;
+    /// Validates settings into coefficients, as a configuration is.
+    fn coefficients(
+        settings: &Self::Settings,
+        period_s: f64,
+    ) -> Result<Self::Coefficients, ConfigError>;
+    /// Builds the machine's job from a job file, in place; a code for the refusal.
+    fn load_job(file: &JobFile<'_>, job: &mut Self::Job) -> Result<(), u16>;
+    /// The wire form of a job error.
+    fn job_error_code(error: &Self::JobError) -> u16;
+    /// The wire form of a fault: (what, where).
+    fn fault_code(fault: &Self::Fault) -> (u16, u16);
+    /// The telemetry's wire form (period and mode are filled in by the link).
+    fn sample(telemetry: &Self::Telemetry) -> TelemetrySample;
+}
+
+/// How the link behaves.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct HostLinkConfig {
+    /// The machine's control period, s (for the settings' coefficients).
+    pub period_s: f64,
+    /// Silence of the host after which a running job is stopped, s.
+    pub heartbeat_timeout_s: f64,
+}
+
+impl HostLinkConfig {
+    /// A host that sends a heartbeat every 100 ms is given 0.5 s: five lost in a row.
+    pub const DEFAULT_TIMEOUT_S: f64 = 0.5;
+}
+
+/// An upload in progress.
+#[derive(Clone, Debug)]
+struct Upload<const J: usize> {
+    kind: JobKind,
+    total: u32,
+    crc32: u32,
+    bytes: heapless::Vec<u8, J>,
+}
+
+const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// Frames the link could not read (for the status): counted, never answered.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Default)]
+pub struct LinkCounters {
+    /// Frames dropped: bad COBS, CRC, version, message, or too long.
+    pub bad_frames: u32,
+    /// Replies or samples the host was not sent (the sender refused them).
+    pub unsent: u32,
+}
+
+/// The host link of one machine with a job buffer of `J` bytes.
+pub struct HostLink<M: LinkMachine, const J: usize> {
+    config: HostLinkConfig,
+    reader: FrameReader<MAX_FRAME>,
+    upload: Option<Upload<J>>,
+    settings: M::Settings,
+    pending: Deque<(u16, CommandKind), 4>,
+    telemetry_every: u32,
+    last_sample_period: Option<u64>,
+    mode: ModeCode,
+    last_heard_s: Option<f64>,
+    host_lost: bool,
+    counters: LinkCounters,
+}
+
+/// The wire form of a supervisor mode.
+pub fn mode_code<F>(mode: &Mode<F>) -> ModeCode {
+    match mode {
+        Mode::Idle => ModeCode::Idle,
+        Mode::Calibrating => ModeCode::Calibrating,
+        Mode::Ready => ModeCode::Ready,
+        Mode::Running => ModeCode::Running,
+        Mode::Stopping => ModeCode::Stopping,
+        Mode::Fault(_) => ModeCode::Fault,
+    }
+}
+
+impl<M: LinkMachine, const J: usize> HostLink<M, J> {
+    /// A link whose settings start at `settings` (the ones the machine runs).
+    ///
+    /// Errors: a period or timeout not finite and positive.
+    pub fn new(config: &HostLinkConfig, settings: M::Settings) -> Result<Self, ConfigError> {
+        positive("period_s", config.period_s)?;
+        positive("heartbeat_timeout_s", config.heartbeat_timeout_s)?;
+        Ok(Self {
+            config: *config,
+            reader: FrameReader::new(),
+            upload: None,
+            settings,
+            pending: Deque::new(),
+            telemetry_every: 0,
+            last_sample_period: None,
+            mode: ModeCode::Idle,
+            last_heard_s: None,
+            host_lost: false,
+            counters: LinkCounters::default(),
+        })
+    }
+
+    /// The settings as the link holds them.
+    pub fn settings(&self) -> &M::Settings {
+        &self.settings
+    }
+
+    /// Frames dropped and messages not sent so far.
+    pub fn counters(&self) -> LinkCounters {
+        self.counters
+    }
+
+    /// Encodes and sends one message through `send`.
+    fn send(&mut self, message: &MachineMessage<'_>, send: &mut dyn FnMut(&[u8]) -> bool) {
+        let mut out = [0u8; MAX_FRAME];
+        let sent = match encode(message, &mut out) {
+            Ok(n) => out.get(..n).is_some_and(send),
+            Err(_) => false,
+        };
+        if !sent {
+            self.counters.unsent = self.counters.unsent.saturating_add(1);
+        }
+    }
+
+    fn reply(&mut self, seq: u16, reply: Reply<'_>, send: &mut dyn FnMut(&[u8]) -> bool) {
+        self.send(&MachineMessage::Reply { seq, reply }, send);
+    }
+
+    /// Queues `command` for the supervisor; its answer comes with the report.
+    fn command(
+        &mut self,
+        seq: u16,
+        command: Command<M>,
+        commands: &mut Producer<'_, Command<M>>,
+        send: &mut dyn FnMut(&[u8]) -> bool,
+    ) {
+        let kind = command.kind();
+        if self.pending.is_full() {
+            return self.reply(seq, Reply::Refused(Refusal::Busy), send);
+        }
+        match commands.enqueue(command) {
+            Ok(()) => {
+                // Room was checked above.
+                let _ = self.pending.push_back((seq, kind));
+            }
+            Err(_) => self.reply(seq, Reply::Refused(Refusal::Busy), send),
+        }
+    }
+
+    /// Takes one byte from the host at time `now_s` (any monotonic seconds).
+    pub fn receive(
+        &mut self,
+        byte: u8,
+        now_s: f64,
+        commands: &mut Producer<'_, Command<M>>,
+        send: &mut dyn FnMut(&[u8]) -> bool,
+    ) {
+        let mut frame = [0u8; MAX_FRAME];
+        let len = match self.reader.push(byte) {
+            None => return,
+            Some(Err(_)) => {
+                self.counters.bad_frames = self.counters.bad_frames.saturating_add(1);
+                return;
+            }
+            Some(Ok(raw)) => {
+                let Some(copy) = frame.get_mut(..raw.len()) else {
+                    return;
+                };
+                copy.copy_from_slice(raw);
+                raw.len()
+            }
+        };
+        let Some(raw) = frame.get_mut(..len) else {
+            return;
+        };
+        match decode::<HostFrame>(raw) {
+            Ok(HostFrame { seq, request }) => {
+                self.last_heard_s = Some(now_s);
+                self.host_lost = false;
+                self.handle(seq, request, commands, send);
+            }
+            Err(_) => self.counters.bad_frames = self.counters.bad_frames.saturating_add(1),
+        }
+    }
+
+    fn handle(
+        &mut self,
+        seq: u16,
+        request: Request<'_>,
+        commands: &mut Producer<'_, Command<M>>,
+        send: &mut dyn FnMut(&[u8]) -> bool,
+    ) {
+        let refuse = |r| Reply::Refused(r);
+        match request {
+            Request::Hello => self.reply(
+                seq,
+                Reply::Hello {
+                    version: VERSION,
+                    machine: M::NAME,
+                    max_chunk: MAX_CHUNK as u16,
+                },
+                send,
+            ),
+            Request::Heartbeat => self.reply(seq, Reply::Ack, send),
+            Request::Telemetry { every_periods } => {
+                self.telemetry_every = every_periods;
+                self.reply(seq, Reply::Ack, send);
+            }
+            Request::JobBegin {
+                kind,
+                total_bytes,
+                crc32,
+            } => {
+                let reply = if usize::try_from(total_bytes).map_or(true, |n| n > J) {
+                    refuse(Refusal::TooLarge)
+                } else {
+                    self.upload = Some(Upload {
+                        kind,
+                        total: total_bytes,
+                        crc32,
+                        bytes: heapless::Vec::new(),
+                    });
+                    Reply::Ack
+                };
+                self.reply(seq, reply, send);
+            }
+            Request::JobChunk { offset, data } => {
+                let reply = match self.upload.as_mut() {
+                    None => refuse(Refusal::NoJob),
+                    Some(up) => {
+                        let received = up.bytes.len() as u32;
+                        let end = u64::from(offset) + data.len() as u64;
+                        if offset != received || end > u64::from(up.total) {
+                            refuse(Refusal::ChunkOffset { expected: received })
+                        } else if up.bytes.extend_from_slice(data).is_err() {
+                            refuse(Refusal::TooLarge)
+                        } else {
+                            Reply::JobProgress {
+                                received: up.bytes.len() as u32,
+                            }
+                        }
+                    }
+                };
+                self.reply(seq, reply, send);
+            }
+            Request::JobStatus => {
+                let reply = match &self.upload {
+                    Some(up) => Reply::JobProgress {
+                        received: up.bytes.len() as u32,
+                    },
+                    None => refuse(Refusal::NoJob),
+                };
+                self.reply(seq, reply, send);
+            }
+            Request::JobCommit => self.commit(seq, commands, send),
+            Request::Start => self.command(seq, Command::Start, commands, send),
+            Request::Stop => self.command(seq, Command::Stop, commands, send),
+            Request::ResetFault => self.command(seq, Command::ResetFault, commands, send),
+            Request::Get { path } => {
+                let mut value = [0u8; 64];
+                match json_core::get(&self.settings, path, &mut value) {
+                    Ok(n) => {
+                        let v = value.get(..n).unwrap_or(&[]);
+                        let message = MachineMessage::Reply {
+                            seq,
+                            reply: Reply::Value { value: v },
+                        };
+                        self.send(&message, send);
+                    }
+                    Err(_) => self.reply(seq, refuse(Refusal::UnknownPath), send),
+                }
+            }
+            Request::Set { path, value } => {
+                let mut candidate = self.settings;
+                let parsed = json_core::set(&mut candidate, path, value);
+                let coefficients = match parsed {
+                    Err(miniconf::SerdeError::Value(_)) => Err(Refusal::UnknownPath),
+                    Err(_) => Err(Refusal::BadValue),
+                    Ok(_) => M::coefficients(&candidate, self.config.period_s)
+                        .map_err(|_| Refusal::BadValue),
+                };
+                match coefficients {
+                    Ok(c) => {
+                        let before = self.pending.len();
+                        self.command(seq, Command::ChangeSettings(c), commands, send);
+                        if self.pending.len() > before {
+                            self.settings = candidate;
+                        }
+                    }
+                    Err(r) => self.reply(seq, refuse(r), send),
+                }
+            }
+        }
+    }
+
+    /// Checks the upload and queues the job it holds.
+    fn commit(
+        &mut self,
+        seq: u16,
+        commands: &mut Producer<'_, Command<M>>,
+        send: &mut dyn FnMut(&[u8]) -> bool,
+    ) {
+        let Some(up) = self.upload.take() else {
+            return self.reply(seq, Reply::Refused(Refusal::NoJob), send);
+        };
+        let complete =
+            up.bytes.len() as u64 == u64::from(up.total) && CRC32.checksum(&up.bytes) == up.crc32;
+        if !complete {
+            // Kept: the host may resume it.
+            self.upload = Some(up);
+            return self.reply(seq, Reply::Refused(Refusal::Incomplete), send);
+        }
+        let built = JobFile::read(&up.bytes)
+            .map_err(|_| 0xFFFF)
+            .and_then(|file| {
+                if file.kind() != up.kind {
+                    return Err(0xFFFE);
+                }
+                let mut job = M::Job::default();
+                M::load_job(&file, &mut job).map(|()| job)
+            });
+        match built {
+            Ok(job) => self.command(seq, Command::LoadJob(job), commands, send),
+            Err(code) => self.reply(seq, Reply::Refused(Refusal::Job(code)), send),
+        }
+    }
+
+    /// Takes one report of the supervisor: answers a pending command, forwards
+    /// telemetry (decimated) and events.
+    pub fn report(&mut self, report: &Report<M>, send: &mut dyn FnMut(&[u8]) -> bool) {
+        match report {
+            Report::ModeChanged { mode, .. } => {
+                let to = mode_code(mode);
+                let from = self.mode;
+                self.mode = to;
+                self.send(&MachineMessage::Event(Event::Mode { from, to }), send);
+                if let Mode::Fault(f) = mode {
+                    let (code, detail) = M::fault_code(f);
+                    self.send(&MachineMessage::Event(Event::Fault { code, detail }), send);
+                }
+            }
+            Report::Accepted(kind) => {
+                if let Some(seq) = self.answered(*kind) {
+                    self.reply(seq, Reply::Ack, send);
+                }
+            }
+            Report::Refused { command, error } => {
+                let refusal = match error {
+                    CommandError::InvalidInMode => Refusal::InvalidInMode,
+                    CommandError::NoJob => Refusal::NoJob,
+                    CommandError::Job(e) => Refusal::Job(M::job_error_code(e)),
+                };
+                if let Some(seq) = self.answered(*command) {
+                    self.reply(seq, Reply::Refused(refusal), send);
+                }
+            }
+            Report::Telemetry {
+                period,
+                mode,
+                telemetry,
+            } => {
+                let due = self.telemetry_every > 0
+                    && self.last_sample_period.is_none_or(|last| {
+                        period.saturating_sub(last) >= u64::from(self.telemetry_every)
+                    });
+                if due {
+                    self.last_sample_period = Some(*period);
+                    let sample = TelemetrySample {
+                        period: *period as u32,
+                        mode: mode_code(mode),
+                        ..M::sample(telemetry)
+                    };
+                    self.send(&MachineMessage::Telemetry(sample), send);
+                }
+            }
+            Report::CalibrationSample { .. } | Report::SweepDone => {}
+        }
+    }
+
+    /// The pending request a report answers (commands are carried out in order).
+    fn answered(&mut self, kind: CommandKind) -> Option<u16> {
+        match self.pending.front() {
+            Some((_, k)) if *k == kind => self.pending.pop_front().map(|(seq, _)| seq),
+            // A command the link did not send (the board's own task): not ours.
+            _ => None,
+        }
+    }
+
+    /// Checks the host's heartbeat at `now_s`: a running job whose host has been
+    /// silent past the timeout is stopped (once) and [`Event::HostLost`] sent.
+    pub fn tick(
+        &mut self,
+        now_s: f64,
+        commands: &mut Producer<'_, Command<M>>,
+        send: &mut dyn FnMut(&[u8]) -> bool,
+    ) {
+        if self.mode != ModeCode::Running || self.host_lost {
+            return;
+        }
+        let silent = self
+            .last_heard_s
+            .is_none_or(|t| now_s - t > self.config.heartbeat_timeout_s);
+        if silent && commands.enqueue(Command::Stop).is_ok() {
+            self.host_lost = true;
+            self.send(&MachineMessage::Event(Event::HostLost), send);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
