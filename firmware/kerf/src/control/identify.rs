@@ -20,8 +20,8 @@
 //!
 //! ARX takes noise v (variance σ²) on the measured y as equation error, but it also
 //! sits in the regressor's −y(k−1), −y(k−2), and that biases least squares (errors in
-//! variables): with R = E[φφᵀ] of the measured data and D = diag(1, 1, 0),
-//! E[φ y] = (R − σ²D) θ, so θ_LS = θ − σ² R⁻¹ D θ. The piezo's samples change little
+//! variables): with R = E(φφᵀ) of the measured data and D = diag(1, 1, 0),
+//! E(φ y) = (R − σ²D) θ, so θ_LS = θ − σ² R⁻¹ D θ. The piezo's samples change little
 //! from one period to the next (its poles sit at 0.97 ± 0.03i), so R is nearly
 //! singular along y(k−1) − y(k−2) and nanometres of gauge noise move a1, a2 by percent.
 //! [`Rls::bias_compensated`] removes the bias (bias-compensated least squares, Sagara
