@@ -48,6 +48,7 @@ use contour::{ContourJob, ContourRun};
 use nalgebra::Vector3;
 
 mod contour;
+pub mod link;
 
 /// Instants per move at which a plan checks the joint limits (plus the end). A
 /// minimum-jerk move's joint speed and acceleration are smooth in time; between

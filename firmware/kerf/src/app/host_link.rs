@@ -39,6 +39,9 @@ use miniconf::{json_core, TreeDeserialize, TreeSerialize};
 pub trait LinkMachine: Machine {
     /// The settings tree (miniconf): what `Get`/`Set` address.
     type Settings: TreeSerialize + for<'de> TreeDeserialize<'de> + Copy;
+    /// What turns a job file into a job beyond the file (the machine's configuration,
+    /// the motion a contour is cut with).
+    type JobContext;
     /// The machine's name in `Hello`.
     const NAME: &'static str;
     /// Validates settings into coefficients, as a configuration is.
@@ -47,7 +50,11 @@ pub trait LinkMachine: Machine {
         period_s: f64,
     ) -> Result<Self::Coefficients, ConfigError>;
     /// Builds the machine's job from a job file, in place; a code for the refusal.
-    fn load_job(file: &JobFile<'_>, job: &mut Self::Job) -> Result<(), u16>;
+    fn load_job(
+        context: &Self::JobContext,
+        file: &JobFile<'_>,
+        job: &mut Self::Job,
+    ) -> Result<(), u16>;
     /// The wire form of a job error.
     fn job_error_code(error: &Self::JobError) -> u16;
     /// The wire form of a fault: (what, where).
@@ -93,6 +100,7 @@ pub struct LinkCounters {
 /// The host link of one machine with a job buffer of `J` bytes.
 pub struct HostLink<M: LinkMachine, const J: usize> {
     config: HostLinkConfig,
+    context: M::JobContext,
     reader: FrameReader<MAX_FRAME>,
     upload: Option<Upload<J>>,
     settings: M::Settings,
@@ -118,14 +126,20 @@ pub fn mode_code<F>(mode: &Mode<F>) -> ModeCode {
 }
 
 impl<M: LinkMachine, const J: usize> HostLink<M, J> {
-    /// A link whose settings start at `settings` (the ones the machine runs).
+    /// A link whose settings start at `settings` (the ones the machine runs), building
+    /// jobs in `context`.
     ///
     /// Errors: a period or timeout not finite and positive.
-    pub fn new(config: &HostLinkConfig, settings: M::Settings) -> Result<Self, ConfigError> {
+    pub fn new(
+        config: &HostLinkConfig,
+        settings: M::Settings,
+        context: M::JobContext,
+    ) -> Result<Self, ConfigError> {
         positive("period_s", config.period_s)?;
         positive("heartbeat_timeout_s", config.heartbeat_timeout_s)?;
         Ok(Self {
             config: *config,
+            context,
             reader: FrameReader::new(),
             upload: None,
             settings,
@@ -356,7 +370,7 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
                     return Err(0xFFFE);
                 }
                 let mut job = M::Job::default();
-                M::load_job(&file, &mut job).map(|()| job)
+                M::load_job(&self.context, &file, &mut job).map(|()| job)
             });
         match built {
             Ok(job) => self.command(seq, Command::LoadJob(job), commands, send),

@@ -93,13 +93,14 @@ impl Machine for Toy {
 
 impl LinkMachine for Toy {
     type Settings = ToySettings;
+    type JobContext = ();
     const NAME: &'static str = "toy";
     fn coefficients(s: &ToySettings, _period_s: f64) -> Result<f32, ConfigError> {
         positive("gain", f64::from(s.gain))?;
         positive("limits.speed_m_s", f64::from(s.limits.speed_m_s))?;
         Ok(s.gain)
     }
-    fn load_job(file: &JobFile<'_>, job: &mut u32) -> Result<(), u16> {
+    fn load_job(_: &(), file: &JobFile<'_>, job: &mut u32) -> Result<(), u16> {
         match file {
             JobFile::Points { .. } if file.count() > 0 => {
                 *job = file.count() as u32;
@@ -200,7 +201,7 @@ fn with_rig(test: impl FnOnce(&mut Rig<'_>)) {
     };
     let mut rig = Rig {
         supervisor,
-        link: HostLink::new(&config, SETTINGS).unwrap(),
+        link: HostLink::new(&config, SETTINGS, ()).unwrap(),
         to_machine,
         from_machine,
         sent: Vec::new(),
