@@ -12,6 +12,7 @@ use crate::slave::{run_slave_job, SlaveError, SlaveScenario};
 use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::hall_sensor::HallSensorParams;
 use heapless::Deque;
+use kerf::app::delta_slave::link::ContourDefaults;
 use kerf::app::delta_slave::{
     ContourCurve, ContourLaw, ContourPlan, DeltaFault, DeltaJob, DeltaJobError, DeltaSlaveConfig,
     CONTOUR_HARMONICS,
@@ -137,6 +138,22 @@ pub const OCTAGON_MOTION: SpeedRampConfig = SpeedRampConfig {
     jerk_m_s3: 10.0,
     ts_s: 1e-4,
 };
+
+/// How the host link's contour jobs are cut on `machine`: the octagon's motion,
+/// centre, law and laser, `laps` laps.
+pub fn contour_defaults(machine: &DeltaSlaveConfig, laps: f64) -> ContourDefaults {
+    ContourDefaults {
+        machine: *machine,
+        centre_m: [0.0, 0.0, CUT_HEIGHT_M],
+        speed_m_s: OCTAGON_MOTION.speed_m_s,
+        accel_m_s2: OCTAGON_MOTION.accel_m_s2,
+        jerk_m_s3: OCTAGON_MOTION.jerk_m_s3,
+        approach_s: 0.3,
+        laps,
+        law: ContourLaw::Contouring,
+        laser_power_w: OCTAGON_LASER_POWER_W,
+    }
+}
 
 /// The octagon at ±6 mm (the stored shape scaled by 0.6) in `harmonics` harmonics.
 pub fn octagon_efd(harmonics: usize) -> Result<Efd<f64, CONTOUR_HARMONICS>, ContourError> {

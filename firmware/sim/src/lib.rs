@@ -9,6 +9,7 @@ extern crate std;
 
 pub mod arrow;
 pub mod contour;
+pub mod linked;
 pub mod operator;
 pub mod remote;
 pub mod scenario;

@@ -207,6 +207,11 @@ impl<'q, T: Float> SlaveRig<'q, T> {
         &self.supervisor
     }
 
+    /// Telemetry reports every `every` periods (0: none, the default here).
+    pub fn set_telemetry_decimation(&mut self, every: u32) {
+        self.supervisor.set_telemetry_decimation(every);
+    }
+
     /// The control period's clock (late periods).
     pub fn clock(&self) -> &PeriodClock {
         &self.clock

@@ -1,0 +1,115 @@
+//! The Keops slave behind the host link: the simulated slave ([`crate::slave`]) with
+//! its supervisor's commands coming from [`HostLink`] instead of an operator, so a
+//! host (a test's, or the host tool over the QEMU image's serial port) drives it with
+//! frames alone. The board's own task installs the nominal Hall decoders as a stored
+//! calibration at power-up; everything after comes from the host.
+
+use crate::contour::contour_defaults;
+use crate::slave::{SlaveError, SlavePeriod, SlaveRig, SlaveScenario};
+use heapless::spsc::{Consumer, Producer, Queue};
+use kerf::app::axis::HallAxis;
+use kerf::app::delta_slave::link::SlaveSettings;
+use kerf::app::delta_slave::DeltaSlave;
+use kerf::app::host_link::{HostLink, HostLinkConfig};
+use kerf::app::supervisor::{Command, Report};
+use kerf::scalar::Float;
+
+/// Bytes of an uploaded job the slave holds (a 30-harmonic EFD file is 500).
+pub const LINK_JOB_BYTES: usize = 1024;
+
+/// The link's heartbeat timeout in these scenarios, s.
+pub const HEARTBEAT_TIMEOUT_S: f64 = 0.05;
+
+/// The slave, its plant and its host link.
+pub struct LinkedSlave<'q, T: Float> {
+    rig: SlaveRig<'q, T>,
+    link: HostLink<DeltaSlave<T>, LINK_JOB_BYTES>,
+    commands: Producer<'q, Command<DeltaSlave<T>>>,
+    reports: Consumer<'q, Report<DeltaSlave<T>>>,
+    now_s: f64,
+    period_s: f64,
+}
+
+impl<'q, T: Float> LinkedSlave<'q, T> {
+    /// One control period: the host's bytes of the period read first, then the
+    /// period, then the reports answered and forwarded through `to_host` and the
+    /// heartbeat checked.
+    pub fn period(
+        &mut self,
+        from_host: &[u8],
+        to_host: &mut dyn FnMut(&[u8]) -> bool,
+    ) -> Result<SlavePeriod, SlaveError> {
+        for &b in from_host {
+            self.link
+                .receive(b, self.now_s, &mut self.commands, &mut *to_host);
+        }
+        let period = self.rig.step()?;
+        while let Some(report) = self.reports.dequeue() {
+            self.link.report(&report, &mut *to_host);
+        }
+        self.now_s += self.period_s;
+        self.link
+            .tick(self.now_s, &mut self.commands, &mut *to_host);
+        Ok(period)
+    }
+
+    /// The simulated slave.
+    pub fn rig(&self) -> &SlaveRig<'q, T> {
+        &self.rig
+    }
+
+    /// The link.
+    pub fn link(&self) -> &HostLink<DeltaSlave<T>, LINK_JOB_BYTES> {
+        &self.link
+    }
+}
+
+/// Builds the linked slave of `scenario` (nominal decoders installed, telemetry
+/// reports every `decimation` periods for the link to decimate further, contours cut
+/// for `laps` laps) and hands it to `f`.
+pub fn with_linked_slave<T: Float, R>(
+    scenario: &SlaveScenario,
+    laps: f64,
+    decimation: u32,
+    f: impl FnOnce(&mut LinkedSlave<'_, T>) -> R,
+) -> Result<R, SlaveError> {
+    let mut commands = Queue::<Command<DeltaSlave<T>>, 4>::new();
+    let mut reports = Queue::<Report<DeltaSlave<T>>, 64>::new();
+    let (mut to_machine, from_sender) = commands.split();
+    let (to_link, from_machine) = reports.split();
+    let mut rig = SlaveRig::<T>::new(scenario, from_sender, to_link)?;
+    rig.set_telemetry_decimation(decimation);
+    let machine = &scenario.machine;
+    let [a, b, c] = machine.joints.hall.map(|h| HallAxis::<T>::new(&h));
+    let stored = [a, b, c]
+        .into_iter()
+        .collect::<Result<heapless::Vec<_, 3>, _>>()
+        .map_err(SlaveError::Config)?
+        .into_array::<3>()
+        .map_err(|_| SlaveError::Timeout)?;
+    if to_machine
+        .enqueue(Command::FinishCalibration(stored))
+        .is_err()
+    {
+        return Err(SlaveError::Timeout);
+    }
+    let config = HostLinkConfig {
+        period_s: machine.joints.period_s,
+        heartbeat_timeout_s: HEARTBEAT_TIMEOUT_S,
+    };
+    let link = HostLink::new(
+        &config,
+        SlaveSettings::of(&machine.joints.axis),
+        contour_defaults(machine, laps),
+    )
+    .map_err(SlaveError::Config)?;
+    let mut slave = LinkedSlave {
+        rig,
+        link,
+        commands: to_machine,
+        reports: from_machine,
+        now_s: 0.0,
+        period_s: machine.joints.period_s,
+    };
+    Ok(f(&mut slave))
+}

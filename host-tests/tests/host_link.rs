@@ -1,0 +1,282 @@
+//! The operator's side against the simulated Keops slave over the host link
+//! (issue 16 items 1 and 6, in simulation): a host that speaks only frames uploads the
+//! octagon as an EFD job file in chunks, starts it, streams telemetry, changes a
+//! setting during the cut, and hears the end; a sensor fault reaches it as an event;
+//! a host that goes silent gets its job stopped.
+
+use kerf::codec::job::write_efd;
+use kerf::codec::link::{
+    decode, encode, Event, HostFrame, JobKind, MachineMessage, ModeCode, Request, TelemetrySample,
+    MAX_CHUNK, MAX_FRAME,
+};
+use kerf_sim::contour::octagon_efd;
+use kerf_sim::linked::{with_linked_slave, LinkedSlave};
+use kerf_sim::slave::SlaveScenario;
+
+/// What the host heard, owned.
+#[derive(Clone, Debug, PartialEq)]
+enum Heard {
+    Reply(u16, String),
+    Telemetry(TelemetrySample),
+    Event(Event),
+}
+
+/// A host: numbers its requests, encodes them, reads what the machine sends.
+#[derive(Default)]
+struct Host {
+    seq: u16,
+    heard: Vec<Heard>,
+}
+
+impl Host {
+    fn frame(&mut self, request: Request<'_>) -> (u16, Vec<u8>) {
+        self.seq = self.seq.wrapping_add(1);
+        let mut out = [0u8; MAX_FRAME];
+        let n = encode(
+            &HostFrame {
+                seq: self.seq,
+                request,
+            },
+            &mut out,
+        )
+        .unwrap();
+        (self.seq, out[..n].to_vec())
+    }
+
+    /// Runs one period with `bytes` from the host.
+    fn period(&mut self, slave: &mut LinkedSlave<'_, f64>, bytes: &[u8]) {
+        let mut frames: Vec<Vec<u8>> = Vec::new();
+        slave
+            .period(bytes, &mut |f| {
+                frames.push(f.to_vec());
+                true
+            })
+            .unwrap();
+        for f in frames {
+            let mut raw = f[1..f.len() - 1].to_vec();
+            self.heard
+                .push(match decode::<MachineMessage>(&mut raw).unwrap() {
+                    MachineMessage::Reply { seq, reply } => Heard::Reply(seq, format!("{reply:?}")),
+                    MachineMessage::Telemetry(t) => Heard::Telemetry(t),
+                    MachineMessage::Event(e) => Heard::Event(e),
+                });
+        }
+    }
+
+    /// Sends `request` and runs periods until its reply (at most `limit`).
+    fn ask(
+        &mut self,
+        slave: &mut LinkedSlave<'_, f64>,
+        request: Request<'_>,
+        limit: u32,
+    ) -> String {
+        let (seq, bytes) = self.frame(request);
+        self.period(slave, &bytes);
+        for _ in 0..limit {
+            if let Some(r) = self.reply(seq) {
+                return r;
+            }
+            self.period(slave, &[]);
+        }
+        panic!("no reply to {seq}")
+    }
+
+    fn reply(&self, seq: u16) -> Option<String> {
+        self.heard.iter().find_map(|h| match h {
+            Heard::Reply(s, r) if *s == seq => Some(r.clone()),
+            _ => None,
+        })
+    }
+
+    fn upload(&mut self, slave: &mut LinkedSlave<'_, f64>, job: &[u8]) {
+        let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(job);
+        let begin = Request::JobBegin {
+            kind: JobKind::Efd,
+            total_bytes: job.len() as u32,
+            crc32: crc,
+        };
+        assert_eq!(self.ask(slave, begin, 2), "Ack");
+        for (i, chunk) in job.chunks(MAX_CHUNK).enumerate() {
+            let r = self.ask(
+                slave,
+                Request::JobChunk {
+                    offset: (i * MAX_CHUNK) as u32,
+                    data: chunk,
+                },
+                2,
+            );
+            assert!(r.starts_with("JobProgress"), "{r}");
+        }
+        assert_eq!(self.ask(slave, Request::JobCommit, 5), "Ack");
+    }
+
+    fn events(&self) -> Vec<Event> {
+        self.heard
+            .iter()
+            .filter_map(|h| match h {
+                Heard::Event(e) => Some(*e),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn samples(&self) -> Vec<TelemetrySample> {
+        self.heard
+            .iter()
+            .filter_map(|h| match h {
+                Heard::Telemetry(t) => Some(*t),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+/// The octagon (±6 mm, 30 harmonics) as the job file the planner writes.
+fn octagon_job_file() -> Vec<u8> {
+    let efd = octagon_efd(30).unwrap();
+    let c = efd.centre();
+    let coefficients = efd.coefficients().to_vec();
+    let mut buf = [0u8; 1024];
+    let n = write_efd([c.x, c.y], &coefficients, &mut buf).unwrap();
+    buf[..n].to_vec()
+}
+
+fn scenario() -> SlaveScenario {
+    let mut s = SlaveScenario::square();
+    s.sensors = [hal_mock::hall_sensor::HallSensorParams::LM1247_16BIT; 3];
+    s.substeps = 1;
+    s
+}
+
+#[test]
+fn a_host_uploads_runs_retunes_and_hears_the_end_of_a_contour() {
+    let mut host = Host::default();
+    with_linked_slave::<f64, _>(&scenario(), 0.25, 10, |slave| {
+        // Power-up: the stored calibration makes the slave ready.
+        for _ in 0..3 {
+            host.period(slave, &[]);
+        }
+        let hello = host.ask(slave, Request::Hello, 2);
+        assert!(hello.contains("keops-slave"), "{hello}");
+        host.upload(slave, &octagon_job_file());
+        assert_eq!(host.ask(slave, Request::Telemetry { every_periods: 100 }, 2), "Ack");
+        assert_eq!(host.ask(slave, Request::Start, 5), "Ack");
+        // Cut with a heartbeat every 10 ms; retune the DOB 0.5 s in.
+        let mut retuned = None;
+        for k in 0..30_000u32 {
+            let bytes = if k == 5_000 {
+                let (seq, b) = host.frame(Request::Set {
+                    path: "/slave/dob/bandwidth_hz",
+                    value: b"120",
+                });
+                retuned = Some(seq);
+                b
+            } else if k % 100 == 0 {
+                host.frame(Request::Heartbeat).1
+            } else {
+                Vec::new()
+            };
+            host.period(slave, &bytes);
+            if host.events().contains(&Event::Mode {
+                from: ModeCode::Running,
+                to: ModeCode::Ready,
+            }) {
+                break;
+            }
+        }
+        assert_eq!(host.reply(retuned.unwrap()).as_deref(), Some("Ack"));
+        let value = host.ask(slave, Request::Get { path: "/slave/dob/bandwidth_hz" }, 2);
+        assert!(value.contains("[49, 50, 48"), "{value}"); // "120"
+        let samples = host.samples();
+        let running: Vec<&TelemetrySample> =
+            samples.iter().filter(|s| s.mode == ModeCode::Running).collect();
+        let worst = running.iter().map(|s| s.error_m).fold(0.0f32, f32::max);
+        println!(
+            "host link: {} telemetry samples while cutting, contour error ≤ {:.2} µm, laser up to {:.1} W, {} bad frames",
+            running.len(),
+            worst * 1e6,
+            running.iter().map(|s| s.laser_w).fold(0.0f32, f32::max),
+            slave.link().counters().bad_frames
+        );
+        assert!(running.len() > 10);
+        assert!(running.windows(2).all(|w| w[1].period - w[0].period >= 100));
+        // The contour smoke's bound (kerf_sim::contour::CONTOUR_BOUNDS_M).
+        assert!(worst < 5e-6, "{worst}");
+        assert!(host.events().contains(&Event::Mode {
+            from: ModeCode::Ready,
+            to: ModeCode::Running
+        }));
+    })
+    .unwrap();
+}
+
+#[test]
+fn a_sensor_fault_reaches_the_host_and_a_silent_host_stops_the_job() {
+    // A Hall channel's wire breaks 0.4 s into the job.
+    let mut faulty = scenario();
+    faulty.sensor_fault = Some((0.4, 1, hal_mock::hall_sensor::ChannelFault::OpenWire(0)));
+    let mut host = Host::default();
+    with_linked_slave::<f64, _>(&faulty, 0.25, 10, |slave| {
+        for _ in 0..3 {
+            host.period(slave, &[]);
+        }
+        host.upload(slave, &octagon_job_file());
+        assert_eq!(host.ask(slave, Request::Start, 5), "Ack");
+        for k in 0..10_000u32 {
+            let bytes = if k % 100 == 0 {
+                host.frame(Request::Heartbeat).1
+            } else {
+                Vec::new()
+            };
+            host.period(slave, &bytes);
+            if host
+                .events()
+                .iter()
+                .any(|e| matches!(e, Event::Fault { .. }))
+            {
+                break;
+            }
+        }
+        let events = host.events();
+        assert!(
+            events.contains(&Event::Fault { code: 1, detail: 0 }),
+            "a joint fault: {events:?}"
+        );
+        assert!(events.contains(&Event::Mode {
+            from: ModeCode::Running,
+            to: ModeCode::Fault
+        }));
+    })
+    .unwrap();
+
+    let mut host = Host::default();
+    with_linked_slave::<f64, _>(&scenario(), 1.0, 10, |slave| {
+        for _ in 0..3 {
+            host.period(slave, &[]);
+        }
+        host.upload(slave, &octagon_job_file());
+        assert_eq!(host.ask(slave, Request::Start, 5), "Ack");
+        // Heartbeats for 0.3 s, then nothing.
+        for k in 0..3_000u32 {
+            let bytes = if k % 100 == 0 { host.frame(Request::Heartbeat).1 } else { Vec::new() };
+            host.period(slave, &bytes);
+        }
+        let mut stopped_at = None;
+        for k in 0..5_000u32 {
+            host.period(slave, &[]);
+            if host.events().contains(&Event::HostLost) && stopped_at.is_none() {
+                stopped_at = Some(k);
+            }
+            if host.events().contains(&Event::Mode { from: ModeCode::Stopping, to: ModeCode::Ready }) {
+                break;
+            }
+        }
+        // The last heartbeat went out in period 2,900 of the loop above: the 50 ms
+        // timeout (500 periods of 0.1 ms) runs out 400 periods into the silence.
+        let lost = stopped_at.expect("HostLost");
+        println!("host silent: stopped {lost} periods into the silence (timeout 500 periods after the last frame)");
+        assert!((398..=402).contains(&lost), "{lost}");
+        assert!(host.events().contains(&Event::Mode { from: ModeCode::Running, to: ModeCode::Stopping }));
+    })
+    .unwrap();
+}
