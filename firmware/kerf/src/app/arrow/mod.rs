@@ -107,6 +107,7 @@ impl<T: Float> ArrowLaw<T> {
                 .feedforward_with(
                     &self.geometry,
                     &jm,
+                    &pinv,
                     &desired.pose,
                     &desired.rate,
                     &desired.acceleration,

@@ -18,7 +18,7 @@
 //! The turntable (eq. 23–24): I_T θ̈x shared by its two motors, Γ_T1 = I_T θ̈x / 2,
 //! Γ_T2 = −Γ_T1; the springs balance gravity.
 
-use super::velocity::InverseJacobian;
+use super::velocity::{ForwardJacobian, InverseJacobian};
 use super::{ArrowError, ArrowGeometry, Joints, Pose, ACTUATORS};
 use crate::error::{positive, ConfigError};
 use crate::scalar::{lit, Float};
@@ -225,29 +225,28 @@ impl<T: Float> ArrowDynamics<T> {
         acceleration: &Pose<T>,
     ) -> Result<Feedforward<T>, ArrowError> {
         let (_, jm) = geometry.jacobian(pose)?;
-        self.feedforward_with(geometry, &jm, pose, rate, acceleration)
+        let jm_pinv = ArrowGeometry::pseudo_inverse(&jm)?;
+        self.feedforward_with(geometry, &jm, &jm_pinv, pose, rate, acceleration)
     }
 
-    /// [`Self::feedforward`] with Jm of `pose` already at hand (the control period has
-    /// it for its regularization: the arms are not evaluated again).
+    /// [`Self::feedforward`] with Jm of `pose` and its pseudo-inverse Jm⁺ already at
+    /// hand (the control period has both for its regularization: neither the arms nor
+    /// the normal matrix JmᵀJm are evaluated again).
     pub fn feedforward_with(
         &self,
         geometry: &ArrowGeometry<T>,
         jm: &InverseJacobian<T>,
+        jm_pinv: &ForwardJacobian<T>,
         pose: &Pose<T>,
         rate: &Pose<T>,
         acceleration: &Pose<T>,
     ) -> Result<Feedforward<T>, ArrowError> {
         let (mass, velocity) = self.terms(geometry, jm, pose, rate)?;
         let wrench = mass * acceleration + velocity;
-        // JmᵀJm is symmetric positive definite away from the singularities: Cholesky,
-        // which (unlike nalgebra's pivoting LU) compiles without bounds checks.
-        let normal: Matrix4<T> = jm.transpose() * jm;
-        let forces_n = jm
-            * normal
-                .cholesky()
-                .ok_or(ArrowError::PlateSingular)?
-                .solve(&wrench);
+        // Eq. 22's minimum-norm forces Jm (JmᵀJm)⁻¹ w (module docs) are (Jm⁺)ᵀ w: the
+        // inverse of the symmetric JmᵀJm is symmetric, so Jm⁺ = (JmᵀJm)⁻¹Jmᵀ (eq. 14)
+        // transposes to Jm (JmᵀJm)⁻¹.
+        let forces_n = jm_pinv.tr_mul(&wrench);
         if !forces_n.iter().all(|f| f.is_finite()) {
             return Err(ArrowError::NotFinite);
         }
