@@ -22,7 +22,7 @@ use super::velocity::{ForwardJacobian, InverseJacobian};
 use super::{ArrowError, ArrowGeometry, Joints, Pose, ACTUATORS};
 use crate::error::{positive, ConfigError};
 use crate::scalar::{lit, Float};
-use nalgebra::{Matrix4, SMatrix};
+use nalgebra::Matrix4;
 
 /// Gravity, m/s² (A eq. 17: g = (0, 0, −9.8)).
 const GRAVITY_M_S2: f64 = 9.8;
@@ -188,17 +188,45 @@ impl<T: Float> ArrowDynamics<T> {
         rate: &Pose<T>,
     ) -> Result<PlateTerms<T>, ArrowError> {
         let jm_dot = geometry.jacobian_rate_with(jm, pose, rate)?;
-        let ma = SMatrix::<T, ACTUATORS, ACTUATORS>::from_diagonal(&Joints::from(self.actuator_kg));
-        let mass = self.plate_matrix(pose.w) + jm.transpose() * ma * jm;
-        let gravity = Pose::new(
+        // M_a is diagonal (eq. 16): M_a Jm scales Jm's rows.
+        let mut ma_jm = *jm;
+        for (mut row, m) in ma_jm.row_iter_mut().zip(self.actuator_kg) {
+            row *= m;
+        }
+        let mass = self.plate_matrix(pose.w) + jm.tr_mul(&ma_jm);
+        let velocity =
+            ma_jm.tr_mul(&(jm_dot * rate)) + self.centrifugal(pose, rate) - self.gravity();
+        Ok((mass, velocity))
+    }
+
+    /// The plate's weight m_P g (eq. 17) as a wrench.
+    fn gravity(&self) -> Pose<T> {
+        Pose::new(
             T::zero(),
             T::zero(),
             -lit::<T>(GRAVITY_M_S2) * self.plate_kg,
             T::zero(),
-        );
-        let velocity =
-            jm.transpose() * (ma * (jm_dot * rate)) + self.centrifugal(pose, rate) - gravity;
-        Ok((mass, velocity))
+        )
+    }
+
+    /// w = M Ẍ + (Jmᵀ M_a J̇m + Λc) Ẋ − m_P g (module docs) without forming M: with the
+    /// actuators' accelerations q̈ = Jm Ẍ + J̇m Ẋ it is M_P Ẍ + Jmᵀ M_a q̈ + Λc Ẋ − m_P g,
+    /// and M_a is diagonal (eq. 16).
+    fn wrench(
+        &self,
+        geometry: &ArrowGeometry<T>,
+        jm: &InverseJacobian<T>,
+        pose: &Pose<T>,
+        rate: &Pose<T>,
+        acceleration: &Pose<T>,
+    ) -> Result<Pose<T>, ArrowError> {
+        let jm_dot = geometry.jacobian_rate_with(jm, pose, rate)?;
+        let q_accel = jm * acceleration + jm_dot * rate;
+        let ma_q_accel = q_accel.component_mul(&Joints::from(self.actuator_kg));
+        Ok(self.plate_matrix(pose.w) * acceleration
+            + jm.tr_mul(&ma_q_accel)
+            + self.centrifugal(pose, rate)
+            - self.gravity())
     }
 
     /// Direct model (eq. 20): the plate's acceleration under actuator forces Γ.
@@ -241,8 +269,7 @@ impl<T: Float> ArrowDynamics<T> {
         rate: &Pose<T>,
         acceleration: &Pose<T>,
     ) -> Result<Feedforward<T>, ArrowError> {
-        let (mass, velocity) = self.terms(geometry, jm, pose, rate)?;
-        let wrench = mass * acceleration + velocity;
+        let wrench = self.wrench(geometry, jm, pose, rate, acceleration)?;
         // Eq. 22's minimum-norm forces Jm (JmᵀJm)⁻¹ w (module docs) are (Jm⁺)ᵀ w: the
         // inverse of the symmetric JmᵀJm is symmetric, so Jm⁺ = (JmᵀJm)⁻¹Jmᵀ (eq. 14)
         // transposes to Jm (JmᵀJm)⁻¹.
