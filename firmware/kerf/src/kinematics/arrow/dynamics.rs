@@ -146,9 +146,8 @@ impl<T: Float> ArrowDynamics<T> {
         self.plate_kg
     }
 
-    /// The plate's mass matrix M_P (eq. 17) at θz.
-    fn plate_matrix(&self, theta: T) -> Matrix4<T> {
-        let (s, c) = theta.fsin_cos();
+    /// The plate's mass matrix M_P (eq. 17) at θz = atan2(s, c).
+    fn plate_matrix(&self, (s, c): (T, T)) -> Matrix4<T> {
         let (m, bm) = (self.plate_kg, self.com_offset * self.plate_kg);
         let z = T::zero();
         Matrix4::new(
@@ -171,9 +170,8 @@ impl<T: Float> ArrowDynamics<T> {
         )
     }
 
-    /// Λc Ẋ with the factor θ̇z (module docs).
-    fn centrifugal(&self, pose: &Pose<T>, rate: &Pose<T>) -> Pose<T> {
-        let (s, c) = pose.w.fsin_cos();
+    /// Λc Ẋ with the factor θ̇z (module docs), at θz = atan2(s, c).
+    fn centrifugal(&self, (s, c): (T, T), rate: &Pose<T>) -> Pose<T> {
         let bm = self.com_offset * self.plate_kg * rate.w * rate.w;
         Pose::new(-bm * c, -bm * s, T::zero(), T::zero())
     }
@@ -193,9 +191,10 @@ impl<T: Float> ArrowDynamics<T> {
         for (mut row, m) in ma_jm.row_iter_mut().zip(self.actuator_kg) {
             row *= m;
         }
-        let mass = self.plate_matrix(pose.w) + jm.tr_mul(&ma_jm);
+        let turn = ArrowGeometry::turn(pose)?;
+        let mass = self.plate_matrix(turn) + jm.tr_mul(&ma_jm);
         let velocity =
-            ma_jm.tr_mul(&(jm_dot * rate)) + self.centrifugal(pose, rate) - self.gravity();
+            ma_jm.tr_mul(&(jm_dot * rate)) + self.centrifugal(turn, rate) - self.gravity();
         Ok((mass, velocity))
     }
 
@@ -223,9 +222,10 @@ impl<T: Float> ArrowDynamics<T> {
         let jm_dot = geometry.jacobian_rate_with(jm, pose, rate)?;
         let q_accel = jm * acceleration + jm_dot * rate;
         let ma_q_accel = q_accel.component_mul(&Joints::from(self.actuator_kg));
-        Ok(self.plate_matrix(pose.w) * acceleration
+        let turn = ArrowGeometry::turn(pose)?;
+        Ok(self.plate_matrix(turn) * acceleration
             + jm.tr_mul(&ma_q_accel)
-            + self.centrifugal(pose, rate)
+            + self.centrifugal(turn, rate)
             - self.gravity())
     }
 
@@ -326,7 +326,7 @@ mod tests {
             .zip(d.actuator_kg)
             .map(|(q, m)| 0.5 * m * q * q)
             .sum();
-        let plate = 0.5 * (v.transpose() * d.plate_matrix(x.w) * v)[(0, 0)];
+        let plate = 0.5 * (v.transpose() * d.plate_matrix((x.w.sin(), x.w.cos())) * v)[(0, 0)];
         carts + plate + d.plate_kg * GRAVITY_M_S2 * x.z
     }
 
@@ -413,7 +413,8 @@ mod tests {
         let pose = Pose::new(0.0, config.workspace.y0_m, 0.0, 0.0);
         let mut inertia = 0.0;
         for (i, arm) in g.arms.iter().enumerate() {
-            let c = ArrowGeometry::closure(arm, &pose, i).unwrap();
+            let turn = ArrowGeometry::turn(&pose).unwrap();
+            let c = ArrowGeometry::closure(arm, &pose, turn, i).unwrap();
             let a = Vector3::new(c.q_m, arm.rail_y_m, arm.rail_z_m);
             let b = a + c.arm;
             let per_m = if i == 2 || i == 3 {

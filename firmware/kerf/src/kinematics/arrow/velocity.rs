@@ -56,11 +56,12 @@ impl<T: Float> ArrowGeometry<T> {
             vertical: T::one(),
             plate: T::zero(),
         };
+        let turn = Self::turn(pose)?;
         let mut d1 = Vector3::zeros();
         // Arm by arm, each closure used where it is computed (no array of them copied
         // through the period).
         for (i, arm) in self.arms.iter().enumerate() {
-            let c = Self::closure(arm, pose, i)?;
+            let c = Self::closure(arm, pose, turn, i)?;
             let reach = norm(&c.reach);
             d.across_rails = d.across_rails.min(c.reach.x.abs() / reach);
             d.vertical = d.vertical.min(c.arm.cross(&c.mu).z.abs() / arm.length_m);
@@ -83,6 +84,7 @@ impl<T: Float> ArrowGeometry<T> {
     /// Joint positions and Jm = Jq⁻¹ Jx at `pose` (eq. 7, 13). Errors on the
     /// singularities of eq. 30–32 (sines below 1e-3, see [`SingularityDistance`]).
     pub fn jacobian(&self, pose: &Pose<T>) -> Result<(Joints<T>, InverseJacobian<T>), ArrowError> {
+        let turn = Self::turn(pose)?;
         let mut q = Joints::zeros();
         let mut jm = InverseJacobian::zeros();
         let mut d1 = Vector3::zeros();
@@ -90,7 +92,7 @@ impl<T: Float> ArrowGeometry<T> {
         let rows = self.arms.iter().zip(q.iter_mut());
         for (i, ((arm, q_i), mut row)) in rows.zip(jm.row_iter_mut()).enumerate() {
             let index = i as u8;
-            let c = Self::closure(arm, pose, i)?;
+            let c = Self::closure(arm, pose, turn, i)?;
             let ez = |v: Vector3<T>| v.z;
             let l_mu = ez(c.arm.cross(&c.mu));
             let n_mu = ez(c.to_c.cross(&c.mu));
@@ -148,12 +150,13 @@ impl<T: Float> ArrowGeometry<T> {
         pose: &Pose<T>,
         rate: &Pose<T>,
     ) -> Result<InverseJacobian<T>, ArrowError> {
+        let turn = Self::turn(pose)?;
         let q_dot = jm * rate;
         let mut jm_dot = InverseJacobian::zeros();
         let theta_dot = rate.w;
         let rows = self.arms.iter().zip(q_dot.iter());
         for (i, ((arm, &q_dot_i), mut row)) in rows.zip(jm_dot.row_iter_mut()).enumerate() {
-            let c = Self::closure(arm, pose, i)?;
+            let c = Self::closure(arm, pose, turn, i)?;
             let m = &c.reach;
             let a = &c.plate;
             // ȧ = θ̇ e_z × a; Ḋ = Ṗ + ȧ; ṁ = Ḋ − Ȧ with Ȧ = q̇ e_x.
