@@ -99,15 +99,19 @@ impl<T: Float> ArrowLaw<T> {
         table_rad: [T; 2],
     ) -> Result<ArrowCommand<T>, ArrowPeriodError> {
         let model = ArrowPeriodError::Model;
-        let (qd, jm) = self.geometry.jacobian(&desired.pose).map_err(model)?;
+        let rate = self.feedforward.then_some(&desired.rate);
+        let (qd, jm, jm_dot) = self
+            .geometry
+            .differential(&desired.pose, rate)
+            .map_err(model)?;
         let pinv = ArrowGeometry::pseudo_inverse(&jm).map_err(model)?;
         let rm = regularization(&jm, &pinv);
         let ff = if self.feedforward {
             self.dynamics
                 .feedforward_with(
-                    &self.geometry,
                     &jm,
                     &pinv,
+                    &jm_dot,
                     &desired.pose,
                     &desired.rate,
                     &desired.acceleration,

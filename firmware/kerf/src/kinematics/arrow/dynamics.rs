@@ -177,15 +177,14 @@ impl<T: Float> ArrowDynamics<T> {
     }
 
     /// M = M_P + Jmᵀ M_a Jm and the velocity term (Jmᵀ M_a J̇m + Λc) Ẋ − m_P g, for Jm
-    /// of `pose`.
+    /// and J̇m of `pose` moving at `rate`.
     fn terms(
         &self,
-        geometry: &ArrowGeometry<T>,
         jm: &InverseJacobian<T>,
+        jm_dot: &InverseJacobian<T>,
         pose: &Pose<T>,
         rate: &Pose<T>,
     ) -> Result<PlateTerms<T>, ArrowError> {
-        let jm_dot = geometry.jacobian_rate_with(jm, pose, rate)?;
         // M_a is diagonal (eq. 16): M_a Jm scales Jm's rows.
         let mut ma_jm = *jm;
         for (mut row, m) in ma_jm.row_iter_mut().zip(self.actuator_kg) {
@@ -213,13 +212,12 @@ impl<T: Float> ArrowDynamics<T> {
     /// and M_a is diagonal (eq. 16).
     fn wrench(
         &self,
-        geometry: &ArrowGeometry<T>,
         jm: &InverseJacobian<T>,
+        jm_dot: &InverseJacobian<T>,
         pose: &Pose<T>,
         rate: &Pose<T>,
         acceleration: &Pose<T>,
     ) -> Result<Pose<T>, ArrowError> {
-        let jm_dot = geometry.jacobian_rate_with(jm, pose, rate)?;
         let q_accel = jm * acceleration + jm_dot * rate;
         let ma_q_accel = q_accel.component_mul(&Joints::from(self.actuator_kg));
         let turn = ArrowGeometry::turn(pose)?;
@@ -237,8 +235,8 @@ impl<T: Float> ArrowDynamics<T> {
         rate: &Pose<T>,
         forces_n: &Joints<T>,
     ) -> Result<Pose<T>, ArrowError> {
-        let (_, jm) = geometry.jacobian(pose)?;
-        let (mass, velocity) = self.terms(geometry, &jm, pose, rate)?;
+        let (_, jm, jm_dot) = geometry.differential(pose, Some(rate))?;
+        let (mass, velocity) = self.terms(&jm, &jm_dot, pose, rate)?;
         let rhs = jm.transpose() * forces_n - velocity;
         mass.lu().solve(&rhs).ok_or(ArrowError::PlateSingular)
     }
@@ -252,24 +250,26 @@ impl<T: Float> ArrowDynamics<T> {
         rate: &Pose<T>,
         acceleration: &Pose<T>,
     ) -> Result<Feedforward<T>, ArrowError> {
-        let (_, jm) = geometry.jacobian(pose)?;
+        let (_, jm, jm_dot) = geometry.differential(pose, Some(rate))?;
         let jm_pinv = ArrowGeometry::pseudo_inverse(&jm)?;
-        self.feedforward_with(geometry, &jm, &jm_pinv, pose, rate, acceleration)
+        self.feedforward_with(&jm, &jm_pinv, &jm_dot, pose, rate, acceleration)
     }
 
-    /// [`Self::feedforward`] with Jm of `pose` and its pseudo-inverse Jm⁺ already at
-    /// hand (the control period has both for its regularization: neither the arms nor
-    /// the normal matrix JmᵀJm are evaluated again).
+    /// [`Self::feedforward`] with Jm of `pose`, its pseudo-inverse Jm⁺ and J̇m at
+    /// `rate` already at hand ([`ArrowGeometry::differential`] and
+    /// [`ArrowGeometry::pseudo_inverse`]: the control period has Jm and Jm⁺ for its
+    /// regularization, and neither the arms nor the normal matrix JmᵀJm are evaluated
+    /// again).
     pub fn feedforward_with(
         &self,
-        geometry: &ArrowGeometry<T>,
         jm: &InverseJacobian<T>,
         jm_pinv: &ForwardJacobian<T>,
+        jm_dot: &InverseJacobian<T>,
         pose: &Pose<T>,
         rate: &Pose<T>,
         acceleration: &Pose<T>,
     ) -> Result<Feedforward<T>, ArrowError> {
-        let wrench = self.wrench(geometry, jm, pose, rate, acceleration)?;
+        let wrench = self.wrench(jm, jm_dot, pose, rate, acceleration)?;
         // Eq. 22's minimum-norm forces Jm (JmᵀJm)⁻¹ w (module docs) are (Jm⁺)ᵀ w: the
         // inverse of the symmetric JmᵀJm is symmetric, so Jm⁺ = (JmᵀJm)⁻¹Jmᵀ (eq. 14)
         // transposes to Jm (JmᵀJm)⁻¹.
@@ -375,8 +375,8 @@ mod tests {
         assert_eq!(ff.over_limit, None);
         let back = d.acceleration(&g, &x, &v, &ff.forces_n).unwrap();
         assert!((back - a).amax() < 1e-9, "{back:?}");
-        let (_, jm) = g.jacobian(&x).unwrap();
-        let (mass, velocity) = d.terms(&g, &jm, &x, &v).unwrap();
+        let (_, jm, jm_dot) = g.differential(&x, Some(&v)).unwrap();
+        let (mass, velocity) = d.terms(&jm, &jm_dot, &x, &v).unwrap();
         let minv = mass.try_inverse().unwrap();
         let h = minv * jm.transpose();
         let lambda_x = minv * velocity; // ΛẊ − A_G

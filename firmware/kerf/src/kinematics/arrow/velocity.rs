@@ -14,7 +14,7 @@
 //! Jm 6×4: the forward differential model is its pseudo-inverse Jm⁺ = (JmᵀJm)⁻¹Jmᵀ
 //! (eq. 14).
 
-use super::{ArrowError, ArrowGeometry, Joints, Pose, ACTUATORS};
+use super::{Arm, ArmClosure, ArrowError, ArrowGeometry, Joints, Pose, ACTUATORS};
 use crate::scalar::{norm, Float};
 use nalgebra::{Matrix4, SMatrix, Vector3};
 
@@ -84,13 +84,41 @@ impl<T: Float> ArrowGeometry<T> {
     /// Joint positions and Jm = Jq⁻¹ Jx at `pose` (eq. 7, 13). Errors on the
     /// singularities of eq. 30–32 (sines below 1e-3, see [`SingularityDistance`]).
     pub fn jacobian(&self, pose: &Pose<T>) -> Result<(Joints<T>, InverseJacobian<T>), ArrowError> {
+        let (q, jm, _) = self.differential(pose, None)?;
+        Ok((q, jm))
+    }
+
+    /// J̇m at `pose` moving at `rate` (Ẋ): the time derivative of [`Self::jacobian`]'s
+    /// rows in the form of the module docs, for q̈ = Jm Ẍ + J̇m Ẋ.
+    pub fn jacobian_rate(
+        &self,
+        pose: &Pose<T>,
+        rate: &Pose<T>,
+    ) -> Result<InverseJacobian<T>, ArrowError> {
+        let (_, _, jm_dot) = self.differential(pose, Some(rate))?;
+        Ok(jm_dot)
+    }
+
+    /// Joint positions, Jm and, given the `rate` Ẋ, J̇m at `pose` (zeros without a
+    /// rate): [`Self::jacobian`] and [`Self::jacobian_rate`] from one evaluation of
+    /// each arm's closure (a control period with feedforward needs all three).
+    pub fn differential(
+        &self,
+        pose: &Pose<T>,
+        rate: Option<&Pose<T>>,
+    ) -> Result<(Joints<T>, InverseJacobian<T>, InverseJacobian<T>), ArrowError> {
         let turn = Self::turn(pose)?;
         let mut q = Joints::zeros();
         let mut jm = InverseJacobian::zeros();
+        let mut jm_dot = InverseJacobian::zeros();
         let mut d1 = Vector3::zeros();
         let mut plate = T::zero();
-        let rows = self.arms.iter().zip(q.iter_mut());
-        for (i, ((arm, q_i), mut row)) in rows.zip(jm.row_iter_mut()).enumerate() {
+        let rows = self
+            .arms
+            .iter()
+            .zip(q.iter_mut())
+            .zip(jm_dot.row_iter_mut());
+        for (i, (((arm, q_i), mut dot_row), mut row)) in rows.zip(jm.row_iter_mut()).enumerate() {
             let index = i as u8;
             let c = Self::closure(arm, pose, turn, i)?;
             let ez = |v: Vector3<T>| v.z;
@@ -115,6 +143,17 @@ impl<T: Float> ArrowGeometry<T> {
             for (out, v) in row.iter_mut().zip(jx) {
                 *out = v / jq;
             }
+            if let Some(rate) = rate {
+                // q̇_i = (Jm Ẋ)_i from the row just formed.
+                let q_dot = row.transpose().dot(rate);
+                for (out, v) in dot_row
+                    .iter_mut()
+                    .skip(1)
+                    .zip(rate_row(arm, &c, q_dot, rate))
+                {
+                    *out = v;
+                }
+            }
             *q_i = c.q_m;
             // Eq. 32, as in `singularity_distance`.
             if i == 0 {
@@ -128,57 +167,7 @@ impl<T: Float> ArrowGeometry<T> {
         if plate <= self.singular_sine {
             return Err(ArrowError::PlateSingular);
         }
-        Ok((q, jm))
-    }
-
-    /// J̇m at `pose` moving at `rate` (Ẋ): the time derivative of [`Self::jacobian`]'s
-    /// rows in the form of the module docs, for q̈ = Jm Ẍ + J̇m Ẋ.
-    pub fn jacobian_rate(
-        &self,
-        pose: &Pose<T>,
-        rate: &Pose<T>,
-    ) -> Result<InverseJacobian<T>, ArrowError> {
-        let (_, jm) = self.jacobian(pose)?;
-        self.jacobian_rate_with(&jm, pose, rate)
-    }
-
-    /// [`Self::jacobian_rate`] with Jm of `pose` already at hand (a control period
-    /// that has it does not evaluate the arms again for it).
-    pub fn jacobian_rate_with(
-        &self,
-        jm: &InverseJacobian<T>,
-        pose: &Pose<T>,
-        rate: &Pose<T>,
-    ) -> Result<InverseJacobian<T>, ArrowError> {
-        let turn = Self::turn(pose)?;
-        let q_dot = jm * rate;
-        let mut jm_dot = InverseJacobian::zeros();
-        let theta_dot = rate.w;
-        let rows = self.arms.iter().zip(q_dot.iter());
-        for (i, ((arm, &q_dot_i), mut row)) in rows.zip(jm_dot.row_iter_mut()).enumerate() {
-            let c = Self::closure(arm, pose, turn, i)?;
-            let m = &c.reach;
-            let a = &c.plate;
-            // ȧ = θ̇ e_z × a; Ḋ = Ṗ + ȧ; ṁ = Ḋ − Ȧ with Ȧ = q̇ e_x.
-            let a_dot = Vector3::new(-a.y, a.x, T::zero()) * theta_dot;
-            let m_dot = Vector3::new(rate.x + a_dot.x - q_dot_i, rate.y + a_dot.y, rate.z);
-            let (l, r) = (c.horizontal_m, arm.bc_m);
-            // ℓ = √(L² − Δz²) with Δz = m_z: ℓ̇ = −m_z ṁ_z / ℓ; g = (ℓ + r)/ℓ.
-            let l_dot = -m.z * m_dot.z / l;
-            let g = (l + r) / l;
-            let g_dot = -r * l_dot / (l * l);
-            let inv = T::one() / m.x;
-            let inv_dot = -m_dot.x * inv * inv;
-            let e1 = m.y * inv;
-            let e1_dot = m_dot.y * inv + m.y * inv_dot;
-            let e2_dot = (g_dot * m.z + g * m_dot.z) * inv + g * m.z * inv_dot;
-            // −(m × a)_z / m_x = e1 a_x − a_y.
-            let e3_dot = e1_dot * a.x + e1 * a_dot.x - a_dot.y;
-            for (out, v) in row.iter_mut().skip(1).zip([e1_dot, e2_dot, e3_dot]) {
-                *out = v;
-            }
-        }
-        Ok(jm_dot)
+        Ok((q, jm, jm_dot))
     }
 
     /// Jm⁺ = (JmᵀJm)⁻¹Jmᵀ (eq. 14): Ẋ = Jm⁺ q̇ in the least-squares sense.
@@ -192,4 +181,28 @@ impl<T: Float> ArrowGeometry<T> {
             Err(ArrowError::PlateSingular)
         }
     }
+}
+
+/// Row i of J̇m but its first entry (the constant 1 of the module docs' form), from
+/// arm i's closure, q̇_i and Ẋ: the time derivative of that form.
+fn rate_row<T: Float>(arm: &Arm<T>, c: &ArmClosure<T>, q_dot: T, rate: &Pose<T>) -> [T; 3] {
+    let m = &c.reach;
+    let a = &c.plate;
+    let theta_dot = rate.w;
+    // ȧ = θ̇ e_z × a; Ḋ = Ṗ + ȧ; ṁ = Ḋ − Ȧ with Ȧ = q̇ e_x.
+    let a_dot = Vector3::new(-a.y, a.x, T::zero()) * theta_dot;
+    let m_dot = Vector3::new(rate.x + a_dot.x - q_dot, rate.y + a_dot.y, rate.z);
+    let (l, r) = (c.horizontal_m, arm.bc_m);
+    // ℓ = √(L² − Δz²) with Δz = m_z: ℓ̇ = −m_z ṁ_z / ℓ; g = (ℓ + r)/ℓ.
+    let l_dot = -m.z * m_dot.z / l;
+    let g = (l + r) / l;
+    let g_dot = -r * l_dot / (l * l);
+    let inv = T::one() / m.x;
+    let inv_dot = -m_dot.x * inv * inv;
+    let e1 = m.y * inv;
+    let e1_dot = m_dot.y * inv + m.y * inv_dot;
+    let e2_dot = (g_dot * m.z + g * m_dot.z) * inv + g * m.z * inv_dot;
+    // −(m × a)_z / m_x = e1 a_x − a_y.
+    let e3_dot = e1_dot * a.x + e1 * a_dot.x - a_dot.y;
+    [e1_dot, e2_dot, e3_dot]
 }
