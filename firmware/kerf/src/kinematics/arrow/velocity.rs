@@ -171,10 +171,41 @@ impl<T: Float> ArrowGeometry<T> {
     }
 
     /// Jm⁺ = (JmᵀJm)⁻¹Jmᵀ (eq. 14): Ẋ = Jm⁺ q̇ in the least-squares sense.
+    ///
+    /// The normal matrix JmᵀJm is symmetric positive definite away from the
+    /// singularities of eq. 30–32: its Cholesky factor L (square roots by
+    /// [`Float::fsqrt`], the FPU's on the firmware targets) and two triangular solves
+    /// for the six columns of Jmᵀ give Jm⁺ with no explicit inverse, and nothing that
+    /// can panic (nalgebra's `try_inverse` and LU do not compile without bounds checks).
     pub fn pseudo_inverse(jm: &InverseJacobian<T>) -> Result<ForwardJacobian<T>, ArrowError> {
-        let normal: Matrix4<T> = jm.transpose() * jm;
-        let inverse = normal.try_inverse().ok_or(ArrowError::PlateSingular)?;
-        let out = inverse * jm.transpose();
+        let n: Matrix4<T> = jm.tr_mul(jm);
+        // A pivot not above zero (or NaN) is a rank-deficient Jm: eq. 32.
+        let pivot = |v: T| {
+            if v > T::zero() {
+                Ok(v.fsqrt())
+            } else {
+                Err(ArrowError::PlateSingular)
+            }
+        };
+        let l11 = pivot(n.m11)?;
+        let (l21, l31, l41) = (n.m21 / l11, n.m31 / l11, n.m41 / l11);
+        let l22 = pivot(n.m22 - l21 * l21)?;
+        let (l32, l42) = ((n.m32 - l31 * l21) / l22, (n.m42 - l41 * l21) / l22);
+        let l33 = pivot(n.m33 - l31 * l31 - l32 * l32)?;
+        let l43 = (n.m43 - l41 * l31 - l42 * l32) / l33;
+        let l44 = pivot(n.m44 - l41 * l41 - l42 * l42 - l43 * l43)?;
+        let z = T::zero();
+        #[rustfmt::skip]
+        let l = Matrix4::new(
+            l11, z, z, z,
+            l21, l22, z, z,
+            l31, l32, l33, z,
+            l41, l42, l43, l44,
+        );
+        // L Lᵀ Jm⁺ = Jmᵀ; the diagonal is positive, so the unchecked solves are safe.
+        let mut out = jm.transpose();
+        l.solve_lower_triangular_unchecked_mut(&mut out);
+        l.tr_solve_lower_triangular_unchecked_mut(&mut out);
         if out.iter().all(|v| v.is_finite()) {
             Ok(out)
         } else {
