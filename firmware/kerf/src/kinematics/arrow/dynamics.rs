@@ -274,7 +274,7 @@ impl<T: Float> ArrowDynamics<T> {
         // inverse of the symmetric JmᵀJm is symmetric, so Jm⁺ = (JmᵀJm)⁻¹Jmᵀ (eq. 14)
         // transposes to Jm (JmᵀJm)⁻¹.
         let forces_n = jm_pinv.tr_mul(&wrench);
-        if !forces_n.iter().all(|f| f.is_finite()) {
+        if !forces_n.as_slice().iter().all(|f| f.is_finite()) {
             return Err(ArrowError::NotFinite);
         }
         let over_limit = forces_n

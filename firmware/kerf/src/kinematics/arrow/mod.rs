@@ -178,7 +178,7 @@ impl<T: Float> ArrowGeometry<T> {
     /// (sin θz, cos θz) of a finite `pose`: eq. 3's R(θz), shared by the six arms'
     /// closures (and the plate's mass matrix), computed once per pose.
     fn turn(pose: &Pose<T>) -> Result<(T, T), ArrowError> {
-        if pose.iter().all(|v| v.is_finite()) {
+        if pose.as_slice().iter().all(|v| v.is_finite()) {
             Ok(pose.w.fsin_cos())
         } else {
             Err(ArrowError::NotFinite)
