@@ -10,9 +10,7 @@
 pub mod job;
 pub mod machine;
 
-use crate::control::redundant_pid::{
-    regularization, RedundantPid, RedundantPidError, RedundantPidState,
-};
+use crate::control::redundant_pid::{Factored, RedundantPid, RedundantPidError, RedundantPidState};
 use crate::kinematics::arrow::{ArrowDynamics, ArrowError, ArrowGeometry, Joints, Pose};
 use crate::scalar::{lit, Float};
 use nalgebra::{Matrix2, Vector2};
@@ -105,7 +103,11 @@ impl<T: Float> ArrowLaw<T> {
             .differential(&desired.pose, rate)
             .map_err(model)?;
         let pinv = ArrowGeometry::pseudo_inverse(&jm).map_err(model)?;
-        let rm = regularization(&jm, &pinv);
+        // Eq. 38's Rm = Jm Jm⁺, applied in its factors (not formed).
+        let rm = Factored {
+            jm: &jm,
+            jm_pinv: &pinv,
+        };
         let ff = if self.feedforward {
             self.dynamics
                 .feedforward_with(
