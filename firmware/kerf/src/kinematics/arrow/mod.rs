@@ -47,7 +47,7 @@ mod velocity;
 pub use config::{ArmConfig, ArrowConfig, ArrowWorkspace};
 pub use dynamics::{ArrowDynamics, ArrowMasses, Feedforward};
 pub use forward::ForwardConfig;
-pub use velocity::{ForwardJacobian, InverseJacobian, SingularityDistance};
+pub use velocity::{Differential, ForwardJacobian, InverseJacobian, SingularityDistance};
 
 use crate::error::ConfigError;
 use crate::scalar::{lit, Float};

@@ -22,6 +22,8 @@ use nalgebra::{Matrix4, SMatrix, Vector3};
 pub type InverseJacobian<T> = SMatrix<T, ACTUATORS, 4>;
 /// Jm⁺: 4 × 6.
 pub type ForwardJacobian<T> = SMatrix<T, 4, ACTUATORS>;
+/// Joint positions, Jm and J̇m at a pose ([`ArrowGeometry::differential`]).
+pub type Differential<T> = (Joints<T>, InverseJacobian<T>, InverseJacobian<T>);
 
 /// How far a pose is from each singularity of eq. 30–32, as sines of the angles whose
 /// zero is the singularity (1: as far as it gets; the maps fail below 1e-3).
@@ -106,7 +108,7 @@ impl<T: Float> ArrowGeometry<T> {
         &self,
         pose: &Pose<T>,
         rate: Option<&Pose<T>>,
-    ) -> Result<(Joints<T>, InverseJacobian<T>, InverseJacobian<T>), ArrowError> {
+    ) -> Result<Differential<T>, ArrowError> {
         let turn = Self::turn(pose)?;
         let mut q = Joints::zeros();
         let mut jm = InverseJacobian::zeros();
