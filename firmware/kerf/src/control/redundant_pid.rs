@@ -154,21 +154,21 @@ impl<T: Float> RedundantPid<T> {
         })
     }
 
-    /// One period: `error` q̃ = q_d − q, `rm` = Jm Jm⁺ of the present pose (ignored
-    /// without regularization), `feedforward` Γ_ff. A non-finite input leaves the
-    /// state untouched and returns the error: the caller's outputs go safe.
-    pub fn update<const N: usize>(
+    /// One period: `error` q̃ = q_d − q, `rm` = Jm Jm⁺ of the present pose (formed, or
+    /// [`Factored`]; ignored without regularization), `feedforward` Γ_ff. A non-finite
+    /// input leaves the state untouched and returns the error: the caller's outputs
+    /// go safe.
+    pub fn update<const N: usize, P: Projection<T, N>>(
         &self,
         state: &mut RedundantPidState<T, N>,
         error: &SVector<T, N>,
-        rm: &SMatrix<T, N, N>,
+        rm: &P,
         feedforward: &SVector<T, N>,
     ) -> Result<RedundantPidOutput<T, N>, RedundantPidError> {
-        let finite = |v: &[T]| v.iter().all(|x| x.is_finite());
-        if !(finite(error.as_slice()) && finite(rm.as_slice()) && finite(feedforward.as_slice())) {
+        if !(all_finite(error.as_slice()) && rm.is_finite() && all_finite(feedforward.as_slice())) {
             return Err(RedundantPidError::NotFinite);
         }
-        let project = |v: SVector<T, N>| if self.regularize { rm * v } else { v };
+        let project = |v: SVector<T, N>| if self.regularize { rm.project(&v) } else { v };
         let e = project(*error);
         let last = if state.primed { state.last_error } else { e };
         // Eq. 45 with the corrected back-calculation sign (module docs).
@@ -195,6 +195,50 @@ fn nonneg_f64(name: &'static str, v: f64) -> Result<f64, ConfigError> {
         Err(ConfigError::out_of_range(name))
     } else {
         Ok(v)
+    }
+}
+
+/// Every entry finite.
+fn all_finite<T: Float>(v: &[T]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+/// Rm (eq. 38) as the law applies it: v ↦ Rm v, the projection onto Jm's column
+/// space.
+pub trait Projection<T, const N: usize> {
+    /// Rm v.
+    fn project(&self, v: &SVector<T, N>) -> SVector<T, N>;
+    /// Whether every coefficient is finite.
+    fn is_finite(&self) -> bool;
+}
+
+/// Rm formed as an N × N matrix (as [`regularization`] returns it).
+impl<T: Float, const N: usize> Projection<T, N> for SMatrix<T, N, N> {
+    fn project(&self, v: &SVector<T, N>) -> SVector<T, N> {
+        self * v
+    }
+    fn is_finite(&self) -> bool {
+        all_finite(self.as_slice())
+    }
+}
+
+/// Rm = Jm Jm⁺ kept as its two factors, applied as Jm (Jm⁺ v): 2ND multiplications a
+/// vector where the formed Rm costs N² and N²D to form (ARROW's 6 × 4 Jm, three
+/// vectors a period: 144 against 108 + 144).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Factored<'a, T, const N: usize, const D: usize> {
+    /// Jm, N × D, full column rank.
+    pub jm: &'a SMatrix<T, N, D>,
+    /// Its pseudo-inverse Jm⁺ (eq. 14).
+    pub jm_pinv: &'a SMatrix<T, D, N>,
+}
+
+impl<T: Float, const N: usize, const D: usize> Projection<T, N> for Factored<'_, T, N, D> {
+    fn project(&self, v: &SVector<T, N>) -> SVector<T, N> {
+        self.jm * (self.jm_pinv * v)
+    }
+    fn is_finite(&self) -> bool {
+        all_finite(self.jm.as_slice()) && all_finite(self.jm_pinv.as_slice())
     }
 }
 
@@ -330,6 +374,45 @@ mod tests {
             "{without}"
         );
         assert!(without > 2.0 * bound);
+    }
+
+    /// Rm applied in its factors, Jm (Jm⁺ v), is the formed Jm Jm⁺ applied: the same
+    /// commands and states to round-off, period after period (a 3 × 2 Jm and its
+    /// pseudo-inverse by nalgebra's SVD); a NaN in a factor is refused.
+    #[test]
+    fn factored_regularization_is_the_formed_one() {
+        let jm = SMatrix::<f64, 3, 2>::new(1.0, 0.3, -0.4, 1.2, 0.7, -0.9);
+        let pinv = jm.pseudo_inverse(1e-14).unwrap();
+        let formed = regularization(&jm, &pinv);
+        let factored = Factored {
+            jm: &jm,
+            jm_pinv: &pinv,
+        };
+        let pid = RedundantPid::<f64>::new(&RedundantPidConfig::ARROW_PARALLEL, 2e-4).unwrap();
+        let (mut a, mut b) = (RedundantPidState::new(), RedundantPidState::new());
+        for k in 0..50 {
+            let t = f64::from(k);
+            let e = nalgebra::Vector3::new(1e-5 * t.sin(), 2e-5 * t.cos(), -1e-5);
+            let ff = nalgebra::Vector3::new(10.0, -20.0, 5.0 * t);
+            let x = pid.update(&mut a, &e, &formed, &ff).unwrap();
+            let y = pid.update(&mut b, &e, &factored, &ff).unwrap();
+            assert!((x.forces - y.forces).amax() < 1e-9 * x.forces.amax(), "{k}");
+            assert!(
+                (a.integral - b.integral).amax() <= 1e-9 * a.integral.amax(),
+                "{k}"
+            );
+        }
+        let mut bad = pinv;
+        bad[(1, 2)] = f64::NAN;
+        let factored = Factored {
+            jm: &jm,
+            jm_pinv: &bad,
+        };
+        let e = nalgebra::Vector3::zeros();
+        assert_eq!(
+            pid.update(&mut b, &e, &factored, &e),
+            Err(RedundantPidError::NotFinite)
+        );
     }
 
     /// Bad input: NaN anywhere is refused and changes nothing.

@@ -10,9 +10,7 @@
 pub mod job;
 pub mod machine;
 
-use crate::control::redundant_pid::{
-    regularization, RedundantPid, RedundantPidError, RedundantPidState,
-};
+use crate::control::redundant_pid::{Factored, RedundantPid, RedundantPidError, RedundantPidState};
 use crate::kinematics::arrow::{ArrowDynamics, ArrowError, ArrowGeometry, Joints, Pose};
 use crate::scalar::{lit, Float};
 use nalgebra::{Matrix2, Vector2};
@@ -99,14 +97,23 @@ impl<T: Float> ArrowLaw<T> {
         table_rad: [T; 2],
     ) -> Result<ArrowCommand<T>, ArrowPeriodError> {
         let model = ArrowPeriodError::Model;
-        let (qd, jm) = self.geometry.jacobian(&desired.pose).map_err(model)?;
+        let rate = self.feedforward.then_some(&desired.rate);
+        let (qd, jm, jm_dot) = self
+            .geometry
+            .differential(&desired.pose, rate)
+            .map_err(model)?;
         let pinv = ArrowGeometry::pseudo_inverse(&jm).map_err(model)?;
-        let rm = regularization(&jm, &pinv);
+        // Eq. 38's Rm = Jm Jm⁺, applied in its factors (not formed).
+        let rm = Factored {
+            jm: &jm,
+            jm_pinv: &pinv,
+        };
         let ff = if self.feedforward {
             self.dynamics
                 .feedforward_with(
-                    &self.geometry,
                     &jm,
+                    &pinv,
+                    &jm_dot,
                     &desired.pose,
                     &desired.rate,
                     &desired.acceleration,

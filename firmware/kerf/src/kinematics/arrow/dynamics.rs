@@ -18,11 +18,11 @@
 //! The turntable (eq. 23–24): I_T θ̈x shared by its two motors, Γ_T1 = I_T θ̈x / 2,
 //! Γ_T2 = −Γ_T1; the springs balance gravity.
 
-use super::velocity::InverseJacobian;
+use super::velocity::{ForwardJacobian, InverseJacobian};
 use super::{ArrowError, ArrowGeometry, Joints, Pose, ACTUATORS};
 use crate::error::{positive, ConfigError};
 use crate::scalar::{lit, Float};
-use nalgebra::{Matrix4, SMatrix};
+use nalgebra::Matrix4;
 
 /// Gravity, m/s² (A eq. 17: g = (0, 0, −9.8)).
 const GRAVITY_M_S2: f64 = 9.8;
@@ -146,9 +146,8 @@ impl<T: Float> ArrowDynamics<T> {
         self.plate_kg
     }
 
-    /// The plate's mass matrix M_P (eq. 17) at θz.
-    fn plate_matrix(&self, theta: T) -> Matrix4<T> {
-        let (s, c) = theta.fsin_cos();
+    /// The plate's mass matrix M_P (eq. 17) at θz = atan2(s, c).
+    fn plate_matrix(&self, (s, c): (T, T)) -> Matrix4<T> {
         let (m, bm) = (self.plate_kg, self.com_offset * self.plate_kg);
         let z = T::zero();
         Matrix4::new(
@@ -171,34 +170,61 @@ impl<T: Float> ArrowDynamics<T> {
         )
     }
 
-    /// Λc Ẋ with the factor θ̇z (module docs).
-    fn centrifugal(&self, pose: &Pose<T>, rate: &Pose<T>) -> Pose<T> {
-        let (s, c) = pose.w.fsin_cos();
+    /// Λc Ẋ with the factor θ̇z (module docs), at θz = atan2(s, c).
+    fn centrifugal(&self, (s, c): (T, T), rate: &Pose<T>) -> Pose<T> {
         let bm = self.com_offset * self.plate_kg * rate.w * rate.w;
         Pose::new(-bm * c, -bm * s, T::zero(), T::zero())
     }
 
     /// M = M_P + Jmᵀ M_a Jm and the velocity term (Jmᵀ M_a J̇m + Λc) Ẋ − m_P g, for Jm
-    /// of `pose`.
+    /// and J̇m of `pose` moving at `rate`.
     fn terms(
         &self,
-        geometry: &ArrowGeometry<T>,
         jm: &InverseJacobian<T>,
+        jm_dot: &InverseJacobian<T>,
         pose: &Pose<T>,
         rate: &Pose<T>,
     ) -> Result<PlateTerms<T>, ArrowError> {
-        let jm_dot = geometry.jacobian_rate_with(jm, pose, rate)?;
-        let ma = SMatrix::<T, ACTUATORS, ACTUATORS>::from_diagonal(&Joints::from(self.actuator_kg));
-        let mass = self.plate_matrix(pose.w) + jm.transpose() * ma * jm;
-        let gravity = Pose::new(
+        // M_a is diagonal (eq. 16): M_a Jm scales Jm's rows.
+        let mut ma_jm = *jm;
+        for (mut row, m) in ma_jm.row_iter_mut().zip(self.actuator_kg) {
+            row *= m;
+        }
+        let turn = ArrowGeometry::turn(pose)?;
+        let mass = self.plate_matrix(turn) + jm.tr_mul(&ma_jm);
+        let velocity =
+            ma_jm.tr_mul(&(jm_dot * rate)) + self.centrifugal(turn, rate) - self.gravity();
+        Ok((mass, velocity))
+    }
+
+    /// The plate's weight m_P g (eq. 17) as a wrench.
+    fn gravity(&self) -> Pose<T> {
+        Pose::new(
             T::zero(),
             T::zero(),
             -lit::<T>(GRAVITY_M_S2) * self.plate_kg,
             T::zero(),
-        );
-        let velocity =
-            jm.transpose() * (ma * (jm_dot * rate)) + self.centrifugal(pose, rate) - gravity;
-        Ok((mass, velocity))
+        )
+    }
+
+    /// w = M Ẍ + (Jmᵀ M_a J̇m + Λc) Ẋ − m_P g (module docs) without forming M: with the
+    /// actuators' accelerations q̈ = Jm Ẍ + J̇m Ẋ it is M_P Ẍ + Jmᵀ M_a q̈ + Λc Ẋ − m_P g,
+    /// and M_a is diagonal (eq. 16).
+    fn wrench(
+        &self,
+        jm: &InverseJacobian<T>,
+        jm_dot: &InverseJacobian<T>,
+        pose: &Pose<T>,
+        rate: &Pose<T>,
+        acceleration: &Pose<T>,
+    ) -> Result<Pose<T>, ArrowError> {
+        let q_accel = jm * acceleration + jm_dot * rate;
+        let ma_q_accel = q_accel.component_mul(&Joints::from(self.actuator_kg));
+        let turn = ArrowGeometry::turn(pose)?;
+        Ok(self.plate_matrix(turn) * acceleration
+            + jm.tr_mul(&ma_q_accel)
+            + self.centrifugal(turn, rate)
+            - self.gravity())
     }
 
     /// Direct model (eq. 20): the plate's acceleration under actuator forces Γ.
@@ -209,8 +235,8 @@ impl<T: Float> ArrowDynamics<T> {
         rate: &Pose<T>,
         forces_n: &Joints<T>,
     ) -> Result<Pose<T>, ArrowError> {
-        let (_, jm) = geometry.jacobian(pose)?;
-        let (mass, velocity) = self.terms(geometry, &jm, pose, rate)?;
+        let (_, jm, jm_dot) = geometry.differential(pose, Some(rate))?;
+        let (mass, velocity) = self.terms(&jm, &jm_dot, pose, rate)?;
         let rhs = jm.transpose() * forces_n - velocity;
         mass.lu().solve(&rhs).ok_or(ArrowError::PlateSingular)
     }
@@ -224,31 +250,31 @@ impl<T: Float> ArrowDynamics<T> {
         rate: &Pose<T>,
         acceleration: &Pose<T>,
     ) -> Result<Feedforward<T>, ArrowError> {
-        let (_, jm) = geometry.jacobian(pose)?;
-        self.feedforward_with(geometry, &jm, pose, rate, acceleration)
+        let (_, jm, jm_dot) = geometry.differential(pose, Some(rate))?;
+        let jm_pinv = ArrowGeometry::pseudo_inverse(&jm)?;
+        self.feedforward_with(&jm, &jm_pinv, &jm_dot, pose, rate, acceleration)
     }
 
-    /// [`Self::feedforward`] with Jm of `pose` already at hand (the control period has
-    /// it for its regularization: the arms are not evaluated again).
+    /// [`Self::feedforward`] with Jm of `pose`, its pseudo-inverse Jm⁺ and J̇m at
+    /// `rate` already at hand ([`ArrowGeometry::differential`] and
+    /// [`ArrowGeometry::pseudo_inverse`]: the control period has Jm and Jm⁺ for its
+    /// regularization, and neither the arms nor the normal matrix JmᵀJm are evaluated
+    /// again).
     pub fn feedforward_with(
         &self,
-        geometry: &ArrowGeometry<T>,
         jm: &InverseJacobian<T>,
+        jm_pinv: &ForwardJacobian<T>,
+        jm_dot: &InverseJacobian<T>,
         pose: &Pose<T>,
         rate: &Pose<T>,
         acceleration: &Pose<T>,
     ) -> Result<Feedforward<T>, ArrowError> {
-        let (mass, velocity) = self.terms(geometry, jm, pose, rate)?;
-        let wrench = mass * acceleration + velocity;
-        // JmᵀJm is symmetric positive definite away from the singularities: Cholesky,
-        // which (unlike nalgebra's pivoting LU) compiles without bounds checks.
-        let normal: Matrix4<T> = jm.transpose() * jm;
-        let forces_n = jm
-            * normal
-                .cholesky()
-                .ok_or(ArrowError::PlateSingular)?
-                .solve(&wrench);
-        if !forces_n.iter().all(|f| f.is_finite()) {
+        let wrench = self.wrench(jm, jm_dot, pose, rate, acceleration)?;
+        // Eq. 22's minimum-norm forces Jm (JmᵀJm)⁻¹ w (module docs) are (Jm⁺)ᵀ w: the
+        // inverse of the symmetric JmᵀJm is symmetric, so Jm⁺ = (JmᵀJm)⁻¹Jmᵀ (eq. 14)
+        // transposes to Jm (JmᵀJm)⁻¹.
+        let forces_n = jm_pinv.tr_mul(&wrench);
+        if !forces_n.as_slice().iter().all(|f| f.is_finite()) {
             return Err(ArrowError::NotFinite);
         }
         let over_limit = forces_n
@@ -300,7 +326,7 @@ mod tests {
             .zip(d.actuator_kg)
             .map(|(q, m)| 0.5 * m * q * q)
             .sum();
-        let plate = 0.5 * (v.transpose() * d.plate_matrix(x.w) * v)[(0, 0)];
+        let plate = 0.5 * (v.transpose() * d.plate_matrix((x.w.sin(), x.w.cos())) * v)[(0, 0)];
         carts + plate + d.plate_kg * GRAVITY_M_S2 * x.z
     }
 
@@ -349,8 +375,8 @@ mod tests {
         assert_eq!(ff.over_limit, None);
         let back = d.acceleration(&g, &x, &v, &ff.forces_n).unwrap();
         assert!((back - a).amax() < 1e-9, "{back:?}");
-        let (_, jm) = g.jacobian(&x).unwrap();
-        let (mass, velocity) = d.terms(&g, &jm, &x, &v).unwrap();
+        let (_, jm, jm_dot) = g.differential(&x, Some(&v)).unwrap();
+        let (mass, velocity) = d.terms(&jm, &jm_dot, &x, &v).unwrap();
         let minv = mass.try_inverse().unwrap();
         let h = minv * jm.transpose();
         let lambda_x = minv * velocity; // ΛẊ − A_G
@@ -387,7 +413,8 @@ mod tests {
         let pose = Pose::new(0.0, config.workspace.y0_m, 0.0, 0.0);
         let mut inertia = 0.0;
         for (i, arm) in g.arms.iter().enumerate() {
-            let c = ArrowGeometry::closure(arm, &pose, i).unwrap();
+            let turn = ArrowGeometry::turn(&pose).unwrap();
+            let c = ArrowGeometry::closure(arm, &pose, turn, i).unwrap();
             let a = Vector3::new(c.q_m, arm.rail_y_m, arm.rail_z_m);
             let b = a + c.arm;
             let per_m = if i == 2 || i == 3 {

@@ -47,7 +47,7 @@ mod velocity;
 pub use config::{ArmConfig, ArrowConfig, ArrowWorkspace};
 pub use dynamics::{ArrowDynamics, ArrowMasses, Feedforward};
 pub use forward::ForwardConfig;
-pub use velocity::{ForwardJacobian, InverseJacobian, SingularityDistance};
+pub use velocity::{Differential, ForwardJacobian, InverseJacobian, SingularityDistance};
 
 use crate::error::ConfigError;
 use crate::scalar::{lit, Float};
@@ -167,20 +167,34 @@ impl<T: Float> ArrowGeometry<T> {
 
     /// Inverse kinematics of the parallel module (eq. 3–7).
     pub fn inverse(&self, pose: &Pose<T>) -> Result<Joints<T>, ArrowError> {
+        let turn = Self::turn(pose)?;
         let mut q = Joints::zeros();
         for (i, (arm, out)) in self.arms.iter().zip(q.iter_mut()).enumerate() {
-            *out = Self::closure(arm, pose, i)?.q_m;
+            *out = Self::closure(arm, pose, turn, i)?.q_m;
         }
         Ok(q)
     }
 
-    /// The closure of arm `i` at `pose` (eq. 3–7 and the vectors of eq. 13).
-    fn closure(arm: &Arm<T>, pose: &Pose<T>, i: usize) -> Result<ArmClosure<T>, ArrowError> {
-        let index = i as u8;
-        if !pose.iter().all(|v| v.is_finite()) {
-            return Err(ArrowError::NotFinite);
+    /// (sin θz, cos θz) of a finite `pose`: eq. 3's R(θz), shared by the six arms'
+    /// closures (and the plate's mass matrix), computed once per pose.
+    fn turn(pose: &Pose<T>) -> Result<(T, T), ArrowError> {
+        if pose.as_slice().iter().all(|v| v.is_finite()) {
+            Ok(pose.w.fsin_cos())
+        } else {
+            Err(ArrowError::NotFinite)
         }
-        let (s, c) = pose.w.fsin_cos();
+    }
+
+    /// The closure of arm `i` at `pose`, whose θz has the sine and cosine `turn`
+    /// (from [`Self::turn`]): eq. 3–7 and the vectors of eq. 13.
+    fn closure(
+        arm: &Arm<T>,
+        pose: &Pose<T>,
+        turn: (T, T),
+        i: usize,
+    ) -> Result<ArmClosure<T>, ArrowError> {
+        let index = i as u8;
+        let (s, c) = turn;
         let p = &arm.plate_m;
         let plate = Vector3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z);
         let d = Vector3::new(pose.x, pose.y, pose.z) + plate;

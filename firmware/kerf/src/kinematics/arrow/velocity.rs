@@ -14,7 +14,7 @@
 //! Jm 6×4: the forward differential model is its pseudo-inverse Jm⁺ = (JmᵀJm)⁻¹Jmᵀ
 //! (eq. 14).
 
-use super::{ArrowError, ArrowGeometry, Joints, Pose, ACTUATORS};
+use super::{Arm, ArmClosure, ArrowError, ArrowGeometry, Joints, Pose, ACTUATORS};
 use crate::scalar::{norm, Float};
 use nalgebra::{Matrix4, SMatrix, Vector3};
 
@@ -22,6 +22,8 @@ use nalgebra::{Matrix4, SMatrix, Vector3};
 pub type InverseJacobian<T> = SMatrix<T, ACTUATORS, 4>;
 /// Jm⁺: 4 × 6.
 pub type ForwardJacobian<T> = SMatrix<T, 4, ACTUATORS>;
+/// Joint positions, Jm and J̇m at a pose ([`ArrowGeometry::differential`]).
+pub type Differential<T> = (Joints<T>, InverseJacobian<T>, InverseJacobian<T>);
 
 /// How far a pose is from each singularity of eq. 30–32, as sines of the angles whose
 /// zero is the singularity (1: as far as it gets; the maps fail below 1e-3).
@@ -56,11 +58,12 @@ impl<T: Float> ArrowGeometry<T> {
             vertical: T::one(),
             plate: T::zero(),
         };
+        let turn = Self::turn(pose)?;
         let mut d1 = Vector3::zeros();
         // Arm by arm, each closure used where it is computed (no array of them copied
         // through the period).
         for (i, arm) in self.arms.iter().enumerate() {
-            let c = Self::closure(arm, pose, i)?;
+            let c = Self::closure(arm, pose, turn, i)?;
             let reach = norm(&c.reach);
             d.across_rails = d.across_rails.min(c.reach.x.abs() / reach);
             d.vertical = d.vertical.min(c.arm.cross(&c.mu).z.abs() / arm.length_m);
@@ -83,14 +86,43 @@ impl<T: Float> ArrowGeometry<T> {
     /// Joint positions and Jm = Jq⁻¹ Jx at `pose` (eq. 7, 13). Errors on the
     /// singularities of eq. 30–32 (sines below 1e-3, see [`SingularityDistance`]).
     pub fn jacobian(&self, pose: &Pose<T>) -> Result<(Joints<T>, InverseJacobian<T>), ArrowError> {
+        let (q, jm, _) = self.differential(pose, None)?;
+        Ok((q, jm))
+    }
+
+    /// J̇m at `pose` moving at `rate` (Ẋ): the time derivative of [`Self::jacobian`]'s
+    /// rows in the form of the module docs, for q̈ = Jm Ẍ + J̇m Ẋ.
+    pub fn jacobian_rate(
+        &self,
+        pose: &Pose<T>,
+        rate: &Pose<T>,
+    ) -> Result<InverseJacobian<T>, ArrowError> {
+        let (_, _, jm_dot) = self.differential(pose, Some(rate))?;
+        Ok(jm_dot)
+    }
+
+    /// Joint positions, Jm and, given the `rate` Ẋ, J̇m at `pose` (zeros without a
+    /// rate): [`Self::jacobian`] and [`Self::jacobian_rate`] from one evaluation of
+    /// each arm's closure (a control period with feedforward needs all three).
+    pub fn differential(
+        &self,
+        pose: &Pose<T>,
+        rate: Option<&Pose<T>>,
+    ) -> Result<Differential<T>, ArrowError> {
+        let turn = Self::turn(pose)?;
         let mut q = Joints::zeros();
         let mut jm = InverseJacobian::zeros();
+        let mut jm_dot = InverseJacobian::zeros();
         let mut d1 = Vector3::zeros();
         let mut plate = T::zero();
-        let rows = self.arms.iter().zip(q.iter_mut());
-        for (i, ((arm, q_i), mut row)) in rows.zip(jm.row_iter_mut()).enumerate() {
+        let rows = self
+            .arms
+            .iter()
+            .zip(q.iter_mut())
+            .zip(jm_dot.row_iter_mut());
+        for (i, (((arm, q_i), mut dot_row), mut row)) in rows.zip(jm.row_iter_mut()).enumerate() {
             let index = i as u8;
-            let c = Self::closure(arm, pose, i)?;
+            let c = Self::closure(arm, pose, turn, i)?;
             let ez = |v: Vector3<T>| v.z;
             let l_mu = ez(c.arm.cross(&c.mu));
             let n_mu = ez(c.to_c.cross(&c.mu));
@@ -113,6 +145,17 @@ impl<T: Float> ArrowGeometry<T> {
             for (out, v) in row.iter_mut().zip(jx) {
                 *out = v / jq;
             }
+            if let Some(rate) = rate {
+                // q̇_i = (Jm Ẋ)_i from the row just formed.
+                let q_dot = row.transpose().dot(rate);
+                for (out, v) in dot_row
+                    .iter_mut()
+                    .skip(1)
+                    .zip(rate_row(arm, &c, q_dot, rate))
+                {
+                    *out = v;
+                }
+            }
             *q_i = c.q_m;
             // Eq. 32, as in `singularity_distance`.
             if i == 0 {
@@ -126,67 +169,75 @@ impl<T: Float> ArrowGeometry<T> {
         if plate <= self.singular_sine {
             return Err(ArrowError::PlateSingular);
         }
-        Ok((q, jm))
-    }
-
-    /// J̇m at `pose` moving at `rate` (Ẋ): the time derivative of [`Self::jacobian`]'s
-    /// rows in the form of the module docs, for q̈ = Jm Ẍ + J̇m Ẋ.
-    pub fn jacobian_rate(
-        &self,
-        pose: &Pose<T>,
-        rate: &Pose<T>,
-    ) -> Result<InverseJacobian<T>, ArrowError> {
-        let (_, jm) = self.jacobian(pose)?;
-        self.jacobian_rate_with(&jm, pose, rate)
-    }
-
-    /// [`Self::jacobian_rate`] with Jm of `pose` already at hand (a control period
-    /// that has it does not evaluate the arms again for it).
-    pub fn jacobian_rate_with(
-        &self,
-        jm: &InverseJacobian<T>,
-        pose: &Pose<T>,
-        rate: &Pose<T>,
-    ) -> Result<InverseJacobian<T>, ArrowError> {
-        let q_dot = jm * rate;
-        let mut jm_dot = InverseJacobian::zeros();
-        let theta_dot = rate.w;
-        let rows = self.arms.iter().zip(q_dot.iter());
-        for (i, ((arm, &q_dot_i), mut row)) in rows.zip(jm_dot.row_iter_mut()).enumerate() {
-            let c = Self::closure(arm, pose, i)?;
-            let m = &c.reach;
-            let a = &c.plate;
-            // ȧ = θ̇ e_z × a; Ḋ = Ṗ + ȧ; ṁ = Ḋ − Ȧ with Ȧ = q̇ e_x.
-            let a_dot = Vector3::new(-a.y, a.x, T::zero()) * theta_dot;
-            let m_dot = Vector3::new(rate.x + a_dot.x - q_dot_i, rate.y + a_dot.y, rate.z);
-            let (l, r) = (c.horizontal_m, arm.bc_m);
-            // ℓ = √(L² − Δz²) with Δz = m_z: ℓ̇ = −m_z ṁ_z / ℓ; g = (ℓ + r)/ℓ.
-            let l_dot = -m.z * m_dot.z / l;
-            let g = (l + r) / l;
-            let g_dot = -r * l_dot / (l * l);
-            let inv = T::one() / m.x;
-            let inv_dot = -m_dot.x * inv * inv;
-            let e1 = m.y * inv;
-            let e1_dot = m_dot.y * inv + m.y * inv_dot;
-            let e2_dot = (g_dot * m.z + g * m_dot.z) * inv + g * m.z * inv_dot;
-            // −(m × a)_z / m_x = e1 a_x − a_y.
-            let e3_dot = e1_dot * a.x + e1 * a_dot.x - a_dot.y;
-            for (out, v) in row.iter_mut().skip(1).zip([e1_dot, e2_dot, e3_dot]) {
-                *out = v;
-            }
-        }
-        Ok(jm_dot)
+        Ok((q, jm, jm_dot))
     }
 
     /// Jm⁺ = (JmᵀJm)⁻¹Jmᵀ (eq. 14): Ẋ = Jm⁺ q̇ in the least-squares sense.
+    ///
+    /// The normal matrix JmᵀJm is symmetric positive definite away from the
+    /// singularities of eq. 30–32: its Cholesky factor L (square roots by
+    /// [`Float::fsqrt`], the FPU's on the firmware targets) and two triangular solves
+    /// for the six columns of Jmᵀ give Jm⁺ with no explicit inverse, and nothing that
+    /// can panic (nalgebra's `try_inverse` and LU do not compile without bounds checks).
     pub fn pseudo_inverse(jm: &InverseJacobian<T>) -> Result<ForwardJacobian<T>, ArrowError> {
-        let normal: Matrix4<T> = jm.transpose() * jm;
-        let inverse = normal.try_inverse().ok_or(ArrowError::PlateSingular)?;
-        let out = inverse * jm.transpose();
-        if out.iter().all(|v| v.is_finite()) {
+        let n: Matrix4<T> = jm.tr_mul(jm);
+        // A pivot not above zero (or NaN) is a rank-deficient Jm: eq. 32.
+        let pivot = |v: T| {
+            if v > T::zero() {
+                Ok(v.fsqrt())
+            } else {
+                Err(ArrowError::PlateSingular)
+            }
+        };
+        let l11 = pivot(n.m11)?;
+        let (l21, l31, l41) = (n.m21 / l11, n.m31 / l11, n.m41 / l11);
+        let l22 = pivot(n.m22 - l21 * l21)?;
+        let (l32, l42) = ((n.m32 - l31 * l21) / l22, (n.m42 - l41 * l21) / l22);
+        let l33 = pivot(n.m33 - l31 * l31 - l32 * l32)?;
+        let l43 = (n.m43 - l41 * l31 - l42 * l32) / l33;
+        let l44 = pivot(n.m44 - l41 * l41 - l42 * l42 - l43 * l43)?;
+        let z = T::zero();
+        #[rustfmt::skip]
+        let l = Matrix4::new(
+            l11, z, z, z,
+            l21, l22, z, z,
+            l31, l32, l33, z,
+            l41, l42, l43, l44,
+        );
+        // L Lᵀ Jm⁺ = Jmᵀ; the diagonal is positive, so the unchecked solves are safe.
+        let mut out = jm.transpose();
+        l.solve_lower_triangular_unchecked_mut(&mut out);
+        l.tr_solve_lower_triangular_unchecked_mut(&mut out);
+        // Through the slice: nalgebra's matrix iterator walks rows and columns with
+        // strides, about 40 instructions per entry here against a few for the slice.
+        if out.as_slice().iter().all(|v| v.is_finite()) {
             Ok(out)
         } else {
             Err(ArrowError::PlateSingular)
         }
     }
+}
+
+/// Row i of J̇m but its first entry (the constant 1 of the module docs' form), from
+/// arm i's closure, q̇_i and Ẋ: the time derivative of that form.
+fn rate_row<T: Float>(arm: &Arm<T>, c: &ArmClosure<T>, q_dot: T, rate: &Pose<T>) -> [T; 3] {
+    let m = &c.reach;
+    let a = &c.plate;
+    let theta_dot = rate.w;
+    // ȧ = θ̇ e_z × a; Ḋ = Ṗ + ȧ; ṁ = Ḋ − Ȧ with Ȧ = q̇ e_x.
+    let a_dot = Vector3::new(-a.y, a.x, T::zero()) * theta_dot;
+    let m_dot = Vector3::new(rate.x + a_dot.x - q_dot, rate.y + a_dot.y, rate.z);
+    let (l, r) = (c.horizontal_m, arm.bc_m);
+    // ℓ = √(L² − Δz²) with Δz = m_z: ℓ̇ = −m_z ṁ_z / ℓ; g = (ℓ + r)/ℓ.
+    let l_dot = -m.z * m_dot.z / l;
+    let g = (l + r) / l;
+    let g_dot = -r * l_dot / (l * l);
+    let inv = T::one() / m.x;
+    let inv_dot = -m_dot.x * inv * inv;
+    let e1 = m.y * inv;
+    let e1_dot = m_dot.y * inv + m.y * inv_dot;
+    let e2_dot = (g_dot * m.z + g * m_dot.z) * inv + g * m.z * inv_dot;
+    // −(m × a)_z / m_x = e1 a_x − a_y.
+    let e3_dot = e1_dot * a.x + e1 * a_dot.x - a_dot.y;
+    [e1_dot, e2_dot, e3_dot]
 }
