@@ -650,11 +650,8 @@ impl<T: Float> DeltaSlave<T> {
         inputs: &[[u16; 3]; 3],
     ) -> Result<Step<SlaveOutputs<T>>, DeltaFault> {
         self.laser_power_w = T::zero();
-        let step = self
-            .joints
-            .ramp_to_rest(inputs)
-            .map_err(DeltaFault::Joint)?;
-        Ok(step.map(Self::beam_off))
+        let step = self.joints.ramp_to_rest(inputs);
+        Ok(step.map_err(DeltaFault::Joint)?.map(Self::beam_off))
     }
 }
 
