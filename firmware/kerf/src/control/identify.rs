@@ -332,7 +332,8 @@ mod tests {
                 let error = compensated[k] - truth;
                 std::println!(
                     "seed {seed} θ{k}: truth {truth}, plain {:.5}, compensated {:.5} (σ {std:.2e})",
-                    plain[k], compensated[k]
+                    plain[k],
+                    compensated[k]
                 );
                 assert!(error.abs() < 6.0 * std, "{k}: {error:e} vs σ {std:e}");
                 if k == 0 {
