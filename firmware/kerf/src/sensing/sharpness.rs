@@ -157,7 +157,8 @@ pub fn window_moments(
     let (mut sum, mut sum_of_squares) = (0u32, 0u64);
     // Each chunk starts at a row of the window; its first W pixels are that row
     // (the last chunk is exactly W long).
-    for chunk in rows.chunks(stride_px) {
+    // stride ≥ x + W ≥ 1 (checked above); `max` shows it to the optimiser.
+    for chunk in rows.chunks(stride_px.max(1)) {
         let row = chunk.get(..width_px).ok_or(SharpnessError::OutsideFrame)?;
         for part in row.chunks(ROW_PART_PX) {
             let (s1, s2) = row_sums(part);
