@@ -11,6 +11,7 @@ pub mod axis;
 pub mod delta;
 pub mod delta_plant;
 pub mod drive;
+pub mod focus;
 pub mod grinding;
 pub mod grinding_cell;
 pub mod hall_sensor;

@@ -2,7 +2,7 @@
 //!
 //! This image calls every control-period entry point of kerf — each machine's
 //! per-period methods and its supervisor step, the axis law, Hall decoding, velocity
-//! observation, delta kinematics, ARROW's machine, the
+//! observation, image sharpness and the autofocus law, delta kinematics, ARROW's machine, the
 //! contour and joint references, the DCT/SDCT
 //! codec and the packet format with its stream ends — and the constructors and
 //! planners that feed them, on inputs the optimiser cannot see through (`core::hint::black_box`).
@@ -32,6 +32,7 @@ use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
 use kerf::codec::dct::Dct;
 use kerf::codec::packet::{self, PacketDecoder, MAX_PACKET_LEN};
 use kerf::codec::sdct::{SdctConfig, SdctDecoder, SdctEncoder, Selection};
+use kerf::control::autofocus::{Autofocus, AutofocusConfig, AutofocusState, GradientScale};
 use kerf::control::dob::{Dob, DobState};
 use kerf::control::pd::{Pd, Reference};
 use kerf::control::redundant_pid::{RedundantPid, RedundantPidConfig};
@@ -42,6 +43,7 @@ use kerf::kinematics::arrow::{
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
 use kerf::sensing::hall::{HallConfig, HallDecoder, HallState};
+use kerf::sensing::sharpness::{normalized_variance, window_moments, Window};
 use kerf::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
 use kerf::trajectory::constraint::{ConstraintConfig, MotionConstraint};
 use kerf::trajectory::efd::Efd;
@@ -86,6 +88,7 @@ fn main() -> ! {
             7 => codec::<32>(),
             8 => codec::<64>(),
             9 => arrow_machine(),
+            10 => autofocus(),
             _ => stream(),
         }
     }
@@ -251,6 +254,40 @@ fn hall_and_observer() {
     let mut observed = opaque(TrackingObserverState::at_rest(opaque(0.0f32)));
     sink(observer.predicted_step(&observed, opaque(0.0)));
     sink(observer.update(&mut observed, opaque(0.001), opaque(0.0)));
+}
+
+/// The sharpness of a frame window and the autofocus law's frame and period.
+fn autofocus() {
+    let frame: &[u8] = opaque(&[0u8; 64 * 64][..]);
+    let window = opaque(Window {
+        x_px: 0,
+        y_px: 0,
+        width_px: 64,
+        height_px: 64,
+    });
+    let sharpness = normalized_variance(frame, opaque(64), &window);
+    sink(window_moments(frame, opaque(64), &window).map(|m| m.normalized_variance_f64()));
+    let config = opaque(AutofocusConfig {
+        max_speed_m_s: 5e-3,
+        sigmoid_gain: 4e-3,
+        gradient_scale: GradientScale::Relative,
+        tracking_gain_per_s: 50.0,
+        max_acceleration_m_s2: 0.5,
+        travel_m: [0.2e-3, 9.8e-3],
+        frame_period_s: 0.01,
+        window_excursion_m: 0.1e-3,
+        min_window_frames: 4,
+        search_speed_m_s: 1e-3,
+        refocus_change: 0.05,
+        min_sharpness: 0.05,
+    });
+    let Ok(law) = Autofocus::<f32, 32>::new(&config, opaque(1e-3)) else {
+        return;
+    };
+    let mut state = opaque(AutofocusState::<f32, 32>::default());
+    sink(law.frame(&mut state, opaque(1e-3), sharpness.unwrap_or(0.0)));
+    sink(law.step(&mut state, opaque(1e-3), opaque(0.0)));
+    sink(law.gradient(&state));
 }
 
 fn kinematics() {

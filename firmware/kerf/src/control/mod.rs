@@ -14,6 +14,7 @@
 //! The scenario tests record every signal's peak and check these ranges.
 
 pub mod adrc;
+pub mod autofocus;
 pub mod bilateral;
 pub mod constraint;
 pub mod contouring;

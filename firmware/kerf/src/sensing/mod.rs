@@ -3,4 +3,5 @@
 pub mod encoder;
 pub mod force;
 pub mod hall;
+pub mod sharpness;
 pub mod velocity;

@@ -439,3 +439,106 @@ pub fn arrow_rows(counter: &mut Counter) {
         None,
     );
 }
+
+/// Frame of the sharpness row: 80 × 64 pixels, the window its 64 × 64 columns 8–71.
+const SHARPNESS_STRIDE: usize = 80;
+
+/// Normalized variance (T 7.2.2 eq. 155) of a 64 × 64 window of an 8-bit frame:
+/// kerf's exact integer sums and one f32 division against the f32 two-pass sum a
+/// user would write (no no_std crate computes it on u8 frames: micromath's
+/// `statistics::Variance` takes an f32 slice, so the window would first be copied
+/// into 16 KB of f32). Errors relative to the exact ratio (f64 of the exact
+/// integers; the kernel's own f64 result agrees with an f64 two-pass to 1e-12 in its
+/// unit tests).
+#[inline(never)]
+pub fn sharpness_rows(counter: &mut Counter) {
+    use kerf::sensing::sharpness::{normalized_variance, window_moments, Window};
+    let window = Window {
+        x_px: 8,
+        y_px: 0,
+        width_px: 64,
+        height_px: 64,
+    };
+    // Texture about grey level 120, ±40 (xorshift32).
+    let mut seed = 0x1234_5678u32;
+    let frame: [u8; SHARPNESS_STRIDE * 64] = core::array::from_fn(|_| {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        (80 + (seed >> 24) % 81) as u8
+    });
+    let (Ok(moments), Ok(kernel)) = (
+        window_moments(&frame, SHARPNESS_STRIDE, &window),
+        normalized_variance(&frame, SHARPNESS_STRIDE, &window),
+    ) else {
+        exit(false)
+    };
+    let exact = moments.variance_numerator() as f64 / moments.mean_denominator() as f64;
+    let reference = two_pass_f32(&frame, SHARPNESS_STRIDE, &window);
+    let rel = |v: f32| libm::fabs(f64::from(v) - exact) / exact;
+    row_with_errors(
+        counter,
+        "sensing::sharpness::normalized_variance 64×64 u8 window",
+        |_| {
+            black_box(normalized_variance(
+                black_box(&frame),
+                black_box(SHARPNESS_STRIDE),
+                black_box(&window),
+            ))
+            .ok();
+        },
+        "f32 two-pass (mean, then Σ(i − μ)², / (n μ))",
+        |_| {
+            black_box(two_pass_f32(
+                black_box(&frame),
+                black_box(SHARPNESS_STRIDE),
+                black_box(&window),
+            ));
+        },
+        (
+            |_| {
+                black_box((
+                    black_box(&frame),
+                    black_box(SHARPNESS_STRIDE),
+                    black_box(&window),
+                ));
+            },
+            |_| {
+                black_box((
+                    black_box(&frame),
+                    black_box(SHARPNESS_STRIDE),
+                    black_box(&window),
+                ));
+            },
+        ),
+        Some((rel(kernel), rel(reference), " rel")),
+    );
+}
+
+/// The reference: eq. 155 in f32, two passes over the window's rows.
+#[inline(never)]
+fn two_pass_f32(frame: &[u8], stride: usize, window: &kerf::sensing::sharpness::Window) -> f32 {
+    let rows = || {
+        frame
+            .chunks_exact(stride)
+            .skip(window.y_px)
+            .take(window.height_px)
+            .filter_map(|row| row.get(window.x_px..window.x_px + window.width_px))
+    };
+    let n = (window.width_px * window.height_px) as f32;
+    let mut sum = 0.0f32;
+    for row in rows() {
+        for &p in row {
+            sum += f32::from(p);
+        }
+    }
+    let mean = sum / n;
+    let mut squares = 0.0f32;
+    for row in rows() {
+        for &p in row {
+            let d = f32::from(p) - mean;
+            squares += d * d;
+        }
+    }
+    squares / (n * mean)
+}
