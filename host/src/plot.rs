@@ -110,10 +110,12 @@ pub fn write_svg(
         .map(|(cy, (x0, x1, level))| {
             let g = 128 + (u32::from(level) * 16 + 8) / 2;
             let a = plan.to_mm([f64::from(x0 * f) - 0.5, f64::from(cy * f) - 0.5]);
-            // A little past the cell, so that no seam of the background shows.
+            // Half a cell past its end, so that no seam shows between cells (the next
+            // cell, drawn later, covers the overlap).
+            let over = 0.5 * f64::from(f) - 0.5;
             let b = plan.to_mm([
-                f64::from((x1 * f).min(w)) - 0.2,
-                f64::from(((cy + 1) * f).min(h)) - 0.2,
+                f64::from((x1 * f).min(w)) + over,
+                f64::from(((cy + 1) * f).min(h)) + over,
             ]);
             let c = RGBColor(g as u8, g as u8, g as u8);
             Rectangle::new([(a[0], a[1]), (b[0], b[1])], c.filled())
