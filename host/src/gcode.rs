@@ -1,0 +1,170 @@
+//! `kerf gcode`: a G-code program checked as ARROW will check it at load (A §4,
+//! issue 15), with the firmware's own parser and job loader
+//! ([`kerf::app::arrow::job::ArrowJob::from_gcode`]) and the capacities of the
+//! machine's image (`kerf_sim::arrow`: [`JOB_MOVES`] moves of [`JOB_POINTS`] points,
+//! [`PROGRAM_POINTS`] points read).
+
+use kerf::app::arrow::job::{ArrowJob, ArrowJobConfig, ArrowJobErrorKind};
+use kerf::kinematics::arrow::{ArrowConfig, ArrowError, ArrowGeometry};
+use kerf::trajectory::gcode::{GcodeErrorKind, GcodePoint, MoveKind, MAX_LINE_BYTES};
+use kerf_sim::arrow::{JOB_MOVES, JOB_POINTS, PROGRAM_POINTS};
+
+/// The job as the machine holds it.
+pub type Job = ArrowJob<f64, JOB_POINTS, JOB_MOVES>;
+
+/// One rest-to-rest move of a checked program.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct MoveReport {
+    /// G-code line of its first target.
+    pub line: u32,
+    /// Feed (`G1`) or rapid (`G0`).
+    pub kind: MoveKind,
+    /// Points of its spline (the start included).
+    pub points: usize,
+    /// Path length, m.
+    pub length_m: f64,
+    /// Cruise speed, m/s.
+    pub speed_m_s: f64,
+    /// Duration with its S-curve ramps, s.
+    pub duration_s: f64,
+}
+
+/// A program the machine accepts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GcodeReport {
+    /// Its moves, in order.
+    pub moves: Vec<MoveReport>,
+    /// Total path length, m.
+    pub length_m: f64,
+    /// Total duration, s (whole control periods).
+    pub duration_s: f64,
+}
+
+/// A refused program: where and why. `column` is 1-based; it is 1 where the cause is
+/// the whole line (the loader's path checks name a line, not a column); `line` is 0
+/// where no line is to blame (an empty program, a bad machine configuration).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{line}:{column}: {message}")]
+pub struct GcodeCheckError {
+    /// 1-based line (0: none).
+    pub line: u32,
+    /// 1-based byte column.
+    pub column: u32,
+    /// What is wrong.
+    pub message: String,
+}
+
+/// Checks `text` for ARROW's preset machine (module docs).
+pub fn check(text: &[u8]) -> Result<GcodeReport, GcodeCheckError> {
+    let geometry = ArrowGeometry::<f64>::new(&ArrowConfig::ARROW).map_err(|e| GcodeCheckError {
+        line: 0,
+        column: 1,
+        message: format!("machine configuration: {e}"),
+    })?;
+    let mut points = Box::new(heapless::Vec::<GcodePoint, PROGRAM_POINTS>::new());
+    let mut job = Box::<Job>::default();
+    *job = Job::from_gcode(text, &mut points, &geometry, &ArrowJobConfig::ARROW).map_err(|e| {
+        let (column, message) = match e.kind {
+            ArrowJobErrorKind::Gcode { kind, column } => (column.max(1), describe_gcode(kind)),
+            other => (1, describe_job(other)),
+        };
+        GcodeCheckError {
+            line: e.line,
+            column,
+            message,
+        }
+    })?;
+    let moves: Vec<MoveReport> = job
+        .moves()
+        .iter()
+        .map(|m| MoveReport {
+            line: m.line,
+            kind: points
+                .iter()
+                .find(|p| p.line == m.line)
+                .map_or(MoveKind::Feed, |p| p.kind),
+            points: m.spline.points(),
+            length_m: m.plan.length_m,
+            speed_m_s: m.plan.speed_m_s,
+            duration_s: m.plan.duration_s(),
+        })
+        .collect();
+    Ok(GcodeReport {
+        length_m: moves.iter().map(|m| m.length_m).sum(),
+        duration_s: job.periods() as f64 * job.period_s(),
+        moves,
+    })
+}
+
+fn letter(b: u8) -> String {
+    if b.is_ascii_graphic() {
+        format!("'{}'", b as char)
+    } else {
+        format!("byte {b:#04x}")
+    }
+}
+
+/// The parser's refusal in words.
+pub fn describe_gcode(kind: GcodeErrorKind) -> String {
+    match kind {
+        GcodeErrorKind::UnknownWord(b) => format!("unknown word {}", letter(b)),
+        GcodeErrorKind::Unsupported {
+            letter: l,
+            code_x10,
+        } => {
+            let code = if code_x10 % 10 == 0 {
+                format!("{}", code_x10 / 10)
+            } else {
+                format!("{}.{}", code_x10 / 10, code_x10 % 10)
+            };
+            format!("unsupported code {}{code}", l as char)
+        }
+        GcodeErrorKind::UnexpectedByte(b) => format!("unexpected {}", letter(b)),
+        GcodeErrorKind::MalformedNumber => "malformed number".into(),
+        GcodeErrorKind::DuplicateWord(b) => format!("word {} given twice", letter(b)),
+        GcodeErrorKind::MissingFeed => "G1 move before any feed (F)".into(),
+        GcodeErrorKind::NoMotionMode => "axis words before any G0/G1".into(),
+        GcodeErrorKind::BadFeed => "feed must be positive".into(),
+        GcodeErrorKind::BadChecksum { given, computed } => {
+            format!("checksum *{given} does not match the line's {computed}")
+        }
+        GcodeErrorKind::UnclosedComment => "comment not closed on its line".into(),
+        GcodeErrorKind::LineTooLong => format!("line longer than {MAX_LINE_BYTES} bytes"),
+        GcodeErrorKind::TooManyPoints => {
+            format!("more than {PROGRAM_POINTS} points (the machine's buffer)")
+        }
+        GcodeErrorKind::TooManyWords => "too many words on the line".into(),
+        GcodeErrorKind::NotFinite => "coordinate or feed not finite".into(),
+    }
+}
+
+fn axis(i: u8) -> &'static str {
+    ["x", "y", "z", "θz (B)", "θx (A)"]
+        .get(usize::from(i))
+        .copied()
+        .unwrap_or("?")
+}
+
+/// The loader's refusal of a parsed program in words.
+pub fn describe_job(kind: ArrowJobErrorKind) -> String {
+    match kind {
+        ArrowJobErrorKind::Gcode { kind, .. } => describe_gcode(kind),
+        ArrowJobErrorKind::Empty => "the program has no move".into(),
+        ArrowJobErrorKind::TooLarge => {
+            format!("more than {JOB_MOVES} moves, or more than {JOB_POINTS} points in one move")
+        }
+        ArrowJobErrorKind::Spline(e) => format!("the move's spline cannot be built: {e:?}"),
+        ArrowJobErrorKind::Feed(e) => format!("the move cannot be planned: {e:?}"),
+        ArrowJobErrorKind::Workspace(e) => match e {
+            ArrowError::OutsideWorkspace(i) => {
+                format!("the path leaves the workspace (axis {}, A eq. 25)", axis(i))
+            }
+            ArrowError::OutOfReach(i) => format!("arm {} cannot reach (A eq. 7)", i + 1),
+            other => format!("the path is not reachable: {other:?}"),
+        },
+        ArrowJobErrorKind::Singular => {
+            "the path comes within the singularity margin (A eq. 30-32)".into()
+        }
+        ArrowJobErrorKind::Config(e) => format!("job configuration: {e}"),
+    }
+}

@@ -1,0 +1,20 @@
+//! The operator's tools for kerf machines, behind the `kerf` command line.
+//!
+//! - [`plan`]: the image-to-contour planner of T 3.1 (smoothing, Canny edges, gap
+//!   closing, start point, ordering, scaling into the workspace) ending in an EFD
+//!   (T 3.2.2) or a point list (T 3.1.5) fitted with the firmware's own code;
+//! - [`gcode`]: a G-code program checked with ARROW's own parser and job loader;
+//! - [`job`]: the versioned job file both write and the firmware loads;
+//! - [`trace`]: the edge skeleton walked into one ordered chain ([`mask`]: the
+//!   binary images it works on);
+//! - [`plot`]: an SVG picture of a plan.
+//!
+//! "T" is the thesis the planner comes from (`seeds/000_715916eb54047072.txt`), "A"
+//! the ARROW paper (`seeds/002_667f67347ace5e60.txt`).
+
+pub mod gcode;
+pub mod job;
+pub mod mask;
+pub mod plan;
+pub mod plot;
+pub mod trace;

@@ -1,0 +1,243 @@
+//! `kerf`: the operator's command line (see the `kerf_host` crate docs).
+//!
+//! Exit codes: 0 done, 1 bad input or a refused job (the message says why), 2 a usage
+//! error (clap's).
+
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use kerf::trajectory::gcode::MoveKind;
+use kerf_host::gcode::{self, GcodeCheckError};
+use kerf_host::job::Job;
+use kerf_host::plan::{self, Fit, Format, PlanConfig};
+use kerf_host::plot;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::str::FromStr;
+
+/// Operator's tools for kerf machines: plan contour jobs from images, check G-code.
+#[derive(Debug, Parser)]
+#[command(name = "kerf", version, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Plan a contour job from an image (T 3.1): smoothing, Canny edges, gap closing,
+    /// the contour walked from its start, scaled into the workspace and fitted.
+    ///
+    /// A closed contour (the default) starts at its rightmost point and runs
+    /// counter-clockwise; give --start for an open one. The workspace's x points
+    /// right and y up, the origin at the contour's centroid.
+    Plan(PlanArgs),
+    /// Check a G-code program with ARROW's parser and job loader (A §4) and pack it
+    /// as a job. Errors are printed as FILE:LINE:COLUMN: message.
+    Gcode(GcodeArgs),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum FormatArg {
+    /// Elliptic Fourier descriptors (closed contours).
+    Efd,
+    /// Up to 32 points for the firmware's open-path spline.
+    Points,
+}
+
+/// Two numbers `A,B`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Pair(f64, f64);
+
+impl FromStr for Pair {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let (a, b) = s
+            .split_once(',')
+            .ok_or_else(|| format!("expected two numbers A,B, got {s:?}"))?;
+        let num = |v: &str| {
+            v.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("{v:?} is not a finite number"))
+        };
+        Ok(Pair(num(a)?, num(b)?))
+    }
+}
+
+#[derive(Debug, clap::Args)]
+struct PlanArgs {
+    /// The image (PNG or JPEG).
+    image: PathBuf,
+    /// Write the job file here (without it, nothing is written).
+    #[arg(long, value_name = "JOB")]
+    out: Option<PathBuf>,
+    /// Start of an open contour, image pixels X,Y (x right, y down from the top-left
+    /// corner); the walk begins at the contour's end nearest to it.
+    #[arg(long, value_name = "X,Y")]
+    start: Option<Pair>,
+    /// EFD harmonics, 1 to 30 (the firmware's capacity).
+    #[arg(long, value_name = "N", default_value_t = 30)]
+    harmonics: usize,
+    /// The contour's larger side in the workspace, mm (12 mm: the ±6 mm octagon job).
+    #[arg(long, value_name = "W", default_value_t = 12.0)]
+    width_mm: f64,
+    /// What the job carries [default: efd for closed contours, points for open ones].
+    #[arg(long, value_enum)]
+    format: Option<FormatArg>,
+    /// σ of the Gaussian smoothing, pixels.
+    #[arg(long, value_name = "PX", default_value_t = 1.0)]
+    sigma: f32,
+    /// Canny's hysteresis thresholds LOW,HIGH on the Sobel magnitude (0 to ~1140).
+    #[arg(long, value_name = "LOW,HIGH", default_value = "40,100")]
+    canny: Pair,
+    /// Radius of the gap closing (dilation, then erosion), pixels.
+    #[arg(long, value_name = "PX", default_value_t = 3)]
+    close_px: u8,
+    /// Also draw the image, the traced contour and the fit into this SVG file.
+    #[arg(long, value_name = "SVG")]
+    svg: Option<PathBuf>,
+}
+
+#[derive(Debug, clap::Args)]
+struct GcodeArgs {
+    /// The G-code program.
+    file: PathBuf,
+    /// Write the job file here (without it, nothing is written).
+    #[arg(long, value_name = "JOB")]
+    out: Option<PathBuf>,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Plan(args) => run_plan(&args),
+        Command::Gcode(args) => run_gcode(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("{message}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn write_job(path: &Path, job: &Job) -> Result<(), String> {
+    let bytes = job
+        .to_bytes()
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    std::fs::write(path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+    println!("wrote {} ({} bytes)", path.display(), bytes.len());
+    Ok(())
+}
+
+fn run_plan(args: &PlanArgs) -> Result<(), String> {
+    let config = PlanConfig {
+        sigma_px: args.sigma,
+        canny: (args.canny.0 as f32, args.canny.1 as f32),
+        close_px: args.close_px,
+        width_mm: args.width_mm,
+        harmonics: args.harmonics,
+        start_px: args.start.map(|p| [p.0, p.1]),
+        format: args.format.map(|f| match f {
+            FormatArg::Efd => Format::Efd,
+            FormatArg::Points => Format::Points,
+        }),
+        ..PlanConfig::default()
+    };
+    // Large photographs take seconds (thinning is one pass per pixel of the
+    // thickest edge band): show the stage. Hidden when stderr is not a terminal.
+    let bar = ProgressBar::new(5);
+    if let Ok(style) = ProgressStyle::with_template("{bar:20} {pos}/{len} {msg}") {
+        bar.set_style(style);
+    }
+    let name = args.image.display().to_string();
+    let (gray, p) = plan::plan_file(&args.image, &config, &mut |stage| {
+        bar.inc(1);
+        bar.set_message(stage.to_string());
+    })
+    .map_err(|e| format!("{name}: {e}"))?;
+    bar.finish_and_clear();
+    let (w, h) = gray.dimensions();
+    println!("image      {name}: {w} x {h} px");
+    println!(
+        "contour    {}, {} points traced, start at pixel ({:.0}, {:.0})",
+        if p.closed { "closed" } else { "open" },
+        p.chain_px.len(),
+        p.chain_px[0][0],
+        p.chain_px[0][1]
+    );
+    println!(
+        "workspace  {:.4} mm/px, centroid at pixel ({:.1}, {:.1}) -> origin, length {:.2} mm",
+        p.mm_per_px,
+        p.centroid_px[0],
+        p.centroid_px[1],
+        p.length_mm()
+    );
+    let fit = p.fit.samples_mm(2048);
+    let off = plan::deviation(&fit, &p.contour_mm, p.closed).max(plan::deviation(
+        &p.contour_mm,
+        &fit,
+        p.closed,
+    ));
+    match &p.fit {
+        Fit::Efd(e) => println!(
+            "job        EFD, {} harmonics, {:.3} mm from the traced contour at most",
+            e.harmonics(),
+            off
+        ),
+        Fit::Path { points_m, .. } => println!(
+            "job        path, {} points, spline {:.3} mm from the traced contour at most",
+            points_m.len(),
+            off
+        ),
+    }
+    if let Some(svg) = &args.svg {
+        plot::write_svg(svg, &name, &gray, &p, &[])
+            .map_err(|e| format!("{}: {e}", svg.display()))?;
+        println!("wrote {}", svg.display());
+    }
+    if let Some(out) = &args.out {
+        write_job(out, &p.job)?;
+    }
+    Ok(())
+}
+
+fn run_gcode(args: &GcodeArgs) -> Result<(), String> {
+    let name = args.file.display().to_string();
+    let text = std::fs::read(&args.file).map_err(|e| format!("{name}: {e}"))?;
+    let report = gcode::check(&text).map_err(|e: GcodeCheckError| {
+        if e.line == 0 {
+            format!("{name}: {}", e.message)
+        } else {
+            format!("{name}:{}:{}: {}", e.line, e.column, e.message)
+        }
+    })?;
+    println!("{name}: accepted, {} moves", report.moves.len());
+    println!("  move  line  kind   points  length mm  speed mm/s  time s");
+    for (i, m) in report.moves.iter().enumerate() {
+        println!(
+            "  {:>4}  {:>4}  {:<5}  {:>6}  {:>9.1}  {:>10.1}  {:>6.2}",
+            i + 1,
+            m.line,
+            match m.kind {
+                MoveKind::Rapid => "rapid",
+                MoveKind::Feed => "feed",
+            },
+            m.points,
+            m.length_m * 1e3,
+            m.speed_m_s * 1e3,
+            m.duration_s
+        );
+    }
+    println!(
+        "  total length {:.1} mm, duration {:.2} s",
+        report.length_m * 1e3,
+        report.duration_s
+    );
+    if let Some(out) = &args.out {
+        write_job(out, &Job::Gcode { text })?;
+    }
+    Ok(())
+}

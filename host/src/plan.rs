@@ -1,0 +1,497 @@
+//! The image-to-contour planner of T 3.1, ending in a job file.
+//!
+//! 1. T 3.1.1: the image in grey levels, smoothed by a Gaussian of [`PlanConfig::sigma_px`]
+//!    (the noise model of T: white noise), edges by Canny ([`imageproc::edges::canny`],
+//!    which smooths once more with σ = 1.4 px before its Sobel gradients), then gap
+//!    closing by dilation followed by erosion with a square of radius
+//!    [`PlanConfig::close_px`]: gaps of up to 2 r pixels close, and the two edges of a
+//!    thin stroke (an open contour drawn as a line) merge into one band.
+//! 2. T 3.1.2–3.1.3: the band thinned to a skeleton and walked into one ordered chain
+//!    ([`crate::trace`]): closed contours start automatically at the rightmost point
+//!    (top-most of those) and run counter-clockwise; open ones start at the free end
+//!    nearest the user's point ([`PlanConfig::start_px`], in image pixels, x right and
+//!    y down as image viewers show them).
+//! 3. T 3.1.4: scaled into the workspace (below).
+//! 4. T 3.2.2 / 3.1.5: a closed contour becomes an EFD of
+//!    [`PlanConfig::harmonics`] harmonics (`kerf::trajectory::efd`, the firmware's own
+//!    code), an open one (or a closed one on request) a list of at most
+//!    [`OPEN_PATH_POINTS`] points for the firmware's open-path spline.
+//!
+//! # Scaling (T 3.1.4, eq. 2–4)
+//!
+//! One scale for both axes, so that the shape is not distorted (eq. 2 scales x by
+//! O_W/I_W and y by O_H/I_H, which stretches a non-square image): the larger side of
+//! the chain's bounding box becomes [`PlanConfig::width_mm`]. The default, 12 mm, is
+//! the ±6 mm octagon the contouring slave's tests and benchmarks cut
+//! (`kerf::app::delta_slave`, `kerf_sim::contour`). The image's y axis points down
+//! and the workspace's up, so y changes sign (without it the cut would be mirrored).
+//! The offset puts the chain's centroid (its mean over arc length, which is the EFD's
+//! (a0, c0)) at the origin: the firmware places the curve's centre at the job's centre.
+
+use crate::job::Job;
+use crate::trace::{self, Mask, TraceError};
+use image::{DynamicImage, GrayImage};
+use imageproc::distance_transform::Norm;
+use kerf::app::delta_slave::{CONTOUR_HARMONICS, OPEN_PATH_POINTS};
+use kerf::trajectory::efd::Efd;
+use kerf::trajectory::open_path::OpenPath;
+use kerf::trajectory::tangential::Curve;
+use kerf::trajectory::ContourError;
+use thiserror::Error;
+
+/// What the job carries.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// Elliptic Fourier descriptors (closed contours only).
+    Efd,
+    /// A list of points (open contours; a closed one is closed by repeating its start).
+    Points,
+}
+
+/// The planner's settings (module docs). [`Default`] gives the documented defaults.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlanConfig {
+    /// σ of the Gaussian smoothing before Canny, pixels (0: none).
+    pub sigma_px: f32,
+    /// Canny's hysteresis thresholds on the Sobel gradient magnitude (at most about
+    /// 1140 for a black-to-white step): (low, high).
+    pub canny: (f32, f32),
+    /// Radius of the square of the dilation and erosion, pixels: gaps of up to twice
+    /// this close, and the two edges of a stroke up to about 2 r − 2 pixels wide merge.
+    pub close_px: u8,
+    /// Dangling branches shorter than this are removed from open contours, pixels.
+    pub prune_px: usize,
+    /// The larger side of the contour in the workspace, mm.
+    pub width_mm: f64,
+    /// EFD harmonics (1..=30, the firmware's capacity).
+    pub harmonics: usize,
+    /// Start of an open contour, image pixels (x right, y down); `None`: a closed
+    /// contour with the automatic start.
+    pub start_px: Option<[f64; 2]>,
+    /// The job's payload; `None`: EFD for closed contours, points for open ones.
+    pub format: Option<Format>,
+}
+
+impl Default for PlanConfig {
+    /// σ 1 px, Canny (40, 100), closing radius 3 px, spurs under 10 px, 12 mm wide, 30
+    /// harmonics, automatic start, EFD or points by the contour.
+    fn default() -> Self {
+        Self {
+            sigma_px: 1.0,
+            canny: (40.0, 100.0),
+            close_px: 3,
+            prune_px: 10,
+            width_mm: 12.0,
+            harmonics: CONTOUR_HARMONICS,
+            start_px: None,
+            format: None,
+        }
+    }
+}
+
+/// Why no job was planned.
+#[derive(Debug, Error)]
+pub enum PlanError {
+    /// A setting is out of range (names it).
+    #[error("bad setting: {0}")]
+    Config(&'static str),
+    /// The image could not be read or decoded.
+    #[error("cannot read the image: {0}")]
+    Image(#[from] image::ImageError),
+    /// No chain could be traced.
+    #[error("{0}")]
+    Trace(#[from] TraceError),
+    /// The chain is too short or has no extent.
+    #[error("the traced contour is too small ({0} points)")]
+    TooSmall(usize),
+    /// EFD asked for an open contour.
+    #[error("an open contour cannot be an EFD job (use --format points)")]
+    OpenAsEfd,
+    /// The firmware's EFD code refused the contour.
+    #[error("EFD fit refused: {0:?}")]
+    Efd(ContourError),
+    /// The firmware's open-path code refused the points.
+    #[error("open path refused: {0:?}")]
+    Path(ContourError),
+}
+
+/// The fitted curve of a plan.
+#[derive(Clone, Debug)]
+pub enum Fit {
+    /// The EFD of a closed contour, m.
+    Efd(Box<Efd<f64, CONTOUR_HARMONICS>>),
+    /// The points of a path and the firmware's spline through them, m.
+    Path {
+        /// The points, m.
+        points_m: Vec<[f64; 2]>,
+        /// The spline through them.
+        spline: Box<OpenPath<f64, OPEN_PATH_POINTS>>,
+    },
+}
+
+impl Fit {
+    /// `n` points along the curve, mm (a closed curve's first point not repeated).
+    pub fn samples_mm(&self, n: usize) -> Vec<[f64; 2]> {
+        let n = n.max(2);
+        let (span, closed, centre) = match self {
+            Fit::Efd(e) => (e.span(), true, e.centre()),
+            Fit::Path { spline, .. } => (spline.span(), false, spline.centre()),
+        };
+        let steps = if closed { n } else { n - 1 };
+        (0..n)
+            .map(|i| {
+                let theta = span * i as f64 / steps as f64;
+                let p = match self {
+                    Fit::Efd(e) => e.evaluate(theta).position,
+                    Fit::Path { spline, .. } => spline.evaluate(theta).position,
+                };
+                [(p.x + centre.x) * 1e3, (p.y + centre.y) * 1e3]
+            })
+            .collect()
+    }
+}
+
+/// A planned contour.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    /// Whether the contour is closed.
+    pub closed: bool,
+    /// The traced chain in image pixels (x right, y down), in cutting order.
+    pub chain_px: Vec<[f64; 2]>,
+    /// Workspace mm per image pixel.
+    pub mm_per_px: f64,
+    /// The chain's centroid in the image, pixels: the workspace origin.
+    pub centroid_px: [f64; 2],
+    /// The chain in the workspace, mm.
+    pub contour_mm: Vec<[f64; 2]>,
+    /// The curve the job carries.
+    pub fit: Fit,
+    /// The job.
+    pub job: Job,
+}
+
+impl Plan {
+    /// An image pixel position in the workspace, mm (module docs).
+    pub fn to_mm(&self, p: [f64; 2]) -> [f64; 2] {
+        to_mm(p, self.centroid_px, self.mm_per_px)
+    }
+
+    /// The contour's length in the workspace, mm (closing segment included when
+    /// closed).
+    pub fn length_mm(&self) -> f64 {
+        polyline_length(&self.contour_mm, self.closed)
+    }
+}
+
+fn to_mm(p: [f64; 2], centroid: [f64; 2], s: f64) -> [f64; 2] {
+    // T eq. 2–4 print β = x_F·(O_W/I_W) + O_W/2: that adds the first point's own
+    // (scaled) coordinate instead of subtracting it, so x_O = s(x_I + x_F) + O_W/2
+    // lies in [s·x_F + O_W/2, s·x_F + 3·O_W/2] for x_I in [0, I_W]: beside a workspace
+    // centred on the origin, not on it. Centring needs β = −s·x_c; with the centroid
+    // as x_c the curve's centre is the origin.
+    [s * (p[0] - centroid[0]), -s * (p[1] - centroid[1])]
+}
+
+/// Length of a polyline, closed or not.
+pub fn polyline_length(points: &[[f64; 2]], closed: bool) -> f64 {
+    let open: f64 = points
+        .windows(2)
+        .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+        .sum();
+    let closing = match (closed, points.first(), points.last()) {
+        (true, Some(a), Some(b)) => (a[0] - b[0]).hypot(a[1] - b[1]),
+        _ => 0.0,
+    };
+    open + closing
+}
+
+/// Mean of a polyline over its arc length (the centre of its segments weighted by
+/// their lengths); the plain mean of the points when it has no length.
+fn centroid(points: &[[f64; 2]], closed: bool) -> [f64; 2] {
+    let n = points.len();
+    let segments = if closed { n } else { n.saturating_sub(1) };
+    let (mut sx, mut sy, mut sl) = (0.0, 0.0, 0.0);
+    for i in 0..segments {
+        let (a, b) = (points[i], points[(i + 1) % n]);
+        let l = (b[0] - a[0]).hypot(b[1] - a[1]);
+        sx += l * (a[0] + b[0]) / 2.0;
+        sy += l * (a[1] + b[1]) / 2.0;
+        sl += l;
+    }
+    if sl > 0.0 {
+        [sx / sl, sy / sl]
+    } else {
+        let m = n.max(1) as f64;
+        let s = points
+            .iter()
+            .fold([0.0, 0.0], |s, p| [s[0] + p[0], s[1] + p[1]]);
+        [s[0] / m, s[1] / m]
+    }
+}
+
+/// The stages of T 3.1.1 on a grey image: the binary edge map after closing.
+pub fn edges(gray: &GrayImage, config: &PlanConfig) -> GrayImage {
+    let smoothed = if config.sigma_px > 0.0 {
+        imageproc::filter::gaussian_blur_f32(gray, config.sigma_px)
+    } else {
+        gray.clone()
+    };
+    let edges = imageproc::edges::canny(&smoothed, config.canny.0, config.canny.1);
+    let dilated = imageproc::morphology::dilate(&edges, Norm::LInf, config.close_px);
+    imageproc::morphology::erode(&dilated, Norm::LInf, config.close_px)
+}
+
+/// The one-pixel skeleton of an edge map.
+pub fn skeleton(edges: &GrayImage) -> Mask {
+    band(edges).thinned()
+}
+
+fn band(edges: &GrayImage) -> Mask {
+    Mask::from_fn(edges.width(), edges.height(), |x, y| {
+        edges.get_pixel(x, y)[0] > 0
+    })
+}
+
+fn check(config: &PlanConfig) -> Result<(), PlanError> {
+    if !(config.sigma_px.is_finite() && config.sigma_px >= 0.0) {
+        return Err(PlanError::Config("sigma must be finite and not negative"));
+    }
+    let (lo, hi) = config.canny;
+    if !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && lo <= hi) {
+        return Err(PlanError::Config(
+            "canny thresholds must be 0 <= LOW <= HIGH",
+        ));
+    }
+    if !(config.width_mm.is_finite() && config.width_mm > 0.0) {
+        return Err(PlanError::Config("width must be finite and positive"));
+    }
+    if !(1..=CONTOUR_HARMONICS).contains(&config.harmonics) {
+        return Err(PlanError::Config(
+            "harmonics must be 1..=30 (the firmware's capacity)",
+        ));
+    }
+    if config
+        .start_px
+        .is_some_and(|s| !s.iter().all(|v| v.is_finite()))
+    {
+        return Err(PlanError::Config("start must be finite"));
+    }
+    Ok(())
+}
+
+/// Plans the job of an image file (module docs); `stage` is told each step's name.
+pub fn plan_file(
+    path: &std::path::Path,
+    config: &PlanConfig,
+    stage: &mut dyn FnMut(&str),
+) -> Result<(GrayImage, Plan), PlanError> {
+    check(config)?;
+    stage("reading the image");
+    let image: DynamicImage = image::ImageReader::open(path)
+        .map_err(image::ImageError::IoError)?
+        .with_guessed_format()
+        .map_err(image::ImageError::IoError)?
+        .decode()?;
+    let gray = image.to_luma8();
+    let plan = plan_image(&gray, config, stage)?;
+    Ok((gray, plan))
+}
+
+/// Plans the job of a grey image (module docs); `stage` is told each step's name.
+pub fn plan_image(
+    gray: &GrayImage,
+    config: &PlanConfig,
+    stage: &mut dyn FnMut(&str),
+) -> Result<Plan, PlanError> {
+    check(config)?;
+    stage("smoothing, edges and gap closing");
+    let closed_edges = edges(gray, config);
+    stage("thinning");
+    let band = band(&closed_edges);
+    let skel = band.thinned();
+    stage("tracing the contour");
+    let (closed, chain_px) = match config.start_px {
+        None => (true, trace::closed_chain(&skel)?),
+        Some(s) => (false, trace::open_chain(&skel, &band, s, config.prune_px)?),
+    };
+    let (min, max) = chain_px.iter().fold(
+        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+        |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        },
+    );
+    let extent_px = (max[0] - min[0]).max(max[1] - min[1]);
+    if chain_px.len() < 3 || extent_px.is_nan() || extent_px <= 0.0 {
+        return Err(PlanError::TooSmall(chain_px.len()));
+    }
+    stage("scaling and fitting");
+    let mm_per_px = config.width_mm / extent_px;
+    let centroid_px = centroid(&chain_px, closed);
+    let contour_mm: Vec<[f64; 2]> = chain_px
+        .iter()
+        .map(|&p| to_mm(p, centroid_px, mm_per_px))
+        .collect();
+    let format = config
+        .format
+        .unwrap_or(if closed { Format::Efd } else { Format::Points });
+    let (fit, job) = match format {
+        Format::Efd if !closed => return Err(PlanError::OpenAsEfd),
+        Format::Efd => efd_job(&contour_mm, config.harmonics)?,
+        Format::Points => path_job(&contour_mm, closed)?,
+    };
+    Ok(Plan {
+        closed,
+        chain_px,
+        mm_per_px,
+        centroid_px,
+        contour_mm,
+        fit,
+        job,
+    })
+}
+
+fn efd_job(contour_mm: &[[f64; 2]], harmonics: usize) -> Result<(Fit, Job), PlanError> {
+    let points_m: Vec<[f64; 2]> = contour_mm
+        .iter()
+        .map(|p| [p[0] * 1e-3, p[1] * 1e-3])
+        .collect();
+    let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&points_m, harmonics)
+        .map_err(PlanError::Efd)?;
+    let centre = efd.centre();
+    let centre_m = [centre.x as f32, centre.y as f32];
+    let coefficients: Vec<[f32; 4]> = efd
+        .coefficients()
+        .iter()
+        .take(efd.harmonics())
+        .map(|c| c.map(|v| v as f32))
+        .collect();
+    // What the firmware will do with the file: the f32 curve from these numbers.
+    let wide: Vec<[f64; 4]> = coefficients.iter().map(|c| c.map(f64::from)).collect();
+    Efd::<f32, CONTOUR_HARMONICS>::from_coefficients(centre_m.map(f64::from), &wide)
+        .map_err(PlanError::Efd)?;
+    let job = Job::Efd {
+        centre_m,
+        coefficients,
+    };
+    Ok((Fit::Efd(Box::new(efd)), job))
+}
+
+fn path_job(contour_mm: &[[f64; 2]], closed: bool) -> Result<(Fit, Job), PlanError> {
+    let mut line: Vec<[f64; 2]> = contour_mm
+        .iter()
+        .map(|p| [p[0] * 1e-3, p[1] * 1e-3])
+        .collect();
+    if closed {
+        if let Some(&first) = line.first() {
+            line.push(first);
+        }
+    }
+    let (points_m, spline) = spline_points(&line, OPEN_PATH_POINTS)?;
+    OpenPath::<f32, OPEN_PATH_POINTS>::from_f64(&spline).map_err(PlanError::Path)?;
+    let job = Job::Path {
+        points_m: points_m.iter().map(|p| p.map(|v| v as f32)).collect(),
+    };
+    Ok((
+        Fit::Path {
+            points_m,
+            spline: Box::new(spline),
+        },
+        job,
+    ))
+}
+
+/// At most `n` (≥ 3) points of `line` (m) for the firmware's open-path spline, its
+/// ends kept, rounded to f32 as the file stores them, and the spline through them.
+///
+/// Greedy: start from the ends and the point farthest from the chord between them
+/// (Ramer–Douglas–Peucker's first step), then repeatedly add the point of `line`
+/// farthest from the spline through the points chosen so far — a point's place on
+/// the spline is its share of the arc length between its two chosen neighbours —
+/// until `n` points or no distance left. Choosing by the polyline alone (plain RDP)
+/// leaves long straight runs as one knot interval, across which a natural cubic
+/// spline bulges by millimetres beside the short intervals of a curve.
+fn spline_points(
+    line: &[[f64; 2]],
+    n: usize,
+) -> Result<(Vec<[f64; 2]>, OpenPath<f64, OPEN_PATH_POINTS>), PlanError> {
+    let round = |p: [f64; 2]| p.map(|v| f64::from(v as f32));
+    let mut line: Vec<[f64; 2]> = line.iter().map(|&p| round(p)).collect();
+    line.dedup();
+    let last = line.len().saturating_sub(1);
+    let mut keep = vec![0, last];
+    if let Some((i, _)) = (1..last)
+        .map(|i| (i, segment_distance(line[i], line[0], line[last])))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+    {
+        keep.insert(1, i);
+    }
+    // Arc length along the line.
+    let mut s = vec![0.0; line.len()];
+    for i in 1..line.len() {
+        s[i] = s[i - 1] + (line[i][0] - line[i - 1][0]).hypot(line[i][1] - line[i - 1][1]);
+    }
+    loop {
+        let points: Vec<[f64; 2]> = keep.iter().map(|&i| line[i]).collect();
+        let spline =
+            OpenPath::<f64, OPEN_PATH_POINTS>::from_points(&points).map_err(PlanError::Path)?;
+        if keep.len() >= n.clamp(3, OPEN_PATH_POINTS) {
+            return Ok((points, spline));
+        }
+        let centre = spline.centre();
+        let mut u0 = 0.0;
+        let mut worst: Option<(usize, f64)> = None;
+        for w in keep.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            let chord = (line[b][0] - line[a][0]).hypot(line[b][1] - line[a][1]);
+            let arc = s[b] - s[a];
+            for j in a + 1..b {
+                let u = u0 + chord * (s[j] - s[a]) / arc.max(f64::MIN_POSITIVE);
+                let p = spline.evaluate(u).position;
+                let d = (p.x + centre.x - line[j][0]).hypot(p.y + centre.y - line[j][1]);
+                if worst.is_none_or(|(_, wd)| d > wd) {
+                    worst = Some((j, d));
+                }
+            }
+            u0 += chord;
+        }
+        match worst {
+            Some((j, d)) if d > 0.0 => {
+                let at = keep.partition_point(|&k| k < j);
+                keep.insert(at, j);
+            }
+            _ => return Ok((points, spline)),
+        }
+    }
+}
+
+/// Distance from `p` to the segment `a`–`b`.
+pub fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let len2 = d[0] * d[0] + d[1] * d[1];
+    let t = if len2 > 0.0 {
+        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - a[0] - t * d[0]).hypot(p[1] - a[1] - t * d[1])
+}
+
+/// Largest distance from a point of `a` to the polyline `b` (closed or not): how far
+/// `a` strays from `b`, by brute force over every point and segment.
+pub fn deviation(a: &[[f64; 2]], b: &[[f64; 2]], b_closed: bool) -> f64 {
+    let n = b.len();
+    if n == 0 {
+        return f64::INFINITY;
+    }
+    let segments = if b_closed { n } else { n - 1 };
+    a.iter()
+        .map(|&p| {
+            (0..segments.max(1))
+                .map(|i| segment_distance(p, b[i % n], b[(i + 1) % n]))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
+}

@@ -1,0 +1,183 @@
+//! A picture of a plan as SVG (plotters' SVG backend): the input image underneath in
+//! workspace millimetres, the traced contour, the fitted curve the job carries, the
+//! start point, and optional extra curves (a test's known shape).
+//!
+//! The image is drawn as grey cells of at most [`MAX_CELLS`] per side (averaged, 16
+//! grey levels, runs of one level merged) and lightened so that the curves stand out;
+//! text goes out as SVG `<text>` (no font files needed).
+
+use crate::plan::Plan;
+use image::GrayImage;
+use plotters::prelude::*;
+use std::path::Path;
+
+/// Most image cells along the image's longer side.
+pub const MAX_CELLS: u32 = 120;
+/// Picture size, px (the plotting area is square).
+const SIZE: (u32, u32) = (820, 860);
+
+/// A curve to draw over the image.
+#[derive(Copy, Clone, Debug)]
+pub struct Overlay<'a> {
+    /// Legend text.
+    pub label: &'a str,
+    /// Points, mm.
+    pub points_mm: &'a [[f64; 2]],
+    /// Whether to draw the closing segment.
+    pub closed: bool,
+    /// Colour.
+    pub color: RGBColor,
+}
+
+/// Why a picture was not written.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot draw the picture: {0}")]
+pub struct PlotError(String);
+
+fn err<E: std::fmt::Display>(e: E) -> PlotError {
+    PlotError(e.to_string())
+}
+
+/// Writes the picture of `plan` (module docs) with `extra` curves drawn first.
+pub fn write_svg(
+    path: &Path,
+    title: &str,
+    gray: &GrayImage,
+    plan: &Plan,
+    extra: &[Overlay<'_>],
+) -> Result<(), PlotError> {
+    let (w, h) = gray.dimensions();
+    // Workspace window: the image and every curve, squared.
+    let corners = [
+        plan.to_mm([-0.5, -0.5]),
+        plan.to_mm([f64::from(w) - 0.5, f64::from(h) - 0.5]),
+    ];
+    let fit = plan.fit.samples_mm(1024);
+    let all = corners
+        .iter()
+        .chain(plan.contour_mm.iter())
+        .chain(fit.iter())
+        .chain(extra.iter().flat_map(|o| o.points_mm.iter()));
+    let (lo, hi) = all.fold(
+        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+        |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        },
+    );
+    let half = (hi[0] - lo[0]).max(hi[1] - lo[1]) / 2.0 * 1.02;
+    let mid = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+    let root = SVGBackend::new(path, SIZE).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(10)
+        .x_label_area_size(45)
+        .y_label_area_size(45)
+        .build_cartesian_2d(mid[0] - half..mid[0] + half, mid[1] - half..mid[1] + half)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("x, mm")
+        .y_desc("y, mm")
+        .light_line_style(WHITE.mix(0.0))
+        .draw()
+        .map_err(err)?;
+
+    // The image, lightened: cells of f × f pixels.
+    let f = w.max(h).div_ceil(MAX_CELLS).max(1);
+    let cells = (0..h.div_ceil(f)).flat_map(|cy| {
+        let mut runs: Vec<(u32, u32, u8)> = Vec::new();
+        for cx in 0..w.div_ceil(f) {
+            let (mut sum, mut n) = (0u32, 0u32);
+            for y in cy * f..((cy + 1) * f).min(h) {
+                for x in cx * f..((cx + 1) * f).min(w) {
+                    sum += u32::from(gray.get_pixel(x, y)[0]);
+                    n += 1;
+                }
+            }
+            let level = (sum / n.max(1) / 16) as u8;
+            match runs.last_mut() {
+                Some(r) if r.2 == level => r.1 = cx + 1,
+                _ => runs.push((cx, cx + 1, level)),
+            }
+        }
+        runs.into_iter().map(move |r| (cy, r))
+    });
+    let rects: Vec<_> = cells
+        .map(|(cy, (x0, x1, level))| {
+            let g = 128 + (u32::from(level) * 16 + 8) / 2;
+            let a = plan.to_mm([f64::from(x0 * f) - 0.5, f64::from(cy * f) - 0.5]);
+            // Half a cell past its end, so that no seam shows between cells (the next
+            // cell, drawn later, covers the overlap).
+            let over = 0.5 * f64::from(f) - 0.5;
+            let b = plan.to_mm([
+                f64::from((x1 * f).min(w)) + over,
+                f64::from(((cy + 1) * f).min(h)) + over,
+            ]);
+            let c = RGBColor(g as u8, g as u8, g as u8);
+            Rectangle::new([(a[0], a[1]), (b[0], b[1])], c.filled())
+        })
+        .collect();
+    chart.draw_series(rects).map_err(err)?;
+
+    let mut overlays: Vec<Overlay<'_>> = extra.to_vec();
+    overlays.push(Overlay {
+        label: "traced contour",
+        points_mm: &plan.contour_mm,
+        closed: plan.closed,
+        color: RGBColor(0, 114, 178),
+    });
+    let fit_label = match plan.fit {
+        crate::plan::Fit::Efd(ref e) => format!("EFD fit, {} harmonics", e.harmonics()),
+        crate::plan::Fit::Path { ref points_m, .. } => {
+            format!("job path, {} points, spline", points_m.len())
+        }
+    };
+    overlays.push(Overlay {
+        label: &fit_label,
+        points_mm: &fit,
+        closed: plan.closed && matches!(plan.fit, crate::plan::Fit::Efd(_)),
+        color: RGBColor(213, 94, 0),
+    });
+    for o in &overlays {
+        let mut pts: Vec<(f64, f64)> = o.points_mm.iter().map(|p| (p[0], p[1])).collect();
+        if let (true, Some(&first)) = (o.closed, pts.first()) {
+            pts.push(first);
+        }
+        let color = o.color;
+        chart
+            .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+            .map_err(err)?
+            .label(o.label)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
+    }
+    if let crate::plan::Fit::Path { ref points_m, .. } = plan.fit {
+        let marks = points_m
+            .iter()
+            .map(|p| Circle::new((p[0] * 1e3, p[1] * 1e3), 3, RGBColor(213, 94, 0).filled()));
+        chart.draw_series(marks).map_err(err)?;
+    }
+    if let Some(s) = plan.contour_mm.first() {
+        chart
+            .draw_series(std::iter::once(Circle::new(
+                (s[0], s[1]),
+                6,
+                BLACK.filled(),
+            )))
+            .map_err(err)?
+            .label("start")
+            .legend(|(x, y)| Circle::new((x + 10, y), 5, BLACK.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}

@@ -1,0 +1,224 @@
+//! The `kerf` binary: help, usage errors (exit 2), refused input (exit 1), a planned
+//! job file, and `kerf gcode` on ARROW's pyramid program and broken copies of it.
+
+mod common;
+
+use kerf_host::job::Job;
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn kerf(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_kerf"))
+        .args(args)
+        .output()
+        .expect("run kerf")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name)
+}
+
+fn pyramid() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware/app/data/pyramid.gcode")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+#[test]
+fn help_is_everywhere_and_usage_errors_exit_2() {
+    for args in [
+        &["--help"][..],
+        &["plan", "--help"],
+        &["gcode", "--help"],
+        &["--version"],
+    ] {
+        let out = kerf(args);
+        assert_eq!(out.status.code(), Some(0), "{args:?}");
+        assert!(!out.stdout.is_empty());
+    }
+    for args in [
+        &[][..],
+        &["plan"],
+        &["frobnicate"],
+        &["plan", "x.png", "--harmonics", "many"],
+        &["plan", "x.png", "--start", "3"],
+        &["plan", "x.png", "--format", "svg"],
+        &["gcode"],
+    ] {
+        assert_eq!(kerf(args).status.code(), Some(2), "{args:?}");
+    }
+}
+
+fn octagon_png() -> PathBuf {
+    let raster = common::Raster {
+        size: 240,
+        px_per_mm: 10.0,
+    };
+    let mm: Vec<[f64; 2]> = kerf::trajectory::shapes::octagon()
+        .iter()
+        .map(|p| [p[0] * 1e3, p[1] * 1e3])
+        .collect();
+    let path = tmp("octagon.png");
+    raster.filled(&mm, 3).save(&path).unwrap();
+    path
+}
+
+#[test]
+fn plan_writes_an_efd_job_and_refuses_bad_input_with_exit_1() {
+    let png = octagon_png();
+    let job = tmp("octagon.kjob");
+    let svg = tmp("octagon.svg");
+    let png_s = png.to_str().unwrap();
+    let out = kerf(&[
+        "plan",
+        png_s,
+        "--out",
+        job.to_str().unwrap(),
+        "--harmonics",
+        "20",
+        "--svg",
+        svg.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(
+        stdout.contains("closed") && stdout.contains("EFD, 20 harmonics"),
+        "{stdout}"
+    );
+    let Job::Efd { coefficients, .. } = Job::from_bytes(&std::fs::read(&job).unwrap()).unwrap()
+    else {
+        panic!("not an EFD job");
+    };
+    assert_eq!(coefficients.len(), 20);
+    // The first harmonic of a 12 mm octagon is a circle of about 6 mm radius.
+    let c = coefficients[0];
+    let r = ((c[0] * c[0] + c[1] * c[1] + c[2] * c[2] + c[3] * c[3]) / 2.0).sqrt();
+    assert!((r - 5.8e-3).abs() < 0.3e-3, "{r}");
+    assert!(std::fs::metadata(&svg).unwrap().len() > 1000);
+
+    for (args, says) in [
+        (vec!["plan", png_s, "--harmonics", "31"], "harmonics"),
+        (vec!["plan", png_s, "--width-mm", "0"], "width"),
+        (vec!["plan", png_s, "--start", "10,10"], "closed"),
+        (vec!["plan", "/nonexistent/x.png"], "cannot read"),
+        (vec!["plan", file!()], "cannot read"),
+    ] {
+        let out = kerf(&args);
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        assert!(
+            text(&out.stderr).contains(says),
+            "{args:?}: {}",
+            text(&out.stderr)
+        );
+    }
+}
+
+#[test]
+fn plan_writes_a_path_job_for_an_open_contour() {
+    let raster = common::Raster {
+        size: 300,
+        px_per_mm: 20.0,
+    };
+    let mm: Vec<[f64; 2]> = kerf::trajectory::shapes::letter_s()
+        .iter()
+        .map(|p| [p[0] * 1e3, p[1] * 1e3])
+        .collect();
+    let png = tmp("letter_s.png");
+    raster.stroke(&mm, 3.0, 5).save(&png).unwrap();
+    let start = raster.px(mm[0]);
+    let start = format!("{:.0},{:.0}", start[0], start[1]);
+    let job = tmp("letter_s.kjob");
+    let png_s = png.to_str().unwrap();
+    let out = kerf(&[
+        "plan",
+        png_s,
+        "--start",
+        &start,
+        "--out",
+        job.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let Job::Path { points_m } = Job::from_bytes(&std::fs::read(&job).unwrap()).unwrap() else {
+        panic!("not a path job");
+    };
+    assert!((3..=32).contains(&points_m.len()));
+    // An open contour has no EFD, and a letter has no closed contour.
+    let out = kerf(&["plan", png_s, "--start", &start, "--format", "efd"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stderr).contains("open contour"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+#[test]
+fn gcode_accepts_the_pyramid_and_packs_it() {
+    let job = tmp("pyramid.kjob");
+    let out = kerf(&[
+        "gcode",
+        pyramid().to_str().unwrap(),
+        "--out",
+        job.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    println!("{stdout}");
+    assert!(
+        stdout.contains("accepted") && stdout.contains("total length"),
+        "{stdout}"
+    );
+    let back = Job::from_bytes(&std::fs::read(&job).unwrap()).unwrap();
+    assert_eq!(
+        back,
+        Job::Gcode {
+            text: std::fs::read(pyramid()).unwrap()
+        }
+    );
+}
+
+/// Runs `kerf gcode` on the pyramid with `from` replaced by `to` (once) and returns
+/// the stderr after checking exit 1 and the FILE:LINE:COLUMN prefix: (line, column,
+/// message).
+fn broken(name: &str, from: &str, to: &str) -> (u32, u32, String) {
+    let original = std::fs::read_to_string(pyramid()).unwrap();
+    assert!(original.contains(from));
+    let path = tmp(name);
+    std::fs::write(&path, original.replacen(from, to, 1)).unwrap();
+    let out = kerf(&["gcode", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = text(&out.stderr);
+    println!("{stderr}");
+    let prefix = format!("{}:", path.display());
+    let rest = stderr.strip_prefix(&prefix).expect("FILE: prefix");
+    let mut parts = rest.splitn(3, ':');
+    let line = parts.next().unwrap().parse().expect("LINE");
+    let column = parts.next().unwrap().parse().expect("COLUMN");
+    (line, column, parts.next().unwrap().trim().to_string())
+}
+
+fn line_of(needle: &str) -> u32 {
+    let original = std::fs::read_to_string(pyramid()).unwrap();
+    1 + original.lines().position(|l| l.contains(needle)).unwrap() as u32
+}
+
+#[test]
+fn gcode_reports_file_line_and_column_and_exits_1() {
+    // A second decimal point: the parser's line and the column of the stray '.'.
+    let (line, column, message) = broken("bad_number.gcode", "N70 X13.333", "N70 X13.3.33");
+    assert_eq!((line, column), (line_of("N70 X13.333"), 10));
+    assert!(message.contains("unexpected '.'"), "{message}");
+    // An unsupported code.
+    let (line, column, message) = broken("arc.gcode", "N100 X-7.333", "N100 G2 X-7.333");
+    assert_eq!((line, column), (line_of("N100 X-7.333"), 6));
+    assert!(message.contains("G2"), "{message}");
+    // A point far outside ARROW's workspace: the loader names the line.
+    let (line, column, message) = broken("outside.gcode", "N90 X7.333", "N90 X1900.0");
+    assert_eq!((line, column), (line_of("N90 X7.333"), 1));
+    assert!(
+        message.contains("workspace") || message.contains("reach"),
+        "{message}"
+    );
+}
