@@ -14,7 +14,7 @@ use kerf::app::host_link::{HostLink, HostLinkConfig};
 use kerf::app::supervisor::{Command, Report};
 use kerf::scalar::Float;
 
-/// Bytes of an uploaded job the slave holds (a 30-harmonic EFD file is 500).
+/// Bytes of an uploaded job the slave holds (a 30-harmonic EFD file is 504).
 pub const LINK_JOB_BYTES: usize = 1024;
 
 /// The link's heartbeat timeout in these scenarios, s.

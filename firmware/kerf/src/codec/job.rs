@@ -8,9 +8,14 @@
 //! | 0 | 4 | magic `KRFJ` |
 //! | 4 | 1 | format version (= [`JOB_FORMAT_VERSION`]) |
 //! | 5 | 1 | kind: 0 EFD, 1 points, 2 G-code ([`JobKind`]) |
-//! | 6 | 2 | count: harmonics (EFD), points (points), text bytes (G-code) |
-//! | 8 | … | body |
+//! | 6 | 2 | reserved, 0 |
+//! | 8 | 4 | count: harmonics (EFD), points (points), text bytes (G-code) |
+//! | 12 | … | body |
 //! | end − 4 | 4 | CRC-32 (ISO-HDLC) of every byte before it |
+//!
+//! A reader checks, in this order: length, magic, version, kind, the body's length
+//! against the count, the CRC, the reserved bytes, and that every number is finite; a
+//! new layout gets a new version, and readers refuse versions they do not know.
 //!
 //! Bodies: EFD, the centre (x, y) then (a_k, b_k, c_k, d_k) per harmonic, f32, m;
 //! points, (x, y) per point, f32, m; G-code, the text (ASCII).
@@ -24,7 +29,7 @@ pub const JOB_FORMAT_VERSION: u8 = 1;
 pub const MAGIC: [u8; 4] = *b"KRFJ";
 
 /// Bytes before the body.
-pub const HEADER_BYTES: usize = 8;
+pub const HEADER_BYTES: usize = 12;
 
 const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
@@ -44,10 +49,31 @@ pub enum JobFileError {
     TrailingBytes,
     /// The CRC does not match.
     Crc,
+    /// The reserved bytes are not zero.
+    Reserved,
     /// A number is NaN or infinite.
     NotFinite,
     /// The buffer to write into is too small.
     NoRoom,
+}
+
+impl core::fmt::Display for JobFileError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Truncated => write!(f, "job file truncated"),
+            Self::Magic => write!(f, "not a kerf job file (bad magic)"),
+            Self::Version(v) => write!(
+                f,
+                "job file format version {v} is not supported (this reader knows {JOB_FORMAT_VERSION})"
+            ),
+            Self::Kind(k) => write!(f, "unknown job kind {k}"),
+            Self::TrailingBytes => write!(f, "bytes after the job file's body"),
+            Self::Crc => write!(f, "CRC mismatch: the job file is damaged"),
+            Self::Reserved => write!(f, "reserved bytes are not zero"),
+            Self::NotFinite => write!(f, "a number is NaN or infinite"),
+            Self::NoRoom => write!(f, "the job does not fit the buffer"),
+        }
+    }
 }
 
 /// A job file's content, borrowed from its bytes.
@@ -136,24 +162,29 @@ impl<'a> JobFile<'a> {
             return Err(JobFileError::Version(version));
         }
         let kind = header.get(5).copied().unwrap_or(u8::MAX);
-        let count = usize::from(u16::from_le_bytes([
-            header.get(6).copied().unwrap_or(0),
-            header.get(7).copied().unwrap_or(0),
-        ]));
+        let count = header
+            .get(8..12)
+            .and_then(|b| b.try_into().ok())
+            .map_or(0, u32::from_le_bytes);
+        let count = u64::from(count);
         let expected = match kind {
             0 => 8 + 16 * count,
             1 => 8 * count,
             2 => count,
             k => return Err(JobFileError::Kind(k)),
         };
-        if body.len() < expected {
+        let body_len = body.len() as u64;
+        if body_len < expected {
             return Err(JobFileError::Truncated);
         }
-        if body.len() > expected {
+        if body_len > expected {
             return Err(JobFileError::TrailingBytes);
         }
         if CRC32.checksum(checked) != crc {
             return Err(JobFileError::Crc);
+        }
+        if header.get(6..8) != Some(&[0, 0][..]) {
+            return Err(JobFileError::Reserved);
         }
         let finite = |b: &[u8]| (0..b.len() / 4).all(|i| f32_at(b, i).is_some_and(f32::is_finite));
         match kind {
@@ -190,21 +221,26 @@ fn write(
     out: &mut [u8],
     write_body: impl FnOnce(&mut [u8]),
 ) -> Result<usize, JobFileError> {
-    let count = u16::try_from(count).map_err(|_| JobFileError::NoRoom)?;
+    let count = u32::try_from(count).map_err(|_| JobFileError::NoRoom)?;
     let len = HEADER_BYTES + body_bytes + 4;
     let file = out.get_mut(..len).ok_or(JobFileError::NoRoom)?;
     let (checked, crc) = file.split_at_mut(len - 4);
     let (header, body) = checked.split_at_mut(HEADER_BYTES);
-    let [c0, c1] = count.to_le_bytes();
+    let [c0, c1, c2, c3] = count.to_le_bytes();
+    let [m0, m1, m2, m3] = MAGIC;
     let fields = [
-        MAGIC[0],
-        MAGIC[1],
-        MAGIC[2],
-        MAGIC[3],
+        m0,
+        m1,
+        m2,
+        m3,
         JOB_FORMAT_VERSION,
         kind,
+        0,
+        0,
         c0,
         c1,
+        c2,
+        c3,
     ];
     header.copy_from_slice(&fields);
     write_body(body);
@@ -264,7 +300,7 @@ mod tests {
         let mut buf = [0u8; 512];
         let coefficients = [[1e-3, 2e-3, -3e-3, 4e-3], [0.5e-3, 0.0, 0.0, -0.25e-3]];
         let n = write_efd([1e-3, -2e-3], &coefficients, &mut buf).unwrap();
-        assert_eq!(n, 8 + 8 + 32 + 4);
+        assert_eq!(n, 12 + 8 + 32 + 4);
         let file = JobFile::read(&buf[..n]).unwrap();
         assert_eq!(file.kind(), JobKind::Efd);
         assert_eq!(file.count(), 2);

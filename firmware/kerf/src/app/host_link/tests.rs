@@ -267,12 +267,12 @@ fn hello_and_a_job_uploaded_in_chunks_runs_with_telemetry_and_events() {
                 "Hello { version: 1, machine: \"toy\", max_chunk: 192 }"
             )]
         );
-        let job = points_job(20); // 8 + 160 + 4 = 172 bytes: five chunks
+        let job = points_job(20); // 12 + 160 + 4 = 176 bytes: five chunks
         let progress = upload(rig, &job, 10);
         assert_eq!(progress[0], reply(10, "Ack"));
         assert_eq!(
             progress.last(),
-            Some(&reply(15, "JobProgress { received: 172 }"))
+            Some(&reply(15, "JobProgress { received: 176 }"))
         );
         // The commit is answered when the supervisor has loaded the job.
         assert!(rig.exchange(&frame(16, Request::JobCommit), 0).is_empty());
