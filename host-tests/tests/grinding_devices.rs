@@ -165,7 +165,7 @@ fn run(s: &Scenario) -> Outcome {
             start = k + 1;
         }
         if let Some(after) = s.mute_spindle_after_s {
-            if k == start + (after / TS) as usize {
+            if start.checked_add((after / TS) as usize) == Some(k) {
                 spindle.sim.answering = false;
             }
         }
