@@ -17,6 +17,8 @@ fn main() {
             // the stack) and carries the recorded frames (87 KB) beside its code.
             println!("cargo:rustc-link-arg-bin=remote=--defsym=_kerf_ram_length=0x100000");
             println!("cargo:rustc-link-arg-bin=remote=--defsym=_kerf_flash_length=0x100000");
+            // The link image carries the simulated delta like the contour image.
+            println!("cargo:rustc-link-arg-bin=link=--defsym=_kerf_ram_length=0x100000");
             // The ARROW image holds the pyramid job twice (the supervisor's copy and
             // the command slot's) beside the parse buffer: 1 MiB of SRAM.
             println!("cargo:rustc-link-arg-bin=arrow=--defsym=_kerf_ram_length=0x100000");

@@ -159,7 +159,15 @@ pub struct DeltaPlant {
     drive_force_n: Vector3<f64>,
     commanded_force_n: Vector3<f64>,
     applied_force_n: Vector3<f64>,
+    /// The carriages' mechanical end stops, m: [`END_STOP_INSET_M`] inside each
+    /// actuator's kinematic travel.
+    end_stops_m: [(f64, f64); 3],
 }
+
+/// How far inside the kinematic travel the end stops sit, m: a carriage that rests on
+/// one (unpowered, under gravity) keeps the RK4 stages' overshoot of a few nanometres
+/// inside the travel the kinematics accept.
+pub const END_STOP_INSET_M: f64 = 0.5e-3;
 
 /// Time derivative of the state (q̇, q̈) and the motor forces along the rails.
 type Rate = (Vector3<f64>, Vector3<f64>, Vector3<f64>);
@@ -204,7 +212,14 @@ impl DeltaPlant {
             }
             substeps = substeps.max(needed as u32);
         }
+        let end_stops_m = config.actuators.map(|a| {
+            (
+                a.travel_min_m + END_STOP_INSET_M,
+                a.travel_max_m - END_STOP_INSET_M,
+            )
+        });
         Ok(Self {
+            end_stops_m,
             geometry,
             params,
             carriage_gravity_n,
@@ -372,6 +387,22 @@ impl DeltaPlant {
             self.q_dot_m_s = v + (k1v + k2v * 2.0 + k3v * 2.0 + k4v) * (h / 6.0);
             self.drive_force_n = f_end;
             mean += (r1 + r2 * 2.0 + r3 * 2.0 + r4) / 6.0;
+            // The end stops: inelastic, the carriage held there, its velocity into the
+            // stop gone (an unpowered carriage comes to rest on its lower stop).
+            for ((q, v), (low, high)) in self
+                .q_m
+                .iter_mut()
+                .zip(self.q_dot_m_s.iter_mut())
+                .zip(self.end_stops_m)
+            {
+                if *q < low {
+                    *q = low;
+                    *v = v.max(0.0);
+                } else if *q > high {
+                    *q = high;
+                    *v = v.min(0.0);
+                }
+            }
         }
         self.applied_force_n = if drive.is_instantaneous() {
             force

@@ -4,6 +4,7 @@
 
 pub mod bench;
 pub mod stack;
+pub mod uart;
 
 use cortex_m_semihosting::debug;
 

@@ -1,0 +1,47 @@
+//! QEMU host-link image: the Keops slave (`DeltaSlave<f32>`) on the simulated delta,
+//! driven only by a host over the emulated UART0 with the link protocol
+//! (`kerf_sim::linked`, `kerf::app::host_link`). Run it with QEMU's serial port on a
+//! socket (`-serial tcp:127.0.0.1:PORT,server=on,wait=on`) and connect a host: it
+//! uploads a job, starts it, changes settings, streams telemetry. The image runs until
+//! the host ends QEMU.
+#![no_std]
+#![no_main]
+
+use cortex_m_rt::entry;
+use cortex_m_semihosting::hprintln;
+use hal_mock::hall_sensor::HallSensorParams;
+use kerf_app::exit;
+use kerf_app::uart::{CmsdkUart, UART0_BASE};
+use kerf_sim::linked::with_linked_slave;
+use kerf_sim::slave::SlaveScenario;
+
+#[entry]
+fn main() -> ! {
+    // SAFETY: UART0 belongs to this image alone.
+    let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
+    let mut scenario = SlaveScenario::square();
+    scenario.sensors = [HallSensorParams::LM1247_16BIT; 3];
+    scenario.substeps = 1;
+    let ended = with_linked_slave::<f32, _>(&scenario, 0.25, 10, |slave| {
+        let mut rx = [0u8; 64];
+        loop {
+            let mut n = 0;
+            while let Some(slot) = rx.get_mut(n) {
+                match uart.read() {
+                    Some(b) => *slot = b,
+                    None => break,
+                }
+                n += 1;
+            }
+            let period = slave.period(rx.get(..n).unwrap_or(&[]), &mut |frame| {
+                uart.write(frame);
+                true
+            });
+            if let Err(e) = period {
+                return e;
+            }
+        }
+    });
+    hprintln!("kerf qemu link: the simulation stopped: {:?}", ended);
+    exit(false)
+}
