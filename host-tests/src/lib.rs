@@ -5,6 +5,7 @@ pub mod contours;
 pub mod depth;
 pub mod grinding;
 pub mod hall;
+pub mod link;
 pub mod machining;
 pub mod plot;
 pub mod remote;

@@ -4,22 +4,10 @@
 //! setting during the cut, and hears the end; a sensor fault reaches it as an event;
 //! a host that goes silent gets its job stopped.
 
-use kerf::codec::job::write_efd;
-use kerf::codec::link::{
-    decode, encode, Event, HostFrame, JobKind, MachineMessage, ModeCode, Request, TelemetrySample,
-    MAX_CHUNK, MAX_FRAME,
-};
-use kerf_sim::contour::octagon_efd;
+use host_tests::link::{crc32, heard, octagon_job_file, request_frame, Heard};
+use kerf::codec::link::{Event, JobKind, ModeCode, Request, TelemetrySample, MAX_CHUNK};
 use kerf_sim::linked::{with_linked_slave, LinkedSlave};
 use kerf_sim::slave::SlaveScenario;
-
-/// What the host heard, owned.
-#[derive(Clone, Debug, PartialEq)]
-enum Heard {
-    Reply(u16, String),
-    Telemetry(TelemetrySample),
-    Event(Event),
-}
 
 /// A host: numbers its requests, encodes them, reads what the machine sends.
 #[derive(Default)]
@@ -31,16 +19,7 @@ struct Host {
 impl Host {
     fn frame(&mut self, request: Request<'_>) -> (u16, Vec<u8>) {
         self.seq = self.seq.wrapping_add(1);
-        let mut out = [0u8; MAX_FRAME];
-        let n = encode(
-            &HostFrame {
-                seq: self.seq,
-                request,
-            },
-            &mut out,
-        )
-        .unwrap();
-        (self.seq, out[..n].to_vec())
+        (self.seq, request_frame(self.seq, request))
     }
 
     /// Runs one period with `bytes` from the host.
@@ -54,12 +33,7 @@ impl Host {
             .unwrap();
         for f in frames {
             let mut raw = f[1..f.len() - 1].to_vec();
-            self.heard
-                .push(match decode::<MachineMessage>(&mut raw).unwrap() {
-                    MachineMessage::Reply { seq, reply } => Heard::Reply(seq, format!("{reply:?}")),
-                    MachineMessage::Telemetry(t) => Heard::Telemetry(t),
-                    MachineMessage::Event(e) => Heard::Event(e),
-                });
+            self.heard.push(heard(&mut raw).expect("a machine message"));
         }
     }
 
@@ -89,7 +63,7 @@ impl Host {
     }
 
     fn upload(&mut self, slave: &mut LinkedSlave<'_, f64>, job: &[u8]) {
-        let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(job);
+        let crc = crc32(job);
         let begin = Request::JobBegin {
             kind: JobKind::Efd,
             total_bytes: job.len() as u32,
@@ -129,16 +103,6 @@ impl Host {
             })
             .collect()
     }
-}
-
-/// The octagon (±6 mm, 30 harmonics) as the job file the planner writes.
-fn octagon_job_file() -> Vec<u8> {
-    let efd = octagon_efd(30).unwrap();
-    let c = efd.centre();
-    let coefficients = efd.coefficients().to_vec();
-    let mut buf = [0u8; 1024];
-    let n = write_efd([c.x, c.y], &coefficients, &mut buf).unwrap();
-    buf[..n].to_vec()
 }
 
 fn scenario() -> SlaveScenario {

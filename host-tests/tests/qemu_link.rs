@@ -10,24 +10,15 @@
 //! (`cargo test -p host-tests --test qemu_link -- --ignored`) after
 //! `cargo build … --bin link`; `KERF_LINK_ELF` names the image.
 
-use kerf::codec::job::write_efd;
+use host_tests::link::{crc32, heard, octagon_job_file, request_frame, Heard};
 use kerf::codec::link::{
-    decode, encode, Event, FrameReader, HostFrame, JobKind, MachineMessage, ModeCode, Request,
-    TelemetrySample, MAX_CHUNK, MAX_FRAME,
+    Event, FrameReader, JobKind, ModeCode, Request, TelemetrySample, MAX_CHUNK, MAX_FRAME,
 };
-use kerf_sim::contour::octagon_efd;
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::process::{Child, Command};
 use std::sync::mpsc::{channel, Receiver};
 use std::time::{Duration, Instant};
-
-#[derive(Clone, Debug, PartialEq)]
-enum Heard {
-    Reply(u16, String),
-    Telemetry(TelemetrySample),
-    Event(Event),
-}
 
 struct Qemu(Child);
 
@@ -48,16 +39,8 @@ struct Host {
 impl Host {
     fn send(&mut self, request: Request<'_>) -> u16 {
         self.seq = self.seq.wrapping_add(1);
-        let mut out = [0u8; MAX_FRAME];
-        let n = encode(
-            &HostFrame {
-                seq: self.seq,
-                request,
-            },
-            &mut out,
-        )
-        .unwrap();
-        self.stream.write_all(&out[..n]).unwrap();
+        let frame = request_frame(self.seq, request);
+        self.stream.write_all(&frame).unwrap();
         self.seq
     }
 
@@ -82,7 +65,7 @@ impl Host {
     }
 
     fn upload(&mut self, job: &[u8]) {
-        let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(job);
+        let crc = crc32(job);
         let begin = Request::JobBegin {
             kind: JobKind::Efd,
             total_bytes: job.len() as u32,
@@ -169,15 +152,10 @@ fn connect() -> (Qemu, Host) {
             }
             for &b in &buf[..n] {
                 if let Some(Ok(frame)) = frames.push(b) {
-                    let heard = match decode::<MachineMessage>(frame) {
-                        Ok(MachineMessage::Reply { seq, reply }) => {
-                            Heard::Reply(seq, format!("{reply:?}"))
-                        }
-                        Ok(MachineMessage::Telemetry(t)) => Heard::Telemetry(t),
-                        Ok(MachineMessage::Event(e)) => Heard::Event(e),
-                        Err(_) => continue,
+                    let Some(message) = heard(frame) else {
+                        continue;
                     };
-                    if tx.send(heard).is_err() {
+                    if tx.send(message).is_err() {
                         return;
                     }
                 }
@@ -191,14 +169,6 @@ fn connect() -> (Qemu, Host) {
         log: Vec::new(),
     };
     (qemu, host)
-}
-
-fn octagon_job_file() -> Vec<u8> {
-    let efd = octagon_efd(30).unwrap();
-    let c = efd.centre();
-    let mut buf = [0u8; 1024];
-    let n = write_efd([c.x, c.y], efd.coefficients(), &mut buf).unwrap();
-    buf[..n].to_vec()
 }
 
 #[test]

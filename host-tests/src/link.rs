@@ -1,0 +1,50 @@
+//! A host's side of the link for the tests (`host_link` in simulation, `qemu_link`
+//! against the emulated MCU): requests as frames, what the machine sends as owned
+//! values, and the octagon as the job file the planner writes.
+
+use kerf::codec::job::write_efd;
+use kerf::codec::link::{
+    decode, encode, Event, HostFrame, MachineMessage, Request, TelemetrySample, MAX_FRAME,
+};
+use kerf_sim::contour::octagon_efd;
+
+/// What the host heard, owned.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Heard {
+    /// A reply to request `seq`, as its debug text.
+    Reply(u16, String),
+    /// A telemetry sample.
+    Telemetry(TelemetrySample),
+    /// An event.
+    Event(Event),
+}
+
+/// Request `seq` as a frame between delimiters.
+pub fn request_frame(seq: u16, request: Request<'_>) -> Vec<u8> {
+    let mut out = [0u8; MAX_FRAME];
+    let n = encode(&HostFrame { seq, request }, &mut out).expect("a request fits a frame");
+    out[..n].to_vec()
+}
+
+/// A machine frame (its COBS bytes, without delimiters) as an owned value.
+pub fn heard(frame: &mut [u8]) -> Option<Heard> {
+    Some(match decode::<MachineMessage>(frame).ok()? {
+        MachineMessage::Reply { seq, reply } => Heard::Reply(seq, format!("{reply:?}")),
+        MachineMessage::Telemetry(t) => Heard::Telemetry(t),
+        MachineMessage::Event(e) => Heard::Event(e),
+    })
+}
+
+/// CRC-32 (ISO-HDLC) of a job, as `JobBegin` announces it.
+pub fn crc32(bytes: &[u8]) -> u32 {
+    crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(bytes)
+}
+
+/// The octagon (±6 mm, 30 harmonics) as the job file the planner writes.
+pub fn octagon_job_file() -> Vec<u8> {
+    let efd = octagon_efd(30).expect("the stored octagon");
+    let c = efd.centre();
+    let mut buf = [0u8; 1024];
+    let n = write_efd([c.x, c.y], efd.coefficients(), &mut buf).expect("504 bytes");
+    buf[..n].to_vec()
+}
