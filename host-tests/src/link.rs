@@ -35,10 +35,7 @@ pub fn heard(frame: &mut [u8]) -> Option<Heard> {
     })
 }
 
-/// CRC-32 (ISO-HDLC) of a job, as `JobBegin` announces it.
-pub fn crc32(bytes: &[u8]) -> u32 {
-    crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(bytes)
-}
+pub use kerf::codec::link::crc32;
 
 /// The octagon (±6 mm, 30 harmonics) as the job file the planner writes.
 pub fn octagon_job_file() -> Vec<u8> {

@@ -26,8 +26,8 @@
 use crate::app::supervisor::{Command, CommandError, CommandKind, Machine, Mode, Report};
 use crate::codec::job::JobFile;
 use crate::codec::link::{
-    decode, encode, Event, FrameReader, HostFrame, JobKind, MachineMessage, ModeCode, Refusal,
-    Reply, Request, TelemetrySample, MAX_CHUNK, MAX_FRAME, VERSION,
+    crc32, decode, encode, Event, FrameReader, HostFrame, JobKind, MachineMessage, ModeCode,
+    Refusal, Reply, Request, TelemetrySample, MAX_CHUNK, MAX_FRAME, VERSION,
 };
 use crate::error::{positive, ConfigError};
 use heapless::spsc::Producer;
@@ -85,8 +85,6 @@ struct Upload<const J: usize> {
     crc32: u32,
     bytes: heapless::Vec<u8, J>,
 }
-
-const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
 /// Frames the link could not read (for the status): counted, never answered.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Default)]
@@ -179,25 +177,23 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
         self.send(&MachineMessage::Reply { seq, reply }, send);
     }
 
-    /// Queues `command` for the supervisor; its answer comes with the report.
+    /// Queues `command` for the supervisor; its answer comes with the report. False
+    /// (and `Busy` answered) when a queue is full.
     fn command(
         &mut self,
         seq: u16,
         command: Command<M>,
         commands: &mut Producer<'_, Command<M>>,
         send: &mut dyn FnMut(&[u8]) -> bool,
-    ) {
+    ) -> bool {
         let kind = command.kind();
-        if self.pending.is_full() {
-            return self.reply(seq, Reply::Refused(Refusal::Busy), send);
+        if !self.pending.is_full() && commands.enqueue(command).is_ok() {
+            // Room was checked above.
+            let _ = self.pending.push_back((seq, kind));
+            return true;
         }
-        match commands.enqueue(command) {
-            Ok(()) => {
-                // Room was checked above.
-                let _ = self.pending.push_back((seq, kind));
-            }
-            Err(_) => self.reply(seq, Reply::Refused(Refusal::Busy), send),
-        }
+        self.reply(seq, Reply::Refused(Refusal::Busy), send);
+        false
     }
 
     /// Takes one byte from the host at time `now_s` (any monotonic seconds).
@@ -306,9 +302,15 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
                 self.reply(seq, reply, send);
             }
             Request::JobCommit => self.commit(seq, commands, send),
-            Request::Start => self.command(seq, Command::Start, commands, send),
-            Request::Stop => self.command(seq, Command::Stop, commands, send),
-            Request::ResetFault => self.command(seq, Command::ResetFault, commands, send),
+            Request::Start => {
+                self.command(seq, Command::Start, commands, send);
+            }
+            Request::Stop => {
+                self.command(seq, Command::Stop, commands, send);
+            }
+            Request::ResetFault => {
+                self.command(seq, Command::ResetFault, commands, send);
+            }
             Request::Get { path } => {
                 let mut value = [0u8; 64];
                 match json_core::get(&self.settings, path, &mut value) {
@@ -334,9 +336,7 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
                 };
                 match coefficients {
                     Ok(c) => {
-                        let before = self.pending.len();
-                        self.command(seq, Command::ChangeSettings(c), commands, send);
-                        if self.pending.len() > before {
+                        if self.command(seq, Command::ChangeSettings(c), commands, send) {
                             self.settings = candidate;
                         }
                     }
@@ -356,8 +356,7 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
         let Some(up) = self.upload.take() else {
             return self.reply(seq, Reply::Refused(Refusal::NoJob), send);
         };
-        let complete =
-            up.bytes.len() as u64 == u64::from(up.total) && CRC32.checksum(&up.bytes) == up.crc32;
+        let complete = up.bytes.len() as u64 == u64::from(up.total) && crc32(&up.bytes) == up.crc32;
         if !complete {
             // Kept: the host may resume it.
             self.upload = Some(up);
@@ -373,7 +372,9 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
                 M::load_job(&self.context, &file, &mut job).map(|()| job)
             });
         match built {
-            Ok(job) => self.command(seq, Command::LoadJob(job), commands, send),
+            Ok(job) => {
+                self.command(seq, Command::LoadJob(job), commands, send);
+            }
             Err(code) => self.reply(seq, Reply::Refused(Refusal::Job(code)), send),
         }
     }

@@ -31,7 +31,7 @@ pub const MAGIC: [u8; 4] = *b"KRFJ";
 /// Bytes before the body.
 pub const HEADER_BYTES: usize = 12;
 
-const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+use super::link::crc32;
 
 /// Why bytes are not a job file.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -180,7 +180,7 @@ impl<'a> JobFile<'a> {
         if body_len > expected {
             return Err(JobFileError::TrailingBytes);
         }
-        if CRC32.checksum(checked) != crc {
+        if crc32(checked) != crc {
             return Err(JobFileError::Crc);
         }
         if header.get(6..8) != Some(&[0, 0][..]) {
@@ -244,7 +244,7 @@ fn write(
     ];
     header.copy_from_slice(&fields);
     write_body(body);
-    crc.copy_from_slice(&CRC32.checksum(checked).to_le_bytes());
+    crc.copy_from_slice(&crc32(checked).to_le_bytes());
     Ok(len)
 }
 

@@ -43,6 +43,12 @@ pub const MAX_CHUNK: usize = 192;
 /// The frame check.
 const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
+/// CRC-32 (ISO-HDLC, as Ethernet and zlib) of `bytes`: the check of frames, of job
+/// files, and of a whole upload ([`Request::JobBegin`]).
+pub fn crc32(bytes: &[u8]) -> u32 {
+    CRC32.checksum(bytes)
+}
+
 /// What an uploaded job holds.
 #[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -229,7 +229,7 @@ fn points_job(n: usize) -> Vec<u8> {
 }
 
 fn upload(rig: &mut Rig<'_>, job: &[u8], seq0: u16) -> Vec<Got> {
-    let crc = CRC32.checksum(job);
+    let crc = crc32(job);
     let mut out = rig.exchange(
         &frame(
             seq0,
@@ -305,7 +305,7 @@ fn hello_and_a_job_uploaded_in_chunks_runs_with_telemetry_and_events() {
 fn a_lost_reply_resumes_at_the_offset_the_machine_reports() {
     with_rig(|rig| {
         let job = points_job(20);
-        let crc = CRC32.checksum(&job);
+        let crc = crc32(&job);
         let begin = Request::JobBegin {
             kind: JobKind::Points,
             total_bytes: job.len() as u32,
@@ -397,7 +397,7 @@ fn bad_uploads_are_refused_and_nothing_reaches_the_machine() {
         let wrong = Request::JobBegin {
             kind: JobKind::Points,
             total_bytes: job.len() as u32,
-            crc32: CRC32.checksum(&job) ^ 1,
+            crc32: crc32(&job) ^ 1,
         };
         rig.exchange(&frame(3, wrong), 0);
         rig.exchange(
@@ -421,7 +421,7 @@ fn bad_uploads_are_refused_and_nothing_reaches_the_machine() {
         let as_points = Request::JobBegin {
             kind: JobKind::Points,
             total_bytes: n as u32,
-            crc32: CRC32.checksum(gcode),
+            crc32: crc32(gcode),
         };
         rig.exchange(&frame(6, as_points), 0);
         rig.exchange(
