@@ -145,11 +145,17 @@ impl<T: Float> ArrowPlant<T> {
     ) -> Result<ArrowReading<T>, ArrowError> {
         let c = <T as Real>::from_f64;
         let limit = self.force_limit_n;
-        let (_, jm) = self.geometry.jacobian(&self.pose)?;
-        let normal = (jm.transpose() * jm)
-            .try_inverse()
-            .ok_or(ArrowError::PlateSingular)?;
-        let transmitted = jm * (normal * load_n);
+        // The minimum-norm joint forces of the load, solved only when there is one
+        // (the dynamics below evaluate Jm again for the motion).
+        let transmitted = if load_n.iter().all(|w| *w == T::zero()) {
+            Joints::zeros()
+        } else {
+            let (_, jm) = self.geometry.jacobian(&self.pose)?;
+            let normal = (jm.transpose() * jm)
+                .try_inverse()
+                .ok_or(ArrowError::PlateSingular)?;
+            jm * (normal * load_n)
+        };
         let forces = forces_n.map(|f| {
             if f.is_finite() {
                 f.max(-limit).min(limit)
