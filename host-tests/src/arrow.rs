@@ -32,6 +32,26 @@ pub struct ArrowRunConfig {
     pub wall: Option<(f64, f64)>,
 }
 
+impl ArrowRunConfig {
+    /// The seed's gains (A table 2) with or without the computed feedforward and the
+    /// regularization, for `periods` periods, no wall.
+    pub fn seed(feedforward: bool, regularize: bool, periods: usize) -> Self {
+        Self {
+            parallel: RedundantPidConfig {
+                regularize,
+                ..RedundantPidConfig::ARROW_PARALLEL
+            },
+            turntable: RedundantPidConfig {
+                regularize,
+                ..RedundantPidConfig::ARROW_TURNTABLE
+            },
+            feedforward,
+            periods,
+            wall: None,
+        }
+    }
+}
+
 /// One period's record.
 #[derive(Copy, Clone, Debug)]
 pub struct ArrowSample {

@@ -4,23 +4,10 @@
 
 use host_tests::arrow::{hold, quintic_move, run, ArrowRunConfig, ArrowSample};
 use host_tests::plot::{plots_dir, time_series, Series};
-use kerf::control::redundant_pid::RedundantPidConfig;
 use kerf::kinematics::arrow::Pose;
 
 fn config(regularize: bool) -> ArrowRunConfig {
-    ArrowRunConfig {
-        parallel: RedundantPidConfig {
-            regularize,
-            ..RedundantPidConfig::ARROW_PARALLEL
-        },
-        turntable: RedundantPidConfig {
-            regularize,
-            ..RedundantPidConfig::ARROW_TURNTABLE
-        },
-        feedforward: true,
-        periods: 10_000,
-        wall: None,
-    }
+    ArrowRunConfig::seed(true, regularize, 10_000)
 }
 
 fn series(samples: &[ArrowSample], f: impl Fn(&ArrowSample) -> f64) -> Vec<(f64, f64)> {

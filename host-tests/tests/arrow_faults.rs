@@ -6,7 +6,6 @@ use host_tests::arrow::{job_from_gcode, run_job, ArrowRunConfig, Job, JobRun};
 use kerf::app::arrow::job::{ArrowJobConfig, ArrowJobErrorKind};
 use kerf::app::arrow::machine::ArrowFault;
 use kerf::app::supervisor::Mode;
-use kerf::control::redundant_pid::RedundantPidConfig;
 use kerf::kinematics::arrow::{ArrowConfig, ArrowError, ArrowGeometry};
 use kerf::trajectory::gcode::{GcodeErrorKind, GcodePoint};
 use kerf_sim::arrow::PYRAMID_GCODE;
@@ -105,13 +104,7 @@ fn a_path_into_a_singularity_is_refused_naming_its_line() {
 }
 
 fn config() -> ArrowRunConfig {
-    ArrowRunConfig {
-        parallel: RedundantPidConfig::ARROW_PARALLEL,
-        turntable: RedundantPidConfig::ARROW_TURNTABLE,
-        feedforward: true,
-        periods: 0,
-        wall: None,
-    }
+    ArrowRunConfig::seed(true, true, 0)
 }
 
 /// Runs the pyramid for up to 1 s with `disturb` on the encoders.

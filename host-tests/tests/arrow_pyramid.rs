@@ -7,7 +7,6 @@
 use host_tests::arrow::{job_from_gcode, rms as tracking, run_job, ArrowRunConfig, JobRun};
 use host_tests::plot::{line_plot, plots_dir, time_series, Series};
 use kerf::app::supervisor::Mode;
-use kerf::control::redundant_pid::RedundantPidConfig;
 use kerf_sim::arrow::{TrackingRms, PYRAMID_GCODE};
 
 /// A table 3: Cartesian 7.06 µm and 0.0170°, joint 6.88 µm and 0.0240°.
@@ -21,19 +20,7 @@ const SEED: TrackingRms = TrackingRms {
 };
 
 fn config(feedforward: bool, regularize: bool) -> ArrowRunConfig {
-    ArrowRunConfig {
-        parallel: RedundantPidConfig {
-            regularize,
-            ..RedundantPidConfig::ARROW_PARALLEL
-        },
-        turntable: RedundantPidConfig {
-            regularize,
-            ..RedundantPidConfig::ARROW_TURNTABLE
-        },
-        feedforward,
-        periods: 0,
-        wall: None,
-    }
+    ArrowRunConfig::seed(feedforward, regularize, 0)
 }
 
 fn run(feedforward: bool, regularize: bool) -> JobRun {
