@@ -26,8 +26,9 @@
 use crate::app::supervisor::{Command, CommandError, CommandKind, Machine, Mode, Report};
 use crate::codec::job::JobFile;
 use crate::codec::link::{
-    crc32, decode, encode, Event, FrameReader, HostFrame, JobKind, MachineMessage, ModeCode,
-    Refusal, Reply, Request, TelemetrySample, MAX_CHUNK, MAX_FRAME, VERSION,
+    crc32, decode, encode, Event, FrameReader, HostFrame, JobKind, MachineMessage, MachineStatus,
+    ModeCode, Refusal, Reply, Request, TelemetrySample, JOB_FILE_UNREADABLE, JOB_KIND_MISMATCH,
+    MAX_CHUNK, MAX_FRAME, VERSION,
 };
 use crate::error::{positive, ConfigError};
 use heapless::spsc::Producer;
@@ -105,10 +106,18 @@ pub struct HostLink<M: LinkMachine, const J: usize> {
     pending: Deque<(u16, CommandKind), 4>,
     telemetry_every: u32,
     last_sample_period: Option<u64>,
+    last_report_period: u64,
     mode: ModeCode,
+    last_fault: Option<(u16, u16)>,
     last_heard_s: Option<f64>,
     host_lost: bool,
     counters: LinkCounters,
+}
+
+/// A period in s as whole ns, rounded (positive; saturates past 4.3 s, which no
+/// control period comes near).
+fn period_ns(period_s: f64) -> u32 {
+    (period_s * 1e9 + 0.5) as u32
 }
 
 /// The wire form of a supervisor mode.
@@ -144,7 +153,9 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
             pending: Deque::new(),
             telemetry_every: 0,
             last_sample_period: None,
+            last_report_period: 0,
             mode: ModeCode::Idle,
+            last_fault: None,
             last_heard_s: None,
             host_lost: false,
             counters: LinkCounters::default(),
@@ -247,10 +258,22 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
                     version: VERSION,
                     machine: M::NAME,
                     max_chunk: MAX_CHUNK as u16,
+                    period_ns: period_ns(self.config.period_s),
                 },
                 send,
             ),
             Request::Heartbeat => self.reply(seq, Reply::Ack, send),
+            Request::Status => {
+                let status = MachineStatus {
+                    mode: self.mode,
+                    last_fault: self.last_fault,
+                    period: self.last_report_period,
+                    upload_received: self.upload.as_ref().map(|up| up.bytes.len() as u32),
+                    bad_frames: self.counters.bad_frames,
+                    unsent: self.counters.unsent,
+                };
+                self.reply(seq, Reply::Status(status), send);
+            }
             Request::Telemetry { every_periods } => {
                 self.telemetry_every = every_periods;
                 self.reply(seq, Reply::Ack, send);
@@ -363,10 +386,10 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
             return self.reply(seq, Reply::Refused(Refusal::Incomplete), send);
         }
         let built = JobFile::read(&up.bytes)
-            .map_err(|_| 0xFFFF)
+            .map_err(|_| JOB_FILE_UNREADABLE)
             .and_then(|file| {
                 if file.kind() != up.kind {
-                    return Err(0xFFFE);
+                    return Err(JOB_KIND_MISMATCH);
                 }
                 let mut job = M::Job::default();
                 M::load_job(&self.context, &file, &mut job).map(|()| job)
@@ -390,6 +413,7 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
                 self.send(&MachineMessage::Event(Event::Mode { from, to }), send);
                 if let Mode::Fault(f) = mode {
                     let (code, detail) = M::fault_code(f);
+                    self.last_fault = Some((code, detail));
                     self.send(&MachineMessage::Event(Event::Fault { code, detail }), send);
                 }
             }
@@ -413,6 +437,7 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
                 mode,
                 telemetry,
             } => {
+                self.last_report_period = *period;
                 let due = self.telemetry_every > 0
                     && self.last_sample_period.is_none_or(|last| {
                         period.saturating_sub(last) >= u64::from(self.telemetry_every)

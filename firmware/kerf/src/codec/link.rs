@@ -26,8 +26,9 @@
 
 use serde::{Deserialize, Serialize};
 
-/// Version of the frame and the messages in it.
-pub const VERSION: u8 = 1;
+/// Version of the frame and the messages in it (2: `Hello` carries the control
+/// period; `Status`).
+pub const VERSION: u8 = 2;
 
 /// Most bytes of a frame before COBS: version, message and CRC.
 pub const MAX_PAYLOAD: usize = 256;
@@ -115,6 +116,8 @@ pub enum Request<'a> {
         /// Decimation.
         every_periods: u32,
     },
+    /// The machine's state: [`Reply::Status`].
+    Status,
 }
 
 /// A request with its number.
@@ -143,7 +146,8 @@ pub enum Refusal {
     Incomplete,
     /// No upload in progress, or no job loaded.
     NoJob,
-    /// The job does not fit the machine (its code, per machine).
+    /// The job does not fit the machine: a code per machine, or
+    /// [`JOB_FILE_UNREADABLE`] / [`JOB_KIND_MISMATCH`] for any machine.
     Job(u16),
     /// Not in this mode.
     InvalidInMode,
@@ -154,6 +158,13 @@ pub enum Refusal {
     /// The machine's command queue is full; try again.
     Busy,
 }
+
+/// [`Refusal::Job`]: the committed bytes are not a job file the firmware reads.
+pub const JOB_FILE_UNREADABLE: u16 = 0xFFFF;
+
+/// [`Refusal::Job`]: the job file's kind differs from the one [`Request::JobBegin`]
+/// announced.
+pub const JOB_KIND_MISMATCH: u16 = 0xFFFE;
 
 /// The answer to a request.
 #[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq)]
@@ -167,6 +178,8 @@ pub enum Reply<'a> {
         machine: &'a str,
         /// Largest [`Request::JobChunk`] it takes, bytes.
         max_chunk: u16,
+        /// Its control period, ns (the time base of [`TelemetrySample::period`]).
+        period_ns: u32,
     },
     /// Done.
     Ack,
@@ -183,9 +196,33 @@ pub enum Reply<'a> {
         #[serde(borrow)]
         value: &'a [u8],
     },
+    /// The machine's state, for a host that joins.
+    Status(MachineStatus),
+}
+
+/// The machine's state as [`Request::Status`] reports it.
+#[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq, Eq, Default)]
+pub struct MachineStatus {
+    /// The supervisor's mode.
+    pub mode: ModeCode,
+    /// The last fault (code, detail) as [`Event::Fault`] carried it, kept after it is
+    /// reset.
+    pub last_fault: Option<(u16, u16)>,
+    /// The control period of the latest telemetry report (0 before any).
+    pub period: u64,
+    /// Bytes of an upload in progress (`None`: none).
+    pub upload_received: Option<u32>,
+    /// Frames dropped since power-up: bad COBS, CRC, version or message.
+    pub bad_frames: u32,
+    /// Replies, samples or events the link could not send since power-up.
+    pub unsent: u32,
 }
 
 /// A decimated telemetry sample.
+///
+/// `period` is the low 32 bits of the machine's period count: it wraps (after 5.0
+/// days at 10 kHz), so a host extends it by the forward difference of each sample to
+/// the previous.
 #[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq, Default)]
 pub struct TelemetrySample {
     /// Control period count.

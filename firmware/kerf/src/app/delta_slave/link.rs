@@ -153,6 +153,46 @@ pub mod load_codes {
     pub const KIND: u16 = 0x203;
 }
 
+/// What a fault code of [`LinkMachine::fault_code`] means, for a host to print
+/// (`Event::Fault { code, .. }` of a `keops-slave`).
+pub fn fault_reason(code: u16) -> &'static str {
+    match code {
+        1 => "a carriage faulted (its Hall decoder or joint limits)",
+        2 => "the kinematics could not be solved (joint references or measured effector)",
+        3 => "the contour follower could not take a step",
+        4 => "the effector left the contour by more than the contour-error limit",
+        5 => "a carriage fell behind its reference by more than the following-error limit",
+        6 => "a carriage's force stayed at its limit longer than allowed",
+        _ => "unknown fault",
+    }
+}
+
+/// What a job refusal code (`Refusal::Job`) of a `keops-slave` means: the planner's
+/// ([`LinkMachine::job_error_code`]), the loader's ([`load_codes`]) or the link's
+/// (`codec::link::JOB_FILE_UNREADABLE`, `JOB_KIND_MISMATCH`).
+pub fn job_refusal_reason(code: u16) -> &'static str {
+    use crate::codec::link::{JOB_FILE_UNREADABLE, JOB_KIND_MISMATCH};
+    match code {
+        1 => "the job has no move, or more moves than the machine holds",
+        2 => "a point or duration is not finite, or a duration is not positive",
+        3 => "a move leaves the workspace (reach, carriage travel or a singularity)",
+        4 => "a move needs more carriage speed or acceleration than the limits allow",
+        5 => "the job was planned for another machine",
+        6 => "the approach from where the carriages are is too fast",
+        7 => "a move lasts 2^32 control periods or more",
+        8 => "the contour, its speed or its ramps are bad (too short, above the curvature limit)",
+        9 => "a point of the contour leaves the workspace",
+        10 => "a point of the contour needs more carriage speed or acceleration than allowed",
+        11 => "the laser setting is out of range",
+        load_codes::TOO_MANY_HARMONICS => "more harmonics than a contour job holds (30)",
+        load_codes::BAD_CURVE => "the coefficients do not make a curve",
+        load_codes::KIND => "this machine cuts contours (EFD jobs) only",
+        JOB_FILE_UNREADABLE => "not a job file the firmware reads (magic, version, CRC)",
+        JOB_KIND_MISMATCH => "the job file's kind differs from the announced one",
+        _ => "unknown refusal",
+    }
+}
+
 impl<T: Float> LinkMachine for DeltaSlave<T> {
     type Settings = SlaveSettings;
     type JobContext = ContourDefaults;
@@ -253,6 +293,40 @@ mod tests {
     use super::*;
     use crate::app::axis::AxisLaw;
     use miniconf::json_core;
+    use std::vec::Vec;
+
+    #[test]
+    fn every_fault_and_refusal_code_has_its_own_reason() {
+        use crate::codec::link::{JOB_FILE_UNREADABLE, JOB_KIND_MISMATCH};
+        let faults: Vec<&str> = (1..=6).map(fault_reason).collect();
+        let jobs: Vec<&str> = (1..=11)
+            .chain([
+                load_codes::TOO_MANY_HARMONICS,
+                load_codes::BAD_CURVE,
+                load_codes::KIND,
+                JOB_FILE_UNREADABLE,
+                JOB_KIND_MISMATCH,
+            ])
+            .map(job_refusal_reason)
+            .collect();
+        for list in [&faults, &jobs] {
+            for (i, a) in list.iter().enumerate() {
+                assert!(!a.starts_with("unknown"), "{i}: {a}");
+                assert!(list[..i].iter().all(|b| b != a), "{a} twice");
+            }
+        }
+        assert_eq!(fault_reason(0), "unknown fault");
+        assert_eq!(job_refusal_reason(12), "unknown refusal");
+        // The codes the machine sends name the fault they stand for.
+        type S = DeltaSlave<f32>;
+        let (code, _) = S::fault_code(&DeltaFault::ContourError);
+        assert!(fault_reason(code).contains("contour-error"));
+        let (code, axis) = S::fault_code(&DeltaFault::FollowingError { axis: 2 });
+        assert!(fault_reason(code).contains("following-error"));
+        assert_eq!(axis, 2);
+        let code = S::job_error_code(&DeltaJobError::OtherMachine);
+        assert!(job_refusal_reason(code).contains("another machine"));
+    }
 
     #[test]
     fn the_presets_settings_give_back_its_configuration_and_paths_address_them() {

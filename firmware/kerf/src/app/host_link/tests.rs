@@ -154,6 +154,7 @@ struct Rig<'q> {
     from_machine: heapless::spsc::Consumer<'q, Report<Toy>>,
     sent: Vec<Vec<u8>>,
     now_s: f64,
+    periods_run: u64,
     sensor_ok: bool,
 }
 
@@ -171,6 +172,7 @@ impl Rig<'_> {
         }
         for _ in 0..periods {
             self.supervisor.step(&self.sensor_ok);
+            self.periods_run += 1;
             self.now_s += 1e-3;
             while let Some(r) = self.from_machine.dequeue() {
                 self.link.report(&r, &mut |f| {
@@ -185,6 +187,14 @@ impl Rig<'_> {
         }
         self.sent.extend(sent.iter().cloned());
         sent.iter().map(|f| got(f)).collect()
+    }
+}
+
+impl Rig<'_> {
+    /// The period of the last telemetry report the link read (the toy reports every
+    /// period; the supervisor counts from 0).
+    fn supervisor_period(&self) -> u64 {
+        self.periods_run - 1
     }
 }
 
@@ -206,6 +216,7 @@ fn with_rig(test: impl FnOnce(&mut Rig<'_>)) {
         from_machine,
         sent: Vec::new(),
         now_s: 0.0,
+        periods_run: 0,
         sensor_ok: true,
     };
     // Calibrated and ready, as the board's own task leaves it.
@@ -264,7 +275,7 @@ fn hello_and_a_job_uploaded_in_chunks_runs_with_telemetry_and_events() {
             hello,
             [reply(
                 1,
-                "Hello { version: 1, machine: \"toy\", max_chunk: 192 }"
+                "Hello { version: 2, machine: \"toy\", max_chunk: 192, period_ns: 1000000 }"
             )]
         );
         let job = points_job(20); // 12 + 160 + 4 = 176 bytes: five chunks
@@ -540,5 +551,33 @@ fn a_fault_reaches_the_host_as_an_event_with_its_code() {
         let reset = rig.exchange(&frame(13, Request::ResetFault), 1);
         assert!(reset.contains(&reply(13, "Ack")), "{reset:?}");
         assert_eq!(rig.supervisor.mode(), Mode::Idle);
+        // A host that joins now reads the mode and the fault that was reset; a bad
+        // frame and a half upload show too.
+        rig.exchange(&[0, 1, 2, 3, 0], 0);
+        rig.exchange(
+            &frame(
+                14,
+                Request::JobBegin {
+                    kind: JobKind::Points,
+                    total_bytes: 100,
+                    crc32: 0,
+                },
+            ),
+            0,
+        );
+        let period = rig.supervisor_period();
+        let status = rig.exchange(&frame(15, Request::Status), 0);
+        let want = MachineStatus {
+            mode: ModeCode::Idle,
+            last_fault: Some((7, 0)),
+            period,
+            upload_received: Some(0),
+            bad_frames: 1,
+            unsent: 0,
+        };
+        assert_eq!(
+            status,
+            [reply(15, &std::format!("{:?}", Reply::Status(want)))]
+        );
     });
 }

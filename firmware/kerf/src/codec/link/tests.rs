@@ -44,6 +44,7 @@ fn host_frames(chunk: &[u8]) -> Vec<HostFrame<'_>> {
             value: b"1.5e6",
         },
         Request::Telemetry { every_periods: 100 },
+        Request::Status,
     ];
     requests
         .into_iter()
@@ -75,6 +76,7 @@ fn every_message_round_trips_and_frames_hold_no_zero_before_the_delimiter() {
                 version: VERSION,
                 machine: "keops-slave",
                 max_chunk: MAX_CHUNK as u16,
+                period_ns: 100_000,
             },
         },
         MachineMessage::Reply {
@@ -94,6 +96,17 @@ fn every_message_round_trips_and_frames_hold_no_zero_before_the_delimiter() {
             force_n: [1.0, -2.5, 9.0],
             laser_w: 12.5,
         }),
+        MachineMessage::Reply {
+            seq: 10,
+            reply: Reply::Status(MachineStatus {
+                mode: ModeCode::Fault,
+                last_fault: Some((4, 0)),
+                period: u64::MAX,
+                upload_received: Some(192),
+                bad_frames: 3,
+                unsent: u32::MAX,
+            }),
+        },
         MachineMessage::Event(Event::Fault { code: 3, detail: 1 }),
         MachineMessage::Event(Event::Mode {
             from: ModeCode::Running,
@@ -154,7 +167,8 @@ fn damaged_frames_are_refused_by_kind() {
     let mut short = good[..good.len() - 3].to_vec();
     assert!(decode::<HostFrame>(&mut short).is_err());
     // Another version, with a correct CRC.
-    let mut payload = Vec::from([2u8]);
+    let other = VERSION + 1;
+    let mut payload = Vec::from([other]);
     let mut body = [0u8; 64];
     payload.extend_from_slice(postcard::to_slice(&frame, &mut body).unwrap());
     let crc = crc32_bitwise(&payload);
@@ -163,7 +177,7 @@ fn damaged_frames_are_refused_by_kind() {
     let m = cobs::encode(&payload, &mut encoded);
     assert_eq!(
         decode::<HostFrame>(&mut encoded[..m]),
-        Err(FrameError::Version(2))
+        Err(FrameError::Version(other))
     );
     // A well-framed message of the other direction, or with bytes left over.
     let message = MachineMessage::Event(Event::HostLost);
