@@ -7,14 +7,21 @@
 //! - [`job`]: the versioned job file both write and the firmware loads;
 //! - [`trace`]: the edge skeleton walked into one ordered chain ([`mask`]: the
 //!   binary images it works on);
-//! - [`plot`]: an SVG picture of a plan.
+//! - [`plot`]: an SVG picture of a plan;
+//! - [`link`]: the host's end of the machine link (requests, replies, typed errors);
+//!   [`session`]: a session with a board or the emulated machine ([`qemu`]) and a
+//!   job's run on it; [`telemetry`]: the samples of a run as CSV, summary and SVG.
 //!
 //! "T" is the thesis the planner comes from (`seeds/000_715916eb54047072.txt`), "A"
 //! the ARROW paper (`seeds/002_667f67347ace5e60.txt`).
 
 pub mod gcode;
 pub mod job;
+pub mod link;
 pub mod mask;
 pub mod plan;
 pub mod plot;
+pub mod qemu;
+pub mod session;
+pub mod telemetry;
 pub mod trace;

@@ -1,7 +1,8 @@
 //! `kerf`: the operator's command line (see the `kerf_host` crate docs).
 //!
-//! Exit codes: 0 done, 1 bad input or a refused job (the message says why), 2 a usage
-//! error (clap's).
+//! Exit codes: 0 done; 1 bad input, or the machine refused or faulted (the message
+//! says why); 2 a usage error (clap's); 3 the machine could not be reached or the
+//! link failed.
 
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -10,11 +11,14 @@ use kerf_host::gcode::{self, GcodeCheckError};
 use kerf_host::job::Job;
 use kerf_host::plan::{self, Fit, Format, PlanConfig};
 use kerf_host::plot;
+mod cli_machine;
+
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::str::FromStr;
 
-/// Operator's tools for kerf machines: plan contour jobs from images, check G-code.
+/// Operator's tools for kerf machines: plan contour jobs from images, check G-code,
+/// run jobs on a machine, change its settings and record its telemetry.
 #[derive(Debug, Parser)]
 #[command(name = "kerf", version, propagate_version = true)]
 struct Cli {
@@ -34,6 +38,54 @@ enum Command {
     /// Check a G-code program with ARROW's parser and job loader (A §4) and pack it
     /// as a job. Errors are printed as FILE:LINE:COLUMN: message.
     Gcode(GcodeArgs),
+    /// Upload a job to the machine, run it and follow it: telemetry (with a heartbeat
+    /// per sample), settings changed at given times or typed during the run (set
+    /// PATH VALUE, get PATH, stop), the summary, CSV and plot at the end.
+    ///
+    /// Exit 0 when the job ran to its end, 1 when the machine refused it, faulted or
+    /// stopped it, 3 when the link failed.
+    Run(cli_machine::RunArgs),
+    /// Read a setting, such as /slave/dob/bandwidth_hz.
+    Get {
+        /// The setting's path in the machine's settings tree.
+        path: String,
+        #[command(flatten)]
+        machine: cli_machine::MachineArgs,
+    },
+    /// Change a setting; the machine validates it as a configuration and applies it
+    /// bumplessly, or refuses it and changes nothing.
+    Set {
+        /// The setting's path.
+        path: String,
+        /// Its value, JSON (a number: 120, 2.5e-3).
+        value: String,
+        #[command(flatten)]
+        machine: cli_machine::MachineArgs,
+    },
+    /// Record the machine's telemetry for a span of machine time.
+    Log(cli_machine::LogArgs),
+    /// The machine's name, mode, last fault, upload and link counters.
+    Status {
+        #[command(flatten)]
+        machine: cli_machine::MachineArgs,
+    },
+}
+
+/// Why a command failed, and its exit code.
+#[derive(Debug)]
+enum Failure {
+    /// Bad input (exit 1).
+    Input(String),
+    /// The machine refused, faulted or stopped (exit 1).
+    Refused(String),
+    /// The link failed (exit 3).
+    Link(String),
+}
+
+impl From<String> for Failure {
+    fn from(s: String) -> Self {
+        Failure::Input(s)
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -111,14 +163,27 @@ struct GcodeArgs {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Plan(args) => run_plan(&args),
-        Command::Gcode(args) => run_gcode(&args),
+        Command::Plan(args) => run_plan(&args).map_err(Failure::from),
+        Command::Gcode(args) => run_gcode(&args).map_err(Failure::from),
+        Command::Run(args) => cli_machine::run(&args),
+        Command::Get { path, machine } => cli_machine::get(&path, &machine),
+        Command::Set {
+            path,
+            value,
+            machine,
+        } => cli_machine::set(&path, &value, &machine),
+        Command::Log(args) => cli_machine::log(&args),
+        Command::Status { machine } => cli_machine::status(&machine),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(message) => {
-            eprintln!("{message}");
+        Err(Failure::Input(m) | Failure::Refused(m)) => {
+            eprintln!("{m}");
             ExitCode::from(1)
+        }
+        Err(Failure::Link(m)) => {
+            eprintln!("{m}");
+            ExitCode::from(3)
         }
     }
 }

@@ -15,6 +15,9 @@ use kerf_app::uart::{CmsdkUart, UART0_BASE};
 use kerf_sim::linked::with_linked_slave;
 use kerf_sim::slave::SlaveScenario;
 
+/// Laps of a contour job: one, the whole contour (the host's job is the part).
+const CONTOUR_LAPS: f64 = 1.0;
+
 #[entry]
 fn main() -> ! {
     // SAFETY: UART0 belongs to this image alone.
@@ -22,7 +25,7 @@ fn main() -> ! {
     let mut scenario = SlaveScenario::square();
     scenario.sensors = [HallSensorParams::LM1247_16BIT; 3];
     scenario.substeps = 1;
-    let ended = with_linked_slave::<f32, _>(&scenario, 0.25, 10, |slave| {
+    let ended = with_linked_slave::<f32, _>(&scenario, CONTOUR_LAPS, 10, |slave| {
         let mut rx = [0u8; 64];
         loop {
             let mut n = 0;

@@ -1,0 +1,374 @@
+//! The `kerf` commands that talk to a machine: run, get, set, log, status.
+
+use crate::Failure;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use kerf::codec::link::Request;
+use kerf_host::job::Job;
+use kerf_host::link::{fault_reason, Heard, LinkError};
+use kerf_host::qemu;
+use kerf_host::session::{Progress, RunPlan, Session, SessionError, Target, TimedChange};
+use kerf_host::telemetry::TelemetryLog;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::str::FromStr;
+use std::sync::mpsc::{channel, Receiver};
+use std::time::{Duration, Instant};
+
+/// Which machine.
+#[derive(Debug, Args)]
+pub struct MachineArgs {
+    /// A board's serial port (a UART adapter or USB CDC), such as /dev/ttyACM0.
+    #[arg(
+        long,
+        value_name = "DEVICE",
+        required_unless_present = "qemu",
+        conflicts_with = "qemu"
+    )]
+    port: Option<String>,
+    /// The port's speed, bits per second (USB CDC ignores it).
+    #[arg(long, value_name = "BAUD", default_value_t = 115_200)]
+    baud: u32,
+    /// The emulated machine: the firmware's QEMU link image (the Keops slave on its
+    /// simulated delta) on qemu-system-arm, started for this command.
+    #[arg(long)]
+    qemu: bool,
+    /// The QEMU link image [default: $KERF_LINK_ELF, else the link image under
+    /// $CARGO_TARGET_DIR or ./target].
+    #[arg(long, value_name = "ELF", requires = "qemu")]
+    image: Option<PathBuf>,
+}
+
+impl MachineArgs {
+    fn open(&self) -> Result<Session, Failure> {
+        let target = match &self.port {
+            Some(device) => Target::Port {
+                device: device.clone(),
+                baud: self.baud,
+            },
+            None => Target::Qemu {
+                image: qemu::image_path(self.image.as_deref()),
+            },
+        };
+        Session::open(&target).map_err(session_failure)
+    }
+}
+
+/// A setting change during a run: `T:PATH=VALUE`.
+#[derive(Debug, Clone, PartialEq)]
+struct Change(TimedChange);
+
+impl FromStr for Change {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bad = || format!("expected T:PATH=VALUE (seconds after the cut begins), got {s:?}");
+        let (t, rest) = s.split_once(':').ok_or_else(bad)?;
+        let (path, value) = rest.split_once('=').ok_or_else(bad)?;
+        let at_s = t
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|t| t.is_finite() && *t >= 0.0)
+            .ok_or_else(bad)?;
+        if !path.starts_with('/') || value.is_empty() {
+            return Err(bad());
+        }
+        Ok(Change(TimedChange {
+            at_s,
+            path: path.to_owned(),
+            value: value.to_owned(),
+        }))
+    }
+}
+
+/// `kerf run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// The job file (`kerf plan --out`, `kerf gcode --out`).
+    job: PathBuf,
+    #[command(flatten)]
+    machine: MachineArgs,
+    /// Telemetry samples per second of machine time.
+    #[arg(long, value_name = "HZ", default_value_t = 100.0)]
+    telemetry_hz: f64,
+    /// Change a setting T seconds (machine time) after the cut begins:
+    /// T:PATH=VALUE, such as 0.2:/slave/dob/bandwidth_hz=120. Repeatable.
+    #[arg(long = "set-at", value_name = "T:PATH=VALUE")]
+    changes: Vec<Change>,
+    /// Write the telemetry here as CSV.
+    #[arg(long, value_name = "CSV")]
+    csv: Option<PathBuf>,
+    /// Draw the run here as SVG: path, contour error, forces.
+    #[arg(long, value_name = "SVG")]
+    svg: Option<PathBuf>,
+    /// Give up after the machine is silent this long, s.
+    #[arg(long, value_name = "S", default_value_t = 30)]
+    quiet_s: u64,
+}
+
+/// `kerf log`.
+#[derive(Debug, Args)]
+pub struct LogArgs {
+    #[command(flatten)]
+    machine: MachineArgs,
+    /// Machine time to record, s.
+    #[arg(long, value_name = "S", default_value_t = 1.0)]
+    seconds: f64,
+    /// Telemetry samples per second of machine time.
+    #[arg(long, value_name = "HZ", default_value_t = 100.0)]
+    telemetry_hz: f64,
+    /// Write the telemetry here as CSV (standard output without it).
+    #[arg(long, value_name = "CSV")]
+    csv: Option<PathBuf>,
+    /// Draw it here as SVG.
+    #[arg(long, value_name = "SVG")]
+    svg: Option<PathBuf>,
+}
+
+fn session_failure(e: SessionError) -> Failure {
+    match e {
+        SessionError::Link(LinkError::Refused { .. }) | SessionError::Fault(_) => {
+            Failure::Refused(e.to_string())
+        }
+        SessionError::Stopped | SessionError::HostLost => Failure::Refused(e.to_string()),
+        other => Failure::Link(other.to_string()),
+    }
+}
+
+fn link_failure(e: LinkError) -> Failure {
+    session_failure(SessionError::Link(e))
+}
+
+fn positive_rate(hz: f64) -> Result<f64, Failure> {
+    if hz.is_finite() && hz > 0.0 {
+        Ok(hz)
+    } else {
+        Err(Failure::Input(format!(
+            "--telemetry-hz {hz}: must be a positive rate"
+        )))
+    }
+}
+
+/// Lines the operator types during a run, when standard input is a terminal.
+fn console() -> Option<Receiver<String>> {
+    if !std::io::stdin().is_terminal() {
+        return None;
+    }
+    let (tx, rx) = channel();
+    std::thread::spawn(move || {
+        for line in std::io::stdin().lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                return;
+            }
+        }
+    });
+    Some(rx)
+}
+
+fn write_outputs(
+    log: &TelemetryLog,
+    csv: Option<&PathBuf>,
+    svg: Option<&PathBuf>,
+    title: &str,
+) -> Result<(), Failure> {
+    let io =
+        |p: &PathBuf, e: &dyn std::fmt::Display| Failure::Input(format!("{}: {e}", p.display()));
+    if let Some(p) = csv {
+        let mut f = std::io::BufWriter::new(std::fs::File::create(p).map_err(|e| io(p, &e))?);
+        log.write_csv(&mut f).map_err(|e| io(p, &e))?;
+        println!("wrote {} ({} samples)", p.display(), log.entries().len());
+    }
+    if let Some(p) = svg {
+        log.write_svg(p, title).map_err(|e| io(p, &e))?;
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// `kerf run JOB`: upload, start, follow to the end; the summary, CSV and SVG are
+/// written whatever the end.
+pub fn run(args: &RunArgs) -> Result<(), Failure> {
+    let name = args.job.display().to_string();
+    let bytes = std::fs::read(&args.job).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    let job = Job::from_bytes(&bytes).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    let mut changes: Vec<TimedChange> = args.changes.iter().map(|c| c.0.clone()).collect();
+    changes.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
+    let plan = RunPlan {
+        telemetry_hz: positive_rate(args.telemetry_hz)?,
+        changes,
+        quiet_s: args.quiet_s,
+    };
+    let mut session = args.machine.open()?;
+    let hello = session.machine.hello().clone();
+    println!(
+        "machine    {} (link v{}, control period {:.0} µs)",
+        hello.machine,
+        hello.version,
+        hello.period_s * 1e6
+    );
+    let bar = ProgressBar::new(bytes.len() as u64);
+    if let Ok(style) = ProgressStyle::with_template("{msg:12} {bar:30} {pos}/{len}") {
+        bar.set_style(style);
+    }
+    bar.set_message("upload");
+    let mut log = TelemetryLog::new(hello.period_s);
+    let lines = console();
+    if lines.is_some() {
+        eprintln!("during the run: set PATH VALUE, get PATH, stop");
+    }
+    let mut cutting = false;
+    let ended = session.run_job(
+        job.kind(),
+        &bytes,
+        &plan,
+        &mut log,
+        lines.as_ref(),
+        &mut |p| match p {
+            Progress::Uploaded(n) => bar.set_position(u64::from(n)),
+            Progress::Sample(t) => {
+                if !cutting {
+                    cutting = true;
+                    bar.set_style(
+                        ProgressStyle::with_template("{msg:12} {spinner} machine time {prefix} s")
+                            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+                    );
+                    bar.set_message("running");
+                }
+                bar.set_prefix(format!("{t:.3}"));
+                bar.tick();
+            }
+            Progress::Line(t, text) => bar.suspend(|| println!("{t:9.4} s   {text}")),
+        },
+    );
+    bar.finish_and_clear();
+    println!(
+        "uploaded   {name}: {} bytes, {:?} job",
+        bytes.len(),
+        job.kind()
+    );
+    println!("summary    {}", log.summary());
+    write_outputs(
+        &log,
+        args.csv.as_ref(),
+        args.svg.as_ref(),
+        &format!("kerf run {name} on {}", hello.machine),
+    )?;
+    match ended {
+        Ok(()) => {
+            println!("done       the job ran to its end");
+            Ok(())
+        }
+        Err(e) => Err(session_failure(e)),
+    }
+}
+
+/// `kerf get PATH`.
+pub fn get(path: &str, machine: &MachineArgs) -> Result<(), Failure> {
+    let mut s = machine.open()?;
+    let value = s.machine.get(path).map_err(link_failure)?;
+    println!("{path} = {value}");
+    Ok(())
+}
+
+/// `kerf set PATH VALUE`.
+pub fn set(path: &str, value: &str, machine: &MachineArgs) -> Result<(), Failure> {
+    let mut s = machine.open()?;
+    s.machine.set(path, value).map_err(link_failure)?;
+    let now = s.machine.get(path).map_err(link_failure)?;
+    println!("{path} = {now}");
+    Ok(())
+}
+
+/// `kerf status`.
+pub fn status(machine: &MachineArgs) -> Result<(), Failure> {
+    let mut s = machine.open()?;
+    let hello = s.machine.hello().clone();
+    let st = s.machine.status().map_err(link_failure)?;
+    println!("machine      {} (link v{})", hello.machine, hello.version);
+    println!(
+        "period       {:.0} µs, largest chunk {} bytes",
+        hello.period_s * 1e6,
+        hello.max_chunk
+    );
+    println!("mode         {:?}", st.mode);
+    println!(
+        "machine time {:.4} s (period {})",
+        st.period as f64 * hello.period_s,
+        st.period
+    );
+    match st.last_fault {
+        Some((code, detail)) => println!(
+            "last fault   {code}: {}",
+            fault_reason(&hello.machine, code, detail)
+        ),
+        None => println!("last fault   none"),
+    }
+    match st.upload_received {
+        Some(n) => println!("upload       {n} bytes received, not committed"),
+        None => println!("upload       none in progress"),
+    }
+    println!(
+        "link         {} bad frames from the host, {} messages unsent; {} bad frames from the machine",
+        st.bad_frames,
+        st.unsent,
+        s.machine.bad_frames()
+    );
+    Ok(())
+}
+
+/// `kerf log`: telemetry for a span of machine time.
+pub fn log(args: &LogArgs) -> Result<(), Failure> {
+    let hz = positive_rate(args.telemetry_hz)?;
+    if !(args.seconds.is_finite() && args.seconds > 0.0) {
+        return Err(Failure::Input(format!(
+            "--seconds {}: must be positive",
+            args.seconds
+        )));
+    }
+    let mut s = args.machine.open()?;
+    let period_s = s.machine.hello().period_s;
+    let every = (1.0 / (hz * period_s))
+        .round()
+        .clamp(1.0, f64::from(u32::MAX)) as u32;
+    s.machine
+        .command(Request::Telemetry {
+            every_periods: every,
+        })
+        .map_err(link_failure)?;
+    let mut log = TelemetryLog::new(period_s);
+    let bar = ProgressBar::new_spinner();
+    let mut last_heard = Instant::now();
+    loop {
+        match s
+            .machine
+            .next(Duration::from_millis(100))
+            .map_err(link_failure)?
+        {
+            Some(Heard::Telemetry(t)) => {
+                last_heard = Instant::now();
+                let e = log.push(t);
+                let span = e.time_s - log.entries()[0].time_s;
+                bar.set_message(format!("machine time {span:.3} s"));
+                if span >= args.seconds {
+                    break;
+                }
+            }
+            Some(Heard::Event(e)) => bar.println(format!("{e:?}")),
+            _ => {}
+        }
+        if last_heard.elapsed() > Duration::from_secs(30) {
+            return Err(Failure::Link(
+                "the machine sent no telemetry for 30 s".into(),
+            ));
+        }
+    }
+    s.machine
+        .command(Request::Telemetry { every_periods: 0 })
+        .map_err(link_failure)?;
+    bar.finish_and_clear();
+    if args.csv.is_none() {
+        log.write_csv(&mut std::io::stdout().lock())
+            .map_err(|e| Failure::Input(e.to_string()))?;
+    }
+    write_outputs(&log, args.csv.as_ref(), args.svg.as_ref(), "kerf log")
+}

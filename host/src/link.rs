@@ -1,0 +1,479 @@
+//! The host's end of the machine link ([`kerf::codec::link`]): numbered requests,
+//! replies matched to them, telemetry and events kept in arrival order, and typed
+//! errors for everything that can go wrong on the way.
+//!
+//! The byte stream is a serial port (a board's UART or USB CDC) or a TCP socket (the
+//! emulated machine's UART, [`crate::qemu`]). A reader thread turns bytes into
+//! messages with the firmware's own [`FrameReader`] and decoder; frames that do not
+//! decode (line noise, a machine that joined mid-frame) are counted and skipped, as
+//! the machine does with the host's.
+
+use kerf::codec::link::{
+    decode, encode, Event, FrameReader, HostFrame, JobKind, MachineMessage, MachineStatus, Refusal,
+    Reply, Request, TelemetrySample, MAX_FRAME, VERSION,
+};
+use std::collections::VecDeque;
+use std::io::{Read, Write};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::mpsc::{channel, Receiver, RecvTimeoutError};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// What went wrong talking to a machine.
+#[derive(Debug, thiserror::Error)]
+pub enum LinkError {
+    /// The port or socket failed.
+    #[error("link: {0}")]
+    Io(#[from] std::io::Error),
+    /// The machine closed the link (QEMU ended, the cable came out).
+    #[error("the machine closed the link")]
+    Closed,
+    /// No reply within the timeout.
+    #[error("no reply to {request} within {timeout_s} s")]
+    Timeout {
+        /// The request.
+        request: &'static str,
+        /// How long the host waited, s.
+        timeout_s: f64,
+    },
+    /// The machine speaks another version of the protocol.
+    #[error("the machine speaks link version {machine}, this tool version {host}")]
+    Version {
+        /// The machine's.
+        machine: u8,
+        /// Ours ([`VERSION`]).
+        host: u8,
+    },
+    /// The machine refused the request; nothing changed on it.
+    #[error("{request} refused: {reason}")]
+    Refused {
+        /// The request.
+        request: &'static str,
+        /// The machine's refusal.
+        refusal: Refusal,
+        /// It, in words.
+        reason: String,
+    },
+    /// A reply of the wrong kind (a machine that does not follow the protocol).
+    #[error("{request}: unexpected reply {reply}")]
+    Unexpected {
+        /// The request.
+        request: &'static str,
+        /// What came, as text.
+        reply: String,
+    },
+    /// An upload gave up after retrying.
+    #[error("upload stalled at byte {received} of {total} after {attempts} attempts")]
+    Stalled {
+        /// Bytes the machine holds.
+        received: u32,
+        /// Bytes of the job.
+        total: u32,
+        /// Attempts made.
+        attempts: u32,
+    },
+    /// A job larger than the protocol's sizes carry.
+    #[error("a job of {0} bytes is larger than the link carries")]
+    TooLarge(usize),
+}
+
+/// A reply, owned.
+#[derive(Clone, Debug, PartialEq)]
+pub enum OwnedReply {
+    /// The machine's name, version, largest chunk and control period.
+    Hello(Hello),
+    /// Done.
+    Ack,
+    /// Refused.
+    Refused(Refusal),
+    /// Upload progress, bytes.
+    JobProgress(u32),
+    /// A setting's value, JSON.
+    Value(String),
+    /// The machine's state.
+    Status(MachineStatus),
+}
+
+/// Who the machine is ([`Reply::Hello`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Hello {
+    /// Link version.
+    pub version: u8,
+    /// The machine's name (`keops-slave`, …).
+    pub machine: String,
+    /// Largest job chunk it takes, bytes.
+    pub max_chunk: usize,
+    /// Its control period, s.
+    pub period_s: f64,
+}
+
+/// Something the machine said.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Heard {
+    /// The answer to request `seq`.
+    Reply(u16, OwnedReply),
+    /// A telemetry sample.
+    Telemetry(TelemetrySample),
+    /// An event.
+    Event(Event),
+}
+
+impl Heard {
+    fn of(message: MachineMessage<'_>) -> Self {
+        match message {
+            MachineMessage::Reply { seq, reply } => Heard::Reply(
+                seq,
+                match reply {
+                    Reply::Hello {
+                        version,
+                        machine,
+                        max_chunk,
+                        period_ns,
+                    } => OwnedReply::Hello(Hello {
+                        version,
+                        machine: machine.to_owned(),
+                        max_chunk: usize::from(max_chunk),
+                        period_s: f64::from(period_ns) * 1e-9,
+                    }),
+                    Reply::Ack => OwnedReply::Ack,
+                    Reply::Refused(r) => OwnedReply::Refused(r),
+                    Reply::JobProgress { received } => OwnedReply::JobProgress(received),
+                    Reply::Value { value } => {
+                        OwnedReply::Value(String::from_utf8_lossy(value).into_owned())
+                    }
+                    Reply::Status(s) => OwnedReply::Status(s),
+                },
+            ),
+            MachineMessage::Telemetry(t) => Heard::Telemetry(t),
+            MachineMessage::Event(e) => Heard::Event(e),
+        }
+    }
+}
+
+/// A request's name in messages.
+fn name(request: &Request<'_>) -> &'static str {
+    match request {
+        Request::Hello => "hello",
+        Request::Heartbeat => "heartbeat",
+        Request::JobBegin { .. } => "upload (begin)",
+        Request::JobChunk { .. } => "upload (chunk)",
+        Request::JobStatus => "upload (status)",
+        Request::JobCommit => "upload (commit)",
+        Request::Start => "start",
+        Request::Stop => "stop",
+        Request::ResetFault => "reset fault",
+        Request::Get { .. } => "get",
+        Request::Set { .. } => "set",
+        Request::Telemetry { .. } => "telemetry",
+        Request::Status => "status",
+    }
+}
+
+/// A refusal in words; job codes are the machine's own (`machine` from its hello).
+pub fn refusal_reason(machine: &str, refusal: &Refusal) -> String {
+    match refusal {
+        Refusal::ChunkOffset { expected } => {
+            format!("the machine expects the chunk at byte {expected}")
+        }
+        Refusal::TooLarge => "the job is larger than the machine holds".into(),
+        Refusal::Incomplete => "the uploaded bytes do not match the announced size or CRC".into(),
+        Refusal::NoJob => "no upload in progress, or no job loaded".into(),
+        Refusal::Job(code) => format!("job code {code:#06x}: {}", job_reason(machine, *code)),
+        Refusal::InvalidInMode => "not in the machine's present mode".into(),
+        Refusal::UnknownPath => "no setting at that path".into(),
+        Refusal::BadValue => {
+            "the value does not parse or fails the configuration's validation".into()
+        }
+        Refusal::Busy => "the machine's command queue is full; try again".into(),
+    }
+}
+
+/// A job refusal code in words, per machine.
+pub fn job_reason(machine: &str, code: u16) -> &'static str {
+    match machine {
+        "keops-slave" => kerf::app::delta_slave::link::job_refusal_reason(code),
+        _ => "(no description for this machine)",
+    }
+}
+
+/// A fault in words, per machine.
+pub fn fault_reason(machine: &str, code: u16, detail: u16) -> String {
+    match machine {
+        "keops-slave" => {
+            let what = kerf::app::delta_slave::link::fault_reason(code);
+            if code == 5 {
+                format!("{what} (carriage {detail})")
+            } else {
+                what.to_owned()
+            }
+        }
+        _ => format!("fault {code} (detail {detail})"),
+    }
+}
+
+/// Most attempts at one chunk before an upload gives up.
+const UPLOAD_ATTEMPTS: u32 = 4;
+
+/// A connected machine.
+pub struct Machine {
+    writer: Box<dyn Write + Send>,
+    heard: Receiver<Option<Heard>>,
+    bad_frames: Arc<AtomicU32>,
+    backlog: VecDeque<Heard>,
+    seq: u16,
+    reply_timeout: Duration,
+    hello: Hello,
+}
+
+impl Machine {
+    /// Connects over `reader`/`writer` (two handles of one port or socket) and asks
+    /// who the machine is.
+    ///
+    /// Errors: the link, no answer within `reply_timeout`, another protocol version.
+    pub fn connect(
+        reader: Box<dyn Read + Send>,
+        writer: Box<dyn Write + Send>,
+        reply_timeout: Duration,
+    ) -> Result<Self, LinkError> {
+        let (tx, rx) = channel();
+        let bad_frames = Arc::new(AtomicU32::new(0));
+        let bad = Arc::clone(&bad_frames);
+        std::thread::spawn(move || {
+            let mut reader = reader;
+            let mut frames = FrameReader::<MAX_FRAME>::new();
+            let mut buf = [0u8; 512];
+            loop {
+                let n = match reader.read(&mut buf) {
+                    Ok(0) => break,
+                    Ok(n) => n,
+                    Err(e) if e.kind() == std::io::ErrorKind::TimedOut => continue,
+                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                    Err(_) => break,
+                };
+                for &b in &buf[..n] {
+                    let decoded = match frames.push(b) {
+                        None => continue,
+                        Some(Ok(frame)) => decode::<MachineMessage>(frame).map(Heard::of),
+                        Some(Err(e)) => Err(e),
+                    };
+                    match decoded {
+                        Ok(h) => {
+                            if tx.send(Some(h)).is_err() {
+                                return;
+                            }
+                        }
+                        Err(_) => {
+                            bad.fetch_add(1, Ordering::Relaxed);
+                        }
+                    }
+                }
+            }
+            let _ = tx.send(None);
+        });
+        let mut machine = Machine {
+            writer,
+            heard: rx,
+            bad_frames,
+            backlog: VecDeque::new(),
+            seq: 0,
+            reply_timeout,
+            hello: Hello {
+                version: 0,
+                machine: String::new(),
+                max_chunk: 0,
+                period_s: 0.0,
+            },
+        };
+        match machine.ask(Request::Hello)? {
+            OwnedReply::Hello(h) if h.version == VERSION => machine.hello = h,
+            OwnedReply::Hello(h) => {
+                return Err(LinkError::Version {
+                    machine: h.version,
+                    host: VERSION,
+                })
+            }
+            other => {
+                return Err(LinkError::Unexpected {
+                    request: "hello",
+                    reply: format!("{other:?}"),
+                })
+            }
+        }
+        Ok(machine)
+    }
+
+    /// Who the machine said it is.
+    pub fn hello(&self) -> &Hello {
+        &self.hello
+    }
+
+    /// Frames from the machine that did not decode so far.
+    pub fn bad_frames(&self) -> u32 {
+        self.bad_frames.load(Ordering::Relaxed)
+    }
+
+    /// Sends `request` without waiting; returns its number.
+    pub fn send(&mut self, request: Request<'_>) -> Result<u16, LinkError> {
+        self.seq = self.seq.wrapping_add(1);
+        let mut out = [0u8; MAX_FRAME];
+        let frame = HostFrame {
+            seq: self.seq,
+            request,
+        };
+        // Requests are bounded by construction (paths and values are checked by the
+        // callers against MAX_PAYLOAD through this error).
+        let n = encode(&frame, &mut out).map_err(|_| LinkError::TooLarge(MAX_FRAME))?;
+        self.writer.write_all(&out[..n])?;
+        self.writer.flush()?;
+        Ok(self.seq)
+    }
+
+    /// The next message not yet taken, waiting at most `timeout`.
+    pub fn next(&mut self, timeout: Duration) -> Result<Option<Heard>, LinkError> {
+        if let Some(h) = self.backlog.pop_front() {
+            return Ok(Some(h));
+        }
+        self.receive(timeout)
+    }
+
+    fn receive(&mut self, timeout: Duration) -> Result<Option<Heard>, LinkError> {
+        match self.heard.recv_timeout(timeout) {
+            Ok(Some(h)) => Ok(Some(h)),
+            Ok(None) | Err(RecvTimeoutError::Disconnected) => Err(LinkError::Closed),
+            Err(RecvTimeoutError::Timeout) => Ok(None),
+        }
+    }
+
+    /// Sends `request` and waits for its reply; what else comes meanwhile is kept
+    /// for [`Machine::next`].
+    pub fn ask(&mut self, request: Request<'_>) -> Result<OwnedReply, LinkError> {
+        let what = name(&request);
+        let seq = self.send(request)?;
+        self.reply_to(seq, what)
+    }
+
+    /// Waits for the reply to request `seq`.
+    pub fn reply_to(&mut self, seq: u16, what: &'static str) -> Result<OwnedReply, LinkError> {
+        let deadline = Instant::now() + self.reply_timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.receive(left)? {
+                Some(Heard::Reply(s, reply)) if s == seq => return Ok(reply),
+                // A late reply to an earlier request: already given up on.
+                Some(Heard::Reply(..)) => {}
+                Some(other) => self.backlog.push_back(other),
+                None => {
+                    return Err(LinkError::Timeout {
+                        request: what,
+                        timeout_s: self.reply_timeout.as_secs_f64(),
+                    })
+                }
+            }
+        }
+    }
+
+    /// Sends `request` and expects `Ack`.
+    pub fn command(&mut self, request: Request<'_>) -> Result<(), LinkError> {
+        let what = name(&request);
+        match self.ask(request)? {
+            OwnedReply::Ack => Ok(()),
+            other => Err(self.not_ack(what, other)),
+        }
+    }
+
+    fn not_ack(&self, request: &'static str, reply: OwnedReply) -> LinkError {
+        match reply {
+            OwnedReply::Refused(refusal) => LinkError::Refused {
+                request,
+                reason: refusal_reason(&self.hello.machine, &refusal),
+                refusal,
+            },
+            other => LinkError::Unexpected {
+                request,
+                reply: format!("{other:?}"),
+            },
+        }
+    }
+
+    /// A setting's value, JSON.
+    pub fn get(&mut self, path: &str) -> Result<String, LinkError> {
+        match self.ask(Request::Get { path })? {
+            OwnedReply::Value(v) => Ok(v),
+            other => Err(self.not_ack("get", other)),
+        }
+    }
+
+    /// Sets a setting (JSON value); the machine validates it as a configuration.
+    pub fn set(&mut self, path: &str, value: &str) -> Result<(), LinkError> {
+        self.command(Request::Set {
+            path,
+            value: value.as_bytes(),
+        })
+    }
+
+    /// The machine's state.
+    pub fn status(&mut self) -> Result<MachineStatus, LinkError> {
+        match self.ask(Request::Status)? {
+            OwnedReply::Status(s) => Ok(s),
+            other => Err(self.not_ack("status", other)),
+        }
+    }
+
+    /// Uploads `job` (a job file of `kind`) in chunks and commits it; `progress` is
+    /// told the bytes the machine holds after each chunk. A lost or refused chunk is
+    /// resumed at the offset the machine reports; the machine checks the CRC and
+    /// builds its job at the commit.
+    pub fn upload(
+        &mut self,
+        kind: JobKind,
+        job: &[u8],
+        progress: &mut dyn FnMut(u32),
+    ) -> Result<(), LinkError> {
+        let total = u32::try_from(job.len()).map_err(|_| LinkError::TooLarge(job.len()))?;
+        self.command(Request::JobBegin {
+            kind,
+            total_bytes: total,
+            crc32: kerf::codec::link::crc32(job),
+        })?;
+        let chunk = self.hello.max_chunk.max(1);
+        let mut received = 0u32;
+        let mut attempts = 0;
+        while received < total {
+            let start = received as usize;
+            let end = (start + chunk).min(job.len());
+            let reply = self.ask(Request::JobChunk {
+                offset: received,
+                data: &job[start..end],
+            });
+            match reply {
+                Ok(OwnedReply::JobProgress(n)) => {
+                    received = n;
+                    attempts = 0;
+                    progress(n);
+                    continue;
+                }
+                Ok(OwnedReply::Refused(Refusal::ChunkOffset { expected })) => {
+                    received = expected;
+                }
+                Ok(other) => return Err(self.not_ack("upload (chunk)", other)),
+                Err(LinkError::Timeout { .. }) => {
+                    // The chunk or its reply was lost: ask where the machine is.
+                    match self.ask(Request::JobStatus)? {
+                        OwnedReply::JobProgress(n) => received = n,
+                        other => return Err(self.not_ack("upload (status)", other)),
+                    }
+                }
+                Err(e) => return Err(e),
+            }
+            attempts += 1;
+            if attempts >= UPLOAD_ATTEMPTS {
+                return Err(LinkError::Stalled {
+                    received,
+                    total,
+                    attempts,
+                });
+            }
+        }
+        self.command(Request::JobCommit)
+    }
+}

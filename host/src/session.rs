@@ -1,0 +1,302 @@
+//! A session with one machine, a board on a serial port or the emulated one, and the
+//! run of a job on it: upload, start, telemetry with heartbeats, setting changes at
+//! given machine times or typed by the operator, until the job ends, faults or the
+//! machine stops it.
+
+use crate::link::{fault_reason, Heard, LinkError, Machine};
+use crate::qemu::{self, Qemu, QemuError};
+use crate::telemetry::TelemetryLog;
+use kerf::codec::link::{Event, JobKind, ModeCode, Request};
+use std::path::PathBuf;
+use std::sync::mpsc::Receiver;
+use std::time::{Duration, Instant};
+
+/// Where the machine is.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Target {
+    /// A board's serial port (a UART adapter or USB CDC) at `baud`.
+    Port {
+        /// The device, such as `/dev/ttyACM0`.
+        device: String,
+        /// Bits per second (ignored by USB CDC).
+        baud: u32,
+    },
+    /// The emulated machine: this firmware image on QEMU.
+    Qemu {
+        /// The link image.
+        image: PathBuf,
+    },
+}
+
+/// Why a session failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    /// The link.
+    #[error(transparent)]
+    Link(#[from] LinkError),
+    /// The emulated machine did not start.
+    #[error(transparent)]
+    Qemu(#[from] QemuError),
+    /// The serial port did not open.
+    #[error("{device}: {message}")]
+    Port {
+        /// The device.
+        device: String,
+        /// Why.
+        message: String,
+    },
+    /// The machine faulted during the run.
+    #[error("the machine faulted: {0}")]
+    Fault(String),
+    /// The machine stopped the job because the host's heartbeats stopped.
+    #[error("the machine lost the host and stopped the job")]
+    HostLost,
+    /// The machine went quiet during the run.
+    #[error("the machine sent nothing for {0} s")]
+    Quiet(u64),
+    /// The machine stopped the job (an operator's stop).
+    #[error("the job was stopped before its end")]
+    Stopped,
+}
+
+/// An open session; the emulated machine ends with it.
+pub struct Session {
+    /// The machine.
+    pub machine: Machine,
+    _qemu: Option<Qemu>,
+}
+
+/// Replies slower than this are lost (the emulated machine answers within a few of
+/// its periods; a board within one supervisor tick).
+const REPLY_TIMEOUT: Duration = Duration::from_secs(10);
+
+impl Session {
+    /// Connects to `target` and greets the machine.
+    pub fn open(target: &Target) -> Result<Self, SessionError> {
+        match target {
+            Target::Qemu { image } => {
+                let (q, stream) = qemu::start(image)?;
+                let reader = stream.try_clone().map_err(LinkError::Io)?;
+                let machine = Machine::connect(Box::new(reader), Box::new(stream), REPLY_TIMEOUT)?;
+                Ok(Session {
+                    machine,
+                    _qemu: Some(q),
+                })
+            }
+            Target::Port { device, baud } => {
+                let port_error = |e: serialport::Error| SessionError::Port {
+                    device: device.clone(),
+                    message: e.to_string(),
+                };
+                let port = serialport::new(device, *baud)
+                    .timeout(Duration::from_millis(100))
+                    .open()
+                    .map_err(port_error)?;
+                let reader = port.try_clone().map_err(port_error)?;
+                let machine = Machine::connect(Box::new(reader), Box::new(port), REPLY_TIMEOUT)?;
+                Ok(Session {
+                    machine,
+                    _qemu: None,
+                })
+            }
+        }
+    }
+}
+
+/// A setting changed at a machine time of the run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TimedChange {
+    /// Machine time after the start, s.
+    pub at_s: f64,
+    /// The setting's path.
+    pub path: String,
+    /// Its new value, JSON.
+    pub value: String,
+}
+
+/// How a job is run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunPlan {
+    /// Telemetry samples per second of machine time.
+    pub telemetry_hz: f64,
+    /// Settings to change during the run, in time order.
+    pub changes: Vec<TimedChange>,
+    /// Seconds of silence after which the host gives up.
+    pub quiet_s: u64,
+}
+
+/// What a run reports as it goes.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum Progress<'a> {
+    /// Bytes of the job the machine holds.
+    Uploaded(u32),
+    /// Machine time since the cut began, s, at a telemetry sample.
+    Sample(f64),
+    /// An event, a change or an operator's command, with its machine time, s.
+    Line(f64, &'a str),
+}
+
+/// An operator's line during a run: `set PATH VALUE`, `get PATH` or `stop`; whether
+/// the machine took a stop.
+fn console(
+    machine: &mut Machine,
+    line: &str,
+    t: f64,
+    log: &mut TelemetryLog,
+    progress: &mut dyn FnMut(Progress<'_>),
+) -> bool {
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let outcome = match words.as_slice() {
+        ["set", path, value] => machine
+            .set(path, value)
+            .map(|()| format!("set {path} = {value}")),
+        ["get", path] => machine.get(path).map(|v| format!("{path} = {v}")),
+        ["stop"] => machine.command(Request::Stop).map(|()| "stop".to_owned()),
+        [] => return false,
+        _ => Ok(format!(
+            "not understood: {line:?} (set PATH VALUE, get PATH, stop)"
+        )),
+    };
+    let stopped = matches!(&outcome, Ok(s) if s == "stop");
+    let text = match outcome {
+        Ok(s) => s,
+        Err(e) => e.to_string(),
+    };
+    log.mark(&text);
+    progress(Progress::Line(t, &text));
+    stopped
+}
+
+impl Session {
+    /// Uploads `job`, starts it and follows it to its end, changing settings as
+    /// `plan` says and as the operator types on `console_lines`, telling `progress`
+    /// as it goes. The telemetry goes into `log` whatever the end.
+    ///
+    /// Errors: the link; the machine refusing the job; a fault, a stop or a lost host
+    /// before the end (the log holds what came until then).
+    pub fn run_job(
+        &mut self,
+        kind: JobKind,
+        job: &[u8],
+        plan: &RunPlan,
+        log: &mut TelemetryLog,
+        console_lines: Option<&Receiver<String>>,
+        progress: &mut dyn FnMut(Progress<'_>),
+    ) -> Result<(), SessionError> {
+        let m = &mut self.machine;
+        let status = m.status()?;
+        if status.mode == ModeCode::Fault {
+            m.command(Request::ResetFault)?;
+            progress(Progress::Line(0.0, "fault reset before the job"));
+        }
+        m.upload(kind, job, &mut |n| progress(Progress::Uploaded(n)))?;
+        let period_s = m.hello().period_s;
+        let every = (1.0 / (plan.telemetry_hz * period_s))
+            .round()
+            .clamp(1.0, u32::MAX as f64) as u32;
+        m.command(Request::Telemetry {
+            every_periods: every,
+        })?;
+        m.command(Request::Start)?;
+        let machine_name = m.hello().machine.clone();
+        let mut changes = plan.changes.iter().peekable();
+        let mut start_period: Option<u64> = None;
+        let mut last_heartbeat = Instant::now();
+        let mut last_heard = Instant::now();
+        let mut running = false;
+        let mut stopped = false;
+        loop {
+            let heard = m.next(Duration::from_millis(50))?;
+            // Machine time since the first sample that cut.
+            let t = |log: &TelemetryLog, start: Option<u64>| match (start, log.entries().last()) {
+                (Some(p0), Some(e)) => e.period.saturating_sub(p0) as f64 * period_s,
+                _ => 0.0,
+            };
+            match heard {
+                Some(Heard::Telemetry(sample)) => {
+                    last_heard = Instant::now();
+                    let entry = log.push(sample);
+                    if entry.sample.mode == ModeCode::Running && start_period.is_none() {
+                        start_period = Some(entry.period);
+                    }
+                    // A heartbeat per sample keeps the machine's timeout counting its
+                    // own periods, whatever the host's speed.
+                    m.send(Request::Heartbeat)?;
+                    last_heartbeat = Instant::now();
+                    let now = t(log, start_period);
+                    progress(Progress::Sample(now));
+                    while let Some(c) = changes.next_if(|c| c.at_s <= now) {
+                        let text = match m.set(&c.path, &c.value) {
+                            Ok(()) => format!("set {} = {}", c.path, c.value),
+                            Err(e) => format!("set {} = {}: {e}", c.path, c.value),
+                        };
+                        log.mark(&text);
+                        progress(Progress::Line(now, &text));
+                    }
+                }
+                Some(Heard::Event(e)) => {
+                    last_heard = Instant::now();
+                    let now = t(log, start_period);
+                    let text = match e {
+                        Event::Mode { from, to } => format!("mode {from:?} -> {to:?}"),
+                        Event::Fault { code, detail } => {
+                            format!(
+                                "fault {code}: {}",
+                                fault_reason(&machine_name, code, detail)
+                            )
+                        }
+                        Event::HostLost => "the machine lost the host".to_owned(),
+                    };
+                    if !matches!(e, Event::Mode { .. }) {
+                        log.mark(&text);
+                    }
+                    progress(Progress::Line(now, &text));
+                    match e {
+                        Event::Mode {
+                            to: ModeCode::Running,
+                            ..
+                        } => running = true,
+                        Event::Mode {
+                            from: ModeCode::Running | ModeCode::Stopping,
+                            to: ModeCode::Ready,
+                        } if running => {
+                            return if stopped {
+                                Err(SessionError::Stopped)
+                            } else {
+                                Ok(())
+                            };
+                        }
+                        // The fault's reason follows its mode change: the run ends
+                        // when it has come.
+                        Event::Fault { code, detail } => {
+                            return Err(SessionError::Fault(fault_reason(
+                                &machine_name,
+                                code,
+                                detail,
+                            )))
+                        }
+                        Event::HostLost => return Err(SessionError::HostLost),
+                        _ => {}
+                    }
+                }
+                Some(Heard::Reply(..)) => {}
+                None => {
+                    if last_heard.elapsed() > Duration::from_secs(plan.quiet_s) {
+                        return Err(SessionError::Quiet(plan.quiet_s));
+                    }
+                }
+            }
+            if let Some(lines) = console_lines {
+                while let Ok(line) = lines.try_recv() {
+                    let now = t(log, start_period);
+                    stopped |= console(m, &line, now, log, progress);
+                }
+            }
+            // Between samples (slow telemetry, a slow link), at least every 100 ms.
+            if last_heartbeat.elapsed() > Duration::from_millis(100) {
+                m.send(Request::Heartbeat)?;
+                last_heartbeat = Instant::now();
+            }
+        }
+    }
+}

@@ -1,0 +1,384 @@
+//! Telemetry as the host keeps it: samples on the machine's own time base, written as
+//! CSV, summarised, and drawn as SVG (plotters).
+//!
+//! A sample carries the low 32 bits of the machine's period count
+//! ([`TelemetrySample::period`]); the log extends it to 64 bits by the forward
+//! difference to the previous sample, so a run that crosses the wrap (5 days at
+//! 10 kHz) keeps its time axis. Time is `period × period_s` from the machine's hello.
+
+use kerf::codec::link::{ModeCode, TelemetrySample};
+use plotters::prelude::*;
+use std::io::Write;
+use std::path::Path;
+
+/// One sample on the host's time axis.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Entry {
+    /// The machine's period count, extended past the wire's 32 bits.
+    pub period: u64,
+    /// `period × period_s`, s.
+    pub time_s: f64,
+    /// The sample.
+    pub sample: TelemetrySample,
+}
+
+/// The samples of a run.
+#[derive(Clone, Debug, Default)]
+pub struct TelemetryLog {
+    period_s: f64,
+    entries: Vec<Entry>,
+    marks: Vec<(f64, String)>,
+}
+
+impl TelemetryLog {
+    /// An empty log for a machine with control period `period_s`.
+    pub fn new(period_s: f64) -> Self {
+        Self {
+            period_s,
+            entries: Vec::new(),
+            marks: Vec::new(),
+        }
+    }
+
+    /// Marks the time of the latest sample with `label` (a setting changed, a
+    /// fault): drawn as a vertical line.
+    pub fn mark(&mut self, label: &str) {
+        let t = self.entries.last().map_or(0.0, |e| e.time_s);
+        self.marks.push((t, label.to_owned()));
+    }
+
+    /// The marks: time (s) and label.
+    pub fn marks(&self) -> &[(f64, String)] {
+        &self.marks
+    }
+
+    /// Adds a sample; its period is extended from the previous one's.
+    pub fn push(&mut self, sample: TelemetrySample) -> &Entry {
+        let period = match self.entries.last() {
+            None => u64::from(sample.period),
+            Some(last) => last.period + u64::from(sample.period.wrapping_sub(last.period as u32)),
+        };
+        self.entries.push(Entry {
+            period,
+            time_s: period as f64 * self.period_s,
+            sample,
+        });
+        let n = self.entries.len();
+        &self.entries[n - 1]
+    }
+
+    /// The samples.
+    pub fn entries(&self) -> &[Entry] {
+        &self.entries
+    }
+
+    /// Writes the log as CSV: a header row, then one row per sample (SI units).
+    pub fn write_csv(&self, out: &mut dyn Write) -> std::io::Result<()> {
+        writeln!(
+            out,
+            "period,time_s,mode,x_m,y_m,z_m,x_ref_m,y_ref_m,z_ref_m,error_m,force1_n,force2_n,force3_n,laser_w"
+        )?;
+        for e in &self.entries {
+            let s = &e.sample;
+            let [x, y, z] = s.position_m;
+            let [xr, yr, zr] = s.reference_m;
+            let [f1, f2, f3] = s.force_n;
+            writeln!(
+                out,
+                "{},{:.6},{:?},{x:e},{y:e},{z:e},{xr:e},{yr:e},{zr:e},{:e},{f1:e},{f2:e},{f3:e},{:e}",
+                e.period, e.time_s, s.mode, s.error_m, s.laser_w
+            )?;
+        }
+        Ok(())
+    }
+
+    /// What a run did while it cut (samples in [`ModeCode::Running`]).
+    pub fn summary(&self) -> Summary {
+        let running: Vec<&Entry> = self
+            .entries
+            .iter()
+            .filter(|e| e.sample.mode == ModeCode::Running)
+            .collect();
+        let n = running.len();
+        let errors = running.iter().map(|e| f64::from(e.sample.error_m));
+        let error_max_m = errors.clone().map(f64::abs).fold(0.0, f64::max);
+        let error_rms_m = if n == 0 {
+            0.0
+        } else {
+            (errors.map(|e| e * e).sum::<f64>() / n as f64).sqrt()
+        };
+        let force_peak_n = running
+            .iter()
+            .flat_map(|e| e.sample.force_n)
+            .map(|f| f64::from(f).abs())
+            .fold(0.0, f64::max);
+        let laser_mean_w = if n == 0 {
+            0.0
+        } else {
+            running
+                .iter()
+                .map(|e| f64::from(e.sample.laser_w))
+                .sum::<f64>()
+                / n as f64
+        };
+        let cut_s = match (running.first(), running.last()) {
+            (Some(a), Some(b)) => b.time_s - a.time_s,
+            _ => 0.0,
+        };
+        Summary {
+            samples: self.entries.len(),
+            cutting_samples: n,
+            cut_s,
+            error_max_m,
+            error_rms_m,
+            force_peak_n,
+            laser_mean_w,
+        }
+    }
+
+    /// Draws the run: the path (measured over reference, mm), the contour error
+    /// (µm) and the three force commands (N) over time, with the marks as vertical
+    /// lines.
+    pub fn write_svg(&self, path: &Path, title: &str) -> Result<(), PlotError> {
+        let marks = &self.marks;
+        let root = SVGBackend::new(path, (900, 1100)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
+        let (top, bottom) = root.split_vertically(560);
+        let (mid, low) = bottom.split_vertically(250);
+        self.draw_path(&top)?;
+        let t = |e: &Entry| e.time_s;
+        let span = self.entries.first().map_or(0.0, t)..self.entries.last().map_or(1.0, t);
+        let error: Vec<(f64, f64)> = self
+            .entries
+            .iter()
+            .map(|e| (e.time_s, f64::from(e.sample.error_m) * 1e6))
+            .collect();
+        draw_series(
+            &mid,
+            span.clone(),
+            "contour error, µm",
+            &[Series {
+                label: "error",
+                points: &error,
+                color: RGBColor(213, 94, 0),
+            }],
+            marks,
+        )?;
+        let colors = [
+            RGBColor(0, 114, 178),
+            RGBColor(0, 158, 115),
+            RGBColor(204, 121, 167),
+        ];
+        let forces: Vec<Vec<(f64, f64)>> = (0..3)
+            .map(|k| {
+                self.entries
+                    .iter()
+                    .map(|e| (e.time_s, f64::from(e.sample.force_n[k])))
+                    .collect()
+            })
+            .collect();
+        let labels = ["carriage 1", "carriage 2", "carriage 3"];
+        let series: Vec<Series<'_>> = (0..3)
+            .map(|k| Series {
+                label: labels[k],
+                points: &forces[k],
+                color: colors[k],
+            })
+            .collect();
+        draw_series(&low, span, "force command, N", &series, marks)?;
+        root.present().map_err(err)?;
+        Ok(())
+    }
+
+    fn draw_path<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, plotters::coord::Shift>,
+    ) -> Result<(), PlotError> {
+        let mm = |p: [f32; 3]| (f64::from(p[0]) * 1e3, f64::from(p[1]) * 1e3);
+        let measured: Vec<(f64, f64)> = self
+            .entries
+            .iter()
+            .map(|e| mm(e.sample.position_m))
+            .collect();
+        let reference: Vec<(f64, f64)> = self
+            .entries
+            .iter()
+            .map(|e| mm(e.sample.reference_m))
+            .collect();
+        let (lo, hi) = measured.iter().chain(&reference).fold(
+            ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+            |(lo, hi), p| {
+                (
+                    [lo[0].min(p.0), lo[1].min(p.1)],
+                    [hi[0].max(p.0), hi[1].max(p.1)],
+                )
+            },
+        );
+        let half = ((hi[0] - lo[0]).max(hi[1] - lo[1]) / 2.0 * 1.05).max(0.1);
+        let mid = if lo[0].is_finite() {
+            [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0]
+        } else {
+            [0.0, 0.0]
+        };
+        let mut chart = ChartBuilder::on(area)
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(50)
+            .build_cartesian_2d(mid[0] - half..mid[0] + half, mid[1] - half..mid[1] + half)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("x, mm")
+            .y_desc("y, mm")
+            .draw()
+            .map_err(err)?;
+        for (label, points, color, width) in [
+            ("reference", &reference, RGBColor(120, 120, 120), 4),
+            ("measured", &measured, RGBColor(0, 114, 178), 1),
+        ] {
+            chart
+                .draw_series(LineSeries::new(
+                    points.iter().copied(),
+                    color.stroke_width(width),
+                ))
+                .map_err(err)?
+                .label(label)
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(err)?;
+        Ok(())
+    }
+}
+
+/// A line of a panel.
+struct Series<'a> {
+    label: &'a str,
+    points: &'a [(f64, f64)],
+    color: RGBColor,
+}
+
+/// One panel of time series, with vertical marks.
+fn draw_series<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    span: std::ops::Range<f64>,
+    y_desc: &str,
+    series: &[Series<'_>],
+    marks: &[(f64, String)],
+) -> Result<(), PlotError> {
+    let (lo, hi) = series
+        .iter()
+        .flat_map(|s| s.points.iter())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.1), hi.max(p.1))
+        });
+    let (lo, hi) = if lo.is_finite() && hi > lo {
+        (lo - 0.05 * (hi - lo), hi + 0.05 * (hi - lo))
+    } else {
+        (-1.0, 1.0)
+    };
+    let span = if span.end > span.start {
+        span
+    } else {
+        0.0..1.0
+    };
+    let mut chart = ChartBuilder::on(area)
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(span, lo..hi)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("machine time, s")
+        .y_desc(y_desc)
+        .draw()
+        .map_err(err)?;
+    for (t, label) in marks {
+        let grey = RGBColor(90, 90, 90);
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                [(*t, lo), (*t, hi)],
+                grey.stroke_width(1),
+            )))
+            .map_err(err)?;
+        chart
+            .draw_series(std::iter::once(Text::new(
+                label.clone(),
+                (*t, hi),
+                ("sans-serif", 12).into_font().color(&grey),
+            )))
+            .map_err(err)?;
+    }
+    for s in series {
+        let color = s.color;
+        chart
+            .draw_series(LineSeries::new(
+                s.points.iter().copied(),
+                color.stroke_width(1),
+            ))
+            .map_err(err)?
+            .label(s.label)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(err)?;
+    Ok(())
+}
+
+/// What a run did while cutting.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Summary {
+    /// Samples logged.
+    pub samples: usize,
+    /// Of them, while cutting.
+    pub cutting_samples: usize,
+    /// From the first to the last cutting sample, s.
+    pub cut_s: f64,
+    /// Largest contour error while cutting, m.
+    pub error_max_m: f64,
+    /// Its RMS, m.
+    pub error_rms_m: f64,
+    /// Largest force command while cutting, N.
+    pub force_peak_n: f64,
+    /// Mean laser power while cutting, W.
+    pub laser_mean_w: f64,
+}
+
+impl std::fmt::Display for Summary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} samples ({} while cutting, {:.3} s): contour error max {:.3} µm, rms {:.3} µm; force peak {:.2} N; laser mean {:.2} W",
+            self.samples,
+            self.cutting_samples,
+            self.cut_s,
+            self.error_max_m * 1e6,
+            self.error_rms_m * 1e6,
+            self.force_peak_n,
+            self.laser_mean_w
+        )
+    }
+}
+
+/// Why a plot was not written.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot draw the plot: {0}")]
+pub struct PlotError(String);
+
+fn err<E: std::fmt::Display>(e: E) -> PlotError {
+    PlotError(e.to_string())
+}
