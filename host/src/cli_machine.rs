@@ -35,7 +35,7 @@ pub struct MachineArgs {
     qemu: bool,
     /// The QEMU link image [default: $KERF_LINK_ELF, else the link image under
     /// $CARGO_TARGET_DIR or ./target].
-    #[arg(long, value_name = "ELF", requires = "qemu")]
+    #[arg(long, value_name = "ELF", conflicts_with = "port")]
     image: Option<PathBuf>,
 }
 
@@ -189,6 +189,10 @@ fn write_outputs(
 /// written whatever the end.
 pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let name = args.job.display().to_string();
+    let file_name = args
+        .job
+        .file_name()
+        .map_or(name.clone(), |n| n.to_string_lossy().into_owned());
     let bytes = std::fs::read(&args.job).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
     let job = Job::from_bytes(&bytes).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
     let mut changes: Vec<TimedChange> = args.changes.iter().map(|c| c.0.clone()).collect();
@@ -251,7 +255,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         &log,
         args.csv.as_ref(),
         args.svg.as_ref(),
-        &format!("kerf run {name} on {}", hello.machine),
+        &format!("kerf run {file_name} on {}", hello.machine),
     )?;
     match ended {
         Ok(()) => {

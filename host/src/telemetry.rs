@@ -382,3 +382,70 @@ pub struct PlotError(String);
 fn err<E: std::fmt::Display>(e: E) -> PlotError {
     PlotError(e.to_string())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(period: u32, mode: ModeCode, error_m: f32, force: f32) -> TelemetrySample {
+        TelemetrySample {
+            period,
+            mode,
+            error_m,
+            force_n: [force, -2.0 * force, 0.5],
+            laser_w: 10.0,
+            ..TelemetrySample::default()
+        }
+    }
+
+    #[test]
+    fn the_period_keeps_counting_across_the_wire_wrap() {
+        let mut log = TelemetryLog::new(1e-4);
+        let wire = [u32::MAX - 150, u32::MAX - 50, 49, 149, 100_149];
+        for p in wire {
+            log.push(sample(p, ModeCode::Running, 0.0, 0.0));
+        }
+        let start = u64::from(u32::MAX - 150);
+        let want = [
+            start,
+            start + 100,
+            start + 200,
+            start + 300,
+            start + 100_300,
+        ];
+        let got: Vec<u64> = log.entries().iter().map(|e| e.period).collect();
+        assert_eq!(got, want);
+        let last = log.entries().last().unwrap();
+        assert!((last.time_s - want[4] as f64 * 1e-4).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_summary_counts_only_the_cut_and_the_csv_has_a_row_per_sample() {
+        let mut log = TelemetryLog::new(1e-3);
+        log.push(sample(0, ModeCode::Ready, 9e-6, 9.0));
+        let errors = [1e-6f32, -3e-6, 2e-6];
+        for (k, e) in errors.iter().enumerate() {
+            log.push(sample(10 * (k as u32 + 1), ModeCode::Running, *e, 1.5));
+        }
+        log.push(sample(40, ModeCode::Ready, 0.0, 0.0));
+        let s = log.summary();
+        let rms = (errors.iter().map(|e| f64::from(*e).powi(2)).sum::<f64>() / 3.0).sqrt();
+        assert_eq!((s.samples, s.cutting_samples), (5, 3));
+        assert!((s.error_max_m - 3e-6).abs() < 1e-12, "{s:?}");
+        assert!((s.error_rms_m - rms).abs() < 1e-12, "{s:?}");
+        assert!((s.force_peak_n - 3.0).abs() < 1e-12, "{s:?}");
+        assert!((s.cut_s - 0.02).abs() < 1e-12, "{s:?}");
+        let mut csv = Vec::new();
+        log.write_csv(&mut csv).unwrap();
+        let text = String::from_utf8(csv).unwrap();
+        let rows: Vec<&str> = text.lines().collect();
+        assert_eq!(rows.len(), 6);
+        let header: Vec<&str> = rows[0].split(',').collect();
+        let third: Vec<&str> = rows[3].split(',').collect();
+        assert_eq!(header.len(), third.len());
+        let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+        assert_eq!(third[col("mode")], "Running");
+        assert_eq!(third[col("error_m")].parse::<f32>().unwrap(), -3e-6);
+        assert_eq!(third[col("force2_n")].parse::<f32>().unwrap(), -3.0);
+    }
+}

@@ -222,3 +222,72 @@ fn gcode_reports_file_line_and_column_and_exits_1() {
         "{message}"
     );
 }
+
+#[test]
+fn the_machine_commands_check_their_arguments_and_report_an_unreachable_machine() {
+    for args in [
+        &["run", "--help"][..],
+        &["get", "--help"],
+        &["set", "--help"],
+        &["log", "--help"],
+        &["status", "--help"],
+    ] {
+        assert_eq!(kerf(args).status.code(), Some(0), "{args:?}");
+    }
+    // No machine named, two named, an image without --qemu, a bad --set-at: usage.
+    for args in [
+        &["status"][..],
+        &["status", "--qemu", "--port", "/dev/null"],
+        &["status", "--image", "x.elf", "--port", "/dev/null"],
+        &["get", "--qemu"],
+        &["set", "/slave/dob/bandwidth_hz", "--qemu"],
+        &[
+            "run",
+            "job.krfj",
+            "--qemu",
+            "--set-at",
+            "soon:/slave/dob/bandwidth_hz=1",
+        ],
+        &["run", "job.krfj", "--qemu", "--set-at", "1:slave=1"],
+        &[
+            "run",
+            "job.krfj",
+            "--qemu",
+            "--set-at",
+            "-1:/slave/dob/bandwidth_hz=1",
+        ],
+    ] {
+        assert_eq!(kerf(args).status.code(), Some(2), "{args:?}");
+    }
+    // A job file that is not one: bad input, before any machine is started.
+    let junk = tmp("junk.krfj");
+    std::fs::write(&junk, b"KRFJ not a job").unwrap();
+    let out = kerf(&[
+        "run",
+        junk.to_str().unwrap(),
+        "--qemu",
+        "--image",
+        "/nonexistent/link",
+    ]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out.stderr));
+    // No image, no port: the machine cannot be reached.
+    let out = kerf(&["status", "--qemu", "--image", "/nonexistent/link"]);
+    assert_eq!(out.status.code(), Some(3));
+    assert!(
+        text(&out.stderr).contains("no firmware image"),
+        "{}",
+        text(&out.stderr)
+    );
+    let out = kerf(&[
+        "get",
+        "/slave/dob/bandwidth_hz",
+        "--port",
+        "/nonexistent/ttyACM9",
+    ]);
+    assert_eq!(out.status.code(), Some(3));
+    assert!(
+        text(&out.stderr).contains("/nonexistent/ttyACM9"),
+        "{}",
+        text(&out.stderr)
+    );
+}

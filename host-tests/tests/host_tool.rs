@@ -1,0 +1,262 @@
+//! The host tool's link code (`kerf_host::link`) against the simulated Keops slave
+//! behind its host link (`kerf_sim::linked`), over a socket pair with a line between
+//! them that loses frames and adds garbage (issue 16 item 6, the host's side):
+//! a lost chunk resumed at the offset the machine reports, a damaged upload refused
+//! at the commit with nothing loaded, garbage in both directions counted and
+//! survived, a bad setting refused with its reason and nothing changed, and a machine
+//! that stops answering seen as a typed timeout.
+
+use hal_mock::hall_sensor::HallSensorParams;
+use host_tests::link::octagon_job_file;
+use kerf::codec::link::{JobKind, Refusal, Request};
+use kerf_host::link::{LinkError, Machine, OwnedReply};
+use kerf_sim::linked::with_linked_slave;
+use kerf_sim::slave::SlaveScenario;
+use std::io::{ErrorKind, Read, Write};
+use std::os::unix::net::UnixStream;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+/// The host's side of the line: frames (one `write` each, as `Machine::send` makes
+/// them) numbered from 0; those in `drop` are lost, and `garbage` goes out before
+/// the frame numbered `garbage_before`.
+struct Line {
+    inner: UnixStream,
+    frames: usize,
+    drop: Arc<Mutex<Vec<usize>>>,
+    garbage_before: Option<(usize, Vec<u8>)>,
+}
+
+impl Write for Line {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let k = self.frames;
+        self.frames += 1;
+        if let Some((at, bytes)) = &self.garbage_before {
+            if *at == k {
+                self.inner.write_all(bytes)?;
+            }
+        }
+        if self.drop.lock().unwrap().contains(&k) {
+            return Ok(buf.len());
+        }
+        self.inner.write_all(buf)?;
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// The simulated slave on the other end of `socket`, stepping as fast as it can
+/// until `stop` is set; while `mute` is set it reads and ignores the host. `noise`
+/// is written to the host before the machine's first reply.
+fn machine(
+    socket: UnixStream,
+    mute: Arc<AtomicBool>,
+    stop: Arc<AtomicBool>,
+    noise: Vec<u8>,
+) -> JoinHandle<()> {
+    std::thread::spawn(move || {
+        let mut socket = socket;
+        // A read timeout, not non-blocking mode: the flag would be shared with the
+        // writing clone below (one file description), the timeout is for reads only.
+        socket
+            .set_read_timeout(Some(Duration::from_millis(1)))
+            .unwrap();
+        let mut scenario = SlaveScenario::square();
+        scenario.sensors = [HallSensorParams::LM1247_16BIT; 3];
+        scenario.substeps = 1;
+        let mut out = socket.try_clone().unwrap();
+        out.write_all(&noise).unwrap();
+        with_linked_slave::<f64, _>(&scenario, 1.0, 10, |slave| {
+            let mut buf = [0u8; 256];
+            while !stop.load(Ordering::Relaxed) {
+                let n = match socket.read(&mut buf) {
+                    Ok(0) => return,
+                    Ok(n) => n,
+                    Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => 0,
+                    Err(_) => return,
+                };
+                let input = if mute.load(Ordering::Relaxed) {
+                    &[][..]
+                } else {
+                    &buf[..n]
+                };
+                let mut failed = false;
+                slave
+                    .period(input, &mut |frame| {
+                        failed |= out.write_all(frame).is_err();
+                        true
+                    })
+                    .expect("the idle slave steps");
+                if failed {
+                    return;
+                }
+            }
+        })
+        .expect("the scenario builds");
+    })
+}
+
+struct Rig {
+    machine: Machine,
+    drop: Arc<Mutex<Vec<usize>>>,
+    mute: Arc<AtomicBool>,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Drop for Rig {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            t.join().unwrap();
+        }
+    }
+}
+
+fn rig(garbage_to_machine: Option<(usize, Vec<u8>)>, noise_to_host: Vec<u8>) -> Rig {
+    let (host, far) = UnixStream::pair().unwrap();
+    let mute = Arc::new(AtomicBool::new(false));
+    let stop = Arc::new(AtomicBool::new(false));
+    let thread = machine(far, Arc::clone(&mute), Arc::clone(&stop), noise_to_host);
+    let drop = Arc::new(Mutex::new(Vec::new()));
+    let line = Line {
+        inner: host.try_clone().unwrap(),
+        frames: 0,
+        drop: Arc::clone(&drop),
+        garbage_before: garbage_to_machine,
+    };
+    let machine = Machine::connect(Box::new(host), Box::new(line), Duration::from_millis(300))
+        .expect("the simulated slave answers hello");
+    Rig {
+        machine,
+        drop,
+        mute,
+        stop,
+        thread: Some(thread),
+    }
+}
+
+#[test]
+fn a_lost_chunk_is_resumed_where_the_machine_says() {
+    let mut rig = rig(None, Vec::new());
+    assert_eq!(rig.machine.hello().machine, "keops-slave");
+    let job = octagon_job_file();
+    // Frames: 0 hello, 1 begin, 2 chunk 0, 3 chunk 1 (lost), 4 status, 5 chunk 1 again…
+    rig.drop.lock().unwrap().push(3);
+    let mut seen = Vec::new();
+    rig.machine
+        .upload(JobKind::Efd, &job, &mut |n| seen.push(n))
+        .expect("the upload resumes and commits");
+    assert_eq!(seen, [192, 384, 504]);
+    let status = rig.machine.status().unwrap();
+    assert_eq!(status.upload_received, None, "committed: {status:?}");
+    assert_eq!(status.bad_frames, 0);
+}
+
+#[test]
+fn a_damaged_upload_is_refused_at_the_commit_and_nothing_is_loaded() {
+    let mut rig = rig(None, Vec::new());
+    let job = octagon_job_file();
+    let mut damaged = job.clone();
+    damaged[100] ^= 0x40;
+    // The CRC announced is the good file's; the bytes sent are not.
+    let seq_begin = rig
+        .machine
+        .ask(Request::JobBegin {
+            kind: JobKind::Efd,
+            total_bytes: job.len() as u32,
+            crc32: kerf::codec::link::crc32(&job),
+        })
+        .unwrap();
+    assert_eq!(seq_begin, OwnedReply::Ack);
+    for (i, chunk) in damaged.chunks(192).enumerate() {
+        let r = rig
+            .machine
+            .ask(Request::JobChunk {
+                offset: (i * 192) as u32,
+                data: chunk,
+            })
+            .unwrap();
+        assert!(matches!(r, OwnedReply::JobProgress(_)), "{r:?}");
+    }
+    match rig.machine.command(Request::JobCommit) {
+        Err(LinkError::Refused {
+            refusal: Refusal::Incomplete,
+            reason,
+            ..
+        }) => assert!(reason.contains("CRC"), "{reason}"),
+        other => panic!("{other:?}"),
+    }
+    // Nothing loaded: a start has no job.
+    match rig.machine.command(Request::Start) {
+        Err(LinkError::Refused {
+            refusal: Refusal::NoJob,
+            ..
+        }) => {}
+        other => panic!("{other:?}"),
+    }
+    // An upload past what the machine holds is refused at the begin.
+    match rig
+        .machine
+        .upload(JobKind::Efd, &vec![0u8; 4096], &mut |_| {})
+    {
+        Err(LinkError::Refused {
+            refusal: Refusal::TooLarge,
+            ..
+        }) => {}
+        other => panic!("{other:?}"),
+    }
+    // A job file the machine reads but cannot cut (an open path) is refused with the
+    // machine's own reason.
+    let mut buf = [0u8; 256];
+    let n =
+        kerf::codec::job::write_points(&[[0.0, 0.0], [1e-3, 0.0], [1e-3, 1e-3]], &mut buf).unwrap();
+    match rig.machine.upload(JobKind::Points, &buf[..n], &mut |_| {}) {
+        Err(LinkError::Refused { reason, .. }) => {
+            assert!(reason.contains("contours (EFD jobs) only"), "{reason}")
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn garbage_both_ways_is_counted_and_the_conversation_goes_on() {
+    // Garbage reaches the machine before the host's second frame, and the host
+    // before the machine's first reply.
+    let line_noise: Vec<u8> = (0..300u32).map(|i| (i * 89 % 253) as u8).collect();
+    let mut rig = rig(Some((1, line_noise.clone())), line_noise);
+    assert!(rig.machine.bad_frames() > 0);
+    let status = rig.machine.status().unwrap();
+    assert!(status.bad_frames > 0, "{status:?}");
+    // Bad settings: refused with a reason, the value unchanged.
+    let before = rig.machine.get("/slave/dob/bandwidth_hz").unwrap();
+    match rig.machine.set("/slave/dob/bandwidth_hz", "\"fast\"") {
+        Err(LinkError::Refused {
+            refusal: Refusal::BadValue,
+            ..
+        }) => {}
+        other => panic!("{other:?}"),
+    }
+    match rig.machine.get("/slave/dob/no_such") {
+        Err(LinkError::Refused {
+            refusal: Refusal::UnknownPath,
+            ..
+        }) => {}
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(rig.machine.get("/slave/dob/bandwidth_hz").unwrap(), before);
+}
+
+#[test]
+fn a_machine_that_stops_answering_is_a_timeout() {
+    let mut rig = rig(None, Vec::new());
+    rig.mute.store(true, Ordering::Relaxed);
+    match rig.machine.status() {
+        Err(LinkError::Timeout { request, .. }) => assert_eq!(request, "status"),
+        other => panic!("{other:?}"),
+    }
+}
