@@ -3,7 +3,7 @@
 use hal_mock::hall_sensor::{ChannelFault, HallSensorParams};
 use kerf::app::axis::AxisFault;
 use kerf::sensing::hall::{HallDecoder, HallFault};
-use kerf::Q32;
+use kerf::{Q31_32, Q6_25};
 use kerf_sim::scenario::{
     run, run_into, run_with, Motion, Outcome, Scenario, MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M,
 };
@@ -22,15 +22,17 @@ fn report(name: &str, o: &kerf_sim::scenario::Outcome) {
 }
 
 #[test]
-fn tracking_profile_meets_bounds_in_f64_f32_and_q32() {
+fn tracking_profile_meets_bounds_in_every_scalar() {
     let s = Scenario::TRACKING;
     let r64 = run::<f64>(&s).unwrap();
     let r32 = run::<f32>(&s).unwrap();
-    let rq = run::<Q32>(&s).unwrap();
+    let rq = run::<Q31_32>(&s).unwrap();
+    let r25 = run::<Q6_25>(&s).unwrap();
     report("f64", &r64);
     report("f32", &r32);
-    report("Q32", &rq);
-    for o in [&r64, &r32, &rq] {
+    report("Q31_32", &rq);
+    report("Q6_25", &r25);
+    for o in [&r64, &r32, &rq, &r25] {
         assert_eq!(o.periods, 10_000);
         assert!(o.fault_period.is_none());
         assert!(o.rms_error_m < RMS_ERROR_BOUND_M, "{o:?}");
@@ -89,7 +91,7 @@ fn sensor_faults_latch_zero_force() {
     for o in [
         run::<f32>(&s).unwrap(),
         run::<f64>(&s).unwrap(),
-        run::<Q32>(&s).unwrap(),
+        run::<Q31_32>(&s).unwrap(),
     ] {
         assert_eq!(o.fault_period, Some(3000), "{o:?}");
         assert_eq!(o.fault, Some(AxisFault::Sensor(HallFault::AdcRail(0))));
@@ -132,7 +134,7 @@ fn sensor_faults_latch_zero_force() {
 fn q32_signals_stay_in_documented_ranges() {
     let mut s = Scenario::TRACKING;
     s.load_step = Some((0.25, 1.0));
-    let q = run::<Q32>(&s).unwrap();
+    let q = run::<Q31_32>(&s).unwrap();
     let f = run::<f64>(&s).unwrap();
     assert!(q.peak_position_m < 0.1 && q.peak_velocity_m_s < 2.0);
     assert!(q.peak_force_n < 100.0 && q.peak_disturbance_n < 100.0);

@@ -50,7 +50,7 @@ use kerf::trajectory::efd::Efd;
 use kerf::trajectory::resample::ArcResampler;
 use kerf::trajectory::spline::{JointSpline, KnotTiming};
 use kerf::trajectory::tangential::{ContourFollower, FollowerConfig, SpeedRamp, SpeedRampConfig};
-use kerf::{Real, Q32};
+use kerf::{Real, Q31_32};
 
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo) -> ! {
@@ -81,7 +81,7 @@ fn main() -> ! {
             0 => joints_machine(),
             1 => delta_machine(),
             2 => axis_law::<f32>(),
-            3 => axis_law::<Q32>(),
+            3 => axis_law::<Q31_32>(),
             4 => hall_and_observer(),
             5 => kinematics(),
             6 => contours(),
@@ -222,7 +222,7 @@ fn axis_law<T: Real>() {
     });
     sink(law.step(&sensor, &mut state, opaque([0u16; 3]), &reference));
     sink(state.position_m());
-    // The laws on their own (Q32 constructors included).
+    // The laws on their own (Q31_32 constructors included).
     if let (Ok(pd), Ok(dob)) = (
         Pd::<T>::new(&config.pd),
         Dob::<T>::new(&config.dob, opaque(1e-4)),

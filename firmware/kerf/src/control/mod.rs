@@ -1,6 +1,6 @@
 //! What to command: control laws, each a config (immutable) plus state.
 //!
-//! Signal ranges of the single-axis DOB+PD loop, with the [`Q32`](crate::scalar::Q32)
+//! Signal ranges of the single-axis DOB+PD loop, with the [`Q31_32`](crate::scalar::Q31_32)
 //! (Q31.32, ±2.1e9, resolution 2.3e-10) headroom they leave:
 //!
 //! | signal | unit | range used | headroom in Q31.32 |
