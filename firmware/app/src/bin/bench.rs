@@ -22,6 +22,7 @@ use kerf::sensing::hall::{HallArithmetic, HallConfig, HallDecoder, HallState};
 use kerf::{Real, Q31_32};
 use kerf_app::bench::Counter;
 use kerf_app::exit;
+use kerf_app::inputs::{counts_at_phase, hall_inputs, references, INPUTS};
 use kerf_app::stack::Painted;
 use kerf_sim::contour::octagon_job;
 
@@ -33,9 +34,6 @@ mod kernels;
 mod peers;
 #[path = "bench/stages.rs"]
 mod stages;
-
-/// Number of distinct inputs cycled through (a power of two).
-const INPUTS: usize = 64;
 
 fn row(
     counter: &mut Counter,
@@ -94,34 +92,6 @@ fn row_with_errors(
             r
         ),
     }
-}
-
-/// Hall samples over one pitch: an axis moving 1/64 pitch per period.
-fn hall_inputs() -> [[u16; 3]; INPUTS] {
-    core::array::from_fn(|k| counts_at_phase(2.0 * PI * k as f32 / INPUTS as f32))
-}
-
-/// Counts of the nominal 16-bit sensor at electrical phase `phi` (rad).
-fn counts_at_phase(phi: f32) -> [u16; 3] {
-    let cfg = HallConfig::LM1247_16BIT;
-    let mut counts = [0u16; 3];
-    for (ch, shift) in [0.0, 2.0 * PI / 3.0, -2.0 * PI / 3.0]
-        .into_iter()
-        .enumerate()
-    {
-        counts[ch] = (cfg.calibration.offset_counts[ch]
-            + cfg.amplitude_counts as f32 * libm::sinf(phi + shift)) as u16;
-    }
-    counts
-}
-
-/// References along a slow ramp, one per input.
-fn references() -> [Reference<f32>; INPUTS] {
-    core::array::from_fn(|k| Reference {
-        position: 0.004 + 1e-5 * k as f32,
-        velocity: 0.1,
-        acceleration: 0.5,
-    })
 }
 
 #[cortex_m_rt::entry]
