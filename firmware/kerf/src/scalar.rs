@@ -91,6 +91,13 @@ pub trait Real:
         let _ = carry;
         self.scale(a) + b.scale(c)
     }
+    /// `self × c` with first-order error feedback (see [`Real::mul_add_carry`]); for
+    /// the floats [`Real::scale`].
+    #[inline]
+    fn scale_carry(self, c: Self::Coef, carry: &mut Self::Carry) -> Self {
+        let _ = carry;
+        self.scale(c)
+    }
 
     /// Clamps to `[-limit, limit]` (`limit >= 0`).
     #[inline]

@@ -30,12 +30,19 @@ const MASK: u32 = INPUTS as u32 - 1;
 /// them, which makes a poor error check). The wrap from the last input to the first
 /// is a 0.63 mm jump, well inside the decoder's quarter pitch.
 fn hall_inputs() -> [[u16; 3]; INPUTS] {
-    let pitch = HallConfig::LM1247_16BIT.pitch_m;
-    core::array::from_fn(|k| {
-        let travel = 1e-5 * k as f64 - 1e-6;
-        counts_at_phase((2.0 * core::f64::consts::PI * travel / pitch) as f32)
-    })
+    core::array::from_fn(hall_at)
 }
+
+/// Hall counts of the ramp-following axis in period `k`.
+fn hall_at(k: usize) -> [u16; 3] {
+    let travel = 1e-5 * k as f64 - 1e-6;
+    let phase = 2.0 * core::f64::consts::PI * travel / HallConfig::LM1247_16BIT.pitch_m;
+    counts_at_phase(libm::fmod(phase, 2.0 * core::f64::consts::PI) as f32)
+}
+
+/// Periods of the error check: the first [`INPUTS`] are the observer's start-up from
+/// rest (the force at its limit in many), the rest are compared.
+const ERROR_PERIODS: usize = 4 * INPUTS;
 
 /// One row: kernel and reference net of the same baseline, the errors in N.
 fn row(
@@ -78,13 +85,21 @@ fn axis<T: Real>() -> Option<(AxisLaw<T>, HallAxis<T>, AxisState<T>)> {
     ))
 }
 
-/// Forces of one pass over the inputs from a fresh state.
-fn axis_forces<T: Real>() -> Option<[f64; INPUTS]> {
+/// Forces of [`ERROR_PERIODS`] periods of the ramp (continued past the 64 inputs, so
+/// without their wrap) from a fresh state, after the start-up's [`INPUTS`].
+fn axis_forces<T: Real>() -> Option<[f64; ERROR_PERIODS - INPUTS]> {
     let (law, sensor, mut state) = axis::<T>()?;
-    let (hall, refs) = (hall_inputs(), references_in::<T>());
-    let mut out = [0.0; INPUTS];
-    for ((f, counts), r) in out.iter_mut().zip(hall).zip(&refs) {
-        *f = law.step(&sensor, &mut state, counts, r).force_n.to_f64();
+    let mut out = [0.0; ERROR_PERIODS - INPUTS];
+    for k in 0..ERROR_PERIODS {
+        let r = Reference {
+            position: T::from_f64(0.004 + 1e-5 * k as f64),
+            velocity: T::from_f64(0.1),
+            acceleration: T::from_f64(0.5),
+        };
+        let force = law.step(&sensor, &mut state, hall_at(k), &r).force_n;
+        if let Some(f) = k.checked_sub(INPUTS).and_then(|i| out.get_mut(i)) {
+            *f = force.to_f64();
+        }
     }
     Some(out)
 }
@@ -114,7 +129,7 @@ fn pd_dob_input<T: Real>(k: usize) -> (T, T) {
     (T::from_f64(0.004 + 1.1e-5 * k as f64), T::from_f64(0.099))
 }
 
-fn worst(a: &[f64; INPUTS], b: &[f64; INPUTS]) -> f64 {
+fn worst(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
         .map(|(x, y)| libm::fabs(x - y))
@@ -144,15 +159,16 @@ fn axis_rows(counter: &mut Counter) -> Option<()> {
     let (law_f, sensor_f, mut state_f) = axis::<f32>()?;
     let (refs_q, refs_f) = (references_in::<Q6_25>(), references_in::<f32>());
     let reference = axis_forces::<f64>()?;
-    let (lo, hi) = reference
+    let limit = AxisConfig::LM1247_SLAVE.dob.force_limit_n;
+    let saturated = reference
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), f| {
-            (lo.min(*f), hi.max(*f))
-        });
+        .filter(|f| libm::fabs(**f) >= limit)
+        .count();
     hprintln!(
-        "# Cortex-M3 axis step forces over the inputs (f64): {:.3} .. {:.3} N",
-        lo,
-        hi
+        "# Cortex-M3 axis step: errors over periods {} to {} of the ramp (after the start-up from rest), {} of them at the force limit in f64",
+        INPUTS,
+        ERROR_PERIODS,
+        saturated
     );
     let errors = (
         worst(&axis_forces::<Q6_25>()?, &reference),

@@ -197,6 +197,15 @@ impl Real for Q6_25 {
         *carry = (biased & ((half << 1) - 1)) - half;
         Q6_25(saturate(biased >> shift))
     }
+    /// The product rounded with error feedback, as [`Real::mul_add_carry`].
+    #[inline]
+    fn scale_carry(self, c: Gain, carry: &mut i64) -> Self {
+        let biased = (i64::from(self.0) * i64::from(c.mantissa))
+            .saturating_add((*carry).clamp(-c.half, c.half))
+            .saturating_add(c.half);
+        *carry = (biased & ((c.half << 1) - 1)) - c.half;
+        Q6_25(saturate(biased >> c.shift))
+    }
     /// `n × c` rounded to nearest, saturating.
     #[inline]
     fn count_times(n: u32, c: Gain) -> Self {

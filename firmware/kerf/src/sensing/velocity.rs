@@ -37,9 +37,11 @@ pub struct TrackingObserverState<T: Real> {
     pub position: T,
     /// Velocity estimate, m/s.
     pub velocity: T,
-    /// The position prediction's rounding carried to the next period
-    /// ([`Real::mul_add_carry`]; nothing for the floats).
-    carry: T::Carry,
+    /// The roundings of the position update carried to the next period (the step,
+    /// [`Real::mul_add_carry`], and the correction, [`Real::scale_carry`]; nothing
+    /// for the floats). Every rounding of a position increment needs it: a constant
+    /// rounding error δ per period is, to this observer, a velocity error of δ/Ts.
+    carry: [T::Carry; 2],
 }
 
 impl<T: Real> TrackingObserverState<T> {
@@ -48,7 +50,7 @@ impl<T: Real> TrackingObserverState<T> {
         Self {
             position,
             velocity: T::ZERO,
-            carry: T::Carry::default(),
+            carry: [T::Carry::default(); 2],
         }
     }
 }
@@ -82,13 +84,13 @@ impl<T: Real> TrackingObserver<T> {
     pub fn update(&self, state: &mut TrackingObserverState<T>, measured: T, acceleration: T) -> T {
         // The step as `predicted_step` computes it, with the fixed-point rounding
         // carried from period to period (a float step is the same expression).
-        let step =
-            state
-                .velocity
-                .mul_add_carry(self.ts, acceleration, self.half_ts_sq, &mut state.carry);
+        let [step_carry, correction_carry] = &mut state.carry;
+        let step = state
+            .velocity
+            .mul_add_carry(self.ts, acceleration, self.half_ts_sq, step_carry);
         let predicted = state.position + step;
         let innovation = measured - predicted;
-        state.position = predicted + innovation.scale(self.alpha);
+        state.position = predicted + innovation.scale_carry(self.alpha, correction_carry);
         state.velocity =
             state.velocity + acceleration.scale(self.ts) + innovation.scale(self.beta_over_ts);
         state.velocity
