@@ -105,7 +105,7 @@ impl Gain {
     /// 2^-31 ≤ |v| < 2^30, with fewer bits down to 2^-62, saturated at about ±2^30
     /// above; NaN gives zero.
     pub fn from_f64(v: f64) -> Self {
-        if !(libm::fabs(v) > 0.0) {
+        if v.is_nan() || v == 0.0 {
             return Self::ZERO;
         }
         // |v| ∈ [2^(e−1), 2^e): |v| · 2^(31 − e) ∈ [2^30, 2^31).
@@ -191,8 +191,10 @@ impl Real for Q6_25 {
                 c.half,
             )
         };
+        // `max`/`min`, not `clamp`: the bounds are not constants, and `clamp`'s check
+        // of their order would stay linked as a panic path.
         let biased = sum
-            .saturating_add((*carry).clamp(-half, half))
+            .saturating_add((*carry).max(-half).min(half))
             .saturating_add(half);
         *carry = (biased & ((half << 1) - 1)) - half;
         Q6_25(saturate(biased >> shift))
@@ -200,8 +202,9 @@ impl Real for Q6_25 {
     /// The product rounded with error feedback, as [`Real::mul_add_carry`].
     #[inline]
     fn scale_carry(self, c: Gain, carry: &mut i64) -> Self {
+        // `max`/`min`, not `clamp` (see `mul_add_carry`).
         let biased = (i64::from(self.0) * i64::from(c.mantissa))
-            .saturating_add((*carry).clamp(-c.half, c.half))
+            .saturating_add((*carry).max(-c.half).min(c.half))
             .saturating_add(c.half);
         *carry = (biased & ((c.half << 1) - 1)) - c.half;
         Q6_25(saturate(biased >> c.shift))
