@@ -18,10 +18,13 @@
 use cortex_m_semihosting::hprintln;
 use kerf::{Real, Q6_25};
 use kerf_app::exit;
+use kerf_app::stack::Painted;
 use kerf_sim::scenario::{run, Outcome, Scenario, MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M};
 
 /// The fixed-point run's RMS error may differ from the f64 run's by this fraction.
 const RMS_TOLERANCE: f64 = 0.10;
+/// Stack painted below `main` to measure the fixed-point run's depth, bytes.
+const STACK_PAINT: usize = 128 * 1024;
 
 fn summary<T: Real>(name: &str, scenario: &Scenario) -> Option<Outcome> {
     match run::<T>(scenario) {
@@ -53,7 +56,18 @@ fn main() -> ! {
         // Deliberately detuned: 1 % of the position gain must miss the bounds.
         scenario.machine.axis.pd.kp_per_s2 *= 0.01;
     }
+    let painted = Painted::below_sp(STACK_PAINT);
     let fixed = summary::<Q6_25>("Q6_25", &scenario);
+    match painted.used() {
+        Some(bytes) => hprintln!(
+            "kerf axis-m3: the Q6_25 run (machine, simulated axis, operator, queues) used {} bytes of stack",
+            bytes
+        ),
+        None => hprintln!(
+            "kerf axis-m3: the Q6_25 run used more than the {} bytes of stack painted",
+            STACK_PAINT
+        ),
+    }
     let soft = summary::<f32>("f32, software float", &scenario);
     let reference = summary::<f64>("f64, reference", &scenario);
     let ok = match (fixed, soft, reference) {
