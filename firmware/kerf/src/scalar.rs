@@ -172,9 +172,11 @@ macro_rules! impl_real_for_float {
             fn coef_to_f64(c: Self) -> f64 {
                 f64::from(c)
             }
+            /// `c * self`: the coefficient first, as the laws wrote their products
+            /// before the coefficient type (the same result, the same code).
             #[inline]
             fn scale(self, c: Self) -> Self {
-                self * c
+                c * self
             }
             type Carry = ();
         }
@@ -257,9 +259,12 @@ impl Real for Q31_32 {
     fn coef_to_f64(c: Self) -> f64 {
         c.to_f64()
     }
+    /// `c * self`: the coefficient first, as the laws wrote their products before
+    /// the coefficient type (`fixed`'s saturating product compiles differently with
+    /// its operands swapped).
     #[inline]
     fn scale(self, c: Self) -> Self {
-        self * c
+        c * self
     }
     type Carry = ();
 }
