@@ -5,8 +5,9 @@
 //! beside the Cortex-M4 image. The estimated-cycle columns are "—": `scripts/cycles`
 //! models the Cortex-M4's timings.
 //!
-//! The error columns are the largest force difference over the 64 periods against the
-//! same loop in `f64`, each run from the same fresh state on the same inputs.
+//! The error columns are the largest force difference against the same code in
+//! `f64`, each run from the same fresh state on the same inputs: PD + DOB over the 64
+//! inputs, the axis step over periods 64 to 256 of its ramp (after the start-up).
 #![no_std]
 #![no_main]
 
