@@ -34,15 +34,17 @@ impl Q6_25 {
     pub const MIN: Self = Q6_25(i32::MIN);
 }
 
-/// `v` saturated into an `i32`.
+/// `v` saturated into an `i32` (in range when its low word, sign-extended, is `v`:
+/// one comparison of the high word on a 32-bit core).
 #[inline]
 fn saturate(v: i64) -> i32 {
-    if v > i64::from(i32::MAX) {
-        i32::MAX
-    } else if v < i64::from(i32::MIN) {
+    let low = v as i32;
+    if i64::from(low) == v {
+        low
+    } else if v < 0 {
         i32::MIN
     } else {
-        v as i32
+        i32::MAX
     }
 }
 
@@ -112,8 +114,10 @@ impl Gain {
         let (_, e) = libm::frexp(v);
         let shift = (31 - e).clamp(1, 62);
         // `as` saturates the ±∞ and out-of-range products; a mantissa that rounds up
-        // to 2^31 saturates to 2^31 − 1, a relative change of 5e-10.
-        let mantissa = libm::rint(libm::ldexp(v, shift)) as i32;
+        // to 2^31 saturates to 2^31 − 1, a relative change of 5e-10. −2^31 is kept
+        // out too: with |mantissa| < 2^31 every product with a signal is below 2^62
+        // in magnitude, which the carried sums below rely on.
+        let mantissa = (libm::rint(libm::ldexp(v, shift)) as i32).max(-i32::MAX);
         let shift = shift as u32;
         Gain {
             mantissa,
@@ -181,31 +185,27 @@ impl Real for Q6_25 {
     fn mul_add_carry(self, a: Gain, b: Self, c: Gain, carry: &mut i64) -> Self {
         let p = i64::from(self.0) * i64::from(a.mantissa);
         let q = i64::from(b.0) * i64::from(c.mantissa);
-        // Shifts are 1..=62, so the differences are below 64.
+        // Shifts are 1..=62, so the differences are below 64. |p|, |q| < 2^62 (the
+        // mantissa's magnitude is below 2^31), so their sum cannot overflow.
         let (sum, shift, half) = if a.shift <= c.shift {
-            (p.saturating_add(q >> (c.shift - a.shift)), a.shift, a.half)
+            (p + (q >> (c.shift - a.shift)), a.shift, a.half)
         } else {
-            (
-                (p >> (a.shift - c.shift)).saturating_add(q),
-                c.shift,
-                c.half,
-            )
+            ((p >> (a.shift - c.shift)) + q, c.shift, c.half)
         };
         // `max`/`min`, not `clamp`: the bounds are not constants, and `clamp`'s check
-        // of their order would stay linked as a panic path.
-        let biased = sum
-            .saturating_add((*carry).max(-half).min(half))
-            .saturating_add(half);
+        // of their order would stay linked as a panic path. The carried half is in
+        // [0, 2^62]: beside a sum of up to 2^63 − 2^32 only a saturating add is safe.
+        let biased = sum.saturating_add((*carry).max(-half).min(half) + half);
         *carry = (biased & ((half << 1) - 1)) - half;
         Q6_25(saturate(biased >> shift))
     }
     /// The product rounded with error feedback, as [`Real::mul_add_carry`].
     #[inline]
     fn scale_carry(self, c: Gain, carry: &mut i64) -> Self {
-        // `max`/`min`, not `clamp` (see `mul_add_carry`).
-        let biased = (i64::from(self.0) * i64::from(c.mantissa))
-            .saturating_add((*carry).max(-c.half).min(c.half))
-            .saturating_add(c.half);
+        // `max`/`min`, not `clamp` (see `mul_add_carry`). The product is below 2^62
+        // − 2^31 in magnitude and the carried half in [0, 2^62]: no overflow.
+        let biased = i64::from(self.0) * i64::from(c.mantissa)
+            + ((*carry).max(-c.half).min(c.half) + c.half);
         *carry = (biased & ((c.half << 1) - 1)) - c.half;
         Q6_25(saturate(biased >> c.shift))
     }
@@ -305,6 +305,55 @@ mod tests {
                 assert_eq!(got.signum(), exact.signum());
                 assert!(got.abs() >= 63.9);
             }
+        }
+    }
+
+    /// The carried products at the ends of both ranges (the test profile checks
+    /// overflow): they saturate, and their rounded sums over many periods stay within
+    /// a step of the exact sums where they do not.
+    #[test]
+    fn carried_products_saturate_at_the_extremes_and_do_not_drift() {
+        let largest = Gain::from_f64(1.07e9);
+        let smallest = Gain::from_f64(-3e-18);
+        assert!(largest.mantissa > 0 && smallest.mantissa > -i32::MAX - 1);
+        assert_eq!(Gain::from_f64(-1e12).mantissa, -i32::MAX);
+        for x in [Q6_25::MIN, Q6_25::MAX, Q6_25(-1), Q6_25::ZERO] {
+            for g in [
+                largest,
+                smallest,
+                Gain::from_f64(-1e12),
+                Gain::from_f64(0.75),
+            ] {
+                for mut carry in [i64::MIN, -1, 0, i64::MAX] {
+                    let one = x.scale_carry(g, &mut carry);
+                    let two = x.mul_add_carry(g, x, g, &mut carry);
+                    let exact = x.to_f64() * g.to_f64();
+                    let limit = Q6_25::MAX.to_f64();
+                    if libm::fabs(exact) >= limit {
+                        assert_eq!(one.0.signum(), exact.signum() as i32, "{x:?} {g:?}");
+                    }
+                    if libm::fabs(2.0 * exact) >= limit {
+                        assert_eq!(two.0.signum(), exact.signum() as i32, "{x:?} {g:?}");
+                    }
+                }
+            }
+        }
+        // A constant step of 0.3 steps, and Ts·v + Ts²/2·a: the carried sums follow
+        // the exact ones within one step over 100 000 periods.
+        let third = Gain::from_f64(0.3);
+        let (mut carry, mut sum) = (0i64, 0i64);
+        for k in 1..=100_000i64 {
+            sum += i64::from(Q6_25(1).scale_carry(third, &mut carry).0);
+            assert!(((sum as f64) - 0.3 * k as f64).abs() <= 1.0, "{k}");
+        }
+        let (ts, half_ts_sq) = (Gain::from_f64(1e-4), Gain::from_f64(5e-9));
+        let (v, a) = (Q6_25::from_f64(0.1407), Q6_25::from_f64(1.08));
+        let (mut carry, mut sum) = (0i64, 0i64);
+        let exact = v.to_f64() * ts.to_f64() + a.to_f64() * half_ts_sq.to_f64();
+        for k in 1..=100_000i64 {
+            sum += i64::from(v.mul_add_carry(ts, a, half_ts_sq, &mut carry).0);
+            let drift = sum as f64 * Q6_25::RESOLUTION - exact * k as f64;
+            assert!(drift.abs() <= Q6_25::RESOLUTION, "{k}: {drift}");
         }
     }
 
