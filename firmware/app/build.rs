@@ -25,6 +25,14 @@ fn main() {
             // The benchmark image links every kernel beside its peers: 1 MiB of the
             // model's 4 MiB code memory.
             println!("cargo:rustc-link-arg-bin=bench=--defsym=_kerf_flash_length=0x100000");
+            // The Cortex-M0 image on QEMU's microbit (nRF51822): the part's 256 KiB of
+            // flash at 0x0 and its 16 KiB of SRAM.
+            println!("cargo:rustc-link-arg-bin=axis-m0=--defsym=_kerf_flash_length=0x40000");
+            println!("cargo:rustc-link-arg-bin=axis-m0=--defsym=_kerf_ram_length=0x4000");
+            // The Cortex-M3 images run the host's lockstep scenario driver, whose
+            // queues and plant sit on the stack: 1 MiB of the an385's 4 MiB SRAM.
+            println!("cargo:rustc-link-arg-bin=axis-m3=--defsym=_kerf_ram_length=0x100000");
+            println!("cargo:rustc-link-arg-bin=bench-m3=--defsym=_kerf_ram_length=0x100000");
         }
         println!("cargo:rustc-link-arg-bins=-Tlink.x");
     }

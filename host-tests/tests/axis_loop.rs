@@ -3,7 +3,7 @@
 use hal_mock::hall_sensor::{ChannelFault, HallSensorParams};
 use kerf::app::axis::AxisFault;
 use kerf::sensing::hall::{HallDecoder, HallFault};
-use kerf::Q32;
+use kerf::{Real, Q31_32, Q6_25};
 use kerf_sim::scenario::{
     run, run_into, run_with, Motion, Outcome, Scenario, MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M,
 };
@@ -22,15 +22,17 @@ fn report(name: &str, o: &kerf_sim::scenario::Outcome) {
 }
 
 #[test]
-fn tracking_profile_meets_bounds_in_f64_f32_and_q32() {
+fn tracking_profile_meets_bounds_in_every_scalar() {
     let s = Scenario::TRACKING;
     let r64 = run::<f64>(&s).unwrap();
     let r32 = run::<f32>(&s).unwrap();
-    let rq = run::<Q32>(&s).unwrap();
+    let rq = run::<Q31_32>(&s).unwrap();
+    let r25 = run::<Q6_25>(&s).unwrap();
     report("f64", &r64);
     report("f32", &r32);
-    report("Q32", &rq);
-    for o in [&r64, &r32, &rq] {
+    report("Q31_32", &rq);
+    report("Q6_25", &r25);
+    for o in [&r64, &r32, &rq, &r25] {
         assert_eq!(o.periods, 10_000);
         assert!(o.fault_period.is_none());
         assert!(o.rms_error_m < RMS_ERROR_BOUND_M, "{o:?}");
@@ -89,7 +91,8 @@ fn sensor_faults_latch_zero_force() {
     for o in [
         run::<f32>(&s).unwrap(),
         run::<f64>(&s).unwrap(),
-        run::<Q32>(&s).unwrap(),
+        run::<Q31_32>(&s).unwrap(),
+        run::<Q6_25>(&s).unwrap(),
     ] {
         assert_eq!(o.fault_period, Some(3000), "{o:?}");
         assert_eq!(o.fault, Some(AxisFault::Sensor(HallFault::AdcRail(0))));
@@ -126,24 +129,81 @@ fn sensor_faults_latch_zero_force() {
     );
 }
 
-/// The fixed-point loop stays within the signal ranges documented in `kerf::control`
-/// (so Q31.32 never saturates) and tracks the f64 loop closely.
+/// The scenarios the fixed-point formats are checked over: the tracking profile,
+/// the same with a 1 N load step mid-move, a hold with a 1 N load step, and an open
+/// wire mid-move (a fault: zero force from then on).
+fn format_scenarios() -> [(&'static str, Scenario); 4] {
+    let tracking = Scenario::TRACKING;
+    let mut loaded = tracking;
+    loaded.load_step = Some((0.25, 1.0));
+    let mut hold = tracking;
+    hold.motion = Motion::Hold;
+    hold.periods = 5000;
+    hold.load_step = Some((0.2, 1.0));
+    let mut fault = tracking;
+    fault.sensor_fault = Some((0.3, ChannelFault::OpenWire(0)));
+    [
+        ("tracking", tracking),
+        ("tracking, 1 N load step", loaded),
+        ("hold, 1 N load step", hold),
+        ("tracking, open wire", fault),
+    ]
+}
+
+/// Every recorded signal of the fixed-point loops stays inside the design range the
+/// table in `kerf::control` gives it, which is inside the Q6.25 format (±64): a
+/// signal that saturated would read at the format's end, far beyond its range. The
+/// Q31.32 loop is checked against the same ranges, and both against the f64 run's
+/// peaks, which no format limits.
 #[test]
-fn q32_signals_stay_in_documented_ranges() {
-    let mut s = Scenario::TRACKING;
-    s.load_step = Some((0.25, 1.0));
-    let q = run::<Q32>(&s).unwrap();
-    let f = run::<f64>(&s).unwrap();
-    assert!(q.peak_position_m < 0.1 && q.peak_velocity_m_s < 2.0);
-    assert!(q.peak_force_n < 100.0 && q.peak_disturbance_n < 100.0);
-    // Q31.32 quantizes at 2.3e-10; products of the 6e4 s⁻² gain by that step give
-    // 1.5e-5 m/s² per period, far below the noise: RMS errors agree to 1 %.
-    assert!(
-        (q.rms_error_m / f.rms_error_m - 1.0).abs() < 0.01,
-        "{} vs {}",
-        q.rms_error_m,
-        f.rms_error_m
-    );
+fn fixed_point_signals_stay_in_their_formats() {
+    const POSITION_M: f64 = 0.1;
+    const VELOCITY_M_S: f64 = 2.0;
+    const FORCE_N: f64 = 3.6;
+    // 3.6 N on the 71 g nominal mass: beyond it the force clamps.
+    const ACCELERATION_M_S2: f64 = 3.6 / 0.071;
+    let format_limit = Q6_25::MAX.to_f64();
+    for (name, s) in format_scenarios() {
+        let reference = run::<f64>(&s).unwrap();
+        for (scalar, o) in [
+            ("Q6_25", run::<Q6_25>(&s).unwrap()),
+            ("Q31_32", run::<Q31_32>(&s).unwrap()),
+        ] {
+            println!(
+                "{name} <{scalar}>: peaks position {:.4} m velocity {:.3} m/s acceleration {:.2} m/s² force {:.3} N disturbance {:.3} N (f64: {:.4} {:.3} {:.2} {:.3} {:.3})",
+                o.peak_position_m,
+                o.peak_velocity_m_s,
+                o.peak_acceleration_m_s2,
+                o.peak_force_n,
+                o.peak_disturbance_n,
+                reference.peak_position_m,
+                reference.peak_velocity_m_s,
+                reference.peak_acceleration_m_s2,
+                reference.peak_force_n,
+                reference.peak_disturbance_n,
+            );
+            assert_eq!(o.fault, reference.fault, "{name} <{scalar}>");
+            for (peak, range, f64_peak) in [
+                (o.peak_position_m, POSITION_M, reference.peak_position_m),
+                (
+                    o.peak_velocity_m_s,
+                    VELOCITY_M_S,
+                    reference.peak_velocity_m_s,
+                ),
+                (
+                    o.peak_acceleration_m_s2,
+                    ACCELERATION_M_S2,
+                    reference.peak_acceleration_m_s2,
+                ),
+                (o.peak_force_n, FORCE_N, reference.peak_force_n),
+                (o.peak_disturbance_n, FORCE_N, reference.peak_disturbance_n),
+            ] {
+                assert!(range < format_limit);
+                assert!(peak < range, "{name} <{scalar}>: {peak} beyond {range}");
+                assert!(f64_peak < range, "{name} <f64>: {f64_peak} beyond {range}");
+            }
+        }
+    }
 }
 
 /// The firmware's sensing flow on imperfect sensors (offsets ±3 % FS, gains ±5 %,

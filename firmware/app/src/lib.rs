@@ -3,6 +3,7 @@
 #![no_std]
 
 pub mod bench;
+pub mod inputs;
 pub mod stack;
 pub mod uart;
 

@@ -263,17 +263,41 @@ pub(crate) fn coefficient<T: Real>(name: &'static str, value: f64) -> Result<T, 
     }
 }
 
+/// Converts a derived, necessarily non-zero constant factor of a signal to the target
+/// scalar's coefficient type ([`Real::coef`]), or names `name` as not representable.
+///
+/// The same test as [`coefficient`]: finite and non-zero in `f64`, and within 1/16 of
+/// itself once converted. For the floats and Q31.32 the coefficient is the scalar
+/// itself, so the two agree; for [`Q6_25`](crate::scalar::Q6_25) it rejects gains
+/// beyond a [`Gain`](crate::scalar::Gain)'s ±2^30 and below its 2^-62 step.
+pub(crate) fn factor<T: Real>(name: &'static str, value: f64) -> Result<T::Coef, ConfigError> {
+    let converted = T::coef(value);
+    let back = T::coef_to_f64(converted);
+    if value.is_finite() && value != 0.0 && libm::fabs(back - value) <= libm::fabs(value) / 16.0 {
+        Ok(converted)
+    } else {
+        Err(ConfigError::not_representable(name))
+    }
+}
+
 /// `value` (a position, distance, speed, time in SI units; zero allowed) in the target
 /// scalar: finite there, and within 1/16 of itself or within 1e-9 absolute (what the
-/// scalar cannot resolve, such as f32 underflow or Q32's 2^-32 step, is that small).
-/// Overflow to ±inf (f32) or saturation (Q32) is `NotRepresentable`.
+/// scalar cannot resolve, such as f32 underflow or Q31.32's 2^-32 step, is that small),
+/// or within half the step of a coarser fixed-point scalar ([`Real::FIXED_STEP`]:
+/// Q6.25's 2^-25 ≈ 3e-8 m, which a position legitimately rounds to).
+/// Overflow to ±inf (f32) or saturation (Q31_32) is `NotRepresentable`.
 pub(crate) fn representable<T: Real>(name: &'static str, value: f64) -> Result<T, ConfigError> {
     if !value.is_finite() {
         return Err(ConfigError::not_finite(name));
     }
     let converted = T::from_f64(value);
     let error = libm::fabs(converted.to_f64() - value);
-    if converted.is_finite() && (error <= libm::fabs(value) / 16.0 || error <= 1e-9) {
+    let absolute = if T::FIXED_STEP / 2.0 > 1e-9 {
+        T::FIXED_STEP / 2.0
+    } else {
+        1e-9
+    };
+    if converted.is_finite() && (error <= libm::fabs(value) / 16.0 || error <= absolute) {
         Ok(converted)
     } else {
         Err(ConfigError::not_representable(name))
@@ -283,7 +307,7 @@ pub(crate) fn representable<T: Real>(name: &'static str, value: f64) -> Result<T
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scalar::Q32;
+    use crate::scalar::Q31_32;
     use std::string::ToString;
 
     #[test]
@@ -361,9 +385,9 @@ mod tests {
         assert!(coefficient::<f32>("g", 3e-45).is_err());
         assert_eq!(coefficient::<f32>("g", 1e-30), Ok(1e-30));
         // Q31.32: saturation above 2^31 and quantization below 16 LSB.
-        assert!(coefficient::<Q32>("g", 3e9).is_err());
-        assert!(coefficient::<Q32>("g", 1e-10).is_err());
-        assert!(coefficient::<Q32>("g", 5e-9).is_ok());
+        assert!(coefficient::<Q31_32>("g", 3e9).is_err());
+        assert!(coefficient::<Q31_32>("g", 1e-10).is_err());
+        assert!(coefficient::<Q31_32>("g", 5e-9).is_ok());
         for bad in [0.0, f64::NAN, f64::INFINITY] {
             assert_eq!(
                 coefficient::<f64>("g", bad),

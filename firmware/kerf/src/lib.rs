@@ -35,4 +35,4 @@ pub mod sensing;
 pub mod trajectory;
 
 pub use error::{ConfigContext, ConfigError, ConfigErrorKind};
-pub use scalar::{Float, Real, Q32};
+pub use scalar::{Float, Gain, Real, Q31_32, Q6_25};

@@ -1,15 +1,35 @@
 //! The scalar the control laws are generic over: `f32` on the MCU, `f64` as the host
-//! reference, and [`Q32`] (saturating Q31.32 fixed point) for FPU-less parts.
+//! reference, [`Q6_25`] (saturating 32-bit fixed point with [`Gain`] coefficients)
+//! for FPU-less parts, and [`Q31_32`] (saturating 64-bit fixed point) as the host's
+//! cross-check of fixed point with ample range.
 //!
 //! Control laws use only `+ - *`, negation and comparisons in the periodic step;
 //! every division or transcendental function is done once in `new()` in `f64` and
-//! stored as a coefficient with [`Real::from_f64`].
+//! stored as a coefficient, either in the scalar itself ([`Real::from_f64`]) or, for
+//! a constant factor of a signal, as the scalar's [`Real::Coef`] ([`Real::coef`]),
+//! applied with [`Real::scale`].
+//!
+//! # Why a coefficient type
+//!
+//! One Q format for every number of a loop cannot serve both its signals and its
+//! gains: in SI units the single axis' signals need a 30 nm step and a ±64 range
+//! (position, velocity, acceleration command, force; the table in
+//! [`crate::control`]), while its gains run from 5e-9 (Ts²/2 in s²) to 6.3e4 (Kp in
+//! s⁻²). So a scalar names a second type for constant factors. For the floats it is
+//! the float itself and [`Real::scale`] is one multiplication: the generated code of
+//! the `f32`/`f64` laws is what it was with gains stored as `T`. For [`Q6_25`] it is
+//! a [`Gain`], a normalized 32-bit mantissa with its own shift chosen in `new()`, so
+//! every gain keeps 31 significant bits whatever its size, and a product
+//! signal × gain is one 32 × 32 → 64-bit multiply, a rounding shift and a saturation.
 
 use core::fmt::Debug;
 use core::ops::{Add, Mul, Neg, Sub};
 use fixed::types::I32F32;
 
-/// Arithmetic a periodic control step needs. Implemented for `f32`, `f64` and [`Q32`].
+mod q6_25;
+pub use q6_25::{Gain, Q6_25, SIGNAL_FRACTION_BITS};
+
+/// Arithmetic a periodic control step needs. Implemented for `f32`, `f64` and [`Q31_32`].
 pub trait Real:
     Copy
     + Debug
@@ -21,6 +41,9 @@ pub trait Real:
 {
     /// Additive identity.
     const ZERO: Self;
+    /// The step of a fixed-point scalar (its absolute resolution); 0 for the floats,
+    /// whose resolution is relative.
+    const FIXED_STEP: f64 = 0.0;
     /// Converts a configuration value (call at configuration time, not per period).
     fn from_f64(v: f64) -> Self;
     /// Converts to `f64` for reporting and tests.
@@ -33,6 +56,48 @@ pub trait Real:
     fn to_q32(self) -> i64;
     /// `false` for NaN and ±∞ (always `true` for fixed point).
     fn is_finite(self) -> bool;
+
+    /// A constant factor of a signal (a gain, a period, a mass) in this scalar: the
+    /// scalar itself for the floats and [`Q31_32`], a [`Gain`] for [`Q6_25`].
+    type Coef: Copy + Debug + PartialEq;
+    /// `v` as a coefficient, rounded to nearest; out-of-range values saturate and
+    /// NaN gives zero, so check with [`Real::coef_to_f64`] (as `new()` does through
+    /// `error::factor`).
+    fn coef(v: f64) -> Self::Coef;
+    /// The coefficient's exact value.
+    fn coef_to_f64(c: Self::Coef) -> f64;
+    /// `self × c`, rounded to the scalar (saturating for fixed point).
+    fn scale(self, c: Self::Coef) -> Self;
+    /// `n × c` for a count `n` (periods since a start): for the floats the same as
+    /// `Real::from_q32(n << 32).scale(c)`, for fixed point without passing the count
+    /// through the signal format, whose range it may exceed.
+    #[inline]
+    fn count_times(n: u32, c: Self::Coef) -> Self {
+        Self::from_q32(i64::from(n) << 32).scale(c)
+    }
+    /// What an integrator in this scalar carries from one rounded step to the next
+    /// ([`Real::mul_add_carry`]): nothing for the floats and Q31.32, the last
+    /// rounding's remainder for [`Q6_25`].
+    type Carry: Copy + Debug + PartialEq + Default;
+    /// `self × a + b × c` for an integrator's step, with first-order error feedback in
+    /// fixed point: the remainder the last step's rounding lost (`carry`) is added
+    /// before rounding and this step's is left in `carry`, so the rounded steps sum to
+    /// the exact ones within one step of the scalar instead of drifting by up to half
+    /// a step per period. (A constant rounding error in a position prediction is, to
+    /// the tracking observer, a velocity of error/Ts: 1.5e-4 m/s for half a Q6.25
+    /// step at 10 kHz.) For the floats it is the plain expression.
+    #[inline]
+    fn mul_add_carry(self, a: Self::Coef, b: Self, c: Self::Coef, carry: &mut Self::Carry) -> Self {
+        let _ = carry;
+        self.scale(a) + b.scale(c)
+    }
+    /// `self × c` with first-order error feedback (see [`Real::mul_add_carry`]); for
+    /// the floats [`Real::scale`].
+    #[inline]
+    fn scale_carry(self, c: Self::Coef, carry: &mut Self::Carry) -> Self {
+        let _ = carry;
+        self.scale(c)
+    }
 
     /// Clamps to `[-limit, limit]` (`limit >= 0`).
     #[inline]
@@ -48,9 +113,10 @@ pub trait Real:
 }
 
 /// [`Real`] for the primitive floats: conversions are `as` casts (round to nearest,
-/// saturating to integers), and the Q32 scale is an exact power of two.
+/// saturating to integers), and the 2^32 scale of the phase conversions is an exact power
+/// of two.
 ///
-/// The Q32 conversions go through 32-bit words: a Cortex-M4F converts between `f32`
+/// The phase conversions (`from_q32`, `to_q32`) go through 32-bit words: a Cortex-M4F converts between `f32`
 /// and a 32-bit integer in one VCVT, while an `i64` conversion is a software routine
 /// of about 30 instructions (`__aeabi_l2f`, `__aeabi_f2lz`). `from_q32` adds the two
 /// words of the magnitude (the integer part, exact below 2^24 for `f32`, and the
@@ -97,61 +163,76 @@ macro_rules! impl_real_for_float {
             fn is_finite(self) -> bool {
                 self.abs() < <$float>::INFINITY
             }
+            type Coef = Self;
+            #[inline]
+            fn coef(v: f64) -> Self {
+                v as $float
+            }
+            #[inline]
+            fn coef_to_f64(c: Self) -> f64 {
+                f64::from(c)
+            }
+            /// `c * self`: the coefficient first, as the laws wrote their products
+            /// before the coefficient type (the same result, the same code).
+            #[inline]
+            fn scale(self, c: Self) -> Self {
+                c * self
+            }
+            type Carry = ();
         }
     )*};
 }
 impl_real_for_float!(f32, f64);
 
-/// Saturating signed Q31.32 fixed point (64-bit word).
+/// Saturating signed Q31.32 fixed point (64-bit word: `fixed`'s `I32F32`), gains in the
+/// same format.
 ///
-/// Why one 64-bit format for every signal of the DOB+PD loop: in SI units the loop's
-/// signals span from 1e-9 m (position resolution needed) to 3.6e4 s⁻² (position gain).
-/// A 32-bit word cannot hold both ends in one format (I16F16 quantizes metres to 15 µm;
-/// I8F24 cannot hold the gains), so a 32-bit design would need a separate Q format per
-/// signal and per product. Q31.32 covers ±2.1e9 with 2.3e-10 resolution, so every
-/// signal fits one format with at least 10⁴ headroom (ranges in `control` docs and
-/// checked by the fixed-point scenario test). Arithmetic saturates instead of wrapping.
+/// One format holds every signal and every gain of the DOB+PD loop (±2.1e9 with
+/// 2.3e-10 resolution), at the price of 64-bit arithmetic in every operation: on a
+/// Cortex-M4F a DOB+PD period costs about ten times the `f32` one (BENCHMARKS.md).
+/// It stays as the host's fixed-point cross-check with ample range; the 32-bit
+/// format for FPU-less parts is [`Q6_25`]. Arithmetic saturates instead of wrapping.
 #[derive(Copy, Clone, Debug, PartialEq, PartialOrd, Default)]
-pub struct Q32(pub I32F32);
+pub struct Q31_32(pub I32F32);
 
-impl Add for Q32 {
+impl Add for Q31_32 {
     type Output = Self;
     #[inline]
     fn add(self, rhs: Self) -> Self {
-        Q32(self.0.saturating_add(rhs.0))
+        Q31_32(self.0.saturating_add(rhs.0))
     }
 }
-impl Sub for Q32 {
+impl Sub for Q31_32 {
     type Output = Self;
     #[inline]
     fn sub(self, rhs: Self) -> Self {
-        Q32(self.0.saturating_sub(rhs.0))
+        Q31_32(self.0.saturating_sub(rhs.0))
     }
 }
-impl Mul for Q32 {
+impl Mul for Q31_32 {
     type Output = Self;
     #[inline]
     fn mul(self, rhs: Self) -> Self {
-        Q32(self.0.saturating_mul(rhs.0))
+        Q31_32(self.0.saturating_mul(rhs.0))
     }
 }
-impl Neg for Q32 {
+impl Neg for Q31_32 {
     type Output = Self;
     #[inline]
     fn neg(self) -> Self {
-        Q32(self.0.saturating_neg())
+        Q31_32(self.0.saturating_neg())
     }
 }
 
-impl Real for Q32 {
-    const ZERO: Self = Q32(I32F32::ZERO);
+impl Real for Q31_32 {
+    const ZERO: Self = Q31_32(I32F32::ZERO);
     #[inline]
     fn from_f64(v: f64) -> Self {
         // v · 2^32 is exact (a power-of-two scale); `rint` rounds it to the nearest
         // integer, ties to even, as `fixed`'s conversion does; `as` saturates out-of-range
         // values and maps NaN to zero. Done here rather than by `saturating_from_num`,
         // whose NaN branch panics and stays linked even behind a NaN test.
-        Q32(I32F32::from_bits(libm::rint(v * 4_294_967_296.0) as i64))
+        Q31_32(I32F32::from_bits(libm::rint(v * 4_294_967_296.0) as i64))
     }
     #[inline]
     fn to_f64(self) -> f64 {
@@ -159,7 +240,7 @@ impl Real for Q32 {
     }
     #[inline]
     fn from_q32(bits: i64) -> Self {
-        Q32(I32F32::from_bits(bits))
+        Q31_32(I32F32::from_bits(bits))
     }
     #[inline]
     fn to_q32(self) -> i64 {
@@ -169,6 +250,23 @@ impl Real for Q32 {
     fn is_finite(self) -> bool {
         true
     }
+    type Coef = Self;
+    #[inline]
+    fn coef(v: f64) -> Self {
+        Self::from_f64(v)
+    }
+    #[inline]
+    fn coef_to_f64(c: Self) -> f64 {
+        c.to_f64()
+    }
+    /// `c * self`: the coefficient first, as the laws wrote their products before
+    /// the coefficient type (`fixed`'s saturating product compiles differently with
+    /// its operands swapped).
+    #[inline]
+    fn scale(self, c: Self) -> Self {
+        c * self
+    }
+    type Carry = ();
 }
 
 /// Floating-point scalars (`f32`, `f64`) for the geometric code: nalgebra's
@@ -373,12 +471,12 @@ mod tests {
 
     #[test]
     fn q32_saturates_instead_of_wrapping() {
-        let big = Q32::from_f64(2.0e9);
+        let big = Q31_32::from_f64(2.0e9);
         assert_eq!((big + big).0, I32F32::MAX);
         assert_eq!((-big - big).0, I32F32::MIN);
         assert_eq!((big * big).0, I32F32::MAX);
-        assert_eq!(Q32::from_f64(f64::NAN), Q32::ZERO);
-        assert_eq!(Q32::from_f64(1e300).0, I32F32::MAX);
+        assert_eq!(Q31_32::from_f64(f64::NAN), Q31_32::ZERO);
+        assert_eq!(Q31_32::from_f64(1e300).0, I32F32::MAX);
     }
 
     #[test]
@@ -409,9 +507,13 @@ mod tests {
             values.push((x - 0.5) * 1e-6);
         }
         for v in values {
-            assert_eq!(Q32::from_f64(v).0, I32F32::saturating_from_num(v), "{v:e}");
+            assert_eq!(
+                Q31_32::from_f64(v).0,
+                I32F32::saturating_from_num(v),
+                "{v:e}"
+            );
         }
-        assert_eq!(Q32::from_f64(f64::NAN), Q32::ZERO);
+        assert_eq!(Q31_32::from_f64(f64::NAN), Q31_32::ZERO);
     }
 
     #[test]
@@ -419,8 +521,8 @@ mod tests {
         for bits in [0i64, 1, -1, 3 << 31, -(7 << 32) + 12345, i64::MAX / 4] {
             let exact = bits as f64 / 4_294_967_296.0;
             assert_eq!(f64::from_q32(bits), exact);
-            assert_eq!(Q32::from_q32(bits).to_f64(), exact);
-            assert_eq!(Q32::from_q32(bits).to_q32(), bits);
+            assert_eq!(Q31_32::from_q32(bits).to_f64(), exact);
+            assert_eq!(Q31_32::from_q32(bits).to_q32(), bits);
             if bits.unsigned_abs() < 1 << 52 {
                 assert_eq!(f64::from_q32(bits).to_q32(), bits);
             }
@@ -481,7 +583,9 @@ mod tests {
         assert_eq!((-5.0f64).clamp_abs(2.0), -2.0);
         assert_eq!(1.5f32.clamp_abs(2.0), 1.5);
         assert_eq!(
-            Q32::from_f64(-3.0).clamp_abs(Q32::from_f64(1.0)).to_f64(),
+            Q31_32::from_f64(-3.0)
+                .clamp_abs(Q31_32::from_f64(1.0))
+                .to_f64(),
             -1.0
         );
     }

@@ -50,7 +50,7 @@ use kerf::trajectory::efd::Efd;
 use kerf::trajectory::resample::ArcResampler;
 use kerf::trajectory::spline::{JointSpline, KnotTiming};
 use kerf::trajectory::tangential::{ContourFollower, FollowerConfig, SpeedRamp, SpeedRampConfig};
-use kerf::{Real, Q32};
+use kerf::{Real, Q31_32, Q6_25};
 
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo) -> ! {
@@ -81,14 +81,15 @@ fn main() -> ! {
             0 => joints_machine(),
             1 => delta_machine(),
             2 => axis_law::<f32>(),
-            3 => axis_law::<Q32>(),
-            4 => hall_and_observer(),
-            5 => kinematics(),
-            6 => contours(),
-            7 => codec::<32>(),
-            8 => codec::<64>(),
-            9 => arrow_machine(),
-            10 => autofocus(),
+            3 => axis_law::<Q31_32>(),
+            4 => axis_law::<Q6_25>(),
+            5 => hall_and_observer(),
+            6 => kinematics(),
+            7 => contours(),
+            8 => codec::<32>(),
+            9 => codec::<64>(),
+            10 => arrow_machine(),
+            11 => autofocus(),
             _ => stream(),
         }
     }
@@ -222,7 +223,7 @@ fn axis_law<T: Real>() {
     });
     sink(law.step(&sensor, &mut state, opaque([0u16; 3]), &reference));
     sink(state.position_m());
-    // The laws on their own (Q32 constructors included).
+    // The laws on their own (the fixed-point constructors included).
     if let (Ok(pd), Ok(dob)) = (
         Pd::<T>::new(&config.pd),
         Dob::<T>::new(&config.dob, opaque(1e-4)),

@@ -182,6 +182,9 @@ pub struct Period {
     pub force_n: f64,
     /// Disturbance estimate, N.
     pub disturbance_n: f64,
+    /// The PD's acceleration command, m/s², recomputed from the period's reference
+    /// and the measured position and velocity (what the DOB was handed).
+    pub acceleration_m_s2: f64,
     /// Velocity estimate, m/s.
     pub velocity_m_s: f64,
     /// Measured position, m.
@@ -294,6 +297,10 @@ impl<'q, T: Real> Rig<'q, T> {
             error_m: reference.position.to_f64() - true_position_m,
             force_n: force[0].to_f64(),
             disturbance_n: out.disturbance_n.to_f64(),
+            acceleration_m_s2: machine
+                .law()
+                .pd_acceleration(&reference, out.position_m, out.velocity_m_s)
+                .to_f64(),
             velocity_m_s: out.velocity_m_s.to_f64(),
             position_m: out.position_m.to_f64(),
             fault: match mode {
@@ -356,6 +363,8 @@ pub struct Outcome {
     pub peak_disturbance_n: f64,
     /// Peak |velocity estimate|, m/s.
     pub peak_velocity_m_s: f64,
+    /// Peak |acceleration command|, m/s².
+    pub peak_acceleration_m_s2: f64,
     /// Peak |measured position|, m.
     pub peak_position_m: f64,
     /// First period in fault, if any.
@@ -395,6 +404,11 @@ impl Outcome {
         self.peak_force_n = self.peak_force_n.max(libm::fabs(p.force_n));
         self.peak_disturbance_n = self.peak_disturbance_n.max(libm::fabs(p.disturbance_n));
         self.peak_velocity_m_s = self.peak_velocity_m_s.max(libm::fabs(p.velocity_m_s));
+        if p.fault.is_none() {
+            self.peak_acceleration_m_s2 = self
+                .peak_acceleration_m_s2
+                .max(libm::fabs(p.acceleration_m_s2));
+        }
         self.peak_position_m = self.peak_position_m.max(libm::fabs(p.position_m));
         if let Some(fault) = p.fault {
             self.fault_period.get_or_insert(self.periods - 1);

@@ -19,9 +19,10 @@ use kerf::control::dob::{Dob, DobState};
 use kerf::control::pd::{Pd, Reference};
 use kerf::kinematics::delta::DeltaGeometry;
 use kerf::sensing::hall::{HallArithmetic, HallConfig, HallDecoder, HallState};
-use kerf::{Real, Q32};
+use kerf::{Real, Q31_32};
 use kerf_app::bench::Counter;
 use kerf_app::exit;
+use kerf_app::inputs::{counts_at_phase, hall_inputs, references, INPUTS};
 use kerf_app::stack::Painted;
 use kerf_sim::contour::octagon_job;
 
@@ -33,9 +34,6 @@ mod kernels;
 mod peers;
 #[path = "bench/stages.rs"]
 mod stages;
-
-/// Number of distinct inputs cycled through (a power of two).
-const INPUTS: usize = 64;
 
 fn row(
     counter: &mut Counter,
@@ -96,34 +94,6 @@ fn row_with_errors(
     }
 }
 
-/// Hall samples over one pitch: an axis moving 1/64 pitch per period.
-fn hall_inputs() -> [[u16; 3]; INPUTS] {
-    core::array::from_fn(|k| counts_at_phase(2.0 * PI * k as f32 / INPUTS as f32))
-}
-
-/// Counts of the nominal 16-bit sensor at electrical phase `phi` (rad).
-fn counts_at_phase(phi: f32) -> [u16; 3] {
-    let cfg = HallConfig::LM1247_16BIT;
-    let mut counts = [0u16; 3];
-    for (ch, shift) in [0.0, 2.0 * PI / 3.0, -2.0 * PI / 3.0]
-        .into_iter()
-        .enumerate()
-    {
-        counts[ch] = (cfg.calibration.offset_counts[ch]
-            + cfg.amplitude_counts as f32 * libm::sinf(phi + shift)) as u16;
-    }
-    counts
-}
-
-/// References along a slow ramp, one per input.
-fn references() -> [Reference<f32>; INPUTS] {
-    core::array::from_fn(|k| Reference {
-        position: 0.004 + 1e-5 * k as f32,
-        velocity: 0.1,
-        acceleration: 0.5,
-    })
-}
-
 #[cortex_m_rt::entry]
 fn main() -> ! {
     let Some(peripherals) = cortex_m::Peripherals::take() else {
@@ -171,8 +141,8 @@ fn kernel_rows(counter: &mut Counter) {
         HallDecoder::new(&hall_config),
         Pd::<f32>::new(&axis.pd),
         Dob::<f32>::new(&axis.dob, ts),
-        Pd::<Q32>::new(&axis.pd),
-        Dob::<Q32>::new(&axis.dob, ts),
+        Pd::<Q31_32>::new(&axis.pd),
+        Dob::<Q31_32>::new(&axis.dob, ts),
         AxisLaw::<f32>::new(&axis, ts),
         AxisLaw::<f64>::new(&axis, ts),
         HallAxis::<f32>::new(&hall_config),
@@ -182,7 +152,7 @@ fn kernel_rows(counter: &mut Counter) {
         exit(false)
     };
     let (mut hall_state, mut hall_state_f32) = (HallState::default(), HallState::default());
-    let (mut dob32_state, mut dobq_state) = (DobState::at(0.0f32), DobState::at(Q32::ZERO));
+    let (mut dob32_state, mut dobq_state) = (DobState::at(0.0f32), DobState::at(Q31_32::ZERO));
     let (mut axis32, mut axis64) = (AxisState::homed_at(0.004f32), AxisState::homed_at(0.004f64));
     let mut f32_hall = hall_config;
     f32_hall.arithmetic = HallArithmetic::F32;
@@ -237,14 +207,14 @@ fn kernel_rows(counter: &mut Counter) {
     );
 
     let refs = references();
-    let refs_q: [Reference<Q32>; INPUTS] = core::array::from_fn(|k| Reference {
-        position: Q32::from_f64(f64::from(refs[k].position)),
-        velocity: Q32::from_f64(f64::from(refs[k].velocity)),
-        acceleration: Q32::from_f64(f64::from(refs[k].acceleration)),
+    let refs_q: [Reference<Q31_32>; INPUTS] = core::array::from_fn(|k| Reference {
+        position: Q31_32::from_f64(f64::from(refs[k].position)),
+        velocity: Q31_32::from_f64(f64::from(refs[k].velocity)),
+        acceleration: Q31_32::from_f64(f64::from(refs[k].acceleration)),
     });
     let positions: [f32; INPUTS] = core::array::from_fn(|k| 0.004 + 1.1e-5 * k as f32);
-    let positions_q: [Q32; INPUTS] =
-        core::array::from_fn(|k| Q32::from_f64(f64::from(positions[k])));
+    let positions_q: [Q31_32; INPUTS] =
+        core::array::from_fn(|k| Q31_32::from_f64(f64::from(positions[k])));
     row(
         counter,
         "control::{pd,dob} one period <f32>",
@@ -253,15 +223,15 @@ fn kernel_rows(counter: &mut Counter) {
             let a = pd32.acceleration(&refs[k], black_box(positions[k]), black_box(0.099));
             black_box(dob32.update(&mut dob32_state, a, 0.099));
         },
-        "same law <Q32> (Q31.32 fixed point)",
+        "same law <Q31_32> (Q31.32 fixed point)",
         |i| {
             let k = (i & mask) as usize;
             let a = pdq.acceleration(
                 &refs_q[k],
                 black_box(positions_q[k]),
-                black_box(Q32::from_q32(425_201_762)),
+                black_box(Q31_32::from_q32(425_201_762)),
             );
-            black_box(dobq.update(&mut dobq_state, a, Q32::from_q32(425_201_762)));
+            black_box(dobq.update(&mut dobq_state, a, Q31_32::from_q32(425_201_762)));
         },
         |i| {
             black_box(i);

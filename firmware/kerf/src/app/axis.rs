@@ -30,7 +30,7 @@
 
 use crate::control::dob::{Dob, DobConfig, DobState};
 use crate::control::pd::{Pd, PdConfig, Reference};
-use crate::error::{coefficient, ConfigContext, ConfigError};
+use crate::error::{factor, ConfigContext, ConfigError};
 use crate::scalar::Real;
 use crate::sensing::hall::{HallConfig, HallDecoder, HallFault, HallState};
 use crate::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
@@ -116,7 +116,7 @@ pub struct AxisOutput<T> {
 /// Coefficients of the axis law in the scalar `T`; one set drives every axis of a
 /// machine, and replacing it keeps each axis' state (bumpless: see [`AxisLaw::step`]).
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub struct AxisLaw<T> {
+pub struct AxisLaw<T: Real> {
     observer: TrackingObserver<T>,
     pd: Pd<T>,
     dob: Dob<T>,
@@ -125,10 +125,10 @@ pub struct AxisLaw<T> {
 /// One axis' sensor coefficients: the Hall decoder (calibrated per sensor set) and the
 /// pitch that turns its phase into metres.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub struct HallAxis<T> {
+pub struct HallAxis<T: Real> {
     decoder: HallDecoder,
-    pitch_m: T,
-    pitches_per_m: T,
+    pitch_m: T::Coef,
+    pitches_per_m: T::Coef,
 }
 
 impl<T: Real> HallAxis<T> {
@@ -137,15 +137,15 @@ impl<T: Real> HallAxis<T> {
         let decoder = HallDecoder::new(config)?;
         Ok(Self {
             decoder,
-            pitch_m: coefficient("pitch_m", config.pitch_m)?,
-            pitches_per_m: coefficient("pitch_m", 1.0 / config.pitch_m)?,
+            pitch_m: factor::<T>("pitch_m", config.pitch_m)?,
+            pitches_per_m: factor::<T>("pitch_m", 1.0 / config.pitch_m)?,
         })
     }
 }
 
 /// The running part of one axis.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub struct AxisState<T> {
+pub struct AxisState<T: Real> {
     hall: HallState,
     observer: TrackingObserverState<T>,
     dob: DobState<T>,
@@ -396,10 +396,10 @@ impl<T: Real> AxisLaw<T> {
         hall_counts: [u16; 3],
     ) -> Result<T, AxisFault> {
         // Unwrap against the observer's prediction, so that any reachable speed decodes.
-        let predicted_step = (self
+        let predicted_step = self
             .observer
             .predicted_step(&state.observer, state.applied_acceleration)
-            * sensor.pitches_per_m)
+            .scale(sensor.pitches_per_m)
             .to_q32();
         let sample = sensor
             .decoder

@@ -200,9 +200,9 @@ struct StopRamp<T, const N: usize> {
 
 /// N axes as a [`Machine`] the supervisor runs.
 #[derive(Clone, Debug)]
-pub struct Joints<T, const N: usize> {
+pub struct Joints<T: Real, const N: usize> {
     period_s: f64,
-    ts: T,
+    ts: T::Coef,
     law: AxisLaw<T>,
     sensors: [HallAxis<T>; N],
     axes: [AxisState<T>; N],
@@ -285,7 +285,7 @@ impl<T: Real, const N: usize> Joints<T, N> {
         let reference = home.map(rest);
         Ok(Self {
             period_s,
-            ts: T::from_f64(period_s),
+            ts: T::coef(period_s),
             law,
             sensors,
             last: axes.map(|a| AxisOutput {
@@ -525,7 +525,7 @@ impl<T: Real, const N: usize> Joints<T, N> {
         let mut done = true;
         if let Some(ramp) = self.stop.as_mut() {
             ramp.period = (ramp.period + 1).min(ramp.periods);
-            let t = T::from_q32(i64::from(ramp.period) << 32) * self.ts;
+            let t = T::count_times(ramp.period, self.ts);
             let half_t_sq = T::from_f64(0.5) * t * t;
             for ((r, s), a) in self
                 .reference
@@ -718,7 +718,7 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
     ) -> Result<Step<[T; N]>, JointFault> {
         let mut done = false;
         if let Some(run) = self.run.as_mut() {
-            let t = T::from_q32(i64::from(run.period) << 32) * self.ts;
+            let t = T::count_times(run.period, self.ts);
             self.reference = run.moves.map(|m| m.sample(t));
             run.period += 1;
             if run.period >= run.periods {

@@ -219,7 +219,7 @@ pub struct MasterTelemetry<T> {
 
 /// One carriage's state.
 #[derive(Copy, Clone, Debug, PartialEq)]
-struct Carriage<T> {
+struct Carriage<T: Float> {
     encoder: EncoderState,
     velocity: TrackingObserverState<T>,
     dob: DobState<T>,

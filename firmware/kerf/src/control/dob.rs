@@ -14,7 +14,7 @@
 //! below the lightest expected moving mass: overestimating it destabilizes the loop
 //! at high observer bandwidth.
 
-use crate::error::{coefficient, positive, ConfigError};
+use crate::error::{coefficient, factor, positive, ConfigError};
 use crate::scalar::Real;
 
 /// Observer configuration (the period comes from the machine).
@@ -34,13 +34,13 @@ pub struct DobConfig {
 /// Disturbance observer coefficients in the scalar `T`; one set drives the
 /// [`DobState`]s of any number of axes.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub struct Dob<T> {
-    mass: T,
-    inv_mass: T,
-    g_mass: T,
-    filter_gain: T,
+pub struct Dob<T: Real> {
+    mass: T::Coef,
+    inv_mass: T::Coef,
+    g_mass: T::Coef,
+    filter_gain: T::Coef,
     /// (1 − k)·g·An: weight of the velocity change in the state update.
-    decay_g_mass: T,
+    decay_g_mass: T::Coef,
     force_limit: T,
     compensate: bool,
 }
@@ -88,11 +88,11 @@ impl<T: Real> Dob<T> {
         // k = 1 − e^(−g Ts) without cancellation when g Ts is small.
         let k = -libm::expm1(-g * ts);
         Ok(Self {
-            mass: coefficient("nominal_mass_kg", mass)?,
-            inv_mass: coefficient("nominal_mass_kg", 1.0 / mass)?,
-            g_mass: coefficient("bandwidth_rad_s", g * mass)?,
-            filter_gain: coefficient("bandwidth_rad_s", k)?,
-            decay_g_mass: coefficient("bandwidth_rad_s", (1.0 - k) * g * mass)?,
+            mass: factor::<T>("nominal_mass_kg", mass)?,
+            inv_mass: factor::<T>("nominal_mass_kg", 1.0 / mass)?,
+            g_mass: factor::<T>("bandwidth_rad_s", g * mass)?,
+            filter_gain: factor::<T>("bandwidth_rad_s", k)?,
+            decay_g_mass: factor::<T>("bandwidth_rad_s", (1.0 - k) * g * mass)?,
             force_limit: coefficient("force_limit_n", limit)?,
             compensate: config.compensate,
         })
@@ -119,10 +119,11 @@ impl<T: Real> Dob<T> {
         } else {
             T::ZERO
         };
-        let force_n = (self.mass * acceleration_des + compensation).clamp_abs(self.force_limit);
+        let force_n =
+            (acceleration_des.scale(self.mass) + compensation).clamp_abs(self.force_limit);
         state.estimate_n = disturbance_n
-            + self.filter_gain * (force_n - disturbance_n)
-            + self.decay_g_mass * (state.velocity_m_s - velocity);
+            + (force_n - disturbance_n).scale(self.filter_gain)
+            + (state.velocity_m_s - velocity).scale(self.decay_g_mass);
         state.velocity_m_s = velocity;
         DobOutput {
             force_n,
@@ -139,13 +140,13 @@ impl<T: Real> Dob<T> {
     /// Acceleration the nominal plant gets from `out`: (F − F̂dis)/An.
     #[inline]
     pub fn applied_acceleration(&self, out: &DobOutput<T>) -> T {
-        (out.force_n - out.disturbance_n) * self.inv_mass
+        (out.force_n - out.disturbance_n).scale(self.inv_mass)
     }
 
     /// The same observer in the filtered form z = F̂ + g·An·v, for the tests' check
     /// of the state update against the module docs' filter.
     #[cfg(test)]
-    fn g_mass(&self) -> T {
+    fn g_mass(&self) -> T::Coef {
         self.g_mass
     }
 }

@@ -16,11 +16,11 @@
 //!
 //! The law has coefficients only ([`Laser`], from a machine-side [`LaserConfig`]) and
 //! a per-job [`LaserMode`] validated against them; it keeps no state. The period's
-//! step uses `+ − ×` and comparisons only, so it runs in `f32`, `f64` and [`Q32`]
+//! step uses `+ − ×` and comparisons only, so it runs in `f32`, `f64` and [`Q31_32`]
 //! alike. It never panics and never returns NaN: a speed that is NaN or infinite (a
 //! sensor fault) turns the beam off, the safe state.
 //!
-//! [`Q32`]: crate::scalar::Q32
+//! [`Q31_32`]: crate::scalar::Q31_32
 
 use crate::error::{coefficient, positive, representable, ConfigError};
 use crate::scalar::Real;
@@ -219,7 +219,7 @@ fn non_negative(name: &'static str, value: f64) -> Result<f64, ConfigError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scalar::Q32;
+    use crate::scalar::Q31_32;
 
     const SEED: LaserConfig = LaserConfig::SPI_REDENERGY_G3_20W;
     /// The depth the seed's 20 W cuts at its 2 mm/s: e = 20 / 0.002 = 10 000 J/m.
@@ -370,7 +370,7 @@ mod tests {
     fn f32_and_fixed_point_agree_with_f64() {
         let l64 = laser::<f64>();
         let l32 = laser::<f32>();
-        let lq = laser::<Q32>();
+        let lq = laser::<Q31_32>();
         let (m64, m32, mq) = (
             energy(&l64, E_SEED),
             energy(&l32, E_SEED),
@@ -380,11 +380,11 @@ mod tests {
             let v = f64::from(k) * 1e-4; // ±4 mm/s, across v_min and the clamp
             let want = l64.power_w(&m64, v);
             let got32 = f64::from(l32.power_w(&m32, v as f32));
-            let gotq = lq.power_w(&mq, Q32::from_f64(v)).to_f64();
+            let gotq = lq.power_w(&mq, Q31_32::from_f64(v)).to_f64();
             // Off exactly where the f64 law is off, elsewhere within the rounding of v.
             assert!((got32 - want).abs() <= 1e-5 * want.max(1.0), "{v}: {got32}");
             assert!((gotq - want).abs() <= 1e-4, "{v}: {gotq}");
-            let dq = lq.duty(Q32::from_f64(want)).to_f64();
+            let dq = lq.duty(Q31_32::from_f64(want)).to_f64();
             assert!((dq - want / 20.0).abs() < 1e-6 && dq <= 1.0, "{v}: {dq}");
         }
     }
@@ -450,7 +450,7 @@ mod tests {
         );
         // Beyond Q31.32's ±2.1e9.
         assert_eq!(
-            laser::<Q32>()
+            laser::<Q31_32>()
                 .mode(&LaserMode::ConstantEnergy {
                     energy_per_length_j_per_m: 3e9
                 })

@@ -1,7 +1,7 @@
 //! Joint PD tracking law with acceleration feedforward (T 4.2, without preview):
 //! q̈des = q̈ref + Kd (q̇ref − q̇) + Kp (qref − q).
 
-use crate::error::{coefficient, positive, ConfigError};
+use crate::error::{factor, positive, ConfigError};
 use crate::scalar::Real;
 
 /// PD gains, usually designed from a closed-loop bandwidth with [`PdConfig::critically_damped`].
@@ -36,17 +36,17 @@ pub struct Reference<T> {
 
 /// PD law with gains in the scalar `T` (coefficients only: the law has no state).
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub struct Pd<T> {
-    kp: T,
-    kd: T,
+pub struct Pd<T: Real> {
+    kp: T::Coef,
+    kd: T::Coef,
 }
 
 impl<T: Real> Pd<T> {
     /// Validates the gains (finite, strictly positive).
     pub fn new(config: &PdConfig) -> Result<Self, ConfigError> {
         Ok(Self {
-            kp: coefficient("kp_per_s2", positive("kp_per_s2", config.kp_per_s2)?)?,
-            kd: coefficient("kd_per_s", positive("kd_per_s", config.kd_per_s)?)?,
+            kp: factor::<T>("kp_per_s2", positive("kp_per_s2", config.kp_per_s2)?)?,
+            kd: factor::<T>("kd_per_s", positive("kd_per_s", config.kd_per_s)?)?,
         })
     }
 
@@ -56,8 +56,8 @@ impl<T: Real> Pd<T> {
     #[inline]
     pub fn acceleration(&self, reference: &Reference<T>, position: T, velocity: T) -> T {
         reference.acceleration
-            + self.kd * (reference.velocity - velocity)
-            + self.kp * (reference.position - position)
+            + (reference.velocity - velocity).scale(self.kd)
+            + (reference.position - position).scale(self.kp)
     }
 }
 

@@ -27,7 +27,7 @@
 //! [`Pid::update`] does the three with this channel's own limits.
 //!
 //! Only `+ − ×` and comparisons run per period, so the law is generic over
-//! [`Real`] (`f32`, `f64`, [`Q32`](crate::scalar::Q32)).
+//! [`Real`] (`f32`, `f64`, [`Q31_32`](crate::scalar::Q31_32)).
 
 use crate::error::{coefficient, in_range, positive, ConfigError};
 use crate::scalar::Real;

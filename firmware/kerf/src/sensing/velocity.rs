@@ -9,7 +9,7 @@
 //! α = 1 − p² and β = (1 − p)². Unlike a finite difference, v̂ does not amplify
 //! position noise by 1/Ts, which matters because the DOB multiplies v̂ by its gain.
 
-use crate::error::{coefficient, positive, ConfigError};
+use crate::error::{factor, positive, ConfigError};
 use crate::scalar::Real;
 
 /// Observer configuration (the period comes from the machine).
@@ -22,21 +22,26 @@ pub struct TrackingObserverConfig {
 /// Tracking observer coefficients in the scalar `T`; one set drives any number of
 /// [`TrackingObserverState`]s.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub struct TrackingObserver<T> {
-    ts: T,
-    half_ts_sq: T,
-    alpha: T,
-    beta_over_ts: T,
+pub struct TrackingObserver<T: Real> {
+    ts: T::Coef,
+    half_ts_sq: T::Coef,
+    alpha: T::Coef,
+    beta_over_ts: T::Coef,
 }
 
 /// State of one tracking observer: the filtered position and the velocity estimate,
 /// in physical units, so replacing the coefficients keeps it meaningful (bumpless).
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub struct TrackingObserverState<T> {
+pub struct TrackingObserverState<T: Real> {
     /// Filtered position, m.
     pub position: T,
     /// Velocity estimate, m/s.
     pub velocity: T,
+    /// The roundings of the position update carried to the next period (the step,
+    /// [`Real::mul_add_carry`], and the correction, [`Real::scale_carry`]; nothing
+    /// for the floats). Every rounding of a position increment needs it: a constant
+    /// rounding error δ per period is, to this observer, a velocity error of δ/Ts.
+    carry: [T::Carry; 2],
 }
 
 impl<T: Real> TrackingObserverState<T> {
@@ -45,6 +50,7 @@ impl<T: Real> TrackingObserverState<T> {
         Self {
             position,
             velocity: T::ZERO,
+            carry: [T::Carry::default(); 2],
         }
     }
 }
@@ -63,10 +69,10 @@ impl<T: Real> TrackingObserver<T> {
         // 1 − p and 1 − p² without cancellation for small ω Ts.
         let one_minus_p = -libm::expm1(-w * ts);
         Ok(Self {
-            ts: coefficient("period_s", ts)?,
-            half_ts_sq: coefficient("period_s", 0.5 * ts * ts)?,
-            alpha: coefficient("bandwidth_rad_s", one_minus_p * (1.0 + p))?,
-            beta_over_ts: coefficient("bandwidth_rad_s", one_minus_p * one_minus_p / ts)?,
+            ts: factor::<T>("period_s", ts)?,
+            half_ts_sq: factor::<T>("period_s", 0.5 * ts * ts)?,
+            alpha: factor::<T>("bandwidth_rad_s", one_minus_p * (1.0 + p))?,
+            beta_over_ts: factor::<T>("bandwidth_rad_s", one_minus_p * one_minus_p / ts)?,
         })
     }
 
@@ -76,10 +82,17 @@ impl<T: Real> TrackingObserver<T> {
     /// NaN or ±∞ in (or finite input so large that the arithmetic overflows) passes through to the output: a pure kernel of the period, it does not test; the machine's step does (`AxisLaw::step` latches a fault).
     #[inline]
     pub fn update(&self, state: &mut TrackingObserverState<T>, measured: T, acceleration: T) -> T {
-        let predicted = state.position + self.predicted_step(state, acceleration);
+        // The step as `predicted_step` computes it, with the fixed-point rounding
+        // carried from period to period (a float step is the same expression).
+        let [step_carry, correction_carry] = &mut state.carry;
+        let step = state
+            .velocity
+            .mul_add_carry(self.ts, acceleration, self.half_ts_sq, step_carry);
+        let predicted = state.position + step;
         let innovation = measured - predicted;
-        state.position = predicted + self.alpha * innovation;
-        state.velocity = state.velocity + self.ts * acceleration + self.beta_over_ts * innovation;
+        state.position = predicted + innovation.scale_carry(self.alpha, correction_carry);
+        state.velocity =
+            state.velocity + acceleration.scale(self.ts) + innovation.scale(self.beta_over_ts);
         state.velocity
     }
 
@@ -87,7 +100,7 @@ impl<T: Real> TrackingObserver<T> {
     /// unwrap the next Hall sample).
     #[inline]
     pub fn predicted_step(&self, state: &TrackingObserverState<T>, acceleration: T) -> T {
-        self.ts * state.velocity + self.half_ts_sq * acceleration
+        state.velocity.scale(self.ts) + acceleration.scale(self.half_ts_sq)
     }
 }
 

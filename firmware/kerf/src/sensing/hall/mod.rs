@@ -208,10 +208,11 @@ impl HallPosition {
         self.accumulator as u32
     }
 
-    /// Position in metres: `accumulator / 2^32 · pitch_m`.
+    /// Position in metres: `accumulator / 2^32 · pitch_m`, the pitch as the scalar's
+    /// coefficient ([`Real::coef`]).
     #[inline]
-    pub fn position_m<T: Real>(self, pitch_m: T) -> T {
-        T::from_q32(self.accumulator) * pitch_m
+    pub fn position_m<T: Real>(self, pitch_m: T::Coef) -> T {
+        T::from_q32(self.accumulator).scale(pitch_m)
     }
 }
 

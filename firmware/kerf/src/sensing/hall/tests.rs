@@ -96,7 +96,7 @@ fn position_unwraps_across_pitches_in_both_directions() {
             .update(&mut dec_state, ch.sample(2.0 * PI * turns), 0)
             .unwrap();
         // ADC rounding of the ideal channels: 0.5 LSB / A rad = 3e-6 turn.
-        assert!((pos.position_m(1.0f64) - turns).abs() < 1e-5, "{turns}");
+        assert!((pos.position_m::<f64>(1.0) - turns).abs() < 1e-5, "{turns}");
         assert_eq!(pos.pitch_count(), turns.floor() as i32);
     }
 }
@@ -122,9 +122,12 @@ fn prediction_unwraps_at_20_m_per_s_sampled_at_2_4_khz() {
                 )
                 .unwrap();
             if k == 0 {
-                first = pos.position_m(1.0f64) - turns;
+                first = pos.position_m::<f64>(1.0) - turns;
             }
-            assert!((pos.position_m(1.0f64) - turns - first).abs() < 1e-5, "{k}");
+            assert!(
+                (pos.position_m::<f64>(1.0) - turns - first).abs() < 1e-5,
+                "{k}"
+            );
         }
         // Without the prediction the same samples are an implausible jump.
         let (plain, mut plain_state) = (HallDecoder::new(&cfg).unwrap(), HallState::default());

@@ -1,0 +1,262 @@
+//! Benchmarks on an FPU-less core: instructions per call of the single-axis loop in
+//! fixed point against the same generic code in `f32` (software floating point on
+//! this core), in the same image on the same inputs, on QEMU's Cortex-M3
+//! (`mps2-an385`). Prints BENCHMARKS.md rows; `scripts/bench` runs it under `-icount`
+//! beside the Cortex-M4 image. The estimated-cycle columns are "—": `scripts/cycles`
+//! models the Cortex-M4's timings.
+//!
+//! The error columns are the largest force difference against the same code in
+//! `f64`, each run from the same fresh state on the same inputs: PD + DOB over the 64
+//! inputs, the axis step over periods 64 to 256 of its ramp (after the start-up).
+#![no_std]
+#![no_main]
+
+use core::hint::black_box;
+use cortex_m_semihosting::hprintln;
+use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
+use kerf::control::dob::{Dob, DobState};
+use kerf::control::pd::{Pd, Reference};
+use kerf::sensing::hall::HallConfig;
+use kerf::{Real, Q31_32, Q6_25};
+use kerf_app::bench::Counter;
+use kerf_app::exit;
+use kerf_app::inputs::{counts_at_phase, references, INPUTS};
+
+const TS_S: f64 = 1e-4;
+const MASK: u32 = INPUTS as u32 - 1;
+
+/// Hall samples of an axis that follows the benchmark's reference ramp (0.1 m/s from
+/// the 4 mm home) 1 µm behind: the loop's forces stay off the limit after the
+/// observer's start-up (the Cortex-M4 image's `hall_inputs` move 2.8 m/s and saturate
+/// them, which makes a poor error check). The wrap from the last input to the first
+/// is a 0.63 mm jump, well inside the decoder's quarter pitch.
+fn hall_inputs() -> [[u16; 3]; INPUTS] {
+    core::array::from_fn(hall_at)
+}
+
+/// Hall counts of the ramp-following axis in period `k`.
+fn hall_at(k: usize) -> [u16; 3] {
+    let travel = 1e-5 * k as f64 - 1e-6;
+    let phase = 2.0 * core::f64::consts::PI * travel / HallConfig::LM1247_16BIT.pitch_m;
+    counts_at_phase(libm::fmod(phase, 2.0 * core::f64::consts::PI) as f32)
+}
+
+/// Periods of the error check: the first [`INPUTS`] are the observer's start-up from
+/// rest (the force at its limit in many), the rest are compared.
+const ERROR_PERIODS: usize = 4 * INPUTS;
+
+/// One row: kernel and reference net of the same baseline, the errors in N.
+fn row(
+    counter: &mut Counter,
+    name: &str,
+    kernel: impl FnMut(u32),
+    reference_name: &str,
+    reference: impl FnMut(u32),
+    baseline: impl FnMut(u32) + Copy,
+    errors_n: (f64, f64),
+) {
+    let n = counter.per_call(name, kernel, baseline);
+    let r = counter.per_call(reference_name, reference, baseline);
+    hprintln!(
+        "| {} | {:.0} | {} | {:.0} | — | — | {:.1e} N | {:.1e} N |",
+        name,
+        n,
+        reference_name,
+        r,
+        errors_n.0,
+        errors_n.1
+    );
+}
+
+/// The references in scalar `T`.
+fn references_in<T: Real>() -> [Reference<T>; INPUTS] {
+    references().map(|r| Reference {
+        position: T::from_f64(f64::from(r.position)),
+        velocity: T::from_f64(f64::from(r.velocity)),
+        acceleration: T::from_f64(f64::from(r.acceleration)),
+    })
+}
+
+/// The axis law, its sensor and a fresh state in scalar `T`.
+fn axis<T: Real>() -> Option<(AxisLaw<T>, HallAxis<T>, AxisState<T>)> {
+    Some((
+        AxisLaw::new(&AxisConfig::LM1247_SLAVE, TS_S).ok()?,
+        HallAxis::new(&HallConfig::LM1247_16BIT).ok()?,
+        AxisState::homed_at(T::from_f64(0.004)),
+    ))
+}
+
+/// Forces of [`ERROR_PERIODS`] periods of the ramp (continued past the 64 inputs, so
+/// without their wrap) from a fresh state, after the start-up's [`INPUTS`].
+fn axis_forces<T: Real>() -> Option<[f64; ERROR_PERIODS - INPUTS]> {
+    let (law, sensor, mut state) = axis::<T>()?;
+    let mut out = [0.0; ERROR_PERIODS - INPUTS];
+    for k in 0..ERROR_PERIODS {
+        let r = Reference {
+            position: T::from_f64(0.004 + 1e-5 * k as f64),
+            velocity: T::from_f64(0.1),
+            acceleration: T::from_f64(0.5),
+        };
+        let force = law.step(&sensor, &mut state, hall_at(k), &r).force_n;
+        if let Some(f) = k.checked_sub(INPUTS).and_then(|i| out.get_mut(i)) {
+            *f = force.to_f64();
+        }
+    }
+    Some(out)
+}
+
+/// Forces of one pass of PD + DOB over the inputs (position and velocity as the M4
+/// bench feeds them) from a fresh state.
+fn pd_dob_forces<T: Real>() -> Option<[f64; INPUTS]> {
+    let config = AxisConfig::LM1247_SLAVE;
+    let (pd, dob) = (
+        Pd::<T>::new(&config.pd).ok()?,
+        Dob::<T>::new(&config.dob, TS_S).ok()?,
+    );
+    let mut state = DobState::at(T::ZERO);
+    let refs = references_in::<T>();
+    let mut out = [0.0; INPUTS];
+    for (k, (f, r)) in out.iter_mut().zip(&refs).enumerate() {
+        let (p, v) = pd_dob_input::<T>(k);
+        *f = dob
+            .update(&mut state, pd.acceleration(r, p, v), v)
+            .force_n
+            .to_f64();
+    }
+    Some(out)
+}
+
+fn pd_dob_input<T: Real>(k: usize) -> (T, T) {
+    (T::from_f64(0.004 + 1.1e-5 * k as f64), T::from_f64(0.099))
+}
+
+fn worst(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| libm::fabs(x - y))
+        .fold(0.0, f64::max)
+}
+
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    let Some(peripherals) = cortex_m::Peripherals::take() else {
+        exit(false)
+    };
+    let mut counter = Counter::new(peripherals.SYST);
+    hprintln!(
+        "# calibration (Cortex-M3): {:.3} instructions per SysTick tick (40 expected at -icount shift=0)",
+        counter.instructions_per_tick()
+    );
+    if !(axis_rows(&mut counter).is_some() && pd_dob_rows(&mut counter).is_some()) {
+        exit(false)
+    }
+    exit(true)
+}
+
+#[inline(never)]
+fn axis_rows(counter: &mut Counter) -> Option<()> {
+    let hall = hall_inputs();
+    let (law_q, sensor_q, mut state_q) = axis::<Q6_25>()?;
+    let (law_f, sensor_f, mut state_f) = axis::<f32>()?;
+    let (refs_q, refs_f) = (references_in::<Q6_25>(), references_in::<f32>());
+    let reference = axis_forces::<f64>()?;
+    let limit = AxisConfig::LM1247_SLAVE.dob.force_limit_n;
+    let saturated = reference
+        .iter()
+        .filter(|f| libm::fabs(**f) >= limit)
+        .count();
+    hprintln!(
+        "# Cortex-M3 axis step: errors over periods {} to {} of the ramp (after the start-up from rest), {} of them at the force limit in f64",
+        INPUTS,
+        ERROR_PERIODS,
+        saturated
+    );
+    let errors = (
+        worst(&axis_forces::<Q6_25>()?, &reference),
+        worst(&axis_forces::<f32>()?, &reference),
+    );
+    row(
+        counter,
+        "app::axis::AxisLaw::step <Q6_25> (decode + observer + PD + DOB), Cortex-M3",
+        |i| {
+            let k = (i & MASK) as usize;
+            black_box(law_q.step(&sensor_q, &mut state_q, black_box(hall[k]), &refs_q[k]));
+        },
+        "same loop <f32>, Cortex-M3 (software float)",
+        |i| {
+            let k = (i & MASK) as usize;
+            black_box(law_f.step(&sensor_f, &mut state_f, black_box(hall[k]), &refs_f[k]));
+        },
+        |i| {
+            black_box(black_box(hall[(i & MASK) as usize]));
+        },
+        errors,
+    );
+    Some(())
+}
+
+#[inline(never)]
+fn pd_dob_rows(counter: &mut Counter) -> Option<()> {
+    let config = AxisConfig::LM1247_SLAVE;
+    let pd_q = Pd::<Q6_25>::new(&config.pd).ok()?;
+    let dob_q = Dob::<Q6_25>::new(&config.dob, TS_S).ok()?;
+    let pd_w = Pd::<Q31_32>::new(&config.pd).ok()?;
+    let dob_w = Dob::<Q31_32>::new(&config.dob, TS_S).ok()?;
+    let pd_f = Pd::<f32>::new(&config.pd).ok()?;
+    let dob_f = Dob::<f32>::new(&config.dob, TS_S).ok()?;
+    let (refs_q, refs_w, refs_f) = (
+        references_in::<Q6_25>(),
+        references_in::<Q31_32>(),
+        references_in::<f32>(),
+    );
+    let inputs_q: [(Q6_25, Q6_25); INPUTS] = core::array::from_fn(pd_dob_input);
+    let inputs_w: [(Q31_32, Q31_32); INPUTS] = core::array::from_fn(pd_dob_input);
+    let inputs_f: [(f32, f32); INPUTS] = core::array::from_fn(pd_dob_input);
+    let (mut state_q, mut state_w, mut state_f) = (
+        DobState::at(Q6_25::ZERO),
+        DobState::at(Q31_32::ZERO),
+        DobState::at(0.0f32),
+    );
+    let reference = pd_dob_forces::<f64>()?;
+    let error_f = worst(&pd_dob_forces::<f32>()?, &reference);
+    let soft_float = |i: u32| {
+        let k = (i & MASK) as usize;
+        let (p, v) = black_box(inputs_f[k]);
+        black_box(dob_f.update(&mut state_f, pd_f.acceleration(&refs_f[k], p, v), v));
+    };
+    let baseline = |i: u32| {
+        black_box(i);
+    };
+    row(
+        counter,
+        "control::{pd,dob} one period <Q6_25>, Cortex-M3",
+        |i| {
+            let k = (i & MASK) as usize;
+            let (p, v) = black_box(inputs_q[k]);
+            black_box(dob_q.update(&mut state_q, pd_q.acceleration(&refs_q[k], p, v), v));
+        },
+        "same law <f32>, Cortex-M3 (software float)",
+        soft_float,
+        baseline,
+        (worst(&pd_dob_forces::<Q6_25>()?, &reference), error_f),
+    );
+    let mut state_f = DobState::at(0.0f32);
+    row(
+        counter,
+        "control::{pd,dob} one period <Q31_32> (64-bit), Cortex-M3",
+        |i| {
+            let k = (i & MASK) as usize;
+            let (p, v) = black_box(inputs_w[k]);
+            black_box(dob_w.update(&mut state_w, pd_w.acceleration(&refs_w[k], p, v), v));
+        },
+        "same law <f32>, Cortex-M3 (software float)",
+        |i| {
+            let k = (i & MASK) as usize;
+            let (p, v) = black_box(inputs_f[k]);
+            black_box(dob_f.update(&mut state_f, pd_f.acceleration(&refs_f[k], p, v), v));
+        },
+        baseline,
+        (worst(&pd_dob_forces::<Q31_32>()?, &reference), error_f),
+    );
+    Some(())
+}
