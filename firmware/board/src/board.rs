@@ -92,10 +92,12 @@ pub const IWDG_PRESCALER: u8 = 0;
 /// See [`IWDG_PRESCALER`].
 pub const IWDG_RELOAD: u16 = 80;
 
-/// The link task must have run within this many control periods for the control
-/// interrupt to refresh the watchdog (a link task stuck in a loop then resets the
-/// board as a hung control period would).
-pub const LINK_SILENCE_PERIODS: u32 = 50;
+/// The link task must have run within this many control periods (200 ms) for the
+/// control interrupt to refresh the watchdog, so that a link task stuck in a loop
+/// resets the board as a hung control period does. Longer than the longest wait of
+/// the task on the transmitter (2 KB at 921 600 Bd: 22 ms); the calibration fit, which
+/// runs in the task for longer, suspends the check while it runs.
+pub const LINK_SILENCE_PERIODS: u32 = 2_000;
 
 /// NVIC priority of the control interrupt (the highest: 0) and of the link's UART and
 /// DMA interrupts (below it; the G474 implements four priority bits).

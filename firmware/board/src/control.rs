@@ -9,7 +9,7 @@ use crate::fault::{self, Cause};
 use crate::outputs::{self, BoardOutputs};
 use crate::sampling::{self, Arrival, Samples};
 use crate::timing::{self, CycleClock, KERF_STATUS};
-use core::sync::atomic::{AtomicPtr, AtomicU32, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicPtr, AtomicU32, Ordering};
 use embassy_stm32::pac;
 use embassy_stm32::pac::interrupt;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
@@ -98,6 +98,11 @@ pub const LINK_TICK_PERIODS: u32 = 10;
 /// Counts the link task's runs: the watchdog is refreshed only while it moves.
 pub static LINK_ALIVE: AtomicU32 = AtomicU32::new(0);
 
+/// Set by the link task while it runs the calibration fit (a library call of unknown
+/// length that cannot report progress): the watchdog then watches the control
+/// interrupt alone.
+pub static FIT_RUNNING: AtomicBool = AtomicBool::new(false);
+
 /// The status LED's half-period in control periods (1 Hz blink).
 const BLINK_PERIODS: u32 = board::CONTROL_HZ / 2;
 
@@ -147,10 +152,12 @@ fn DMA1_CHANNEL1() {
 fn step(control: &mut Control) {
     let held = !outputs::armed();
     if held {
-        // The break input cut the outputs in hardware; hold the software side too.
+        // The break input cut the outputs in hardware; hold the software side too,
+        // and light the fault LED.
         KERF_STATUS
             .held_fault
             .store(Cause::Break as u32, Ordering::Relaxed);
+        pac::GPIOC.bsrr().write(|w| w.set_bs(7, true));
     }
     control.hal.outputs.enable = !held && !matches!(control.supervisor.mode(), Mode::Fault(_));
     kerf::app::control_period(
@@ -171,7 +178,9 @@ fn supervise(watch: &mut Watch) {
         watch.link_seen = link;
         watch.link_seen_at = watch.periods;
     }
-    if watch.periods.wrapping_sub(watch.link_seen_at) < board::LINK_SILENCE_PERIODS {
+    if watch.periods.wrapping_sub(watch.link_seen_at) < board::LINK_SILENCE_PERIODS
+        || FIT_RUNNING.load(Ordering::Relaxed)
+    {
         fault::refresh_watchdog();
     }
     if watch.periods % LINK_TICK_PERIODS == 0 {

@@ -8,7 +8,7 @@
 //! millisecond); it never blocks the control interrupt, which preempts it.
 
 use crate::board;
-use crate::control::{Machine, LINK_ALIVE, LINK_TICK};
+use crate::control::{Machine, FIT_RUNNING, LINK_ALIVE, LINK_TICK};
 use crate::fault::{Cause, ResetCause, BOARD_FAULT_CODE};
 use crate::timing::{CycleClock, KERF_STATUS};
 use core::sync::atomic::Ordering;
@@ -58,7 +58,8 @@ pub struct LinkTask {
 /// Where the task is.
 struct State {
     mode: Mode<kerf::app::delta_slave::DeltaFault>,
-    /// The host has been answered at least once: it is listening.
+    /// The host has been answered at least once: it is listening (until then the
+    /// board's own events could go out before a host is connected).
     host_heard: bool,
     /// The reset cause went out.
     reset_told: bool,
@@ -106,23 +107,30 @@ impl LinkTask {
         let mut chunk = [0u8; 64];
         loop {
             let now_s = clock.now() as f64 / f64::from(board::SYSCLK_HZ);
-            let mut send = |frame: &[u8]| queue(&mut out, frame);
+            LINK_ALIVE.fetch_add(1, Ordering::Relaxed);
             match select(self.rx.read(&mut chunk), LINK_TICK.wait()).await {
                 Either::First(Ok(n)) => {
+                    let before = out.len();
+                    let mut send = |frame: &[u8]| queue(&mut out, frame);
                     for &b in chunk.get(..n).unwrap_or(&[]) {
                         self.link.receive(b, now_s, &mut self.commands, &mut send);
                     }
+                    // Output after received bytes is a reply: a host is there.
+                    state.host_heard |= out.len() > before;
                 }
                 // The ring overran (the task was held off longer than the ring
                 // lasts): the frames in it are lost, and the next read restarts
                 // the reception; the host repeats unanswered requests.
                 Either::First(Err(e)) => defmt::warn!("link: receive error {}", e),
-                Either::Second(()) => self.tick(&mut state, now_s, &mut send),
+                Either::Second(()) => {
+                    let mut send = |frame: &[u8]| queue(&mut out, frame);
+                    self.tick(&mut state, now_s, &mut send);
+                }
             }
-            LINK_ALIVE.fetch_add(1, Ordering::Relaxed);
-            if !out.is_empty() {
-                state.host_heard = true;
+            if state.host_heard {
                 self.tell_board_faults(&mut state, &mut out);
+            }
+            if !out.is_empty() {
                 if self.tx.write(&out).await.is_err() {
                     defmt::warn!("link: transmit error");
                 }
@@ -167,7 +175,13 @@ impl LinkTask {
     /// kilobytes of stack, preempted by every control period) and install the fit.
     fn finish_calibration(&mut self, state: &mut State) {
         state.calibrating = false;
-        match Machine::fit(&self.hall, self.fit) {
+        FIT_RUNNING.store(true, Ordering::Relaxed);
+        let fitted = Machine::fit(&self.hall, self.fit);
+        // A sign of life before the check resumes, which would otherwise find the
+        // task silent since the fit began.
+        LINK_ALIVE.fetch_add(1, Ordering::Relaxed);
+        FIT_RUNNING.store(false, Ordering::Relaxed);
+        match fitted {
             Ok((decoders, fits)) => {
                 for (axis, fit) in fits.iter().enumerate() {
                     defmt::info!(
