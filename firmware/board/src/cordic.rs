@@ -5,8 +5,8 @@
 //! returns atan2(y, x) / π in q1.31, which read as an unsigned word is the phase in
 //! units of 2^-32 turn: the library's phase word, with no conversion. Configured for
 //! 24 iterations (PRECISION = 6: four iterations per clock, six cycles); the RM's
-//! precision table gives a residual error of about 2^-19 of π (5e-7 turn) for the
-//! phase in q1.31, where the library's table path stays below 1e-7 turn. The
+//! precision table gives a residual error of about 2^-19 of π (2^-20 turn, 9.5e-7)
+//! for the phase in q1.31, where the library's table path stays below 1e-7 turn. The
 //! co-processor is therefore not used in the control period: its accuracy does not
 //! reach the library's (see the Hall rows of BENCHMARKS.md for the figures). The
 //! start-up measurement logs both on the board so that the claim can be checked.
