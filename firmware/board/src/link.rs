@@ -47,8 +47,9 @@ pub struct LinkTask {
     pub rx: RingBufferedUartRx<'static>,
     /// The transmitter.
     pub tx: UartTx<'static, Async>,
-    /// The Hall sensors as configured (the calibration fit starts from them).
-    pub hall: [HallConfig; 3],
+    /// The Hall sensors as configured (the calibration fit starts from them), in
+    /// flash: five kilobytes the RAM does not hold.
+    pub hall: &'static [HallConfig; 3],
     /// The calibration run's samples (about 12 KB: kept in a static).
     pub fit: &'static mut CalibrationFit<3>,
     /// Why the board last reset.
@@ -66,6 +67,8 @@ struct State {
     /// The held board fault went out.
     held_told: bool,
     calibrating: bool,
+    /// The sweep is done: the fit runs next, from the task's own frame.
+    fit_due: bool,
     button_was: bool,
     ticks: u32,
 }
@@ -101,6 +104,7 @@ impl LinkTask {
             reset_told: false,
             held_told: false,
             calibrating: false,
+            fit_due: false,
             button_was: false,
             ticks: 0,
         };
@@ -111,10 +115,7 @@ impl LinkTask {
             match select(self.rx.read(&mut chunk), LINK_TICK.wait()).await {
                 Either::First(Ok(n)) => {
                     let before = out.len();
-                    let mut send = |frame: &[u8]| queue(&mut out, frame);
-                    for &b in chunk.get(..n).unwrap_or(&[]) {
-                        self.link.receive(b, now_s, &mut self.commands, &mut send);
-                    }
+                    self.receive(chunk.get(..n).unwrap_or(&[]), now_s, &mut out);
                     // Output after received bytes is a reply: a host is there.
                     state.host_heard |= out.len() > before;
                 }
@@ -126,6 +127,12 @@ impl LinkTask {
                     let mut send = |frame: &[u8]| queue(&mut out, frame);
                     self.tick(&mut state, now_s, &mut send);
                 }
+            }
+            if state.fit_due {
+                // Called here rather than from `tick`, whose frame would lie under the
+                // fit's (tens of kilobytes).
+                state.fit_due = false;
+                self.finish_calibration(&mut state);
             }
             if state.host_heard {
                 self.tell_board_faults(&mut state, &mut out);
@@ -139,7 +146,19 @@ impl LinkTask {
         }
     }
 
+    /// The host's bytes into the link. Out of line, as [`LinkTask::tick`]: what the
+    /// link builds on the stack (frames, an uploaded job, a command) stays out of the
+    /// task's poll frame, which lies under the calibration fit's.
+    #[inline(never)]
+    fn receive(&mut self, bytes: &[u8], now_s: f64, out: &mut heapless::Vec<u8, OUT_BYTES>) {
+        let mut send = |frame: &[u8]| queue(out, frame);
+        for &b in bytes {
+            self.link.receive(b, now_s, &mut self.commands, &mut send);
+        }
+    }
+
     /// The millisecond tick: reports, heartbeat, the button, the status log.
+    #[inline(never)]
     fn tick(&mut self, state: &mut State, now_s: f64, send: &mut dyn FnMut(&[u8]) -> bool) {
         while let Some(report) = self.reports.dequeue() {
             match &report {
@@ -149,7 +168,7 @@ impl LinkTask {
                 {
                     defmt::warn!("calibration: sample of axis {} refused", axis);
                 }
-                Report::SweepDone => self.finish_calibration(state),
+                Report::SweepDone => state.fit_due = true,
                 _ => {}
             }
             self.link.report(&report, &mut *send);
@@ -173,10 +192,11 @@ impl LinkTask {
 
     /// The sweep is done: fit the three carriages' sensors (in this task, tens of
     /// kilobytes of stack, preempted by every control period) and install the fit.
+    #[inline(never)]
     fn finish_calibration(&mut self, state: &mut State) {
         state.calibrating = false;
         FIT_RUNNING.store(true, Ordering::Relaxed);
-        let fitted = Machine::fit(&self.hall, self.fit);
+        let fitted = Machine::fit(self.hall, self.fit);
         // A sign of life before the check resumes, which would otherwise find the
         // task silent since the fit began.
         LINK_ALIVE.fetch_add(1, Ordering::Relaxed);

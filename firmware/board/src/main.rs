@@ -37,7 +37,7 @@ use embassy_executor::Executor;
 use embassy_stm32::interrupt::{InterruptExt, Priority};
 use embassy_stm32::{bind_interrupts, dma, pac, peripherals, usart};
 use fault::Cause;
-use heapless::spsc::Queue;
+use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::axis::HallAxis;
 use kerf::app::calibrate::CalibrationFit;
 use kerf::app::delta_slave::link::{ContourDefaults, SlaveSettings};
@@ -45,7 +45,7 @@ use kerf::app::delta_slave::{ContourLaw, DeltaSlaveConfig};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
 use kerf::app::supervisor::{Command, Report, Supervisor};
 use kerf::app::PeriodClock;
-use static_cell::StaticCell;
+use static_cell::{ConstStaticCell, StaticCell};
 
 bind_interrupts!(struct Irqs {
     LPUART1 => usart::InterruptHandler<peripherals::LPUART1>;
@@ -53,10 +53,18 @@ bind_interrupts!(struct Irqs {
     DMA1_CHANNEL5 => dma::InterruptHandler<peripherals::DMA1_CH5>;
 });
 
-static COMMANDS: StaticCell<Queue<Command<control::Machine>, 4>> = StaticCell::new();
-static REPORTS: StaticCell<Queue<Report<control::Machine>, 64>> = StaticCell::new();
+/// Commands to the supervisor: two at a time (a queue of N holds N − 1; a command with
+/// a calibration is 5 KB). The supervisor takes them within a period; the link answers
+/// `Busy` to a third.
+static COMMANDS: ConstStaticCell<Queue<Command<control::Machine>, 3>> =
+    ConstStaticCell::new(Queue::new());
+/// Reports to the link task, drained every millisecond (ten periods): 31 hold the
+/// telemetry and calibration samples of the link task's longest wait on the
+/// transmitter.
+static REPORTS: ConstStaticCell<Queue<Report<control::Machine>, 32>> =
+    ConstStaticCell::new(Queue::new());
 static FIT: StaticCell<CalibrationFit<3>> = StaticCell::new();
-static RX_RING: StaticCell<[u8; RX_RING_BYTES]> = StaticCell::new();
+static RX_RING: ConstStaticCell<[u8; RX_RING_BYTES]> = ConstStaticCell::new([0; RX_RING_BYTES]);
 static EXECUTOR: StaticCell<Executor> = StaticCell::new();
 static CONTROL: StaticCell<control::Control> = StaticCell::new();
 static LINK: StaticCell<link::LinkTask> = StaticCell::new();
@@ -123,6 +131,88 @@ fn leds_and_button(fault_led: bool) {
     });
 }
 
+/// The machine and its supervisor, built into their static and handed to the control
+/// interrupt. Out of line: its frame holds copies of the machine (kilobytes each)
+/// while it runs and is released before the executor starts; `main`'s own frame
+/// stays for ever.
+#[inline(never)]
+fn start_machine(
+    machine: &DeltaSlaveConfig,
+    from_sender: Consumer<'static, Command<control::Machine>>,
+    to_link: Producer<'static, Report<control::Machine>>,
+) {
+    let Ok(clock) = PeriodClock::new(machine.joints.period_s, u64::from(board::SYSCLK_HZ)) else {
+        fault::fail(Cause::Startup, 8)
+    };
+    let Ok(slave) = control::Machine::new(machine) else {
+        fault::fail(Cause::Startup, 4)
+    };
+    let control = CONTROL.init_with(|| {
+        let mut supervisor = Supervisor::new(slave, from_sender, to_link);
+        supervisor.set_telemetry_decimation(TELEMETRY_DECIMATION);
+        control::Control::new(supervisor, clock)
+    });
+    control::hand_over(control);
+}
+
+/// Queues the nominal decoders as a stored calibration (as the QEMU link image does;
+/// the calibration run, button B1, replaces them). Out of line, as [`start_machine`].
+#[inline(never)]
+fn store_nominal_calibration(
+    machine: &DeltaSlaveConfig,
+    commands: &mut Producer<'static, Command<control::Machine>>,
+) {
+    let [a, b, c] = machine.joints.hall.map(|h| HallAxis::<f32>::new(&h));
+    let (Ok(a), Ok(b), Ok(c)) = (a, b, c) else {
+        fault::fail(Cause::Startup, 5)
+    };
+    if commands
+        .enqueue(Command::FinishCalibration([a, b, c]))
+        .is_err()
+    {
+        fault::fail(Cause::Startup, 6)
+    }
+}
+
+/// The host link's state, built into its static (out of line, as [`start_machine`]).
+#[inline(never)]
+fn start_link(
+    machine: &DeltaSlaveConfig,
+    parts: LinkParts,
+    reset: fault::ResetCause,
+) -> &'static mut link::LinkTask {
+    let link_config = HostLinkConfig {
+        period_s: machine.joints.period_s,
+        heartbeat_timeout_s: HostLinkConfig::DEFAULT_TIMEOUT_S,
+    };
+    let Ok(host_link) = HostLink::new(
+        &link_config,
+        SlaveSettings::of(&machine.joints.axis),
+        contour_defaults(machine),
+    ) else {
+        fault::fail(Cause::Startup, 7)
+    };
+    let fit = FIT.init_with(CalibrationFit::default);
+    LINK.init_with(|| link::LinkTask {
+        link: host_link,
+        commands: parts.commands,
+        reports: parts.reports,
+        rx: parts.rx,
+        tx: parts.tx,
+        hall: &DeltaSlaveConfig::KEOPS.joints.hall,
+        fit,
+        reset,
+    })
+}
+
+/// What the link task is given besides its own state.
+struct LinkParts {
+    commands: Producer<'static, Command<control::Machine>>,
+    reports: Consumer<'static, Report<control::Machine>>,
+    rx: usart::RingBufferedUartRx<'static>,
+    tx: usart::UartTx<'static, embassy_stm32::mode::Async>,
+}
+
 #[cortex_m_rt::entry]
 fn main() -> ! {
     let reset = fault::take_reset_cause();
@@ -144,51 +234,16 @@ fn main() -> ! {
         cmp.library_cycles
     );
 
+    // The Keops slave: its Hall configuration is read from flash by the link task.
     let machine = DeltaSlaveConfig::KEOPS;
-    let period_s = machine.joints.period_s;
-    if libm::fabs(period_s * f64::from(board::CONTROL_HZ) - 1.0) > 1e-9 {
+    if libm::fabs(machine.joints.period_s * f64::from(board::CONTROL_HZ) - 1.0) > 1e-9 {
         fault::fail(Cause::Startup, 2)
     }
-    // Static cells are zero-initialised memory (.bss): nothing of them in flash.
-    let commands = COMMANDS.init(Queue::new());
-    let reports = REPORTS.init(Queue::new());
-    let fit = FIT.init_with(CalibrationFit::default);
-    let ring = RX_RING.init([0; RX_RING_BYTES]);
-    let executor = EXECUTOR.init(Executor::new());
-    let (mut to_machine, from_sender) = commands.split();
-    let (to_link, from_machine) = reports.split();
-    let Ok(slave) = control::Machine::new(&machine) else {
-        fault::fail(Cause::Startup, 4)
-    };
-    let mut supervisor = Supervisor::new(slave, from_sender, to_link);
-    supervisor.set_telemetry_decimation(TELEMETRY_DECIMATION);
-    // The nominal decoders as a stored calibration (as the QEMU link image); the
-    // calibration run (button B1) replaces them with the fitted ones.
-    let [a, b, c] = machine.joints.hall.map(|h| HallAxis::<f32>::new(&h));
-    let (Ok(a), Ok(b), Ok(c)) = (a, b, c) else {
-        fault::fail(Cause::Startup, 5)
-    };
-    if to_machine
-        .enqueue(Command::FinishCalibration([a, b, c]))
-        .is_err()
-    {
-        fault::fail(Cause::Startup, 6)
-    }
-    let link_config = HostLinkConfig {
-        period_s,
-        heartbeat_timeout_s: HostLinkConfig::DEFAULT_TIMEOUT_S,
-    };
-    let Ok(host_link) = HostLink::new(
-        &link_config,
-        SlaveSettings::of(&machine.joints.axis),
-        contour_defaults(&machine),
-    ) else {
-        fault::fail(Cause::Startup, 7)
-    };
-    let Ok(clock) = PeriodClock::new(period_s, u64::from(board::SYSCLK_HZ)) else {
-        fault::fail(Cause::Startup, 8)
-    };
-    control::hand_over(CONTROL.init(control::Control::new(supervisor, clock)));
+    // Constant-initialised cells: in .bss, never built on the stack.
+    let (mut to_machine, from_sender) = COMMANDS.take().split();
+    let (to_link, from_machine) = REPORTS.take().split();
+    start_machine(&machine, from_sender, to_link);
+    store_nominal_calibration(&machine, &mut to_machine);
 
     let mut uart_config = usart::Config::default();
     uart_config.baudrate = board::LINK_BAUD;
@@ -206,7 +261,14 @@ fn main() -> ! {
     let link_priority = Priority::from(board::LINK_PRIORITY);
     pac::Interrupt::LPUART1.set_priority(link_priority);
     let (tx, rx) = uart.split();
-    let rx = rx.into_ring_buffered(ring);
+    let rx = rx.into_ring_buffered(RX_RING.take());
+    let parts = LinkParts {
+        commands: to_machine,
+        reports: from_machine,
+        rx,
+        tx,
+    };
+    let task = start_link(&machine, parts, reset);
 
     if let Err(e) = sampling::start() {
         defmt::error!("sampling: {}", e);
@@ -229,17 +291,7 @@ fn main() -> ! {
         board::CONTROL_HZ,
         board::LINK_BAUD
     );
-
-    let task = LINK.init(link::LinkTask {
-        link: host_link,
-        commands: to_machine,
-        reports: from_machine,
-        rx,
-        tx,
-        hall: machine.joints.hall,
-        fit,
-        reset,
-    });
+    let executor = EXECUTOR.init(Executor::new());
     executor.run(|spawner| match link_task(task) {
         Ok(token) => spawner.spawn(token),
         Err(_) => fault::fail(Cause::Startup, 12),
