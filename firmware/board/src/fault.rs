@@ -11,6 +11,7 @@
 
 use crate::outputs;
 use core::mem::MaybeUninit;
+use core::sync::atomic::{AtomicBool, Ordering};
 use embassy_stm32::pac;
 
 /// Fault codes of the board in [`kerf::codec::link::Event::Fault`]: `0xB000 | cause`
@@ -187,11 +188,17 @@ unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     fail(Cause::HardFault, frame.pc() & 0xFFFF)
 }
 
+/// Set by the first panic: a panic inside the panic's own log line (defmt refuses to
+/// be entered twice) goes straight to the reset instead of recursing.
+static PANICKING: AtomicBool = AtomicBool::new(false);
+
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
-    // Outputs first: the log below may block on a full RTT buffer.
+    // Outputs first, before anything that could fail again.
     outputs::force_safe();
     let line = info.location().map_or(0, |l| l.line());
-    defmt::error!("panic at line {}", line);
+    if !PANICKING.swap(true, Ordering::Relaxed) {
+        defmt::error!("panic at line {}", line);
+    }
     fail(Cause::Panic, line)
 }
