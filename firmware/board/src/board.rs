@@ -95,7 +95,7 @@ pub const IWDG_RELOAD: u16 = 80;
 /// The link task must have run within this many control periods (200 ms) for the
 /// control interrupt to refresh the watchdog, so that a link task stuck in a loop
 /// resets the board as a hung control period does. Longer than the longest wait of
-/// the task on the transmitter (2 KB at 921 600 Bd: 22 ms); the calibration fit, which
+/// the task on the transmitter (1 KB at 921 600 Bd: 11 ms); the calibration fit, which
 /// runs in the task for longer, suspends the check while it runs.
 pub const LINK_SILENCE_PERIODS: u32 = 2_000;
 

@@ -32,8 +32,8 @@ pub const LINK_JOB_BYTES: usize = 1024;
 pub type BoardLink = HostLink<Machine, LINK_JOB_BYTES>;
 
 /// Bytes queued for the UART per wake-up: a telemetry sample, a few replies and
-/// events.
-const OUT_BYTES: usize = 2048;
+/// events (a frame is at most 262 bytes); 11 ms of the line at 921 600 Bd.
+const OUT_BYTES: usize = 1024;
 
 /// What the link task owns.
 pub struct LinkTask {
@@ -50,7 +50,7 @@ pub struct LinkTask {
     /// The Hall sensors as configured (the calibration fit starts from them), in
     /// flash: five kilobytes the RAM does not hold.
     pub hall: &'static [HallConfig; 3],
-    /// The calibration run's samples (about 12 KB: kept in a static).
+    /// The calibration run's samples (9 KB: kept in a static).
     pub fit: &'static mut CalibrationFit<3>,
     /// Why the board last reset.
     pub reset: ResetCause,

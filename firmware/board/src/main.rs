@@ -58,10 +58,10 @@ bind_interrupts!(struct Irqs {
 /// `Busy` to a third.
 static COMMANDS: ConstStaticCell<Queue<Command<control::Machine>, 3>> =
     ConstStaticCell::new(Queue::new());
-/// Reports to the link task, drained every millisecond (ten periods): 31 hold the
-/// telemetry and calibration samples of the link task's longest wait on the
-/// transmitter.
-static REPORTS: ConstStaticCell<Queue<Report<control::Machine>, 32>> =
+/// Reports to the link task, drained every millisecond (ten periods): 23 hold the
+/// telemetry and calibration samples of twice the link task's longest wait on the
+/// transmitter (11 ms).
+static REPORTS: ConstStaticCell<Queue<Report<control::Machine>, 24>> =
     ConstStaticCell::new(Queue::new());
 static FIT: StaticCell<CalibrationFit<3>> = StaticCell::new();
 static RX_RING: ConstStaticCell<[u8; RX_RING_BYTES]> = ConstStaticCell::new([0; RX_RING_BYTES]);
