@@ -196,11 +196,20 @@ impl LinkTask {
     fn finish_calibration(&mut self, state: &mut State) {
         state.calibrating = false;
         FIT_RUNNING.store(true, Ordering::Relaxed);
+        // Timed in control periods, which go on above the fit (the cycle counter
+        // would wrap on a fit longer than 25 s).
+        let start = KERF_STATUS.periods.load(Ordering::Relaxed);
         let fitted = Machine::fit(self.hall, self.fit);
+        let periods = KERF_STATUS
+            .periods
+            .load(Ordering::Relaxed)
+            .wrapping_sub(start);
+        let fit_ms = periods / (board::CONTROL_HZ / 1000);
         // A sign of life before the check resumes, which would otherwise find the
         // task silent since the fit began.
         LINK_ALIVE.fetch_add(1, Ordering::Relaxed);
         FIT_RUNNING.store(false, Ordering::Relaxed);
+        defmt::info!("calibration: fit took {} ms", fit_ms);
         match fitted {
             Ok((decoders, fits)) => {
                 for (axis, fit) in fits.iter().enumerate() {
