@@ -51,7 +51,7 @@ fn wait(polls: u32, mut done: impl FnMut() -> bool) -> bool {
 
 /// Powers, calibrates and enables the three ADCs, points DMA1 channels 1–3 at
 /// [`SAMPLES`], and arms the conversions on TIM1's trigger. The trigger itself
-/// starts with TIM1 ([`crate::outputs::start_timer`]).
+/// starts with TIM1 ([`crate::outputs::start`]).
 pub fn start() -> Result<(), SamplingError> {
     let rcc = pac::RCC;
     rcc.ahb1enr().modify(|w| {
