@@ -2,8 +2,9 @@
 //! outputs in their safe state (in hardware through TIM1's break, then in software),
 //! writes the reason into a RAM word that survives the reset, and resets; the
 //! independent watchdog resets a board whose control interrupt or link task stopped.
-//! After the reset the reason is read once ([`take_reset_cause`]), logged, and sent
-//! to the host as a fault event in the board's code range ([`BOARD_FAULT_CODE`]).
+//! After the reset the reason is read once ([`take_reset_cause`]), logged, and given to
+//! the host link as a fault in the board's code range (`kerf::codec::link::BOARD_FAULT`
+//! and `board_fault`): sent as an event and kept as the last fault `Status` reports.
 //!
 //! The record lives in cortex-m-rt's `.uninit` section: neither zeroed nor
 //! initialised at start-up, so a software or watchdog reset leaves it as it was; a
@@ -13,10 +14,7 @@ use crate::outputs;
 use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, Ordering};
 use embassy_stm32::pac;
-
-/// Fault codes of the board in [`kerf::codec::link::Event::Fault`]: `0xB000 | cause`
-/// (the machine's own codes are small numbers, the delta slave's 1–6).
-pub const BOARD_FAULT_CODE: u16 = 0xB000;
+use kerf::codec::link::{board_fault, BOARD_FAULT};
 
 /// What ended the last run.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, defmt::Format)]
@@ -29,21 +27,21 @@ pub enum Cause {
     /// A software reset without a fault record (the probe's reset request).
     Software = 2,
     /// A HardFault; detail: the stacked program counter's low 16 bits.
-    HardFault = 3,
+    HardFault = board_fault::HARD_FAULT as u8,
     /// A panic; detail: the source line.
-    Panic = 4,
+    Panic = board_fault::PANIC as u8,
     /// A control period did not finish within its period; detail: its cycles / 16.
-    MissedDeadline = 5,
+    MissedDeadline = board_fault::MISSED_DEADLINE as u8,
     /// The independent watchdog expired (the control interrupt or the link task
     /// stopped running).
-    Watchdog = 6,
+    Watchdog = board_fault::WATCHDOG as u8,
     /// The three ADC sequences of a period did not arrive together, or a DMA
     /// transfer error.
-    Sampling = 7,
+    Sampling = board_fault::SAMPLING as u8,
     /// The break input (driver fault, E-stop) switched the outputs off; no reset.
-    Break = 8,
+    Break = board_fault::BREAK as u8,
     /// Start-up failed (a peripheral did not come ready); detail: which.
-    Startup = 9,
+    Startup = board_fault::STARTUP as u8,
 }
 
 impl Cause {
@@ -52,16 +50,18 @@ impl Cause {
         !matches!(self, Cause::PowerOn | Cause::Pin | Cause::Software)
     }
 
+    /// The causes a fault record can hold (the watchdog's is read from the reset
+    /// flags, and a break does not reset).
     fn from_u32(value: u32) -> Option<Self> {
-        Some(match value {
-            3 => Cause::HardFault,
-            4 => Cause::Panic,
-            5 => Cause::MissedDeadline,
-            7 => Cause::Sampling,
-            8 => Cause::Break,
-            9 => Cause::Startup,
-            _ => return None,
-        })
+        [
+            Cause::HardFault,
+            Cause::Panic,
+            Cause::MissedDeadline,
+            Cause::Sampling,
+            Cause::Startup,
+        ]
+        .into_iter()
+        .find(|c| *c as u32 == value)
     }
 }
 
@@ -95,7 +95,7 @@ impl ResetCause {
     pub fn event(&self) -> Option<(u16, u16)> {
         self.cause
             .is_fault()
-            .then_some((BOARD_FAULT_CODE | self.cause as u16, self.detail as u16))
+            .then_some((BOARD_FAULT | self.cause as u16, self.detail as u16))
     }
 }
 

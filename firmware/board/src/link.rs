@@ -9,7 +9,7 @@
 
 use crate::board;
 use crate::control::{Machine, FIT_RUNNING, LINK_ALIVE, LINK_TICK};
-use crate::fault::{Cause, ResetCause, BOARD_FAULT_CODE};
+use crate::fault::{Cause, ResetCause};
 use crate::timing::{CycleClock, KERF_STATUS};
 use core::sync::atomic::Ordering;
 use embassy_futures::select::{select, Either};
@@ -20,7 +20,7 @@ use heapless::spsc::{Consumer, Producer};
 use kerf::app::calibrate::{CalibrationFit, HallMachine};
 use kerf::app::host_link::HostLink;
 use kerf::app::supervisor::{Command, Mode, Report};
-use kerf::codec::link::{encode, Event, MachineMessage, MAX_FRAME};
+use kerf::codec::link::BOARD_FAULT;
 use kerf::hal::Monotonic;
 use kerf::sensing::hall::HallConfig;
 
@@ -59,12 +59,7 @@ pub struct LinkTask {
 /// Where the task is.
 struct State {
     mode: Mode<kerf::app::delta_slave::DeltaFault>,
-    /// The host has been answered at least once: it is listening (until then the
-    /// board's own events could go out before a host is connected).
-    host_heard: bool,
-    /// The reset cause went out.
-    reset_told: bool,
-    /// The held board fault went out.
+    /// The held board fault went to the link.
     held_told: bool,
     calibrating: bool,
     /// The sweep is done: the fit runs next, from the task's own frame.
@@ -76,16 +71,6 @@ struct State {
 /// Appends frames to `out`; false when it is full (the link counts it as unsent).
 fn queue(out: &mut heapless::Vec<u8, OUT_BYTES>, frame: &[u8]) -> bool {
     out.extend_from_slice(frame).is_ok()
-}
-
-fn fault_event(out: &mut heapless::Vec<u8, OUT_BYTES>, code: u16, detail: u16) {
-    let mut frame = [0u8; MAX_FRAME];
-    if let Ok(n) = encode(
-        &MachineMessage::Event(Event::Fault { code, detail }),
-        &mut frame,
-    ) {
-        let _ = queue(out, frame.get(..n).unwrap_or(&[]));
-    }
 }
 
 /// The calibration button (PC13, NUCLEO B1: high while pressed).
@@ -100,8 +85,6 @@ impl LinkTask {
         let mut out = heapless::Vec::<u8, OUT_BYTES>::new();
         let mut state = State {
             mode: Mode::Idle,
-            host_heard: false,
-            reset_told: false,
             held_told: false,
             calibrating: false,
             fit_due: false,
@@ -109,15 +92,19 @@ impl LinkTask {
             ticks: 0,
         };
         let mut chunk = [0u8; 64];
+        // The cause of the last reset, when it was a fault: sent now (a host may not
+        // be listening yet) and kept by the link as the last fault that `Status`
+        // reports, so that a host connecting later reads it.
+        if let Some((code, detail)) = self.reset.event() {
+            self.link
+                .board_fault(code, detail, &mut |frame| queue(&mut out, frame));
+        }
         loop {
             let now_s = clock.now() as f64 / f64::from(board::SYSCLK_HZ);
             LINK_ALIVE.fetch_add(1, Ordering::Relaxed);
             match select(self.rx.read(&mut chunk), LINK_TICK.wait()).await {
                 Either::First(Ok(n)) => {
-                    let before = out.len();
                     self.receive(chunk.get(..n).unwrap_or(&[]), now_s, &mut out);
-                    // Output after received bytes is a reply: a host is there.
-                    state.host_heard |= out.len() > before;
                 }
                 // The ring overran (the task was held off longer than the ring
                 // lasts): the frames in it are lost, and the next read restarts
@@ -134,9 +121,7 @@ impl LinkTask {
                 state.fit_due = false;
                 self.finish_calibration(&mut state);
             }
-            if state.host_heard {
-                self.tell_board_faults(&mut state, &mut out);
-            }
+            self.tell_held_fault(&mut state, &mut out);
             if !out.is_empty() {
                 if self.tx.write(&out).await.is_err() {
                     defmt::warn!("link: transmit error");
@@ -232,19 +217,14 @@ impl LinkTask {
         }
     }
 
-    /// Once the host listens: why the board last reset (a fault only), and a board
-    /// fault that holds the outputs off.
-    fn tell_board_faults(&self, state: &mut State, out: &mut heapless::Vec<u8, OUT_BYTES>) {
-        if !state.reset_told {
-            state.reset_told = true;
-            if let Some((code, detail)) = self.reset.event() {
-                fault_event(out, code, detail);
-            }
-        }
+    /// A board fault that holds the outputs off without a reset (the break input),
+    /// once: to the host as a fault event, kept as the last fault for `Status`.
+    fn tell_held_fault(&mut self, state: &mut State, out: &mut heapless::Vec<u8, OUT_BYTES>) {
         let held = KERF_STATUS.held_fault.load(Ordering::Relaxed);
         if held != 0 && !state.held_told {
             state.held_told = true;
-            fault_event(out, BOARD_FAULT_CODE | held as u16, 0);
+            self.link
+                .board_fault(BOARD_FAULT | held as u16, 0, &mut |frame| queue(out, frame));
             defmt::error!("outputs held off by {}", Cause::Break);
         }
     }
