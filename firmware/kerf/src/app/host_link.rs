@@ -172,6 +172,16 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
         self.counters
     }
 
+    /// A fault the board found outside the machine (its own fault path, or the cause
+    /// of the last reset read at start-up; codes of [`crate::codec::link::board_fault`]):
+    /// sent as [`Event::Fault`] and kept as the last fault that [`Request::Status`]
+    /// reports, as the machine's own faults are, so that a host that connects later
+    /// still reads it.
+    pub fn board_fault(&mut self, code: u16, detail: u16, send: &mut dyn FnMut(&[u8]) -> bool) {
+        self.last_fault = Some((code, detail));
+        self.send(&MachineMessage::Event(Event::Fault { code, detail }), send);
+    }
+
     /// Encodes and sends one message through `send`.
     fn send(&mut self, message: &MachineMessage<'_>, send: &mut dyn FnMut(&[u8]) -> bool) {
         let mut out = [0u8; MAX_FRAME];

@@ -159,6 +159,46 @@ pub enum Refusal {
     Busy,
 }
 
+/// Fault codes of the board itself, the same for every machine (the machines' own
+/// codes are small numbers): `BOARD_FAULT | cause`, with the cause one of
+/// [`board_fault`]'s. Sent as [`Event::Fault`] and kept as [`MachineStatus::last_fault`].
+pub const BOARD_FAULT: u16 = 0xB000;
+
+/// Board fault causes ([`BOARD_FAULT`] `| cause`) and what their detail holds.
+pub mod board_fault {
+    /// A HardFault; detail: the low 16 bits of the faulting program counter.
+    pub const HARD_FAULT: u16 = 3;
+    /// A panic; detail: the source line.
+    pub const PANIC: u16 = 4;
+    /// A control period ended after the next period's trigger; detail: its cycles / 16.
+    pub const MISSED_DEADLINE: u16 = 5;
+    /// The independent watchdog reset the board.
+    pub const WATCHDOG: u16 = 6;
+    /// A period's samples did not arrive together (or a DMA transfer error).
+    pub const SAMPLING: u16 = 7;
+    /// The break input (driver fault, E-stop) holds the outputs off until a reset.
+    pub const BREAK: u16 = 8;
+    /// Start-up failed; detail: the step.
+    pub const STARTUP: u16 = 9;
+
+    /// What a board fault code (`BOARD_FAULT | cause`) means; `None` for any other code.
+    pub fn reason(code: u16) -> Option<&'static str> {
+        if code & 0xFF00 != super::BOARD_FAULT {
+            return None;
+        }
+        Some(match code & 0xFF {
+            HARD_FAULT => "the board's processor faulted (HardFault) and reset",
+            PANIC => "the board's firmware panicked and reset",
+            MISSED_DEADLINE => "a control period missed its deadline; the board reset",
+            WATCHDOG => "the board's watchdog expired and reset it",
+            SAMPLING => "the Hall samples of a period did not arrive together; the board reset",
+            BREAK => "the break input (driver fault or E-stop) switched the outputs off",
+            STARTUP => "the board's start-up failed",
+            _ => "unknown board fault",
+        })
+    }
+}
+
 /// [`Refusal::Job`]: the committed bytes are not a job file the firmware reads.
 pub const JOB_FILE_UNREADABLE: u16 = 0xFFFF;
 

@@ -154,8 +154,13 @@ pub mod load_codes {
 }
 
 /// What a fault code of [`LinkMachine::fault_code`] means, for a host to print
-/// (`Event::Fault { code, .. }` of a `keops-slave`).
+/// (`Event::Fault { code, .. }` of a `keops-slave`); the board's own codes
+/// (`codec::link::BOARD_FAULT | cause`) are named as `codec::link::board_fault` names
+/// them.
 pub fn fault_reason(code: u16) -> &'static str {
+    if let Some(reason) = crate::codec::link::board_fault::reason(code) {
+        return reason;
+    }
     match code {
         1 => "a carriage faulted (its Hall decoder or joint limits)",
         2 => "the kinematics could not be solved (joint references or measured effector)",
@@ -317,6 +322,11 @@ mod tests {
         }
         assert_eq!(fault_reason(0), "unknown fault");
         assert_eq!(job_refusal_reason(12), "unknown refusal");
+        // The board's own faults reach a host of this machine with their names.
+        use crate::codec::link::{board_fault, BOARD_FAULT};
+        let watchdog = fault_reason(BOARD_FAULT | board_fault::WATCHDOG);
+        assert!(watchdog.contains("watchdog"), "{watchdog}");
+        assert!(faults.iter().all(|f| *f != watchdog));
         // The codes the machine sends name the fault they stand for.
         type S = DeltaSlave<f32>;
         let (code, _) = S::fault_code(&DeltaFault::ContourError);

@@ -581,3 +581,36 @@ fn a_fault_reaches_the_host_as_an_event_with_its_code() {
         );
     });
 }
+
+#[test]
+fn a_board_fault_is_sent_and_kept_for_a_host_that_asks_later() {
+    use crate::codec::link::{board_fault, BOARD_FAULT};
+    with_rig(|rig| {
+        let code = BOARD_FAULT | board_fault::WATCHDOG;
+        let mut sent = Vec::new();
+        rig.link.board_fault(code, 0, &mut |f| {
+            sent.push(f.to_vec());
+            true
+        });
+        let events: Vec<Got> = sent.iter().map(|f| got(f)).collect();
+        assert_eq!(events, [Got::Event(Event::Fault { code, detail: 0 })]);
+        // The machine goes on (the board's fault is not the supervisor's), and a host
+        // that joins reads the board's fault as the last one.
+        rig.exchange(&[], 2);
+        assert_eq!(rig.supervisor.mode(), Mode::Ready);
+        let period = rig.supervisor_period();
+        let status = rig.exchange(&frame(1, Request::Status), 0);
+        let want = MachineStatus {
+            mode: ModeCode::Ready,
+            last_fault: Some((code, 0)),
+            period,
+            upload_received: None,
+            bad_frames: 0,
+            unsent: 0,
+        };
+        assert_eq!(
+            status,
+            [reply(1, &std::format!("{:?}", Reply::Status(want)))]
+        );
+    });
+}

@@ -237,6 +237,36 @@ fn a_message_past_the_payload_is_refused_not_truncated() {
     assert_eq!(encode(&ok, &mut tiny), Err(FrameError::NoRoom));
 }
 
+#[test]
+fn board_fault_codes_are_named_and_no_other_code_is() {
+    use super::board_fault::*;
+    let causes = [
+        HARD_FAULT,
+        PANIC,
+        MISSED_DEADLINE,
+        WATCHDOG,
+        SAMPLING,
+        BREAK,
+        STARTUP,
+    ];
+    let reasons: std::vec::Vec<_> = causes
+        .iter()
+        .map(|&c| reason(BOARD_FAULT | c).unwrap())
+        .collect();
+    for (k, r) in reasons.iter().enumerate() {
+        assert_ne!(*r, "unknown board fault");
+        assert!(reasons[k + 1..].iter().all(|other| other != r), "{r} twice");
+    }
+    assert!(reason(BOARD_FAULT | HARD_FAULT)
+        .unwrap()
+        .contains("HardFault"));
+    assert_eq!(reason(BOARD_FAULT | 0xFF), Some("unknown board fault"));
+    // The machines' own codes, and codes outside the board's range, are not the board's.
+    for code in [0, 1, 6, 0x201, 0xA003, 0xB103, 0xFFFF] {
+        assert_eq!(reason(code), None, "{code:#x}");
+    }
+}
+
 proptest::proptest! {
     /// The fuzz target's property on random streams, in the test suite: frames or
     /// typed errors, never a panic; an accepted message encodes back to itself.

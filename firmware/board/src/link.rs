@@ -1,0 +1,249 @@
+//! The slower context: the host link on LPUART1 (received by DMA into a ring, sent by
+//! DMA), driven by `kerf::app::host_link::HostLink` exactly as the QEMU link image
+//! drives it, plus what only a board has: the calibration run from the user button,
+//! the cause of the last reset told to the host, the status log and the watchdog's
+//! sign of life.
+//!
+//! The task wakes on received bytes and on the control interrupt's tick (every
+//! millisecond); it never blocks the control interrupt, which preempts it.
+
+use crate::board;
+use crate::control::{Machine, FIT_RUNNING, LINK_ALIVE, LINK_TICK};
+use crate::fault::{Cause, ResetCause};
+use crate::timing::{CycleClock, KERF_STATUS};
+use core::sync::atomic::Ordering;
+use embassy_futures::select::{select, Either};
+use embassy_stm32::mode::Async;
+use embassy_stm32::pac;
+use embassy_stm32::usart::{RingBufferedUartRx, UartTx};
+use heapless::spsc::{Consumer, Producer};
+use kerf::app::calibrate::{CalibrationFit, HallMachine};
+use kerf::app::host_link::HostLink;
+use kerf::app::supervisor::{Command, Mode, Report};
+use kerf::codec::link::BOARD_FAULT;
+use kerf::hal::Monotonic;
+use kerf::sensing::hall::HallConfig;
+
+/// Bytes of an uploaded job the board holds (a 30-harmonic EFD file is 504), as the
+/// QEMU link image.
+pub const LINK_JOB_BYTES: usize = 1024;
+
+/// The board's link.
+pub type BoardLink = HostLink<Machine, LINK_JOB_BYTES>;
+
+/// Bytes queued for the UART per wake-up: a telemetry sample, a few replies and
+/// events (a frame is at most 262 bytes); 11 ms of the line at 921 600 Bd.
+const OUT_BYTES: usize = 1024;
+
+/// What the link task owns.
+pub struct LinkTask {
+    /// The host link.
+    pub link: BoardLink,
+    /// Commands to the supervisor.
+    pub commands: Producer<'static, Command<Machine>>,
+    /// Reports from it.
+    pub reports: Consumer<'static, Report<Machine>>,
+    /// Received bytes.
+    pub rx: RingBufferedUartRx<'static>,
+    /// The transmitter.
+    pub tx: UartTx<'static, Async>,
+    /// The Hall sensors as configured (the calibration fit starts from them), in
+    /// flash: five kilobytes the RAM does not hold.
+    pub hall: &'static [HallConfig; 3],
+    /// The calibration run's samples (9 KB: kept in a static).
+    pub fit: &'static mut CalibrationFit<3>,
+    /// Why the board last reset.
+    pub reset: ResetCause,
+}
+
+/// Where the task is.
+struct State {
+    mode: Mode<kerf::app::delta_slave::DeltaFault>,
+    /// The held board fault went to the link.
+    held_told: bool,
+    calibrating: bool,
+    /// The sweep is done: the fit runs next, from the task's own frame.
+    fit_due: bool,
+    button_was: bool,
+    ticks: u32,
+}
+
+/// Appends frames to `out`; false when it is full (the link counts it as unsent).
+fn queue(out: &mut heapless::Vec<u8, OUT_BYTES>, frame: &[u8]) -> bool {
+    out.extend_from_slice(frame).is_ok()
+}
+
+/// The calibration button (PC13, NUCLEO B1: high while pressed).
+fn button_pressed() -> bool {
+    pac::GPIOC.idr().read().idr(13) == pac::gpio::vals::Idr::HIGH
+}
+
+impl LinkTask {
+    /// Runs the link for ever.
+    pub async fn run(&mut self) -> ! {
+        let mut clock = CycleClock::new();
+        let mut out = heapless::Vec::<u8, OUT_BYTES>::new();
+        let mut state = State {
+            mode: Mode::Idle,
+            held_told: false,
+            calibrating: false,
+            fit_due: false,
+            button_was: false,
+            ticks: 0,
+        };
+        let mut chunk = [0u8; 64];
+        // The cause of the last reset, when it was a fault: sent now (a host may not
+        // be listening yet) and kept by the link as the last fault that `Status`
+        // reports, so that a host connecting later reads it.
+        if let Some((code, detail)) = self.reset.event() {
+            self.link
+                .board_fault(code, detail, &mut |frame| queue(&mut out, frame));
+        }
+        loop {
+            let now_s = clock.now() as f64 / f64::from(board::SYSCLK_HZ);
+            LINK_ALIVE.fetch_add(1, Ordering::Relaxed);
+            match select(self.rx.read(&mut chunk), LINK_TICK.wait()).await {
+                Either::First(Ok(n)) => {
+                    self.receive(chunk.get(..n).unwrap_or(&[]), now_s, &mut out);
+                }
+                // The ring overran (the task was held off longer than the ring
+                // lasts): the frames in it are lost, and the next read restarts
+                // the reception; the host repeats unanswered requests.
+                Either::First(Err(e)) => defmt::warn!("link: receive error {}", e),
+                Either::Second(()) => {
+                    let mut send = |frame: &[u8]| queue(&mut out, frame);
+                    self.tick(&mut state, now_s, &mut send);
+                }
+            }
+            if state.fit_due {
+                // Called here rather than from `tick`, whose frame would lie under the
+                // fit's (tens of kilobytes).
+                state.fit_due = false;
+                self.finish_calibration(&mut state);
+            }
+            self.tell_held_fault(&mut state, &mut out);
+            if !out.is_empty() {
+                if self.tx.write(&out).await.is_err() {
+                    defmt::warn!("link: transmit error");
+                }
+                out.clear();
+            }
+        }
+    }
+
+    /// The host's bytes into the link. Out of line, as [`LinkTask::tick`]: what the
+    /// link builds on the stack (frames, an uploaded job, a command) stays out of the
+    /// task's poll frame, which lies under the calibration fit's.
+    #[inline(never)]
+    fn receive(&mut self, bytes: &[u8], now_s: f64, out: &mut heapless::Vec<u8, OUT_BYTES>) {
+        let mut send = |frame: &[u8]| queue(out, frame);
+        for &b in bytes {
+            self.link.receive(b, now_s, &mut self.commands, &mut send);
+        }
+    }
+
+    /// The millisecond tick: reports, heartbeat, the button, the status log.
+    #[inline(never)]
+    fn tick(&mut self, state: &mut State, now_s: f64, send: &mut dyn FnMut(&[u8]) -> bool) {
+        while let Some(report) = self.reports.dequeue() {
+            match &report {
+                Report::ModeChanged { mode, .. } => state.mode = *mode,
+                Report::CalibrationSample { axis, counts }
+                    if self.fit.push(*axis, *counts).is_err() =>
+                {
+                    defmt::warn!("calibration: sample of axis {} refused", axis);
+                }
+                Report::SweepDone => state.fit_due = true,
+                _ => {}
+            }
+            self.link.report(&report, &mut *send);
+        }
+        self.link.tick(now_s, &mut self.commands, &mut *send);
+        let pressed = button_pressed();
+        let ready = matches!(state.mode, Mode::Idle | Mode::Ready);
+        if pressed && !state.button_was && ready && !state.calibrating {
+            *self.fit = CalibrationFit::default();
+            if self.commands.enqueue(Command::Calibrate).is_ok() {
+                state.calibrating = true;
+                defmt::info!("calibration: sweep started");
+            }
+        }
+        state.button_was = pressed;
+        state.ticks = state.ticks.wrapping_add(1);
+        if state.ticks % 1000 == 0 {
+            log_status(&self.link);
+        }
+    }
+
+    /// The sweep is done: fit the three carriages' sensors (in this task, tens of
+    /// kilobytes of stack, preempted by every control period) and install the fit.
+    #[inline(never)]
+    fn finish_calibration(&mut self, state: &mut State) {
+        state.calibrating = false;
+        FIT_RUNNING.store(true, Ordering::Relaxed);
+        // Timed in control periods, which go on above the fit (the cycle counter
+        // would wrap on a fit longer than 25 s).
+        let start = KERF_STATUS.periods.load(Ordering::Relaxed);
+        let fitted = Machine::fit(self.hall, self.fit);
+        let periods = KERF_STATUS
+            .periods
+            .load(Ordering::Relaxed)
+            .wrapping_sub(start);
+        let fit_ms = periods / (board::CONTROL_HZ / 1000);
+        // A sign of life before the check resumes, which would otherwise find the
+        // task silent since the fit began.
+        LINK_ALIVE.fetch_add(1, Ordering::Relaxed);
+        FIT_RUNNING.store(false, Ordering::Relaxed);
+        defmt::info!("calibration: fit took {} ms", fit_ms);
+        match fitted {
+            Ok((decoders, fits)) => {
+                for (axis, fit) in fits.iter().enumerate() {
+                    defmt::info!(
+                        "calibration: axis {} offsets {} counts, residual {} counts RMS",
+                        axis,
+                        fit.calibration.offset_counts,
+                        fit.residual_rms_counts
+                    );
+                }
+                if self
+                    .commands
+                    .enqueue(Command::FinishCalibration(decoders))
+                    .is_err()
+                {
+                    defmt::warn!("calibration: command queue full, fit dropped");
+                }
+            }
+            Err(e) => defmt::error!("calibration failed: {}", defmt::Debug2Format(&e)),
+        }
+    }
+
+    /// A board fault that holds the outputs off without a reset (the break input),
+    /// once: to the host as a fault event, kept as the last fault for `Status`.
+    fn tell_held_fault(&mut self, state: &mut State, out: &mut heapless::Vec<u8, OUT_BYTES>) {
+        let held = KERF_STATUS.held_fault.load(Ordering::Relaxed);
+        if held != 0 && !state.held_told {
+            state.held_told = true;
+            self.link
+                .board_fault(BOARD_FAULT | held as u16, 0, &mut |frame| queue(out, frame));
+            defmt::error!("outputs held off by {}", Cause::Break);
+        }
+    }
+}
+
+/// The status line, once a second.
+fn log_status(link: &BoardLink) {
+    let s = &KERF_STATUS;
+    let counters = link.counters();
+    defmt::info!(
+        "status: periods {} step worst {} last {} cycles, finish worst {} of {} cycles, late {}, link bad {} unsent {}, stack used {} B",
+        s.periods.load(Ordering::Relaxed),
+        s.worst_step_cycles.load(Ordering::Relaxed),
+        s.last_step_cycles.load(Ordering::Relaxed),
+        s.worst_finish_cycles.load(Ordering::Relaxed),
+        board::PERIOD_CYCLES,
+        s.late_periods.load(Ordering::Relaxed),
+        counters.bad_frames,
+        counters.unsent,
+        crate::stack::used()
+    );
+}
