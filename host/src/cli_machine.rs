@@ -26,8 +26,9 @@ pub struct MachineArgs {
         conflicts_with = "qemu"
     )]
     port: Option<String>,
-    /// The port's speed, bits per second (USB CDC ignores it).
-    #[arg(long, value_name = "BAUD", default_value_t = 115_200)]
+    /// The port's speed, bits per second: the board image's LPUART1 runs at 921 600
+    /// (USB CDC ignores it).
+    #[arg(long, value_name = "BAUD", default_value_t = 921_600)]
     baud: u32,
     /// The emulated machine: the firmware's QEMU link image (the Keops slave on its
     /// simulated delta) on qemu-system-arm, started for this command.
