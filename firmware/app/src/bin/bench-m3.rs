@@ -8,12 +8,18 @@
 //! The error columns are the largest force difference against the same code in
 //! `f64`, each run from the same fresh state on the same inputs: PD + DOB over the 64
 //! inputs, the axis step over periods 64 to 256 of its ramp (after the start-up).
+//!
+//! The Keops slave joint row is one of the slave's three carriages: the same
+//! `AxisLaw::step` with the slave's configuration (`DeltaSlaveConfig::KEOPS.joints`:
+//! its law, its first carriage's Hall decoder, homed at its 10 mm home), on the same
+//! Hall inputs and the same ramp, started from that home.
 #![no_std]
 #![no_main]
 
 use core::hint::black_box;
 use cortex_m_semihosting::hprintln;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
+use kerf::app::delta_slave::DeltaSlaveConfig;
 use kerf::control::dob::{Dob, DobState};
 use kerf::control::pd::{Pd, Reference};
 use kerf::sensing::hall::HallConfig;
@@ -34,7 +40,8 @@ fn hall_inputs() -> [[u16; 3]; INPUTS] {
     core::array::from_fn(hall_at)
 }
 
-/// Hall counts of the ramp-following axis in period `k`.
+/// Hall counts of the ramp-following axis in period `k` (from its home, on the
+/// nominal LM1247 sensor of both setups).
 fn hall_at(k: usize) -> [u16; 3] {
     let travel = 1e-5 * k as f64 - 1e-6;
     let phase = 2.0 * core::f64::consts::PI * travel / HallConfig::LM1247_16BIT.pitch_m;
@@ -68,32 +75,58 @@ fn row(
     );
 }
 
-/// The references in scalar `T`.
-fn references_in<T: Real>() -> [Reference<T>; INPUTS] {
+/// What the axis step runs with: the law, the Hall decoder and the home.
+#[derive(Copy, Clone)]
+struct Setup {
+    /// What the comment line before the row calls it (`scripts/bench` reads it).
+    label: &'static str,
+    law: AxisConfig,
+    hall: HallConfig,
+    home_m: f64,
+}
+
+/// The single axis of the M4 bench: the LM1247 law, homed at 4 mm.
+const SINGLE_AXIS: Setup = Setup {
+    label: "axis step",
+    law: AxisConfig::LM1247_SLAVE,
+    hall: HallConfig::LM1247_16BIT,
+    home_m: 0.004,
+};
+
+/// One Keops slave carriage: the slave's law, its first carriage's decoder and home.
+const KEOPS_JOINT: Setup = Setup {
+    label: "Keops slave joint step",
+    law: DeltaSlaveConfig::KEOPS.joints.axis,
+    hall: DeltaSlaveConfig::KEOPS.joints.hall[0],
+    home_m: DeltaSlaveConfig::KEOPS.joints.home_m[0],
+};
+
+/// The references in scalar `T` (the ramp from 4 mm), shifted by `offset_m`.
+fn references_in<T: Real>(offset_m: f64) -> [Reference<T>; INPUTS] {
     references().map(|r| Reference {
-        position: T::from_f64(f64::from(r.position)),
+        position: T::from_f64(f64::from(r.position) + offset_m),
         velocity: T::from_f64(f64::from(r.velocity)),
         acceleration: T::from_f64(f64::from(r.acceleration)),
     })
 }
 
-/// The axis law, its sensor and a fresh state in scalar `T`.
-fn axis<T: Real>() -> Option<(AxisLaw<T>, HallAxis<T>, AxisState<T>)> {
+/// The axis law, its sensor and a fresh state at its home in scalar `T`.
+fn axis<T: Real>(setup: &Setup) -> Option<(AxisLaw<T>, HallAxis<T>, AxisState<T>)> {
     Some((
-        AxisLaw::new(&AxisConfig::LM1247_SLAVE, TS_S).ok()?,
-        HallAxis::new(&HallConfig::LM1247_16BIT).ok()?,
-        AxisState::homed_at(T::from_f64(0.004)),
+        AxisLaw::new(&setup.law, TS_S).ok()?,
+        HallAxis::new(&setup.hall).ok()?,
+        AxisState::homed_at(T::from_f64(setup.home_m)),
     ))
 }
 
 /// Forces of [`ERROR_PERIODS`] periods of the ramp (continued past the 64 inputs, so
 /// without their wrap) from a fresh state, after the start-up's [`INPUTS`].
-fn axis_forces<T: Real>() -> Option<[f64; ERROR_PERIODS - INPUTS]> {
-    let (law, sensor, mut state) = axis::<T>()?;
+fn axis_forces<T: Real>(setup: &Setup) -> Option<[f64; ERROR_PERIODS - INPUTS]> {
+    let (law, sensor, mut state) = axis::<T>(setup)?;
     let mut out = [0.0; ERROR_PERIODS - INPUTS];
     for k in 0..ERROR_PERIODS {
         let r = Reference {
-            position: T::from_f64(0.004 + 1e-5 * k as f64),
+            position: T::from_f64(setup.home_m + 1e-5 * k as f64),
             velocity: T::from_f64(0.1),
             acceleration: T::from_f64(0.5),
         };
@@ -114,7 +147,7 @@ fn pd_dob_forces<T: Real>() -> Option<[f64; INPUTS]> {
         Dob::<T>::new(&config.dob, TS_S).ok()?,
     );
     let mut state = DobState::at(T::ZERO);
-    let refs = references_in::<T>();
+    let refs = references_in::<T>(0.0);
     let mut out = [0.0; INPUTS];
     for (k, (f, r)) in out.iter_mut().zip(&refs).enumerate() {
         let (p, v) = pd_dob_input::<T>(k);
@@ -147,37 +180,44 @@ fn main() -> ! {
         "# calibration (Cortex-M3): {:.3} instructions per SysTick tick (40 expected at -icount shift=0)",
         counter.instructions_per_tick()
     );
-    if !(axis_rows(&mut counter).is_some() && pd_dob_rows(&mut counter).is_some()) {
+    let single = "app::axis::AxisLaw::step <Q6_25> (decode + observer + PD + DOB), Cortex-M3";
+    let joint = "app::axis::AxisLaw::step <Q6_25>, Keops slave joint (LM1247_SLAVE), Cortex-M3";
+    if !(axis_rows(&mut counter, single, &SINGLE_AXIS).is_some()
+        && axis_rows(&mut counter, joint, &KEOPS_JOINT).is_some()
+        && pd_dob_rows(&mut counter).is_some())
+    {
         exit(false)
     }
     exit(true)
 }
 
 #[inline(never)]
-fn axis_rows(counter: &mut Counter) -> Option<()> {
+fn axis_rows(counter: &mut Counter, name: &str, setup: &Setup) -> Option<()> {
     let hall = hall_inputs();
-    let (law_q, sensor_q, mut state_q) = axis::<Q6_25>()?;
-    let (law_f, sensor_f, mut state_f) = axis::<f32>()?;
-    let (refs_q, refs_f) = (references_in::<Q6_25>(), references_in::<f32>());
-    let reference = axis_forces::<f64>()?;
-    let limit = AxisConfig::LM1247_SLAVE.dob.force_limit_n;
+    let (law_q, sensor_q, mut state_q) = axis::<Q6_25>(setup)?;
+    let (law_f, sensor_f, mut state_f) = axis::<f32>(setup)?;
+    let offset = setup.home_m - SINGLE_AXIS.home_m;
+    let (refs_q, refs_f) = (references_in::<Q6_25>(offset), references_in::<f32>(offset));
+    let reference = axis_forces::<f64>(setup)?;
+    let limit = setup.law.dob.force_limit_n;
     let saturated = reference
         .iter()
         .filter(|f| libm::fabs(**f) >= limit)
         .count();
     hprintln!(
-        "# Cortex-M3 axis step: errors over periods {} to {} of the ramp (after the start-up from rest), {} of them at the force limit in f64",
+        "# Cortex-M3 {}: errors over periods {} to {} of the ramp (after the start-up from rest), {} of them at the force limit in f64",
+        setup.label,
         INPUTS,
         ERROR_PERIODS,
         saturated
     );
     let errors = (
-        worst(&axis_forces::<Q6_25>()?, &reference),
-        worst(&axis_forces::<f32>()?, &reference),
+        worst(&axis_forces::<Q6_25>(setup)?, &reference),
+        worst(&axis_forces::<f32>(setup)?, &reference),
     );
     row(
         counter,
-        "app::axis::AxisLaw::step <Q6_25> (decode + observer + PD + DOB), Cortex-M3",
+        name,
         |i| {
             let k = (i & MASK) as usize;
             black_box(law_q.step(&sensor_q, &mut state_q, black_box(hall[k]), &refs_q[k]));
@@ -205,9 +245,9 @@ fn pd_dob_rows(counter: &mut Counter) -> Option<()> {
     let pd_f = Pd::<f32>::new(&config.pd).ok()?;
     let dob_f = Dob::<f32>::new(&config.dob, TS_S).ok()?;
     let (refs_q, refs_w, refs_f) = (
-        references_in::<Q6_25>(),
-        references_in::<Q31_32>(),
-        references_in::<f32>(),
+        references_in::<Q6_25>(0.0),
+        references_in::<Q31_32>(0.0),
+        references_in::<f32>(0.0),
     );
     let inputs_q: [(Q6_25, Q6_25); INPUTS] = core::array::from_fn(pd_dob_input);
     let inputs_w: [(Q31_32, Q31_32); INPUTS] = core::array::from_fn(pd_dob_input);
