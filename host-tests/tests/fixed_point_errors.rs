@@ -1,5 +1,7 @@
-//! Errors of each scalar of the single-axis loop against f64, per scenario, side by
-//! side with the bound its quantization implies (issue 18 item 4). Run with
+//! Errors of each scalar of the single-axis loop and of a Keops slave joint (the same
+//! law with the slave's configuration, `Scenario::keops_joint`) against f64, per
+//! scenario, side by side with the bound its quantization implies (issue 18 items 2
+//! and 4). Run with
 //! `cargo test -p host-tests --test fixed_point_errors -- --nocapture` for the tables.
 //!
 //! Two comparisons per scenario:
@@ -53,6 +55,23 @@ fn scenarios() -> [(&'static str, Scenario); 3] {
         ("tracking", tracking),
         ("tracking, 1 N load step", loaded),
         ("hold, 1 N load step", hold),
+    ]
+}
+
+/// The machine comparison's scenarios: the single axis' and one Keops slave carriage's
+/// (tracking and hold under its gravity load).
+fn machine_scenarios() -> [(&'static str, Scenario); 5] {
+    let [tracking, loaded, hold] = scenarios();
+    let joint = Scenario::keops_joint();
+    let mut joint_hold = joint;
+    joint_hold.motion = Motion::Hold;
+    joint_hold.periods = 5000;
+    [
+        tracking,
+        loaded,
+        hold,
+        ("Keops joint tracking, gravity load", joint),
+        ("Keops joint hold, gravity load", joint_hold),
     ]
 }
 
@@ -387,13 +406,14 @@ fn worst(v: impl Iterator<Item = f64>) -> f64 {
     v.map(f64::abs).fold(0.0, f64::max)
 }
 
-/// The machine on the simulated axis (Hall ADC, Coulomb friction): the tracking
-/// errors side by side and against f64, held to the issue's goal.
+/// The machine on the simulated axis (Hall ADC, Coulomb friction), the single axis and
+/// a Keops slave joint: the tracking errors side by side and against f64, held to the
+/// issue's goal.
 #[test]
 fn machine_errors_against_f64() {
     println!("| scenario | scalar | RMS error µm | max error µm | vs f64: max Δe µm | RMS Δe µm | max ΔF mN |");
     println!("|---|---|---|---|---|---|---|");
-    for (name, s) in scenarios() {
+    for (name, s) in machine_scenarios() {
         let (o64, p64) = trace::<f64>(&s);
         for (scalar, (o, p)) in [
             ("f64", (o64, p64.clone())),

@@ -3,10 +3,12 @@
 //! the job and starts it through the command queue, as a host or task would.
 
 use hal_mock::axis::SimulatedAxis;
+use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::hall_sensor::{ChannelFault, HallSensorParams};
 use hal_mock::linear_motor::LinearMotorParams;
 use heapless::spsc::{Consumer, Producer};
 use kerf::app::axis::{AxisFault, HallAxis};
+use kerf::app::delta_slave::DeltaSlaveConfig;
 use kerf::app::joints::{JointFault, JointJob, Joints, JointsConfig, Segment};
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::app::PeriodClock;
@@ -140,6 +142,47 @@ impl Scenario {
         sensor_fault: None,
         calibrate: false,
     };
+
+    /// One carriage of the Keops slave on the simulated axis: the slave's joint
+    /// configuration (`DeltaSlaveConfig::KEOPS.joints`: law, first carriage's decoder,
+    /// speed and acceleration limits) with its actuator's 0–40 mm travel, the realistic
+    /// slave plant's carriage share (`DeltaPlantParams::SLAVE_REALISTIC`: the 71 g
+    /// slider plus a third of the 68 g effector and its 20 g payload, 100 g; its
+    /// friction) and a constant load of the order of the carriage's gravity from the
+    /// job's start: the slider's weight along its 30° rail plus a third of the
+    /// effector's and payload's weight, 0.64 N down the rail. The arms' changing share of the
+    /// effector's weight and inertia over the workspace is not modelled. Same sensors,
+    /// seed and [`profile`] (4.3 to 34.3 mm, inside the travel) as [`Self::TRACKING`];
+    /// the rig homes at the profile's start, not at the slave's 10 mm home.
+    pub fn keops_joint() -> Self {
+        let slave = DeltaSlaveConfig::KEOPS;
+        let plant = DeltaPlantParams::SLAVE_REALISTIC;
+        let actuator = slave.delta.actuators[0];
+        let shared_kg = (plant.effector_mass_kg + plant.payload_kg) / 3.0;
+        // Down the rail (z up, the carriage rises with q): a negative load.
+        let gravity_n = plant.gravity_z_m_s2
+            * (plant.carriage_mass_kg * libm::sin(actuator.alpha_rad) + shared_kg);
+        Self {
+            machine: JointsConfig {
+                period_s: slave.joints.period_s,
+                axis: slave.joints.axis,
+                hall: [slave.joints.hall[0]],
+                home_m: [slave.joints.home_m[0]],
+                travel_m: [[actuator.travel_min_m, actuator.travel_max_m]],
+                speed_limit_m_s: slave.joints.speed_limit_m_s,
+                accel_limit_m_s2: slave.joints.accel_limit_m_s2,
+            },
+            motor: LinearMotorParams {
+                mass_kg: plant.carriage_mass_kg + shared_kg,
+                coulomb_n: plant.coulomb_n,
+                viscous_n_s_per_m: plant.viscous_n_s_per_m,
+                force_limit_n: plant.force_limit_n,
+                ..LinearMotorParams::LM1247_WITH_PAYLOAD
+            },
+            load_step: Some((0.0, gravity_n)),
+            ..Self::TRACKING
+        }
+    }
 
     /// Periods after which a run that has not finished counts as hung: the
     /// calibration (0.8 s), the wait for the fit, then the job, with margin.
