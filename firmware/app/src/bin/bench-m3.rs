@@ -12,7 +12,11 @@
 //! The Keops slave joint row is one of the slave's three carriages: the same
 //! `AxisLaw::step` with the slave's configuration (`DeltaSlaveConfig::KEOPS.joints`:
 //! its law, its first carriage's Hall decoder, homed at its 10 mm home), on the same
-//! Hall inputs and the same ramp, started from that home.
+//! Hall inputs and the same ramp, started from that home. The `Joints<T, 3>` row is
+//! the slave's three carriages (`DeltaSlaveConfig::KEOPS.joints`) in one period of a
+//! job that holds them at home (a dwell: the reference's sample, then three axis
+//! steps), each carriage's Hall inputs dithering ±0.7 µm about its home; its errors
+//! are over the three carriages' forces, periods 64 to 256 of the hold.
 #![no_std]
 #![no_main]
 
@@ -20,6 +24,8 @@ use core::hint::black_box;
 use cortex_m_semihosting::hprintln;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
 use kerf::app::delta_slave::DeltaSlaveConfig;
+use kerf::app::joints::{JointJob, Joints, Segment};
+use kerf::app::supervisor::{Machine, Step};
 use kerf::control::dob::{Dob, DobState};
 use kerf::control::pd::{Pd, Reference};
 use kerf::sensing::hall::HallConfig;
@@ -138,6 +144,68 @@ fn axis_forces<T: Real>(setup: &Setup) -> Option<[f64; ERROR_PERIODS - INPUTS]> 
     Some(out)
 }
 
+/// Hall counts of carriage `axis` held at home in period `k`: 0.2 µm steps in a
+/// ±0.7 µm cycle of 8 periods, each carriage at another point of it.
+fn hold_hall_at(axis: usize, k: usize) -> [u16; 3] {
+    let travel = (((k + 3 * axis) % 8) as f64 - 3.5) * 2e-7;
+    let phase = 2.0 * core::f64::consts::PI * travel / HallConfig::LM1247_16BIT.pitch_m;
+    counts_at_phase(libm::fmod(
+        phase + 2.0 * core::f64::consts::PI,
+        2.0 * core::f64::consts::PI,
+    ) as f32)
+}
+
+/// The three carriages' Hall inputs of the hold, for the counted calls.
+fn hold_inputs() -> [[[u16; 3]; 3]; INPUTS] {
+    core::array::from_fn(|k| core::array::from_fn(|axis| hold_hall_at(axis, k)))
+}
+
+/// The job of the `Joints` row: every carriage held at its home for 1000 s (longer
+/// than every counted run).
+fn hold_job() -> Option<JointJob<3>> {
+    JointJob::from_slice(&[Segment {
+        target_m: DeltaSlaveConfig::KEOPS.joints.home_m,
+        duration_s: 1000.0,
+    }])
+}
+
+/// The slave's carriages with the hold job begun, in scalar `T`.
+fn joints_holding<T: Real>(job: &JointJob<3>) -> Option<Joints<T, 3>> {
+    let mut joints = Joints::<T, 3>::new(&DeltaSlaveConfig::KEOPS.joints).ok()?;
+    joints.check_job(job).ok()?;
+    joints.begin_job(job).ok()?;
+    Some(joints)
+}
+
+/// One period of the held carriages: their forces, `None` on a fault.
+fn joints_period<T: Real>(
+    joints: &mut Joints<T, 3>,
+    job: &JointJob<3>,
+    inputs: &[[u16; 3]; 3],
+) -> Option<[T; 3]> {
+    match joints.run(job, inputs).ok()? {
+        Step::Continue(forces) | Step::Done(forces) => Some(forces),
+    }
+}
+
+/// The three carriages' forces over [`ERROR_PERIODS`] periods of the hold from a
+/// fresh machine, after the start-up's [`INPUTS`].
+fn joints_forces<T: Real>() -> Option<[f64; 3 * (ERROR_PERIODS - INPUTS)]> {
+    let job = hold_job()?;
+    let mut joints = joints_holding::<T>(&job)?;
+    let mut out = [0.0; 3 * (ERROR_PERIODS - INPUTS)];
+    for k in 0..ERROR_PERIODS {
+        let inputs = core::array::from_fn(|axis| hold_hall_at(axis, k));
+        let forces = joints_period(&mut joints, &job, &inputs)?;
+        if let Some(i) = k.checked_sub(INPUTS) {
+            for (o, f) in out.iter_mut().skip(3 * i).zip(forces) {
+                *o = f.to_f64();
+            }
+        }
+    }
+    Some(out)
+}
+
 /// Forces of one pass of PD + DOB over the inputs (position and velocity as the M4
 /// bench feeds them) from a fresh state.
 fn pd_dob_forces<T: Real>() -> Option<[f64; INPUTS]> {
@@ -184,6 +252,7 @@ fn main() -> ! {
     let joint = "app::axis::AxisLaw::step <Q6_25>, Keops slave joint (LM1247_SLAVE), Cortex-M3";
     if !(axis_rows(&mut counter, single, &SINGLE_AXIS).is_some()
         && axis_rows(&mut counter, joint, &KEOPS_JOINT).is_some()
+        && joints_rows(&mut counter).is_some()
         && pd_dob_rows(&mut counter).is_some())
     {
         exit(false)
@@ -233,6 +302,52 @@ fn axis_rows(counter: &mut Counter, name: &str, setup: &Setup) -> Option<()> {
         errors,
     );
     Some(())
+}
+
+#[inline(never)]
+fn joints_rows(counter: &mut Counter) -> Option<()> {
+    let hold = hold_inputs();
+    let job = hold_job()?;
+    let mut joints_q = joints_holding::<Q6_25>(&job)?;
+    let mut joints_f = joints_holding::<f32>(&job)?;
+    let reference = joints_forces::<f64>()?;
+    let limit = DeltaSlaveConfig::KEOPS.joints.axis.dob.force_limit_n;
+    let saturated = reference
+        .iter()
+        .filter(|f| libm::fabs(**f) >= limit)
+        .count();
+    hprintln!(
+        "# Cortex-M3 Keops slave joints: errors over periods {} to {} of the hold (after the start-up from rest), {} forces at the limit in f64",
+        INPUTS,
+        ERROR_PERIODS,
+        saturated
+    );
+    let errors = (
+        worst(&joints_forces::<Q6_25>()?, &reference),
+        worst(&joints_forces::<f32>()?, &reference),
+    );
+    // A fault (none on these inputs) fails the image: non-zero exit after the row.
+    let (mut faults_q, mut faults_f) = (0u32, 0u32);
+    row(
+        counter,
+        "app::joints::Joints<Q6_25, 3>::run, Keops slave's three carriages holding, Cortex-M3",
+        |i| {
+            let k = (i & MASK) as usize;
+            let r = joints_period(&mut joints_q, &job, black_box(&hold[k]));
+            faults_q += u32::from(black_box(r).is_none());
+        },
+        "same period <f32>, Cortex-M3 (software float)",
+        |i| {
+            let k = (i & MASK) as usize;
+            let r = joints_period(&mut joints_f, &job, black_box(&hold[k]));
+            faults_f += u32::from(black_box(r).is_none());
+        },
+        |i| {
+            black_box(black_box(&hold[(i & MASK) as usize]));
+        },
+        errors,
+    );
+    (faults_q == 0 && faults_f == 0).then_some(())
 }
 
 #[inline(never)]
