@@ -33,6 +33,13 @@
 //! the f64, Q31.32 and Q6.25 runs of the tracking profile, with and without a 1 N
 //! load step, a hold with that step, and an open wire mid-move.
 //!
+//! A Keops carriage has the single axis' design ranges: the same law, force limit and
+//! speed and acceleration limits, and its 0–40 mm travel inside the ±0.1 m. Its
+//! scenarios (one carriage on the simulated axis, `kerf_sim`'s
+//! `Scenario::keops_joint`: its share of the slave's mass and a 0.64 N gravity load;
+//! tracking, hold and an open wire mid-move) peak at 0.0343 m, 0.141 m/s, 3.00 m/s²,
+//! 0.918 N and 0.837 N (force, disturbance estimate), below the column above.
+//!
 //! Every operation saturates; the acceleration command is the one signal whose design
 //! range comes near the format's: past ±64 m/s² it saturates, where the force has
 //! already clamped at ±3.6 N (An × 64 = 4.5 N), so saturation never changes a
@@ -42,7 +49,8 @@
 //! (1.5e-4 m/s for half a step: 1.2 µm of tracking error through Kd/Kp). The host
 //! test `fixed_point_signals_stay_in_their_formats` (host-tests `axis_loop`) records
 //! every signal's peak over the tracking, load-step, hold and sensor-fault scenarios
-//! in Q6_25 and checks them against this table and against the f64 run's.
+//! in Q6_25, for the single axis and one Keops carriage, and checks them against this
+//! table and against the f64 run's.
 //!
 //! [`Q31_32`](crate::scalar::Q31_32) (Q31.32 in 64 bits, ±2.1e9, step 2.3e-10)
 //! holds every signal and gain in one format, with at least 2e4 headroom; it stays as
