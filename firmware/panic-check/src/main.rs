@@ -32,7 +32,7 @@ use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
 use kerf::codec::dct::Dct;
 use kerf::codec::packet::{self, PacketDecoder, MAX_PACKET_LEN};
 use kerf::codec::sdct::{SdctConfig, SdctDecoder, SdctEncoder, Selection};
-use kerf::control::autofocus::{Autofocus, AutofocusConfig, AutofocusState, GradientScale};
+use kerf::control::autofocus::{Autofocus, AutofocusConfig, AutofocusState};
 use kerf::control::dob::{Dob, DobState};
 use kerf::control::pd::{Pd, Reference};
 use kerf::control::redundant_pid::{RedundantPid, RedundantPidConfig};
@@ -268,20 +268,7 @@ fn autofocus() {
     });
     let sharpness = normalized_variance(frame, opaque(64), &window);
     sink(window_moments(frame, opaque(64), &window).map(|m| m.normalized_variance_f64()));
-    let config = opaque(AutofocusConfig {
-        max_speed_m_s: 5e-3,
-        sigmoid_gain: 4e-3,
-        gradient_scale: GradientScale::Relative,
-        tracking_gain_per_s: 50.0,
-        max_acceleration_m_s2: 0.5,
-        travel_m: [0.2e-3, 9.8e-3],
-        frame_period_s: 0.01,
-        window_excursion_m: 0.1e-3,
-        min_window_frames: 4,
-        search_speed_m_s: 1e-3,
-        refocus_change: 0.05,
-        min_sharpness: 0.05,
-    });
+    let config = opaque(AutofocusConfig::FOCUS_10MM_100FPS);
     let Ok(law) = Autofocus::<f32, 32>::new(&config, opaque(1e-3)) else {
         return;
     };

@@ -119,6 +119,40 @@ pub struct AutofocusConfig {
     pub min_sharpness: f64,
 }
 
+impl AutofocusConfig {
+    /// A focus axis of 10 mm travel (0.2–9.8 mm usable) under a 100 frame/s camera,
+    /// the simulated microscope of `hal_mock::focus` (T fig. 7.12: unimodal sharpness
+    /// per magnification, depth of field ±0.4 mm at m = 1):
+    /// - μ0 = 5 mm/s, α = 4 mm on the relative gradient (the gradient of −ln S): over
+    ///   most of the travel the relative gradient is 300–1200 m⁻¹ (α g/2 = 0.6–2.4, so
+    ///   55–98 % of μ0); near the peak the law is linear with a rate μ0 α κ/2 of
+    ///   5 s⁻¹ at m = 1 (κ ≈ 5e5 m⁻², the relative curvature of S at the peak) and
+    ///   about four times that at m = 2, slow enough for the frame latency (10–20 ms)
+    ///   and the velocity loop's 1/C = 20 ms.
+    /// - δ = 0.1 mm (a quarter of the depth of field at m = 1, half of it at m = 2):
+    ///   the window of 4 to 32 frames whose least-squares slope sees the gradient
+    ///   through the frame noise (0.5 % flicker, pixel noise).
+    /// - Search at 1 mm/s: the window spans δ within 10 frames of starting.
+    /// - A 5 % change of the held sharpness restarts the search (the frame-to-frame
+    ///   scatter of a 4-frame mean is about 0.4 %).
+    /// - 0.05 grey levels of sharpness at least: the pixel noise alone gives
+    ///   σ²/μ = 0.034.
+    pub const FOCUS_10MM_100FPS: Self = Self {
+        max_speed_m_s: 5e-3,
+        sigmoid_gain: 4e-3,
+        gradient_scale: GradientScale::Relative,
+        tracking_gain_per_s: 50.0,
+        max_acceleration_m_s2: 0.5,
+        travel_m: [0.2e-3, 9.8e-3],
+        frame_period_s: 0.01,
+        window_excursion_m: 0.1e-3,
+        min_window_frames: 4,
+        search_speed_m_s: 1e-3,
+        refocus_change: 0.05,
+        min_sharpness: 0.05,
+    };
+}
+
 /// Why a frame or a period was rejected.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

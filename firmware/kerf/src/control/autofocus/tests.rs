@@ -4,21 +4,10 @@ use std::vec::Vec;
 
 const TS_S: f64 = 1e-3;
 
-/// A focus axis of 10 mm travel, a 100 frame/s camera (the host scenario's
-/// settings).
+/// The host scenario's focus axis and camera, with 0.5 mm kept clear at each end.
 const CFG: AutofocusConfig = AutofocusConfig {
-    max_speed_m_s: 5e-3,
-    sigmoid_gain: 4e-3,
-    gradient_scale: GradientScale::Relative,
-    tracking_gain_per_s: 50.0,
-    max_acceleration_m_s2: 0.5,
     travel_m: [0.5e-3, 9.5e-3],
-    frame_period_s: 0.01,
-    window_excursion_m: 0.1e-3,
-    min_window_frames: 4,
-    search_speed_m_s: 1e-3,
-    refocus_change: 0.05,
-    min_sharpness: 0.05,
+    ..AutofocusConfig::FOCUS_10MM_100FPS
 };
 
 /// Deterministic Gaussian noise (xorshift64* + Box–Muller).
