@@ -8,6 +8,7 @@
 
 use crate::plan::Plan;
 use image::GrayImage;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -34,8 +35,40 @@ pub struct Overlay<'a> {
 #[error("cannot draw the picture: {0}")]
 pub struct PlotError(String);
 
-fn err<E: std::fmt::Display>(e: E) -> PlotError {
+pub(crate) fn err<E: std::fmt::Display>(e: E) -> PlotError {
     PlotError(e.to_string())
+}
+
+/// A chart with both axes in f64 (every picture of this crate).
+pub(crate) type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Draws `points` as a line of `width` px with a legend entry.
+pub(crate) fn line<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    points: impl IntoIterator<Item = (f64, f64)>,
+    label: &str,
+    color: RGBColor,
+    width: u32,
+) -> Result<(), PlotError> {
+    chart
+        .draw_series(LineSeries::new(points, color.stroke_width(width)))
+        .map_err(err)?
+        .label(label)
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
+    Ok(())
+}
+
+/// The legend, top right, over a light background.
+pub(crate) fn legend<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+) -> Result<(), PlotError> {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(err)
 }
 
 /// Writes the picture of `plan` (module docs) with `extra` curves drawn first.
@@ -147,12 +180,7 @@ pub fn write_svg(
         if let (true, Some(&first)) = (o.closed, pts.first()) {
             pts.push(first);
         }
-        let color = o.color;
-        chart
-            .draw_series(LineSeries::new(pts, color.stroke_width(2)))
-            .map_err(err)?
-            .label(o.label)
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
+        line(&mut chart, pts, o.label, o.color, 2)?;
     }
     if let crate::plan::Fit::Path { ref points_m, .. } = plan.fit {
         let marks = points_m
@@ -171,13 +199,7 @@ pub fn write_svg(
             .label("start")
             .legend(|(x, y)| Circle::new((x + 10, y), 5, BLACK.filled()));
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(err)?;
+    legend(&mut chart)?;
     root.present().map_err(err)?;
     Ok(())
 }

@@ -6,6 +6,7 @@
 //! difference to the previous sample, so a run that crosses the wrap (5 days at
 //! 10 kHz) keeps its time axis. Time is `period × period_s` from the machine's hello.
 
+use crate::plot::{err, legend, line, PlotError};
 use kerf::codec::link::{ModeCode, TelemetrySample};
 use plotters::prelude::*;
 use std::io::Write;
@@ -237,25 +238,9 @@ impl TelemetryLog {
             ("reference", &reference, RGBColor(120, 120, 120), 4),
             ("measured", &measured, RGBColor(0, 114, 178), 1),
         ] {
-            chart
-                .draw_series(LineSeries::new(
-                    points.iter().copied(),
-                    color.stroke_width(width),
-                ))
-                .map_err(err)?
-                .label(label)
-                .legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2))
-                });
+            line(&mut chart, points.iter().copied(), label, color, width)?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(err)?;
-        Ok(())
+        legend(&mut chart)
     }
 }
 
@@ -319,24 +304,9 @@ fn draw_series<DB: DrawingBackend>(
             .map_err(err)?;
     }
     for s in series {
-        let color = s.color;
-        chart
-            .draw_series(LineSeries::new(
-                s.points.iter().copied(),
-                color.stroke_width(1),
-            ))
-            .map_err(err)?
-            .label(s.label)
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
+        line(&mut chart, s.points.iter().copied(), s.label, s.color, 1)?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(err)?;
-    Ok(())
+    legend(&mut chart)
 }
 
 /// What a run did while cutting.
@@ -372,15 +342,6 @@ impl std::fmt::Display for Summary {
             self.laser_mean_w
         )
     }
-}
-
-/// Why a plot was not written.
-#[derive(Debug, thiserror::Error)]
-#[error("cannot draw the plot: {0}")]
-pub struct PlotError(String);
-
-fn err<E: std::fmt::Display>(e: E) -> PlotError {
-    PlotError(e.to_string())
 }
 
 #[cfg(test)]
