@@ -200,11 +200,10 @@ pub fn job_reason(machine: &str, code: u16) -> &'static str {
 pub fn fault_reason(machine: &str, code: u16, detail: u16) -> String {
     match machine {
         "keops-slave" => {
-            let what = kerf::app::delta_slave::link::fault_reason(code);
-            if code == 5 {
-                format!("{what} (carriage {detail})")
-            } else {
-                what.to_owned()
+            use kerf::app::delta_slave::link::{fault_detail, fault_reason};
+            match fault_detail(code) {
+                Some(what) => format!("{} ({what} {detail})", fault_reason(code)),
+                None => fault_reason(code).to_owned(),
             }
         }
         _ => format!("fault {code} (detail {detail})"),
@@ -475,5 +474,25 @@ impl Machine {
             }
         }
         self.command(Request::JobCommit)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kerf::codec::link::{board_fault, BOARD_FAULT};
+
+    #[test]
+    fn a_fault_names_its_detail_where_the_code_has_one() {
+        let following = fault_reason("keops-slave", 5, 2);
+        assert!(following.ends_with("(carriage 2)"), "{following}");
+        let panic = fault_reason("keops-slave", BOARD_FAULT | board_fault::PANIC, 123);
+        assert!(
+            panic.contains("panicked") && panic.ends_with("(source line 123)"),
+            "{panic}"
+        );
+        let contour = fault_reason("keops-slave", 4, 0);
+        assert!(!contour.contains('('), "{contour}");
+        assert_eq!(fault_reason("lathe", 1, 2), "fault 1 (detail 2)");
     }
 }

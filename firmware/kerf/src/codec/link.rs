@@ -197,6 +197,20 @@ pub mod board_fault {
             _ => "unknown board fault",
         })
     }
+
+    /// What the detail of a board fault code is, where it carries one.
+    pub fn detail(code: u16) -> Option<&'static str> {
+        if code & 0xFF00 != super::BOARD_FAULT {
+            return None;
+        }
+        match code & 0xFF {
+            HARD_FAULT => Some("program counter, low 16 bits"),
+            PANIC => Some("source line"),
+            MISSED_DEADLINE => Some("cycles / 16"),
+            STARTUP => Some("step"),
+            _ => None,
+        }
+    }
 }
 
 /// [`Refusal::Job`]: the committed bytes are not a job file the firmware reads.

@@ -172,6 +172,15 @@ pub fn fault_reason(code: u16) -> &'static str {
     }
 }
 
+/// What the detail of a fault (`Event::Fault { detail, .. }`) of a `keops-slave` is,
+/// for the codes whose detail means something.
+pub fn fault_detail(code: u16) -> Option<&'static str> {
+    match code {
+        5 => Some("carriage"),
+        _ => crate::codec::link::board_fault::detail(code),
+    }
+}
+
 /// What a job refusal code (`Refusal::Job`) of a `keops-slave` means: the planner's
 /// ([`LinkMachine::job_error_code`]), the loader's ([`load_codes`]) or the link's
 /// (`codec::link::JOB_FILE_UNREADABLE`, `JOB_KIND_MISMATCH`).
@@ -333,7 +342,11 @@ mod tests {
         assert!(fault_reason(code).contains("contour-error"));
         let (code, axis) = S::fault_code(&DeltaFault::FollowingError { axis: 2 });
         assert!(fault_reason(code).contains("following-error"));
-        assert_eq!(axis, 2);
+        assert_eq!((fault_detail(code), axis), (Some("carriage"), 2));
+        assert_eq!(
+            fault_detail(S::fault_code(&DeltaFault::ContourError).0),
+            None
+        );
         let code = S::job_error_code(&DeltaJobError::OtherMachine);
         assert!(job_refusal_reason(code).contains("another machine"));
     }
