@@ -332,14 +332,7 @@ pub fn log(args: &LogArgs) -> Result<(), Failure> {
     }
     let mut s = args.machine.open()?;
     let period_s = s.machine.hello().period_s;
-    let every = (1.0 / (hz * period_s))
-        .round()
-        .clamp(1.0, f64::from(u32::MAX)) as u32;
-    s.machine
-        .command(Request::Telemetry {
-            every_periods: every,
-        })
-        .map_err(link_failure)?;
+    s.machine.telemetry(hz).map_err(link_failure)?;
     let mut log = TelemetryLog::new(period_s);
     let bar = ProgressBar::new_spinner();
     let mut last_heard = Instant::now();

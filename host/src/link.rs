@@ -75,6 +75,9 @@ pub enum LinkError {
     /// A job larger than the protocol's sizes carry.
     #[error("a job of {0} bytes is larger than the link carries")]
     TooLarge(usize),
+    /// A request that does not fit a frame (a settings path or value too long).
+    #[error("{0}: the request does not fit a frame (a path or value too long)")]
+    RequestTooLong(&'static str),
 }
 
 /// A reply, owned.
@@ -319,9 +322,8 @@ impl Machine {
             seq: self.seq,
             request,
         };
-        // Requests are bounded by construction (paths and values are checked by the
-        // callers against MAX_PAYLOAD through this error).
-        let n = encode(&frame, &mut out).map_err(|_| LinkError::TooLarge(MAX_FRAME))?;
+        let what = name(&frame.request);
+        let n = encode(&frame, &mut out).map_err(|_| LinkError::RequestTooLong(what))?;
         self.writer.write_all(&out[..n])?;
         self.writer.flush()?;
         Ok(self.seq)
@@ -407,6 +409,17 @@ impl Machine {
         self.command(Request::Set {
             path,
             value: value.as_bytes(),
+        })
+    }
+
+    /// Asks for `rate_hz` telemetry samples per second of machine time (at most one
+    /// per control period).
+    pub fn telemetry(&mut self, rate_hz: f64) -> Result<(), LinkError> {
+        let every = (1.0 / (rate_hz * self.hello.period_s))
+            .round()
+            .clamp(1.0, f64::from(u32::MAX)) as u32;
+        self.command(Request::Telemetry {
+            every_periods: every,
         })
     }
 

@@ -191,12 +191,7 @@ impl Session {
         }
         m.upload(kind, job, &mut |n| progress(Progress::Uploaded(n)))?;
         let period_s = m.hello().period_s;
-        let every = (1.0 / (plan.telemetry_hz * period_s))
-            .round()
-            .clamp(1.0, u32::MAX as f64) as u32;
-        m.command(Request::Telemetry {
-            every_periods: every,
-        })?;
+        m.telemetry(plan.telemetry_hz)?;
         m.command(Request::Start)?;
         let machine_name = m.hello().machine.clone();
         let mut changes = plan.changes.iter().peekable();
