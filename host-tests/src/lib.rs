@@ -3,6 +3,7 @@
 pub mod arrow;
 pub mod contours;
 pub mod depth;
+pub mod fixed_point;
 pub mod grinding;
 pub mod hall;
 pub mod link;

@@ -1,6 +1,7 @@
 //! Closed-loop scenarios of one LM1247 axis: Hall decode → DOB + PD → simulated plant.
 
 use hal_mock::hall_sensor::{ChannelFault, HallSensorParams};
+use host_tests::fixed_point::{axis_scenarios, joint_scenarios, with_open_wire};
 use kerf::app::axis::AxisFault;
 use kerf::sensing::hall::{HallDecoder, HallFault};
 use kerf::{Real, Q31_32, Q6_25};
@@ -129,34 +130,19 @@ fn sensor_faults_latch_zero_force() {
     );
 }
 
-/// The scenarios the fixed-point formats are checked over: the tracking profile,
-/// the same with a 1 N load step mid-move, a hold with a 1 N load step, and an open
-/// wire mid-move (a fault: zero force from then on).
-fn format_scenarios() -> [(&'static str, Scenario); 7] {
-    let tracking = Scenario::TRACKING;
-    let mut loaded = tracking;
-    loaded.load_step = Some((0.25, 1.0));
-    let mut hold = tracking;
-    hold.motion = Motion::Hold;
-    hold.periods = 5000;
-    hold.load_step = Some((0.2, 1.0));
-    let mut fault = tracking;
-    fault.sensor_fault = Some((0.3, ChannelFault::OpenWire(0)));
-    // One Keops slave carriage: the slave's configuration, plant share and gravity.
-    let joint = Scenario::keops_joint();
-    let mut joint_hold = joint;
-    joint_hold.motion = Motion::Hold;
-    joint_hold.periods = 5000;
-    let mut joint_fault = joint;
-    joint_fault.sensor_fault = Some((0.3, ChannelFault::OpenWire(0)));
-    [
-        ("tracking", tracking),
-        ("tracking, 1 N load step", loaded),
-        ("hold, 1 N load step", hold),
-        ("tracking, open wire", fault),
-        ("Keops joint tracking, gravity load", joint),
-        ("Keops joint hold, gravity load", joint_hold),
-        ("Keops joint tracking, open wire", joint_fault),
+/// The scenarios the fixed-point formats are checked over (`host_tests::fixed_point`),
+/// and the single axis and the joint each with an open wire mid-move.
+fn format_scenarios() -> Vec<(&'static str, Scenario)> {
+    let [tracking, loaded, hold] = axis_scenarios();
+    let [joint, joint_hold] = joint_scenarios();
+    vec![
+        tracking,
+        loaded,
+        hold,
+        ("tracking, open wire", with_open_wire(tracking.1)),
+        joint,
+        joint_hold,
+        ("Keops joint tracking, open wire", with_open_wire(joint.1)),
     ]
 }
 

@@ -25,6 +25,7 @@
 //!   position update) enters as r_k − r_{k−1} with |r| ≤ b, so it counts
 //!   ‖h_i(k) − h_i(k−1)‖₁ b instead.
 
+use host_tests::fixed_point::{axis_scenarios, joint_scenarios};
 use kerf::app::axis::AxisConfig;
 use kerf::control::dob::{Dob, DobState};
 use kerf::control::pd::{Pd, Reference};
@@ -43,36 +44,10 @@ const PLANT_VISCOUS_N_S_PER_M: f64 = 0.5;
 /// 0.18 µm RMS), the same sequence for every scalar.
 const NOISE_M: f64 = 0.3e-6;
 
-fn scenarios() -> [(&'static str, Scenario); 3] {
-    let tracking = Scenario::TRACKING;
-    let mut loaded = tracking;
-    loaded.load_step = Some((0.25, 1.0));
-    let mut hold = tracking;
-    hold.motion = Motion::Hold;
-    hold.periods = 5000;
-    hold.load_step = Some((0.2, 1.0));
-    [
-        ("tracking", tracking),
-        ("tracking, 1 N load step", loaded),
-        ("hold, 1 N load step", hold),
-    ]
-}
-
 /// The machine comparison's scenarios: the single axis' and one Keops slave carriage's
 /// (tracking and hold under its gravity load).
-fn machine_scenarios() -> [(&'static str, Scenario); 5] {
-    let [tracking, loaded, hold] = scenarios();
-    let joint = Scenario::keops_joint();
-    let mut joint_hold = joint;
-    joint_hold.motion = Motion::Hold;
-    joint_hold.periods = 5000;
-    [
-        tracking,
-        loaded,
-        hold,
-        ("Keops joint tracking, gravity load", joint),
-        ("Keops joint hold, gravity load", joint_hold),
-    ]
+fn machine_scenarios() -> impl Iterator<Item = (&'static str, Scenario)> {
+    axis_scenarios().into_iter().chain(joint_scenarios())
 }
 
 fn trace<T: Real>(s: &Scenario) -> (Outcome, Vec<Period>) {
@@ -450,7 +425,7 @@ fn kernel_errors_against_f64_within_their_quantization_bounds() {
     let c = Coefficients::of(&AxisConfig::LM1247_SLAVE);
     println!("| scenario | scalar | RMS error µm | max error µm | max Δx nm (bound) | RMS Δx nm | max ΔF µN (bound) |");
     println!("|---|---|---|---|---|---|---|");
-    for (name, s) in scenarios() {
+    for (name, s) in axis_scenarios() {
         let k64 = kernel_loop::<f64>(&s);
         let limit = s.machine.axis.dob.force_limit_n;
         // The clamp never acts, so the deviation dynamics are linear.
