@@ -190,35 +190,25 @@ impl Session {
             progress(Progress::Line(0.0, "fault reset before the job"));
         }
         m.upload(kind, job, &mut |n| progress(Progress::Uploaded(n)))?;
-        let period_s = m.hello().period_s;
         m.telemetry(plan.telemetry_hz)?;
         m.command(Request::Start)?;
         let machine_name = m.hello().machine.clone();
         let mut changes = plan.changes.iter().peekable();
-        let mut start_period: Option<u64> = None;
         let mut last_heartbeat = Instant::now();
         let mut last_heard = Instant::now();
         let mut running = false;
         let mut stopped = false;
         loop {
             let heard = m.next(Duration::from_millis(50))?;
-            // Machine time since the first sample that cut.
-            let t = |log: &TelemetryLog, start: Option<u64>| match (start, log.entries().last()) {
-                (Some(p0), Some(e)) => e.period.saturating_sub(p0) as f64 * period_s,
-                _ => 0.0,
-            };
             match heard {
                 Some(Heard::Telemetry(sample)) => {
                     last_heard = Instant::now();
-                    let entry = log.push(sample);
-                    if entry.sample.mode == ModeCode::Running && start_period.is_none() {
-                        start_period = Some(entry.period);
-                    }
+                    log.push(sample);
                     // A heartbeat per sample keeps the machine's timeout counting its
                     // own periods, whatever the host's speed.
                     m.send(Request::Heartbeat)?;
                     last_heartbeat = Instant::now();
-                    let now = t(log, start_period);
+                    let now = log.since_cut_s();
                     progress(Progress::Sample(now));
                     while let Some(c) = changes.next_if(|c| c.at_s <= now) {
                         let text = match m.set(&c.path, &c.value) {
@@ -231,14 +221,17 @@ impl Session {
                 }
                 Some(Heard::Event(e)) => {
                     last_heard = Instant::now();
-                    let now = t(log, start_period);
+                    let now = log.since_cut_s();
+                    let fault = match e {
+                        Event::Fault { code, detail } => {
+                            Some(fault_reason(&machine_name, code, detail))
+                        }
+                        _ => None,
+                    };
                     let text = match e {
                         Event::Mode { from, to } => format!("mode {from:?} -> {to:?}"),
-                        Event::Fault { code, detail } => {
-                            format!(
-                                "fault {code}: {}",
-                                fault_reason(&machine_name, code, detail)
-                            )
+                        Event::Fault { code, .. } => {
+                            format!("fault {code}: {}", fault.as_deref().unwrap_or_default())
                         }
                         Event::HostLost => "the machine lost the host".to_owned(),
                     };
@@ -263,12 +256,8 @@ impl Session {
                         }
                         // The fault's reason follows its mode change: the run ends
                         // when it has come.
-                        Event::Fault { code, detail } => {
-                            return Err(SessionError::Fault(fault_reason(
-                                &machine_name,
-                                code,
-                                detail,
-                            )))
+                        Event::Fault { .. } => {
+                            return Err(SessionError::Fault(fault.unwrap_or_default()))
                         }
                         Event::HostLost => return Err(SessionError::HostLost),
                         _ => {}
@@ -283,7 +272,7 @@ impl Session {
             }
             if let Some(lines) = console_lines {
                 while let Ok(line) = lines.try_recv() {
-                    let now = t(log, start_period);
+                    let now = log.since_cut_s();
                     stopped |= console(m, &line, now, log, progress);
                 }
             }

@@ -28,6 +28,8 @@ pub struct Entry {
 pub struct TelemetryLog {
     period_s: f64,
     entries: Vec<Entry>,
+    /// Index of the first entry that cut.
+    cut_start: Option<usize>,
     marks: Vec<(f64, String)>,
 }
 
@@ -37,6 +39,7 @@ impl TelemetryLog {
         Self {
             period_s,
             entries: Vec::new(),
+            cut_start: None,
             marks: Vec::new(),
         }
     }
@@ -59,6 +62,9 @@ impl TelemetryLog {
             None => u64::from(sample.period),
             Some(last) => last.period + u64::from(sample.period.wrapping_sub(last.period as u32)),
         };
+        if self.cut_start.is_none() && sample.mode == ModeCode::Running {
+            self.cut_start = Some(self.entries.len());
+        }
         self.entries.push(Entry {
             period,
             time_s: period as f64 * self.period_s,
@@ -66,6 +72,16 @@ impl TelemetryLog {
         });
         let n = self.entries.len();
         &self.entries[n - 1]
+    }
+
+    /// Machine time from the first sample that cut ([`ModeCode::Running`]) to the
+    /// latest, s; 0 before the cut.
+    pub fn since_cut_s(&self) -> f64 {
+        let first = self.cut_start.and_then(|k| self.entries.get(k));
+        match (first, self.entries.last()) {
+            (Some(a), Some(b)) => b.time_s - a.time_s,
+            _ => 0.0,
+        }
     }
 
     /// The samples.
@@ -396,6 +412,8 @@ mod tests {
         assert!((s.error_rms_m - rms).abs() < 1e-12, "{s:?}");
         assert!((s.force_peak_n - 3.0).abs() < 1e-12, "{s:?}");
         assert!((s.cut_s - 0.02).abs() < 1e-12, "{s:?}");
+        // From the first cutting sample (period 10) to the last (period 40).
+        assert!((log.since_cut_s() - 0.03).abs() < 1e-12);
         let mut csv = Vec::new();
         log.write_csv(&mut csv).unwrap();
         let text = String::from_utf8(csv).unwrap();
