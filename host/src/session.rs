@@ -6,7 +6,7 @@
 use crate::link::{fault_reason, Heard, LinkError, Machine};
 use crate::qemu::{self, Qemu, QemuError};
 use crate::telemetry::TelemetryLog;
-use kerf::codec::link::{Event, JobKind, ModeCode, Request};
+use kerf::codec::link::{Event, JobKind, ModeCode, Refusal, Request, JOB_NOT_AT_REST};
 use std::path::PathBuf;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
@@ -136,6 +136,32 @@ pub enum Progress<'a> {
     Line(f64, &'a str),
 }
 
+/// Longest a start waits for the machine's axes to come to rest (carriages that slide
+/// to their end stops after power-up take about 0.1 s).
+const START_REST_WAIT: Duration = Duration::from_secs(5);
+
+/// Starts the loaded job, again every 20 ms while the machine refuses because an axis
+/// still moves (its first move starts from rest), for at most [`START_REST_WAIT`].
+fn start_at_rest(m: &mut Machine, progress: &mut dyn FnMut(Progress<'_>)) -> Result<(), LinkError> {
+    let since = Instant::now();
+    let mut told = false;
+    loop {
+        match m.command(Request::Start) {
+            Err(LinkError::Refused {
+                refusal: Refusal::Job(JOB_NOT_AT_REST),
+                ..
+            }) if since.elapsed() < START_REST_WAIT => {
+                if !told {
+                    progress(Progress::Line(0.0, "waiting for the axes to come to rest"));
+                    told = true;
+                }
+                m.next(Duration::from_millis(20))?;
+            }
+            started => return started,
+        }
+    }
+}
+
 /// An operator's line during a run: `set PATH VALUE`, `get PATH` or `stop`; whether
 /// the machine took a stop.
 fn console(
@@ -191,7 +217,7 @@ impl Session {
         }
         m.upload(kind, job, &mut |n| progress(Progress::Uploaded(n)))?;
         m.telemetry(plan.telemetry_hz)?;
-        m.command(Request::Start)?;
+        start_at_rest(m, progress)?;
         let machine_name = m.hello().machine.clone();
         let mut changes = plan.changes.iter().peekable();
         let mut last_heartbeat = Instant::now();

@@ -1,11 +1,13 @@
 //! The Keops slave behind the host link: the simulated slave ([`crate::slave`]) with
 //! its supervisor's commands coming from [`HostLink`] instead of an operator, so a
 //! host (a test's, or the host tool over the QEMU image's serial port) drives it with
-//! frames alone. The board's own task installs the nominal Hall decoders as a stored
-//! calibration at power-up; everything after comes from the host.
+//! frames alone. The machine is switched on with its carriages at rest on their end
+//! stops, where they stand unpowered, and homes there; the board's own task installs
+//! the nominal Hall decoders as a stored calibration at power-up; everything after
+//! comes from the host.
 
 use crate::contour::contour_defaults;
-use crate::slave::{SlaveError, SlavePeriod, SlaveRig, SlaveScenario};
+use crate::slave::{rest_unpowered, SlaveError, SlavePeriod, SlaveRig, SlaveScenario};
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::axis::HallAxis;
 use kerf::app::delta_slave::link::SlaveSettings;
@@ -16,6 +18,10 @@ use kerf::scalar::Float;
 
 /// Bytes of an uploaded job the slave holds (a 30-harmonic EFD file is 504).
 pub const LINK_JOB_BYTES: usize = 1024;
+
+/// Longest the carriages may take to come to rest, unpowered, before the machine is
+/// switched on, s (the Keops slave's slide from its home takes about 0.1 s).
+const POWER_UP_REST_S: f64 = 1.0;
 
 /// The link's heartbeat timeout in these scenarios, s.
 pub const HEARTBEAT_TIMEOUT_S: f64 = 0.05;
@@ -77,6 +83,11 @@ pub fn with_linked_slave<T: Float, R>(
     let mut reports = Queue::<Report<DeltaSlave<T>>, 64>::new();
     let (mut to_machine, from_sender) = commands.split();
     let (to_link, from_machine) = reports.split();
+    // Switched on after standing: the carriages rest on their end stops, and the
+    // Hall decoders, absolute within a pitch only, take that as home.
+    let mut scenario = *scenario;
+    scenario.machine.joints.home_m = rest_unpowered(&scenario, POWER_UP_REST_S)?;
+    let scenario = &scenario;
     let mut rig = SlaveRig::<T>::new(scenario, from_sender, to_link)?;
     rig.set_telemetry_decimation(decimation);
     let machine = &scenario.machine;

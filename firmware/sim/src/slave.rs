@@ -153,6 +153,32 @@ pub(crate) fn simulated_delta(
     Ok(simulated)
 }
 
+/// Where the carriages of `scenario` stand after resting unpowered (the drives off)
+/// for up to `max_s`: each slides down its rail from the machine's home until it rests
+/// on its end stop, as a machine stands when it is switched on. [`SlaveError::Timeout`]
+/// if they still move then.
+pub fn rest_unpowered(scenario: &SlaveScenario, max_s: f64) -> Result<[f64; 3], SlaveError> {
+    let joints = &scenario.machine.joints;
+    let mut delta = simulated_delta(
+        &scenario.machine.delta,
+        scenario.plant,
+        scenario.sensors,
+        joints.period_s,
+        scenario.seed,
+        joints.home_m,
+        scenario.substeps,
+    )
+    .map_err(SlaveError::Plant)?;
+    let plant = &mut delta.plant;
+    for _ in 0..libm::ceil(max_s / joints.period_s) as u32 {
+        plant.step(Vector3::zeros()).map_err(SlaveError::Plant)?;
+        if plant.q_dot_m_s.iter().all(|v| *v == 0.0) {
+            return Ok(plant.q_m.into());
+        }
+    }
+    Err(SlaveError::Timeout)
+}
+
 /// The slave machine and the simulated delta: what the control interrupt owns.
 pub struct SlaveRig<'q, T: Float> {
     scenario: SlaveScenario,

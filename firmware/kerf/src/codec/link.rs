@@ -220,6 +220,10 @@ pub const JOB_FILE_UNREADABLE: u16 = 0xFFFF;
 /// announced.
 pub const JOB_KIND_MISMATCH: u16 = 0xFFFE;
 
+/// [`Refusal::Job`] of [`Request::Start`]: an axis still moves, and the job's first
+/// move starts from rest; a host starts again once the axes rest.
+pub const JOB_NOT_AT_REST: u16 = 0xFFFD;
+
 /// The answer to a request.
 #[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq)]
 pub enum Reply<'a> {

@@ -22,8 +22,9 @@ use super::{
 };
 use crate::app::axis::{AxisConfig, AxisLaw};
 use crate::app::host_link::LinkMachine;
+use crate::app::joints::JobError;
 use crate::codec::job::JobFile;
-use crate::codec::link::TelemetrySample;
+use crate::codec::link::{TelemetrySample, JOB_NOT_AT_REST};
 use crate::control::dob::DobConfig;
 use crate::control::laser::LaserMode;
 use crate::control::pd::PdConfig;
@@ -183,9 +184,9 @@ pub fn fault_detail(code: u16) -> Option<&'static str> {
 
 /// What a job refusal code (`Refusal::Job`) of a `keops-slave` means: the planner's
 /// ([`LinkMachine::job_error_code`]), the loader's ([`load_codes`]) or the link's
-/// (`codec::link::JOB_FILE_UNREADABLE`, `JOB_KIND_MISMATCH`).
+/// (`codec::link::JOB_FILE_UNREADABLE`, `JOB_KIND_MISMATCH`, `JOB_NOT_AT_REST`).
 pub fn job_refusal_reason(code: u16) -> &'static str {
-    use crate::codec::link::{JOB_FILE_UNREADABLE, JOB_KIND_MISMATCH};
+    use crate::codec::link::{JOB_FILE_UNREADABLE, JOB_KIND_MISMATCH, JOB_NOT_AT_REST};
     match code {
         1 => "the job has no move, or more moves than the machine holds",
         2 => "a point or duration is not finite, or a duration is not positive",
@@ -203,6 +204,7 @@ pub fn job_refusal_reason(code: u16) -> &'static str {
         load_codes::KIND => "this machine cuts contours (EFD jobs) only",
         JOB_FILE_UNREADABLE => "not a job file the firmware reads (magic, version, CRC)",
         JOB_KIND_MISMATCH => "the job file's kind differs from the announced one",
+        JOB_NOT_AT_REST => "a carriage still moves; the job starts from rest",
         _ => "unknown refusal",
     }
 }
@@ -265,6 +267,7 @@ impl<T: Float> LinkMachine for DeltaSlave<T> {
             DeltaJobError::Unreachable { .. } => 3,
             DeltaJobError::TooFast { .. } => 4,
             DeltaJobError::OtherMachine => 5,
+            DeltaJobError::Approach(JobError::Moving { .. }) => JOB_NOT_AT_REST,
             DeltaJobError::Approach(_) => 6,
             DeltaJobError::TooLong { .. } => 7,
             DeltaJobError::Contour(_) => 8,
@@ -311,7 +314,7 @@ mod tests {
 
     #[test]
     fn every_fault_and_refusal_code_has_its_own_reason() {
-        use crate::codec::link::{JOB_FILE_UNREADABLE, JOB_KIND_MISMATCH};
+        use crate::codec::link::{JOB_FILE_UNREADABLE, JOB_KIND_MISMATCH, JOB_NOT_AT_REST};
         let faults: Vec<&str> = (1..=6).map(fault_reason).collect();
         let jobs: Vec<&str> = (1..=11)
             .chain([
@@ -320,6 +323,7 @@ mod tests {
                 load_codes::KIND,
                 JOB_FILE_UNREADABLE,
                 JOB_KIND_MISMATCH,
+                JOB_NOT_AT_REST,
             ])
             .map(job_refusal_reason)
             .collect();
