@@ -1,6 +1,7 @@
 //! Shared helpers for the host scenario tests.
 
 pub mod arrow;
+pub mod bad_input;
 pub mod contours;
 pub mod depth;
 pub mod fixed_point;

@@ -1,16 +1,18 @@
 //! The `kerf` commands that talk to a machine: run, get, set, log, status.
 
-use crate::Failure;
+use crate::report::{say, Report};
+use crate::{distinct, prepare, Failure};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use kerf::codec::link::Request;
 use kerf_host::job::Job;
 use kerf_host::link::{fault_reason, Heard, LinkError};
+use kerf_host::output::{io_words, OutputFile};
 use kerf_host::qemu;
 use kerf_host::session::{Progress, RunPlan, Session, SessionError, Target, TimedChange};
 use kerf_host::telemetry::TelemetryLog;
-use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
 use std::str::FromStr;
 use std::sync::mpsc::{channel, Receiver};
 use std::time::{Duration, Instant};
@@ -41,7 +43,23 @@ pub struct MachineArgs {
 }
 
 impl MachineArgs {
+    /// The options' values, before anything is opened.
+    fn check(&self) -> Result<(), Failure> {
+        if self.port.as_deref().is_some_and(|p| p.trim().is_empty()) {
+            return Err(Failure::Input(
+                "--port: no device given (such as /dev/ttyACM0)".into(),
+            ));
+        }
+        if self.baud == 0 {
+            return Err(Failure::Input(
+                "--baud 0: the port needs a speed above 0 bits per second".into(),
+            ));
+        }
+        Ok(())
+    }
+
     fn open(&self) -> Result<Session, Failure> {
+        self.check()?;
         let target = match &self.port {
             Some(device) => Target::Port {
                 device: device.clone(),
@@ -140,12 +158,48 @@ fn link_failure(e: LinkError) -> Failure {
     session_failure(SessionError::Link(e))
 }
 
+/// A setting's path as the machine's tree names it (the machine checks that it exists).
+fn setting_path(path: &str) -> Result<(), Failure> {
+    if path.starts_with('/') && !path.contains(char::is_whitespace) {
+        Ok(())
+    } else {
+        Err(Failure::Input(format!(
+            "{path:?}: a setting's path begins with / and has no spaces (such as /slave/dob/bandwidth_hz)"
+        )))
+    }
+}
+
+/// A setting's value as JSON the machine parses: a finite number, true or false, or a
+/// string in quotes (the machine checks its range).
+fn setting_value(value: &str) -> Result<(), Failure> {
+    let v = value.trim();
+    let number = || {
+        let digits = v.strip_prefix('-').unwrap_or(v);
+        let json_form = digits.starts_with(|c: char| c.is_ascii_digit())
+            && digits
+                .chars()
+                .all(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | 'E' | '+' | '-'));
+        json_form && v.parse::<f64>().is_ok_and(f64::is_finite)
+    };
+    let string = v.len() >= 2 && v.starts_with('"') && v.ends_with('"');
+    if matches!(v, "true" | "false") || string || number() {
+        Ok(())
+    } else {
+        Err(Failure::Input(format!(
+            "{value:?}: not a value the machine takes (a finite number such as 120 or 2.5e-3, true or false)"
+        )))
+    }
+}
+
+/// The most samples `kerf log` keeps (in memory until it writes them).
+const MAX_LOG_SAMPLES: f64 = 1e7;
+
 fn positive_rate(hz: f64) -> Result<f64, Failure> {
     if hz.is_finite() && hz > 0.0 {
         Ok(hz)
     } else {
         Err(Failure::Input(format!(
-            "--telemetry-hz {hz}: must be a positive rate"
+            "--telemetry-hz {hz:?}: must be a positive rate"
         )))
     }
 }
@@ -166,36 +220,63 @@ fn console() -> Option<Receiver<String>> {
     Some(rx)
 }
 
-fn write_outputs(
-    log: &TelemetryLog,
-    csv: Option<&PathBuf>,
-    svg: Option<&PathBuf>,
-    title: &str,
-) -> Result<(), Failure> {
-    let io =
-        |p: &PathBuf, e: &dyn std::fmt::Display| Failure::Input(format!("{}: {e}", p.display()));
-    if let Some(p) = csv {
-        let mut f = std::io::BufWriter::new(std::fs::File::create(p).map_err(|e| io(p, &e))?);
-        log.write_csv(&mut f).map_err(|e| io(p, &e))?;
-        println!("wrote {} ({} samples)", p.display(), log.entries().len());
+/// Where the telemetry goes, checked before the machine is asked for anything.
+struct Outputs {
+    csv: Option<OutputFile>,
+    svg: Option<OutputFile>,
+}
+
+impl Outputs {
+    fn prepare(csv: Option<&Path>, svg: Option<&Path>) -> Result<Self, Failure> {
+        distinct(&[("--csv", csv), ("--svg", svg)])?;
+        Ok(Outputs {
+            csv: prepare(csv, "telemetry")?,
+            svg: prepare(svg, "picture")?,
+        })
     }
-    if let Some(p) = svg {
-        log.write_svg(p, title).map_err(|e| io(p, &e))?;
-        println!("wrote {}", p.display());
+
+    fn write(&self, log: &TelemetryLog, title: &str, report: &mut Report) -> Result<(), Failure> {
+        if let Some(f) = &self.csv {
+            f.write(|w| log.write_csv(w))?;
+            say!(
+                report,
+                "wrote {} ({} samples)",
+                f.shown(),
+                log.entries().len()
+            );
+        }
+        if let Some(f) = &self.svg {
+            let text = log
+                .svg(title)
+                .map_err(|e| Failure::Output(format!("{}: {e}", f.shown())))?;
+            f.write_bytes(text.as_bytes())?;
+            say!(report, "wrote {}", f.shown());
+        }
+        Ok(())
     }
-    Ok(())
 }
 
 /// `kerf run JOB`: upload, start, follow to the end; the summary, CSV and SVG are
 /// written whatever the end.
-pub fn run(args: &RunArgs) -> Result<(), Failure> {
+pub fn run(args: &RunArgs, report: &mut Report) -> Result<(), Failure> {
     let name = args.job.display().to_string();
     let file_name = args
         .job
         .file_name()
         .map_or(name.clone(), |n| n.to_string_lossy().into_owned());
-    let bytes = std::fs::read(&args.job).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    let bytes = std::fs::read(&args.job).map_err(|e| {
+        Failure::Input(format!(
+            "{name}: cannot read the job file: {}",
+            io_words(&e)
+        ))
+    })?;
     let job = Job::from_bytes(&bytes).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    if args.quiet_s == 0 {
+        return Err(Failure::Input(
+            "--quiet-s 0: give the machine at least 1 s to answer".into(),
+        ));
+    }
+    let outputs = Outputs::prepare(args.csv.as_deref(), args.svg.as_deref())?;
     let mut changes: Vec<TimedChange> = args.changes.iter().map(|c| c.0.clone()).collect();
     changes.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
     let plan = RunPlan {
@@ -205,7 +286,8 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     };
     let mut session = args.machine.open()?;
     let hello = session.machine.hello().clone();
-    println!(
+    say!(
+        report,
         "machine    {} (link v{}, control period {:.0} µs)",
         hello.machine,
         hello.version,
@@ -219,7 +301,10 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let mut log = TelemetryLog::new(hello.period_s);
     let lines = console();
     if lines.is_some() {
-        eprintln!("during the run: set PATH VALUE, get PATH, stop");
+        let _ = writeln!(
+            std::io::stderr(),
+            "during the run: set PATH VALUE, get PATH, stop"
+        );
     }
     let mut cutting = false;
     let ended = session.run_job(
@@ -242,25 +327,25 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
                 bar.set_prefix(format!("{t:.3}"));
                 bar.tick();
             }
-            Progress::Line(t, text) => bar.suspend(|| println!("{t:9.4} s   {text}")),
+            Progress::Line(t, text) => bar.suspend(|| say!(report, "{t:9.4} s   {text}")),
         },
     );
     bar.finish_and_clear();
-    println!(
+    say!(
+        report,
         "uploaded   {name}: {} bytes, {:?} job",
         bytes.len(),
         job.kind()
     );
-    println!("summary    {}", log.summary());
-    write_outputs(
+    say!(report, "summary    {}", log.summary());
+    outputs.write(
         &log,
-        args.csv.as_ref(),
-        args.svg.as_ref(),
         &format!("kerf run {file_name} on {}", hello.machine),
+        report,
     )?;
     match ended {
         Ok(()) => {
-            println!("done       the job ran to its end");
+            say!(report, "done       the job ran to its end");
             Ok(())
         }
         Err(e) => Err(session_failure(e)),
@@ -268,51 +353,68 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
 }
 
 /// `kerf get PATH`.
-pub fn get(path: &str, machine: &MachineArgs) -> Result<(), Failure> {
+pub fn get(path: &str, machine: &MachineArgs, report: &mut Report) -> Result<(), Failure> {
+    setting_path(path)?;
     let mut s = machine.open()?;
     let value = s.machine.get(path).map_err(link_failure)?;
-    println!("{path} = {value}");
+    say!(report, "{path} = {value}");
     Ok(())
 }
 
 /// `kerf set PATH VALUE`.
-pub fn set(path: &str, value: &str, machine: &MachineArgs) -> Result<(), Failure> {
+pub fn set(
+    path: &str,
+    value: &str,
+    machine: &MachineArgs,
+    report: &mut Report,
+) -> Result<(), Failure> {
+    setting_path(path)?;
+    setting_value(value)?;
     let mut s = machine.open()?;
     s.machine.set(path, value).map_err(link_failure)?;
     let now = s.machine.get(path).map_err(link_failure)?;
-    println!("{path} = {now}");
+    say!(report, "{path} = {now}");
     Ok(())
 }
 
 /// `kerf status`.
-pub fn status(machine: &MachineArgs) -> Result<(), Failure> {
+pub fn status(machine: &MachineArgs, report: &mut Report) -> Result<(), Failure> {
     let mut s = machine.open()?;
     let hello = s.machine.hello().clone();
     let st = s.machine.status().map_err(link_failure)?;
-    println!("machine      {} (link v{})", hello.machine, hello.version);
-    println!(
+    say!(
+        report,
+        "machine      {} (link v{})",
+        hello.machine,
+        hello.version
+    );
+    say!(
+        report,
         "period       {:.0} µs, largest chunk {} bytes",
         hello.period_s * 1e6,
         hello.max_chunk
     );
-    println!("mode         {:?}", st.mode);
-    println!(
+    say!(report, "mode         {:?}", st.mode);
+    say!(
+        report,
         "machine time {:.4} s (period {})",
         st.period as f64 * hello.period_s,
         st.period
     );
     match st.last_fault {
-        Some((code, detail)) => println!(
+        Some((code, detail)) => say!(
+            report,
             "last fault   {code}: {}",
             fault_reason(&hello.machine, code, detail)
         ),
-        None => println!("last fault   none"),
+        None => say!(report, "last fault   none"),
     }
     match st.upload_received {
-        Some(n) => println!("upload       {n} bytes received, not committed"),
-        None => println!("upload       none in progress"),
+        Some(n) => say!(report, "upload       {n} bytes received, not committed"),
+        None => say!(report, "upload       none in progress"),
     }
-    println!(
+    say!(
+        report,
         "link         {} bad frames from the host, {} messages unsent; {} bad frames from the machine",
         st.bad_frames,
         st.unsent,
@@ -322,14 +424,21 @@ pub fn status(machine: &MachineArgs) -> Result<(), Failure> {
 }
 
 /// `kerf log`: telemetry for a span of machine time.
-pub fn log(args: &LogArgs) -> Result<(), Failure> {
+pub fn log(args: &LogArgs, report: &mut Report) -> Result<(), Failure> {
     let hz = positive_rate(args.telemetry_hz)?;
     if !(args.seconds.is_finite() && args.seconds > 0.0) {
         return Err(Failure::Input(format!(
-            "--seconds {}: must be positive",
+            "--seconds {:?}: must be a positive span of machine time",
             args.seconds
         )));
     }
+    if args.seconds * hz > MAX_LOG_SAMPLES {
+        return Err(Failure::Input(format!(
+            "--seconds {:?} at --telemetry-hz {hz:?} asks for more than {MAX_LOG_SAMPLES:.0} samples (the log is kept in memory until it is written)",
+            args.seconds
+        )));
+    }
+    let outputs = Outputs::prepare(args.csv.as_deref(), args.svg.as_deref())?;
     let mut s = args.machine.open()?;
     let period_s = s.machine.hello().period_s;
     s.machine.telemetry(hz).map_err(link_failure)?;
@@ -364,9 +473,8 @@ pub fn log(args: &LogArgs) -> Result<(), Failure> {
         .command(Request::Telemetry { every_periods: 0 })
         .map_err(link_failure)?;
     bar.finish_and_clear();
-    if args.csv.is_none() {
-        log.write_csv(&mut std::io::stdout().lock())
-            .map_err(|e| Failure::Input(e.to_string()))?;
+    if outputs.csv.is_none() {
+        report.with(|w| log.write_csv(w));
     }
-    write_outputs(&log, args.csv.as_ref(), args.svg.as_ref(), "kerf log")
+    outputs.write(&log, "kerf log", report)
 }

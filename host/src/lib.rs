@@ -10,15 +10,19 @@
 //! - [`plot`]: an SVG picture of a plan;
 //! - [`link`]: the host's end of the machine link (requests, replies, typed errors);
 //!   [`session`]: a session with a board or the emulated machine ([`qemu`]) and a
-//!   job's run on it; [`telemetry`]: the samples of a run as CSV, summary and SVG.
+//!   job's run on it; [`telemetry`]: the samples of a run as CSV, summary and SVG;
+//! - [`output`]: the files the tool writes, checked before the work and written whole.
 //!
-//! "T" is the thesis the planner comes from (`seeds/000_715916eb54047072.txt`), "A"
-//! the ARROW paper (`seeds/002_667f67347ace5e60.txt`).
+//! "T" is the thesis the planner comes from (pre-processing and motion control for
+//! non-contact machining of complex contours), "A" the ARROW paper (Saied et al., "A
+//! Redundant Parallel Robotic Machining Tool: Design, Control and Real-Time
+//! Experiments", 2019), as the repository's README names them.
 
 pub mod gcode;
 pub mod job;
 pub mod link;
 pub mod mask;
+pub mod output;
 pub mod plan;
 pub mod plot;
 pub mod qemu;

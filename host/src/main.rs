@@ -1,18 +1,22 @@
 //! `kerf`: the operator's command line (see the `kerf_host` crate docs).
 //!
-//! Exit codes: 0 done; 1 bad input, or the machine refused or faulted (the message
-//! says why); 2 a usage error (clap's); 3 the machine could not be reached or the
-//! link failed.
+//! Exit codes: 0 done; 1 bad input, an output that could not be written, or the
+//! machine refused or faulted (the message says why); 2 a usage error (clap's); 3 the
+//! machine could not be reached or the link failed.
 
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use kerf::trajectory::gcode::MoveKind;
 use kerf_host::gcode::{self, GcodeCheckError};
 use kerf_host::job::Job;
+use kerf_host::output::{io_words, OutputError, OutputFile};
 use kerf_host::plan::{self, Fit, Format, PlanConfig};
 use kerf_host::plot;
+use report::{say, Report};
 mod cli_machine;
+mod report;
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::str::FromStr;
@@ -57,7 +61,8 @@ enum Command {
     Set {
         /// The setting's path.
         path: String,
-        /// Its value, JSON (a number: 120, 2.5e-3).
+        /// Its value, JSON (a number: 120, 2.5e-3, -1).
+        #[arg(allow_negative_numbers = true)]
         value: String,
         #[command(flatten)]
         machine: cli_machine::MachineArgs,
@@ -78,6 +83,9 @@ enum Failure {
     Input(String),
     /// The machine refused, faulted or stopped (exit 1).
     Refused(String),
+    /// An output could not be written (exit 1): a file, or the report on a closed
+    /// standard output.
+    Output(String),
     /// The link failed (exit 3).
     Link(String),
 }
@@ -86,6 +94,34 @@ impl From<String> for Failure {
     fn from(s: String) -> Self {
         Failure::Input(s)
     }
+}
+
+impl From<OutputError> for Failure {
+    fn from(e: OutputError) -> Self {
+        Failure::Output(e.to_string())
+    }
+}
+
+/// Checks, before the long work, that `path` (if given) can be written.
+fn prepare(path: Option<&Path>, what: &'static str) -> Result<Option<OutputFile>, Failure> {
+    Ok(path.map(|p| OutputFile::prepare(p, what)).transpose()?)
+}
+
+/// Refuses two outputs named the same: the second would replace the first.
+fn distinct(outputs: &[(&str, Option<&Path>)]) -> Result<(), Failure> {
+    for (i, (a, pa)) in outputs.iter().enumerate() {
+        for (b, pb) in &outputs[i + 1..] {
+            if let (Some(pa), Some(pb)) = (pa, pb) {
+                if pa == pb {
+                    return Err(Failure::Input(format!(
+                        "{}: given for both {a} and {b}; one would replace the other",
+                        pa.display()
+                    )));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -161,43 +197,44 @@ struct GcodeArgs {
 }
 
 fn main() -> ExitCode {
+    // clap's own errors (a usage error) exit with 2; its help and version exit with 0.
     let cli = Cli::parse();
+    let mut report = Report::new();
+    let r = &mut report;
     let result = match cli.command {
-        Command::Plan(args) => run_plan(&args).map_err(Failure::from),
-        Command::Gcode(args) => run_gcode(&args).map_err(Failure::from),
-        Command::Run(args) => cli_machine::run(&args),
-        Command::Get { path, machine } => cli_machine::get(&path, &machine),
+        Command::Plan(args) => run_plan(&args, r),
+        Command::Gcode(args) => run_gcode(&args, r),
+        Command::Run(args) => cli_machine::run(&args, r),
+        Command::Get { path, machine } => cli_machine::get(&path, &machine, r),
         Command::Set {
             path,
             value,
             machine,
-        } => cli_machine::set(&path, &value, &machine),
-        Command::Log(args) => cli_machine::log(&args),
-        Command::Status { machine } => cli_machine::status(&machine),
+        } => cli_machine::set(&path, &value, &machine, r),
+        Command::Log(args) => cli_machine::log(&args, r),
+        Command::Status { machine } => cli_machine::status(&machine, r),
     };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(Failure::Input(m) | Failure::Refused(m)) => {
-            eprintln!("{m}");
-            ExitCode::from(1)
-        }
-        Err(Failure::Link(m)) => {
-            eprintln!("{m}");
-            ExitCode::from(3)
-        }
-    }
+    let result = result.and_then(|()| report.lost().map_or(Ok(()), |m| Err(Failure::Output(m))));
+    let (message, code) = match result {
+        Ok(()) => return ExitCode::SUCCESS,
+        Err(Failure::Input(m) | Failure::Refused(m) | Failure::Output(m)) => (m, 1),
+        Err(Failure::Link(m)) => (m, 3),
+    };
+    // Standard error may be closed too: the exit code still says it.
+    let _ = writeln!(std::io::stderr(), "{message}");
+    ExitCode::from(code)
 }
 
-fn write_job(path: &Path, job: &Job) -> Result<(), String> {
+fn write_job(out: &OutputFile, job: &Job, report: &mut Report) -> Result<(), Failure> {
     let bytes = job
         .to_bytes()
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-    std::fs::write(path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?;
-    println!("wrote {} ({} bytes)", path.display(), bytes.len());
+        .map_err(|e| Failure::Input(format!("{}: {e}", out.shown())))?;
+    out.write_bytes(&bytes)?;
+    say!(report, "wrote {} ({} bytes)", out.shown(), bytes.len());
     Ok(())
 }
 
-fn run_plan(args: &PlanArgs) -> Result<(), String> {
+fn run_plan(args: &PlanArgs, report: &mut Report) -> Result<(), Failure> {
     let config = PlanConfig {
         sigma_px: args.sigma,
         canny: (args.canny.0 as f32, args.canny.1 as f32),
@@ -211,6 +248,13 @@ fn run_plan(args: &PlanArgs) -> Result<(), String> {
         }),
         ..PlanConfig::default()
     };
+    // Before the long work: where the files go.
+    distinct(&[
+        ("--out", args.out.as_deref()),
+        ("--svg", args.svg.as_deref()),
+    ])?;
+    let out = prepare(args.out.as_deref(), "job file")?;
+    let svg = prepare(args.svg.as_deref(), "picture")?;
     // Large photographs take seconds (thinning is one pass per pixel of the
     // thickest edge band): show the stage. Hidden when stderr is not a terminal.
     let bar = ProgressBar::new(5);
@@ -225,15 +269,17 @@ fn run_plan(args: &PlanArgs) -> Result<(), String> {
     .map_err(|e| format!("{name}: {e}"))?;
     bar.finish_and_clear();
     let (w, h) = gray.dimensions();
-    println!("image      {name}: {w} x {h} px");
-    println!(
+    say!(report, "image      {name}: {w} x {h} px");
+    say!(
+        report,
         "contour    {}, {} points traced, start at pixel ({:.0}, {:.0})",
         if p.closed { "closed" } else { "open" },
         p.chain_px.len(),
         p.chain_px[0][0],
         p.chain_px[0][1]
     );
-    println!(
+    say!(
+        report,
         "workspace  {:.4} mm/px, centroid at pixel ({:.1}, {:.1}) -> origin, length {:.2} mm",
         p.mm_per_px,
         p.centroid_px[0],
@@ -247,42 +293,51 @@ fn run_plan(args: &PlanArgs) -> Result<(), String> {
         p.closed,
     ));
     match &p.fit {
-        Fit::Efd(e) => println!(
+        Fit::Efd(e) => say!(
+            report,
             "job        EFD, {} harmonics, {:.3} mm from the traced contour at most",
             e.harmonics(),
             off
         ),
-        Fit::Path { points_m, .. } => println!(
+        Fit::Path { points_m, .. } => say!(
+            report,
             "job        path, {} points, spline {:.3} mm from the traced contour at most",
             points_m.len(),
             off
         ),
     }
-    if let Some(svg) = &args.svg {
-        plot::write_svg(svg, &name, &gray, &p, &[])
-            .map_err(|e| format!("{}: {e}", svg.display()))?;
-        println!("wrote {}", svg.display());
+    if let Some(svg) = &svg {
+        let text = plot::svg(&name, &gray, &p, &[])
+            .map_err(|e| Failure::Output(format!("{}: {e}", svg.shown())))?;
+        svg.write_bytes(text.as_bytes())?;
+        say!(report, "wrote {}", svg.shown());
     }
-    if let Some(out) = &args.out {
-        write_job(out, &p.job)?;
+    if let Some(out) = &out {
+        write_job(out, &p.job, report)?;
     }
     Ok(())
 }
 
-fn run_gcode(args: &GcodeArgs) -> Result<(), String> {
+fn run_gcode(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
     let name = args.file.display().to_string();
-    let text = std::fs::read(&args.file).map_err(|e| format!("{name}: {e}"))?;
-    let report = gcode::check(&text).map_err(|e: GcodeCheckError| {
+    let out = prepare(args.out.as_deref(), "job file")?;
+    let text = std::fs::read(&args.file)
+        .map_err(|e| format!("{name}: cannot read the program: {}", io_words(&e)))?;
+    let checked = gcode::check(&text).map_err(|e: GcodeCheckError| {
         if e.line == 0 {
             format!("{name}: {}", e.message)
         } else {
             format!("{name}:{}:{}: {}", e.line, e.column, e.message)
         }
     })?;
-    println!("{name}: accepted, {} moves", report.moves.len());
-    println!("  move  line  kind   points  length mm  speed mm/s  time s");
-    for (i, m) in report.moves.iter().enumerate() {
-        println!(
+    say!(report, "{name}: accepted, {} moves", checked.moves.len());
+    say!(
+        report,
+        "  move  line  kind   points  length mm  speed mm/s  time s"
+    );
+    for (i, m) in checked.moves.iter().enumerate() {
+        say!(
+            report,
             "  {:>4}  {:>4}  {:<5}  {:>6}  {:>9.1}  {:>10.1}  {:>6.2}",
             i + 1,
             m.line,
@@ -296,13 +351,14 @@ fn run_gcode(args: &GcodeArgs) -> Result<(), String> {
             m.duration_s
         );
     }
-    println!(
+    say!(
+        report,
         "  total length {:.1} mm, duration {:.2} s",
-        report.length_m * 1e3,
-        report.duration_s
+        checked.length_m * 1e3,
+        checked.duration_s
     );
-    if let Some(out) = &args.out {
-        write_job(out, &Job::Gcode { text })?;
+    if let Some(out) = &out {
+        write_job(out, &Job::Gcode { text }, report)?;
     }
     Ok(())
 }

@@ -51,10 +51,11 @@ pub enum Format {
 /// The planner's settings (module docs). [`Default`] gives the documented defaults.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlanConfig {
-    /// σ of the Gaussian smoothing before Canny, pixels (0: none).
+    /// σ of the Gaussian smoothing before Canny, pixels: 0 (none), or from
+    /// [`SIGMA_MIN_PX`] to the image's larger side.
     pub sigma_px: f32,
-    /// Canny's hysteresis thresholds on the Sobel gradient magnitude (at most about
-    /// 1140 for a black-to-white step): (low, high).
+    /// Canny's hysteresis thresholds on the Sobel gradient magnitude, (low, high) with
+    /// 0 < low ≤ high ≤ [`CANNY_MAX`] (a black-to-white step).
     pub canny: (f32, f32),
     /// Radius of the square of the dilation and erosion, pixels: gaps of up to twice
     /// this close, and the two edges of a stroke up to about 2 r − 2 pixels wide merge.
@@ -96,7 +97,7 @@ pub enum PlanError {
     #[error("bad setting: {0}")]
     Config(&'static str),
     /// The image could not be read or decoded.
-    #[error("cannot read the image: {0}")]
+    #[error("cannot read the image: {}", image_words(.0))]
     Image(#[from] image::ImageError),
     /// No chain could be traced.
     #[error("{0}")]
@@ -108,11 +109,46 @@ pub enum PlanError {
     #[error("an open contour cannot be an EFD job (use --format points)")]
     OpenAsEfd,
     /// The firmware's EFD code refused the contour.
-    #[error("EFD fit refused: {0:?}")]
+    #[error("the firmware refuses the EFD: {}", contour_words(.0))]
     Efd(ContourError),
     /// The firmware's open-path code refused the points.
-    #[error("open path refused: {0:?}")]
+    #[error("the firmware refuses the path: {}", contour_words(.0))]
     Path(ContourError),
+}
+
+/// Why an image could not be read, in words.
+fn image_words(e: &image::ImageError) -> String {
+    match e {
+        image::ImageError::IoError(io) => crate::output::io_words(io),
+        image::ImageError::Unsupported(_) => {
+            format!("{e} (the planner reads PNG and JPEG)")
+        }
+        other => other.to_string(),
+    }
+}
+
+/// The firmware's refusal of a planned curve, in words; the job stores metres as
+/// f32, so a contour scaled too large or too small is refused here.
+fn contour_words(e: &ContourError) -> String {
+    match e {
+        ContourError::Config(c) => {
+            format!("{c} (is --width-mm too large or too small for f32 metres?)")
+        }
+        ContourError::NotFinitePoint(i) => {
+            format!("point {i} is not a number in f32 metres (is --width-mm too large?)")
+        }
+        ContourError::TooFewPoints => {
+            "fewer than 3 distinct points (is --width-mm too small?)".into()
+        }
+        ContourError::RepeatedPoint(i) => {
+            format!("point {i} falls on the one before it (is --width-mm too small?)")
+        }
+        ContourError::ZeroLength => "the contour has no length".into(),
+        ContourError::Collinear => {
+            "every point lies on one line: a stroke, not a contour to cut round".into()
+        }
+        other => format!("{other:?}"),
+    }
 }
 
 /// The fitted curve of a plan.
@@ -230,7 +266,17 @@ fn centroid(points: &[[f64; 2]], closed: bool) -> [f64; 2] {
 }
 
 /// The stages of T 3.1.1 on a grey image: the binary edge map after closing.
-pub fn edges(gray: &GrayImage, config: &PlanConfig) -> GrayImage {
+///
+/// Errors: settings out of range (σ wider than the image included).
+pub fn edges(gray: &GrayImage, config: &PlanConfig) -> Result<GrayImage, PlanError> {
+    check(config)?;
+    // The kernel reaches 2σ each way: wider than the image, it blurs it flat (and
+    // a huge σ would allocate a kernel of 4σ + 1 weights).
+    if f64::from(config.sigma_px) > f64::from(gray.width().max(gray.height())) {
+        return Err(PlanError::Config(
+            "sigma must be at most the image's larger side, in pixels",
+        ));
+    }
     let smoothed = if config.sigma_px > 0.0 {
         imageproc::filter::gaussian_blur_f32(gray, config.sigma_px)
     } else {
@@ -238,7 +284,11 @@ pub fn edges(gray: &GrayImage, config: &PlanConfig) -> GrayImage {
     };
     let edges = imageproc::edges::canny(&smoothed, config.canny.0, config.canny.1);
     let dilated = imageproc::morphology::dilate(&edges, Norm::LInf, config.close_px);
-    imageproc::morphology::erode(&dilated, Norm::LInf, config.close_px)
+    Ok(imageproc::morphology::erode(
+        &dilated,
+        Norm::LInf,
+        config.close_px,
+    ))
 }
 
 /// The one-pixel skeleton of an edge map.
@@ -252,14 +302,32 @@ fn band(edges: &GrayImage) -> Mask {
     })
 }
 
+/// The smallest σ that smooths: below it a neighbour's weight in the Gaussian kernel,
+/// exp(−1/(2σ²)), is under f32's resolution (e^−12.5 ≈ 4e−6 at 0.2 px, e^−50 at
+/// 0.1 px), and for σ² below f32's range the kernel is NaN.
+pub const SIGMA_MIN_PX: f32 = 0.2;
+
+/// The strongest Sobel magnitude, a black-to-white step: 2·√5·255 (imageproc's Canny).
+pub const CANNY_MAX: f32 = 1140.4;
+
 fn check(config: &PlanConfig) -> Result<(), PlanError> {
-    if !(config.sigma_px.is_finite() && config.sigma_px >= 0.0) {
-        return Err(PlanError::Config("sigma must be finite and not negative"));
+    let sigma = config.sigma_px;
+    if !(sigma.is_finite() && (sigma == 0.0 || sigma >= SIGMA_MIN_PX)) {
+        return Err(PlanError::Config(
+            "sigma must be 0 (no smoothing) or at least 0.2 px (a smaller Gaussian does not smooth)",
+        ));
     }
     let (lo, hi) = config.canny;
-    if !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && lo <= hi) {
+    // LOW = 0 makes every pixel an edge, the image's border too (where imageproc's
+    // hysteresis would step outside the image).
+    if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
         return Err(PlanError::Config(
-            "canny thresholds must be 0 <= LOW <= HIGH",
+            "canny thresholds must be 0 < LOW <= HIGH",
+        ));
+    }
+    if hi > CANNY_MAX {
+        return Err(PlanError::Config(
+            "canny HIGH above 1140 finds no edges (a black-to-white step is 1140)",
         ));
     }
     if !(config.width_mm.is_finite() && config.width_mm > 0.0) {
@@ -305,7 +373,7 @@ pub fn plan_image(
 ) -> Result<Plan, PlanError> {
     check(config)?;
     stage("smoothing, edges and gap closing");
-    let closed_edges = edges(gray, config);
+    let closed_edges = edges(gray, config)?;
     stage("thinning");
     let band = band(&closed_edges);
     let skel = band.thinned();

@@ -6,9 +6,11 @@
 //! grey levels, runs of one level merged) and lightened so that the curves stand out;
 //! text goes out as SVG `<text>` (no font files needed).
 
+use crate::output::OutputFile;
 use crate::plan::Plan;
 use image::GrayImage;
 use plotters::coord::types::RangedCoordf64;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -30,13 +32,19 @@ pub struct Overlay<'a> {
     pub color: RGBColor,
 }
 
-/// Why a picture was not written.
+/// Why a picture was not drawn or written.
 #[derive(Debug, thiserror::Error)]
-#[error("cannot draw the picture: {0}")]
+#[error("{0}")]
 pub struct PlotError(String);
 
 pub(crate) fn err<E: std::fmt::Display>(e: E) -> PlotError {
-    PlotError(e.to_string())
+    PlotError(format!("cannot draw the picture: {e}"))
+}
+
+impl From<crate::output::OutputError> for PlotError {
+    fn from(e: crate::output::OutputError) -> Self {
+        PlotError(e.to_string())
+    }
 }
 
 /// A chart with both axes in f64 (every picture of this crate).
@@ -71,9 +79,41 @@ pub(crate) fn legend<'a, DB: DrawingBackend + 'a>(
         .map_err(err)
 }
 
-/// Writes the picture of `plan` (module docs) with `extra` curves drawn first.
+/// Writes the picture of `plan` (module docs) with `extra` curves drawn first, whole
+/// or not at all ([`crate::output`]).
 pub fn write_svg(
     path: &Path,
+    title: &str,
+    gray: &GrayImage,
+    plan: &Plan,
+    extra: &[Overlay<'_>],
+) -> Result<(), PlotError> {
+    let text = svg(title, gray, plan, extra)?;
+    OutputFile::prepare(path, "picture")
+        .and_then(|f| f.write_bytes(text.as_bytes()))
+        .map_err(PlotError::from)
+}
+
+/// The picture of `plan` (module docs) with `extra` curves drawn first, as SVG text.
+pub fn svg(
+    title: &str,
+    gray: &GrayImage,
+    plan: &Plan,
+    extra: &[Overlay<'_>],
+) -> Result<String, PlotError> {
+    let mut text = String::new();
+    draw(
+        SVGBackend::with_string(&mut text, SIZE).into_drawing_area(),
+        title,
+        gray,
+        plan,
+        extra,
+    )?;
+    Ok(text)
+}
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
     title: &str,
     gray: &GrayImage,
     plan: &Plan,
@@ -102,7 +142,6 @@ pub fn write_svg(
     );
     let half = (hi[0] - lo[0]).max(hi[1] - lo[1]) / 2.0 * 1.02;
     let mid = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
-    let root = SVGBackend::new(path, SIZE).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 20))

@@ -38,7 +38,7 @@ pub enum SessionError {
     #[error(transparent)]
     Qemu(#[from] QemuError),
     /// The serial port did not open.
-    #[error("{device}: {message}")]
+    #[error("{device}: cannot open the machine's port: {message}")]
     Port {
         /// The device.
         device: String,
@@ -86,7 +86,13 @@ impl Session {
             Target::Port { device, baud } => {
                 let port_error = |e: serialport::Error| SessionError::Port {
                     device: device.clone(),
-                    message: e.to_string(),
+                    message: match e.kind {
+                        serialport::ErrorKind::Io(kind) => {
+                            crate::output::io_words(&std::io::Error::from(kind))
+                        }
+                        serialport::ErrorKind::NoDevice => "no such device".into(),
+                        _ => e.description,
+                    },
                 };
                 let port = serialport::new(device, *baud)
                     .timeout(Duration::from_millis(100))

@@ -6,6 +6,7 @@
 //! difference to the previous sample, so a run that crosses the wrap (5 days at
 //! 10 kHz) keeps its time axis. Time is `period × period_s` from the machine's hello.
 
+use crate::output::OutputFile;
 use crate::plot::{err, legend, line, PlotError};
 use kerf::codec::link::{ModeCode, TelemetrySample};
 use plotters::prelude::*;
@@ -157,8 +158,28 @@ impl TelemetryLog {
     /// (µm) and the three force commands (N) over time, with the marks as vertical
     /// lines.
     pub fn write_svg(&self, path: &Path, title: &str) -> Result<(), PlotError> {
+        let text = self.svg(title)?;
+        OutputFile::prepare(path, "picture")
+            .and_then(|f| f.write_bytes(text.as_bytes()))
+            .map_err(PlotError::from)
+    }
+
+    /// The picture of [`TelemetryLog::write_svg`] as SVG text.
+    pub fn svg(&self, title: &str) -> Result<String, PlotError> {
+        let mut text = String::new();
+        self.draw(
+            SVGBackend::with_string(&mut text, (900, 1100)).into_drawing_area(),
+            title,
+        )?;
+        Ok(text)
+    }
+
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: DrawingArea<DB, plotters::coord::Shift>,
+        title: &str,
+    ) -> Result<(), PlotError> {
         let marks = &self.marks;
-        let root = SVGBackend::new(path, (900, 1100)).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
         let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
         let (top, bottom) = root.split_vertically(560);
