@@ -61,6 +61,10 @@ enum Phase {
     Down,
 }
 
+/// Most periods one [`SpeedRamp`] (start or stop) may take, 2nj + nf: 2·10⁸, 5.6 hours
+/// at 10 kHz. Its double, a start and a stop, still counts in a `u32`.
+pub const MAX_RAMP_PERIODS: u32 = 200_000_000;
+
 /// Rest → V → rest with piecewise-constant jerk: +J′ for nj periods, 0 for nf, −J′ for
 /// nj (and mirrored to stop) — the constant-jerk S-curve of SPEC § trajectory (A §4).
 /// Phase lengths are whole periods, so each period integrates exactly
@@ -92,7 +96,7 @@ impl<T: Float> SpeedRamp<T> {
         let t_jerk = (a / j).min(libm::sqrt(v / j));
         let n_jerk = libm::ceil(t_jerk / ts).max(1.0);
         let n_flat = libm::ceil(v / a / ts - n_jerk).max(0.0);
-        if n_jerk + n_flat > 1e8 {
+        if 2.0 * n_jerk + n_flat > f64::from(MAX_RAMP_PERIODS) {
             return Err(ConfigError::out_of_range("speed_m_s"));
         }
         Self::from_periods(v, n_jerk as u32, n_flat as u32, ts)
@@ -104,8 +108,9 @@ impl<T: Float> SpeedRamp<T> {
     /// exactly on V (A eq. 53 at t3). A planner that chose the periods under its own
     /// limits (a rest-to-rest move, [`super::feed`]) builds its ramp here.
     ///
-    /// Errors: V or Ts not finite and positive, `n_jerk` zero (`OutOfRange` naming
-    /// `n_jerk`), or per-period terms the scalar `T` cannot hold (`NotRepresentable`).
+    /// Errors: V or Ts not finite and positive, `n_jerk` zero or a ramp of more than
+    /// [`MAX_RAMP_PERIODS`] periods (`OutOfRange` naming `n_jerk`), or per-period
+    /// terms the scalar `T` cannot hold (`NotRepresentable`).
     pub fn from_periods(
         speed_m_s: f64,
         n_jerk: u32,
@@ -114,7 +119,10 @@ impl<T: Float> SpeedRamp<T> {
     ) -> Result<Self, ConfigError> {
         let v = positive("speed_m_s", speed_m_s)?;
         let ts = positive("ts_s", ts_s)?;
-        if n_jerk == 0 {
+        // The ramp's period count 2nj + nf is a u32 (`ramp_periods`): past it the
+        // count would wrap, and a ramp of 2³¹ jerk periods would end after nf.
+        let ramp_periods = u64::from(n_jerk) * 2 + u64::from(n_flat);
+        if n_jerk == 0 || ramp_periods > u64::from(MAX_RAMP_PERIODS) {
             return Err(ConfigError::out_of_range("n_jerk"));
         }
         let (n_jerk_f, n_flat_f) = (f64::from(n_jerk), f64::from(n_flat));

@@ -397,3 +397,37 @@ fn a_nearly_collinear_contour_is_never_jumped_along() {
     // It does reach an end of the stroke within the 4 s (a lap is ~60 mm at 10 mm/s).
     assert!(lost_at.is_some());
 }
+
+/// A ramp's period count 2nj + nf is a `u32`: phase lengths past
+/// [`MAX_RAMP_PERIODS`] are refused by name, where 2³¹ jerk periods used to wrap the
+/// count to nf and end the start ramp after one period, at full speed.
+#[test]
+fn speed_ramp_period_counts_beyond_the_limit_are_refused() {
+    let too_long = [
+        (1 << 31, 0),
+        (u32::MAX, 5),
+        (MAX_RAMP_PERIODS / 2, 1),
+        (1, MAX_RAMP_PERIODS),
+    ];
+    for (n_jerk, n_flat) in too_long {
+        assert_eq!(
+            SpeedRamp::<f64>::from_periods(0.01, n_jerk, n_flat, 1e-4).err(),
+            Some(ConfigError::out_of_range("n_jerk")),
+            "{n_jerk} {n_flat}"
+        );
+    }
+    // The longest accepted ramp starts on its jerk phase: after one period
+    // v = J′Ts²/2 with J′ = V/(nj²Ts²) (A eq. 51), far below V.
+    let n_jerk = MAX_RAMP_PERIODS / 2;
+    let mut ramp = SpeedRamp::<f64>::from_periods(0.01, n_jerk, 0, 1e-4).unwrap();
+    assert_eq!(ramp.ramp_periods(), MAX_RAMP_PERIODS);
+    ramp.start();
+    let first = ramp.step();
+    let expected = 0.5 * 0.01 / (f64::from(n_jerk) * f64::from(n_jerk));
+    assert!(
+        (first.v - expected).abs() <= 1e-12 * expected,
+        "{}",
+        first.v
+    );
+    assert!(!ramp.is_cruising());
+}
