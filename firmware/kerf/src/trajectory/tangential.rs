@@ -685,13 +685,17 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
         let next = self.theta + dth;
         let taken = next - self.theta;
         let mut theta = next;
+        // The wrap's rounding correction is zero when 2π rounds exactly (f64), so
+        // whether θ wrapped is its own flag: every wrap is a lap.
         let mut wrap = T::ZERO;
+        let mut wrapped = false;
         let mut taken = taken;
         let mut clamped = false;
         if theta >= self.span {
             if self.closed {
                 theta -= self.span;
                 wrap = self.wrap_error;
+                wrapped = true;
             } else {
                 // The end of an open curve: no further. What is left of the step is
                 // dropped with the carry below.
@@ -719,7 +723,7 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
             self.lost = true;
             return Err(ContourError::LostContour);
         }
-        if wrap != T::ZERO {
+        if wrapped {
             self.laps = self.laps.wrapping_add(1);
         }
         self.theta = theta;

@@ -431,3 +431,47 @@ fn speed_ramp_period_counts_beyond_the_limit_are_refused() {
     );
     assert!(!ramp.is_cruising());
 }
+
+/// `laps()` over several laps against laps counted apart from the follower: the arc
+/// from θ = 0 to the start plus the arc an `f64` ramp commanded, over the lap length
+/// (Simpson on the coefficients the scalar holds). Within two steps and the measured
+/// drift (below 1e-6 of the distance, `step_length_and_drift_over_whole_contours`)
+/// of a lap's end either count is right, so those periods are not compared.
+fn laps_match_the_distance_travelled<T: Float>() {
+    let ellipse: [[f64; 2]; 128] = shapes::ellipse(10e-3, 5e-3);
+    let config = config(0.05, 10.0);
+    let efd = Efd::<T, 30>::from_polygon(&ellipse, 30).unwrap();
+    let coefficients: Vec<[f64; 4]> = efd.coefficients().iter().map(|r| r.map(to_f64)).collect();
+    let sigma = |th: f64| speed_direct(&coefficients, th);
+    let lap = simpson(0.0, 2.0 * PI, 20_000, sigma);
+    let theta0 = 0.3;
+    let mut travelled = simpson(0.0, to_f64(lit::<T>(theta0)), 2_000, sigma);
+    let end = travelled + 5.5 * lap;
+    let mut f = ContourFollower::new(efd, &config, theta0).unwrap();
+    let mut ramp = SpeedRamp::<f64>::new(&config.ramp).unwrap();
+    f.start();
+    ramp.start();
+    let step = config.ramp.speed_m_s * config.ramp.ts_s;
+    let (mut compared, mut most) = (0, 0);
+    while travelled < end {
+        f.step().unwrap();
+        travelled += ramp.step().ds;
+        let laps = libm::floor(travelled / lap);
+        let from_end = (travelled - laps * lap).min((laps + 1.0) * lap - travelled);
+        if from_end > 2.0 * step + 1e-6 * travelled {
+            assert_eq!(f64::from(f.laps()), laps, "at {travelled} m");
+            compared += 1;
+            most = most.max(f.laps());
+        }
+    }
+    assert!(
+        most >= 5 && compared > 1000,
+        "{most} laps, {compared} periods"
+    );
+}
+
+#[test]
+fn laps_count_every_wrap_in_every_scalar() {
+    laps_match_the_distance_travelled::<f32>();
+    laps_match_the_distance_travelled::<f64>();
+}
