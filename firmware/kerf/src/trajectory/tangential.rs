@@ -493,11 +493,19 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
     /// A follower at rest at θ = `theta0`.
     ///
     /// Errors: a bad ramp configuration or acceleration limit, a ramp acceleration above
-    /// the limit, V·Ts longer than the curve, or V²κmax above the limit
+    /// the limit, a curve without length ([`ContourError::ZeroLength`]) or whose
+    /// length overflows `T` (`NotRepresentable` naming `curve`: every step's σ would),
+    /// V·Ts longer than the curve, or V²κmax above the limit
     /// ([`ContourError::SpeedAboveCurvatureLimit`] carries the highest allowed speed).
     pub fn new(curve: C, config: &FollowerConfig, theta0: f64) -> Result<Self, ContourError> {
         let limit = positive("accel_limit_m_s2", config.accel_limit_m_s2)?;
         let length = to_f64(curve.arc_length(T::ZERO, curve.span(), 16 * curve.pieces()));
+        if !length.is_finite() {
+            return Err(ConfigError::not_representable("curve").into());
+        }
+        if length <= 0.0 {
+            return Err(ContourError::ZeroLength);
+        }
         if config.ramp.speed_m_s * config.ramp.ts_s >= length {
             return Err(ContourError::StepLongerThanContour);
         }

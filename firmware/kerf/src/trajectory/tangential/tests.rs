@@ -475,3 +475,50 @@ fn laps_count_every_wrap_in_every_scalar() {
     laps_match_the_distance_travelled::<f32>();
     laps_match_the_distance_travelled::<f64>();
 }
+
+/// A circle of radius `r` as a user's own [`Curve`] (the trait is public), in f32.
+struct Circle {
+    r: f32,
+}
+
+impl Curve<f32> for Circle {
+    fn evaluate(&self, theta: f32) -> EfdSample<f32> {
+        let (s, c) = theta.fsin_cos();
+        let r = self.r;
+        EfdSample {
+            position: Vector2::new(r * c, r * s),
+            d1: Vector2::new(-r * s, r * c),
+            d2: Vector2::new(-r * c, -r * s),
+            d3: Vector2::new(r * s, -r * c),
+        }
+    }
+    fn tangent(&self, theta: f32) -> Vector2<f32> {
+        self.evaluate(theta).d1
+    }
+    fn span(&self) -> f32 {
+        lit(2.0 * PI)
+    }
+    fn is_closed(&self) -> bool {
+        true
+    }
+    fn pieces(&self) -> usize {
+        1
+    }
+}
+
+/// A curve whose arc length overflows the scalar (an f32 circle of 1e30 m: |C′|²
+/// is 1e60) had σ = ∞ on every step and no curvature limit (κ = ∞/∞): refused by
+/// name, where a curve of 10 mm is followed.
+#[test]
+fn a_curve_whose_length_overflows_the_scalar_is_refused() {
+    let config = config(0.01, 10.0);
+    assert!(CurveFollower::new(Circle { r: 0.01 }, &config, 0.0).is_ok());
+    let huge = Circle { r: 1e30 };
+    assert!(huge.arc_length(0.0, lit(2.0 * PI), 16).is_infinite());
+    assert_eq!(
+        CurveFollower::new(huge, &config, 0.0).err(),
+        Some(ContourError::Config(ConfigError::not_representable(
+            "curve"
+        )))
+    );
+}
