@@ -80,9 +80,11 @@ pub enum SweepMode {
 
 /// The control-period half: the out-and-back sweep of N axes and the sample stream.
 #[derive(Clone, Debug)]
-pub struct CalibrationSweep<T, const N: usize> {
+pub struct CalibrationSweep<T: Real, const N: usize> {
     start_m: [T; N],
-    ts: T,
+    /// Ts as a coefficient: time is k·Ts from the period count ([`Real::count_times`],
+    /// which does not pass k through the signal range: 1500 periods pass Q6.25's 64).
+    ts: T::Coef,
     rest: T,
     ramp: T,
     inv_ramp: T,
@@ -125,7 +127,7 @@ impl<T: Real, const N: usize> CalibrationSweep<T, N> {
         }
         Ok(Self {
             start_m,
-            ts: T::from_f64(ts),
+            ts: T::coef(ts),
             rest: T::from_f64(REST_S),
             ramp: T::from_f64(RAMP_S),
             inv_ramp: T::from_f64(1.0 / RAMP_S),
@@ -181,7 +183,7 @@ impl<T: Real, const N: usize> CalibrationSweep<T, N> {
         let (way, k) = self.way();
         let out = way % 2 == 0;
         // t = k·Ts − rest, from the integer period count (no accumulated rounding).
-        let t = T::from_q32(i64::from(k) << 32) * self.ts - self.rest;
+        let t = T::count_times(k, self.ts) - self.rest;
         let (two, three, six) = (T::from_f64(2.0), T::from_f64(3.0), T::from_f64(6.0));
         let half = T::from_f64(0.5);
         let v = self.speed;

@@ -156,9 +156,10 @@ pub struct Joints<T: Real, const N: usize> {
     accel_limit_m_s2: f64,
     sweep: Option<CalibrationSweep<T, N>>,
     sweep_start_m: [T; N],
-    /// Sum of each axis' force over the settle of each direction (out, back), N, and
-    /// its periods: the force held during the coast the same way.
-    settle_force_n: [[T; N]; 2],
+    /// Sum of each axis' force over the settle of each direction (out, back), in
+    /// 2^-32 N ([`Real::to_q32`]), and its periods: the force held during the coast
+    /// the same way. Not in `T`: a sum of periods passes Q6.25's ±64 N.
+    settle_force_q32: [[i64; N]; 2],
     settle_periods: [u32; 2],
     /// The sweep's mode in the last period (to engage the loop after a coast).
     sweep_mode: SweepMode,
@@ -247,7 +248,7 @@ impl<T: Real, const N: usize> Joints<T, N> {
             accel_limit_m_s2,
             sweep: None,
             sweep_start_m: home,
-            settle_force_n: [[T::ZERO; N]; 2],
+            settle_force_q32: [[0; N]; 2],
             settle_periods: [0; 2],
             sweep_mode: SweepMode::Track,
             run: None,
@@ -377,13 +378,11 @@ impl<T: Real, const N: usize> Joints<T, N> {
     /// One coast period of every axis: the settle's mean force held, open loop; an axis
     /// whose decoded position strays beyond [`COAST_BOUND_M`] from the cruise faults.
     fn coast(&mut self, inputs: &[[u16; 3]; N], way: usize) -> Result<[T; N], JointFault> {
-        let periods = self.settle_periods.get(way).copied().unwrap_or(0);
-        let mean = T::from_f64(1.0 / f64::from(periods.max(1)));
+        let periods = i64::from(self.settle_periods.get(way).copied().unwrap_or(0).max(1));
         let bound = T::from_f64(COAST_BOUND_M);
-        let held = self
-            .settle_force_n
-            .get(way)
-            .map_or([T::ZERO; N], |sums| sums.map(|sum| sum * mean));
+        let held = self.settle_force_q32.get(way).map_or([T::ZERO; N], |sums| {
+            sums.map(|sum| T::from_q32(sum / periods))
+        });
         let mut forces = [T::ZERO; N];
         let (law, reference, last) = (&self.law, &self.reference, &mut self.last);
         each_axis(
@@ -554,15 +553,15 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
                 let forces = self.control(inputs)?;
                 if mode == SweepMode::Settle {
                     if let (Some(sums), Some(periods)) = (
-                        self.settle_force_n.get_mut(way),
+                        self.settle_force_q32.get_mut(way),
                         self.settle_periods.get_mut(way),
                     ) {
                         if previous != SweepMode::Settle {
-                            *sums = [T::ZERO; N];
+                            *sums = [0; N];
                             *periods = 0;
                         }
                         for (sum, f) in sums.iter_mut().zip(&forces) {
-                            *sum = *sum + *f;
+                            *sum = sum.saturating_add(f.to_q32());
                         }
                         *periods = periods.saturating_add(1);
                     }

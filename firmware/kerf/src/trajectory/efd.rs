@@ -44,13 +44,18 @@ pub struct Efd<T: Float, const N: usize> {
     perimeter_m: f64,
 }
 
-/// Whether every point lies within rounding (1e-12 of the perimeter) of the line from
-/// the first point to the point farthest from it.
-fn collinear(points: &[[f64; 2]], perimeter: f64) -> bool {
-    let Some(&[x0, y0]) = points.first() else {
+/// Whether every point lies within rounding (`tolerance` times the perimeter) of the
+/// line from the first point to the point farthest from it. `points` gives the
+/// points afresh on each call (the check passes over them twice).
+fn collinear<I: Iterator<Item = [f64; 2]>>(
+    points: impl Fn() -> I,
+    perimeter: f64,
+    tolerance: f64,
+) -> bool {
+    let Some([x0, y0]) = points().next() else {
         return true;
     };
-    let far = points.iter().fold([0.0, 0.0], |best: [f64; 2], p| {
+    let far = points().fold([0.0, 0.0], |best: [f64; 2], p| {
         let d = [p[0] - x0, p[1] - y0];
         if libm::hypot(d[0], d[1]) > libm::hypot(best[0], best[1]) {
             d
@@ -62,11 +67,15 @@ fn collinear(points: &[[f64; 2]], perimeter: f64) -> bool {
     if length == 0.0 {
         return true;
     }
-    points.iter().all(|p| {
+    points().all(|p| {
         let off = ((p[0] - x0) * far[1] - (p[1] - y0) * far[0]) / length;
-        libm::fabs(off) <= 1e-12 * perimeter
+        libm::fabs(off) <= tolerance * perimeter
     })
 }
+
+/// Rounding of a point's offset from a line, relative to the perimeter: 1e-12 for
+/// points given in `f64`.
+const COLLINEAR_TOLERANCE: f64 = 1e-12;
 
 impl<T: Float, const N: usize> Efd<T, N> {
     /// Kuhl–Giardina coefficients of the closed polygon `points` (m) up to `harmonics`.
@@ -104,7 +113,7 @@ impl<T: Float, const N: usize> Efd<T, N> {
         if distinct < 3 {
             return Err(ContourError::TooFewPoints);
         }
-        if collinear(points, perimeter) {
+        if collinear(|| points.iter().copied(), perimeter, COLLINEAR_TOLERANCE) {
             return Err(ContourError::Collinear);
         }
         if harmonics == 0 || harmonics > N {
@@ -160,8 +169,11 @@ impl<T: Float, const N: usize> Efd<T, N> {
 
     /// A curve from known coefficients (ak, bk, ck, dk), k = 1.. (for example stored
     /// in flash), with centre `centre_m`. The perimeter is recomputed from the curve.
-    /// Errors: no or more than `N` harmonics, a non-finite value, or values (or the
-    /// curve's perimeter) beyond the scalar `T` (`NotRepresentable`).
+    /// Errors: no or more than `N` harmonics, a non-finite value, values (or the
+    /// curve's perimeter) beyond the scalar `T` (`NotRepresentable`), or a curve that
+    /// lies on one line (`Collinear`: a single harmonic with a1·d1 = b1·c1 is a
+    /// degenerate ellipse, a stroke whose speed |C′| vanishes at both ends, where the
+    /// follower stalls).
     pub fn from_coefficients(
         centre_m: [f64; 2],
         coefficients: &[[f64; 4]],
@@ -200,6 +212,9 @@ impl<T: Float, const N: usize> Efd<T, N> {
         }
         if efd.perimeter_m <= 0.0 {
             return Err(ContourError::ZeroLength);
+        }
+        if efd.is_collinear() {
+            return Err(ContourError::Collinear);
         }
         Ok(efd)
     }
@@ -246,9 +261,11 @@ impl<T: Float, const N: usize> Efd<T, N> {
         }
     }
 
-    /// Whether [`Efd::evaluate`] stays finite in `T` at every θ: Σk k³ (|ak| + |bk| +
-    /// |ck| + |dk|), which bounds every component of the position and its first three
-    /// derivatives, is finite.
+    /// Whether [`Efd::evaluate`] and what the follower derives from it stay finite in
+    /// `T` at every θ: B = Σk k³ (|ak| + |bk| + |ck| + |dk|) bounds every component of
+    /// the position and its first three derivatives, so |C′| ≤ √2·B < 2B; the
+    /// curvature's denominator |C′|³ and the arc length 2π·|C′| must be finite too
+    /// (an `f32` curve of 1e30 m has finite derivatives but an infinite |C′|).
     fn derivatives_fit(&self) -> bool {
         let mut bound = T::ZERO;
         let mut k = T::ZERO;
@@ -257,7 +274,24 @@ impl<T: Float, const N: usize> Efd<T, N> {
             let size = row.iter().fold(T::ZERO, |sum, c| sum + c.abs());
             bound += size * k * k * k;
         }
-        bound.is_finite()
+        let speed = bound * lit(2.0);
+        (speed * speed * speed).is_finite() && (speed * lit(2.0 * PI)).is_finite()
+    }
+
+    /// Whether the curve lies on one line: 64 samples per harmonic, each point's
+    /// offset from the line against the perimeter, to the rounding of `T` (16 ulps,
+    /// at least [`COLLINEAR_TOLERANCE`]).
+    fn is_collinear(&self) -> bool {
+        let samples = 64 * self.harmonics.max(1);
+        let step = 2.0 * PI / samples as f64;
+        let tolerance = COLLINEAR_TOLERANCE.max(16.0 * to_f64(T::default_epsilon()));
+        let points = || {
+            (0..samples).map(|i| {
+                let p = self.evaluate(lit(step * i as f64)).position;
+                [to_f64(p.x), to_f64(p.y)]
+            })
+        };
+        collinear(points, self.perimeter_m, tolerance)
     }
 
     /// Number of harmonics n in use.
@@ -666,6 +700,40 @@ mod tests {
         assert!(E::from_polygon(&sliver, 3).is_ok());
     }
 
+    /// One harmonic with a1·d1 = b1·c1 is an ellipse of no width: a stroke whose
+    /// speed |C′| vanishes at both ends, where the follower's step has no length
+    /// (from θ = 0 it stalled for good). Refused as collinear from coefficients as
+    /// from points, in each scalar; an ellipse 1e-4 of its length wide is not.
+    #[test]
+    fn a_degenerate_one_harmonic_curve_is_refused() {
+        let lines = [
+            [[0.01, 0.0, 0.005, 0.0]],
+            [[0.01, 0.002, 0.005, 0.001]],
+            [[0.0, 0.01, 0.0, -0.02]],
+        ];
+        for line in &lines {
+            assert_eq!(
+                Efd::<f64, 4>::from_coefficients([0.0, 0.0], line).err(),
+                Some(ContourError::Collinear),
+                "{line:?}"
+            );
+            assert_eq!(
+                Efd::<f32, 4>::from_coefficients([0.01, 0.0], line).err(),
+                Some(ContourError::Collinear),
+                "{line:?}"
+            );
+        }
+        // The same stroke traced twice (harmonics 1 and 2 on one line) is one too.
+        let twice = [[0.01, 0.0, 0.005, 0.0], [0.0, 0.003, 0.0, 0.0015]];
+        assert_eq!(
+            Efd::<f64, 4>::from_coefficients([0.0, 0.0], &twice).err(),
+            Some(ContourError::Collinear)
+        );
+        let thin = [[0.01, 0.0, 0.0, 1e-6]];
+        assert!(Efd::<f64, 4>::from_coefficients([0.0, 0.0], &thin).is_ok());
+        assert!(Efd::<f32, 4>::from_coefficients([0.0, 0.0], &thin).is_ok());
+    }
+
     /// Finite in f64, beyond f32 (or beyond f64 once summed): typed errors, not a
     /// curve of infinities.
     #[test]
@@ -698,6 +766,15 @@ mod tests {
             not_representable("points")
         );
         assert!(Efd::<f64, 10>::from_polygon(&huge, 10).is_ok());
+        // Radius 10 mm × 1e30: coefficients and derivatives fit f32, but |C′|² (its
+        // speed, the arc length, the curvature's |C′|³) overflows it.
+        let large = shapes::octagon().map(|[x, y]| [x * 1e30, y * 1e30]);
+        assert_eq!(
+            Efd::<f32, 10>::from_polygon(&large, 10).err(),
+            not_representable("points")
+        );
+        let efd = Efd::<f64, 10>::from_polygon(&large, 10).unwrap();
+        assert!(efd.arc_length(0.0, 2.0 * PI, 160).is_finite());
         // The third derivative, k³ times a coefficient, overflows f64.
         let beyond = shapes::octagon().map(|[x, y]| [x * f64::MAX, y * f64::MAX]);
         assert_eq!(

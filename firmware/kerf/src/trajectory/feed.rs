@@ -169,14 +169,17 @@ impl FeedPlan {
         best.map(|(_, p)| p).ok_or(FeedError::TooLong)
     }
 
-    /// Periods of one ramp, 2nj + nf.
+    /// Periods of one ramp, 2nj + nf (saturating: a plan built by hand may not count
+    /// in a `u32`, which [`FeedFollower::new`] refuses).
     pub fn ramp_periods(&self) -> u32 {
-        2 * self.n_jerk + self.n_flat
+        self.n_jerk.saturating_mul(2).saturating_add(self.n_flat)
     }
 
-    /// Periods of the whole move.
+    /// Periods of the whole move (saturating, as [`FeedPlan::ramp_periods`]).
     pub fn periods(&self) -> u32 {
-        2 * self.ramp_periods() + self.n_cruise
+        self.ramp_periods()
+            .saturating_mul(2)
+            .saturating_add(self.n_cruise)
     }
 
     /// Duration of the whole move, s.
@@ -248,9 +251,16 @@ const NEWTON_STEPS: u8 = 2;
 impl<T: Float> FeedFollower<T> {
     /// A follower at rest at the start of the path, about to run `plan`.
     ///
-    /// Errors: a plan whose ramp `T` cannot hold.
+    /// Errors: a plan whose ramp `T` cannot hold, or (a plan built by hand) whose
+    /// periods do not count in a `u32` (`TooLong`).
     pub fn new(plan: &FeedPlan) -> Result<Self, FeedError> {
         let mut ramp = plan.ramp::<T>()?;
+        // The ramp is at most `MAX_RAMP_PERIODS`, but the cruise is the plan's own.
+        let ramp_periods = ramp.ramp_periods();
+        let total = ramp_periods
+            .checked_mul(2)
+            .and_then(|n| n.checked_add(plan.n_cruise))
+            .ok_or(FeedError::TooLong)?;
         ramp.start();
         if plan.n_cruise == 0 {
             // Stop as soon as the start ramp ends.
@@ -258,9 +268,9 @@ impl<T: Float> FeedFollower<T> {
         }
         Ok(Self {
             ramp,
-            ramp_periods: plan.ramp_periods(),
+            ramp_periods,
             n_cruise: plan.n_cruise,
-            total: plan.periods(),
+            total,
             period: 0,
             segment: 0,
             t: T::ZERO,

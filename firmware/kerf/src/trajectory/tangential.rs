@@ -61,6 +61,10 @@ enum Phase {
     Down,
 }
 
+/// Most periods one [`SpeedRamp`] (start or stop) may take, 2nj + nf: 2·10⁸, 5.6 hours
+/// at 10 kHz. Its double, a start and a stop, still counts in a `u32`.
+pub const MAX_RAMP_PERIODS: u32 = 200_000_000;
+
 /// Rest → V → rest with piecewise-constant jerk: +J′ for nj periods, 0 for nf, −J′ for
 /// nj (and mirrored to stop) — the constant-jerk S-curve of SPEC § trajectory (A §4).
 /// Phase lengths are whole periods, so each period integrates exactly
@@ -92,7 +96,7 @@ impl<T: Float> SpeedRamp<T> {
         let t_jerk = (a / j).min(libm::sqrt(v / j));
         let n_jerk = libm::ceil(t_jerk / ts).max(1.0);
         let n_flat = libm::ceil(v / a / ts - n_jerk).max(0.0);
-        if n_jerk + n_flat > 1e8 {
+        if 2.0 * n_jerk + n_flat > f64::from(MAX_RAMP_PERIODS) {
             return Err(ConfigError::out_of_range("speed_m_s"));
         }
         Self::from_periods(v, n_jerk as u32, n_flat as u32, ts)
@@ -104,8 +108,9 @@ impl<T: Float> SpeedRamp<T> {
     /// exactly on V (A eq. 53 at t3). A planner that chose the periods under its own
     /// limits (a rest-to-rest move, [`super::feed`]) builds its ramp here.
     ///
-    /// Errors: V or Ts not finite and positive, `n_jerk` zero (`OutOfRange` naming
-    /// `n_jerk`), or per-period terms the scalar `T` cannot hold (`NotRepresentable`).
+    /// Errors: V or Ts not finite and positive, `n_jerk` zero or a ramp of more than
+    /// [`MAX_RAMP_PERIODS`] periods (`OutOfRange` naming `n_jerk`), or per-period
+    /// terms the scalar `T` cannot hold (`NotRepresentable`).
     pub fn from_periods(
         speed_m_s: f64,
         n_jerk: u32,
@@ -114,7 +119,10 @@ impl<T: Float> SpeedRamp<T> {
     ) -> Result<Self, ConfigError> {
         let v = positive("speed_m_s", speed_m_s)?;
         let ts = positive("ts_s", ts_s)?;
-        if n_jerk == 0 {
+        // The ramp's period count 2nj + nf is a u32 (`ramp_periods`): past it the
+        // count would wrap, and a ramp of 2³¹ jerk periods would end after nf.
+        let ramp_periods = u64::from(n_jerk) * 2 + u64::from(n_flat);
+        if n_jerk == 0 || ramp_periods > u64::from(MAX_RAMP_PERIODS) {
             return Err(ConfigError::out_of_range("n_jerk"));
         }
         let (n_jerk_f, n_flat_f) = (f64::from(n_jerk), f64::from(n_flat));
@@ -485,11 +493,19 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
     /// A follower at rest at θ = `theta0`.
     ///
     /// Errors: a bad ramp configuration or acceleration limit, a ramp acceleration above
-    /// the limit, V·Ts longer than the curve, or V²κmax above the limit
+    /// the limit, a curve without length ([`ContourError::ZeroLength`]) or whose
+    /// length overflows `T` (`NotRepresentable` naming `curve`: every step's σ would),
+    /// V·Ts longer than the curve, or V²κmax above the limit
     /// ([`ContourError::SpeedAboveCurvatureLimit`] carries the highest allowed speed).
     pub fn new(curve: C, config: &FollowerConfig, theta0: f64) -> Result<Self, ContourError> {
         let limit = positive("accel_limit_m_s2", config.accel_limit_m_s2)?;
         let length = to_f64(curve.arc_length(T::ZERO, curve.span(), 16 * curve.pieces()));
+        if !length.is_finite() {
+            return Err(ConfigError::not_representable("curve").into());
+        }
+        if length <= 0.0 {
+            return Err(ContourError::ZeroLength);
+        }
         if config.ramp.speed_m_s * config.ramp.ts_s >= length {
             return Err(ContourError::StepLongerThanContour);
         }
@@ -677,13 +693,17 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
         let next = self.theta + dth;
         let taken = next - self.theta;
         let mut theta = next;
+        // The wrap's rounding correction is zero when 2π rounds exactly (f64), so
+        // whether θ wrapped is its own flag: every wrap is a lap.
         let mut wrap = T::ZERO;
+        let mut wrapped = false;
         let mut taken = taken;
         let mut clamped = false;
         if theta >= self.span {
             if self.closed {
                 theta -= self.span;
                 wrap = self.wrap_error;
+                wrapped = true;
             } else {
                 // The end of an open curve: no further. What is left of the step is
                 // dropped with the carry below.
@@ -711,7 +731,7 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
             self.lost = true;
             return Err(ContourError::LostContour);
         }
-        if wrap != T::ZERO {
+        if wrapped {
             self.laps = self.laps.wrapping_add(1);
         }
         self.theta = theta;

@@ -14,7 +14,8 @@ impl<T: Float> DeltaGeometry<T> {
     /// where A is singular or nearly so the line is parameterized along n instead. The
     /// line is then intersected with sphere 1 using the cancellation-free root formula.
     ///
-    /// NaN or ±∞ in q fails the travel check.
+    /// NaN or ±∞ in q fails the travel check. Sphere centres closer together than
+    /// `SINGULAR_SINE` times the arm length are [`KinematicsError::CoincidentCentres`].
     pub fn forward(&self, q: &Vector3<T>) -> Result<Vector3<T>, KinematicsError> {
         let [act1, act2, act3] = &self.actuators;
         let (d1, d2, d3) = (q.x, q.y, q.z);
@@ -32,7 +33,15 @@ impl<T: Float> DeltaGeometry<T> {
         let m1 = a1 - a3;
         let m2 = a2 - a3;
         let n = cross3(&m1, &m2);
-        let scale_sq = dot3(&m1, &m1) * dot3(&m2, &m2);
+        let (m1_sq, m2_sq) = (dot3(&m1, &m1), dot3(&m2, &m2));
+        // Absolute before relative: the direction between centres a rounding apart is
+        // arbitrary, so n of tiny m1, m2 can pass the sine tests below.
+        let m12 = m1 - m2;
+        let apart = self.coincident_sq_m2;
+        if !(exceeds(m1_sq, apart) && exceeds(m2_sq, apart) && exceeds(dot3(&m12, &m12), apart)) {
+            return Err(KinematicsError::CoincidentCentres);
+        }
+        let scale_sq = m1_sq * m2_sq;
         // Strict, so that nz = 0 never divides below (not even with the test hook
         // `elimination_sine_sq = 0`).
         if !exceeds(n.z * n.z, self.elimination_sine_sq * scale_sq) {
@@ -252,5 +261,37 @@ mod tests {
         assert!(loop_residual(&c, &q, &p) < ROUND_TRIP_M);
         let back = g.inverse(&p).unwrap();
         assert!((back - q).amax() < ROUND_TRIP_M, "{q} -> {p} -> {back}");
+    }
+    /// Vertical rails with equal base and effector radii put every sphere centre on
+    /// the z axis, up to the rounding of cos 90° (6e-17): at equal displacements the
+    /// three centres coincide within 1e-18 m, and their separations point anywhere,
+    /// so the sine tests pass on rounding. Refused by the absolute test, as is a
+    /// pair of centres closer than SINGULAR_SINE · l; centres 1 mm apart still solve.
+    #[test]
+    fn coincident_sphere_centres_are_refused() {
+        let mut c = DeltaConfig::VERTICAL;
+        for a in c.actuators.iter_mut() {
+            a.effector_radius_m = a.base_radius_m;
+        }
+        let g = geometry::<f64>(&c);
+        let g32 = geometry::<f32>(&c);
+        let d = 0.5 * (c.actuators[0].travel_min_m + c.actuators[0].travel_max_m);
+        assert_eq!(
+            g.forward(&V::repeat(d)),
+            Err(KinematicsError::CoincidentCentres)
+        );
+        assert_eq!(
+            g32.forward(&Vector3::repeat(d as f32)),
+            Err(KinematicsError::CoincidentCentres)
+        );
+        // The threshold from the geometry alone: SINGULAR_SINE × the mean arm.
+        let arm = libm::cbrt(c.actuators.iter().map(|a| a.arm_m).product::<f64>());
+        let limit = 1e-3 * arm;
+        // Centre i is at z = −di here: a pair (1, 3) closer than the limit, the other
+        // centre far, is refused; every pair beyond it is not.
+        let near = V::new(d + 0.5 * limit, d + 0.02, d);
+        assert_eq!(g.forward(&near), Err(KinematicsError::CoincidentCentres));
+        let spread = V::new(d + 0.01, d + 0.02, d);
+        assert_ne!(g.forward(&spread), Err(KinematicsError::CoincidentCentres));
     }
 }

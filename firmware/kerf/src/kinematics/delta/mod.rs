@@ -75,6 +75,12 @@ pub enum KinematicsError {
     /// The three sphere centres are (nearly) collinear: the arms' end points form a
     /// circle, not two points. Both forward closed forms fail only here.
     SingularCentres,
+    /// Two or three sphere centres (nearly) coincide: closer than
+    /// `SINGULAR_SINE` times the arm length, where the pose would move a
+    /// thousandfold more than the carriages and, near coincidence, is rounding alone.
+    /// The relative test of [`KinematicsError::SingularCentres`] cannot see it: the
+    /// direction between two points a rounding apart is arbitrary.
+    CoincidentCentres,
     /// J1 singular: arm `i` (`0..3`) is (nearly) perpendicular to its rail.
     SingularJ1(u8),
     /// J2 singular: the three arms are (nearly) coplanar.
@@ -227,6 +233,9 @@ pub struct DeltaGeometry<T> {
     fk_sign: T,
     /// SINGULAR_SINE · l1 l2 l3: the smallest |det J2| that is not singular.
     singular_det_m3: T,
+    /// (SINGULAR_SINE · l̄)², l̄ = (l1 l2 l3)^(1/3): the smallest squared distance
+    /// between two sphere centres that is not singular.
+    coincident_sq_m2: T,
     elimination_sine_sq: T,
     singular_sine_sq: T,
 }
@@ -319,6 +328,7 @@ impl<T: Float> DeltaGeometry<T> {
             actuators,
             fk_sign: lit(config.fk_root.sign()),
             singular_det_m3: lit(SINGULAR_SINE * arm_product),
+            coincident_sq_m2: lit(libm::pow(SINGULAR_SINE * libm::cbrt(arm_product), 2.0)),
             elimination_sine_sq: lit(ELIMINATION_SINE * ELIMINATION_SINE),
             singular_sine_sq: lit(SINGULAR_SINE * SINGULAR_SINE),
         })

@@ -361,6 +361,32 @@ fn bad_limits_and_lengths_are_refused() {
     );
 }
 
+/// A plan built by hand whose periods do not count in a `u32`: refused, where the
+/// follower's period count used to wrap (or overflow) on its total.
+#[test]
+fn hand_built_plans_beyond_a_u32_of_periods_are_refused() {
+    let plan = FeedPlan::rest_to_rest(0.01, &LIMITS).unwrap();
+    assert!(FeedFollower::<f64>::new(&plan).is_ok());
+    let endless = FeedPlan {
+        n_cruise: u32::MAX,
+        ..plan
+    };
+    assert_eq!(endless.periods(), u32::MAX);
+    assert_eq!(
+        FeedFollower::<f64>::new(&endless).err(),
+        Some(FeedError::TooLong)
+    );
+    let long_ramp = FeedPlan {
+        n_jerk: 1 << 31,
+        ..plan
+    };
+    assert_eq!(long_ramp.ramp_periods(), u32::MAX);
+    assert_eq!(
+        FeedFollower::<f64>::new(&long_ramp).err(),
+        Some(FeedError::Config(ConfigError::out_of_range("n_jerk")))
+    );
+}
+
 /// The pyramid of A §5 (fig. 26–27) as the G-code file the experiment runs.
 const PYRAMID: &str = include_str!("../../../../app/data/pyramid.gcode");
 

@@ -397,3 +397,128 @@ fn a_nearly_collinear_contour_is_never_jumped_along() {
     // It does reach an end of the stroke within the 4 s (a lap is ~60 mm at 10 mm/s).
     assert!(lost_at.is_some());
 }
+
+/// A ramp's period count 2nj + nf is a `u32`: phase lengths past
+/// [`MAX_RAMP_PERIODS`] are refused by name, where 2³¹ jerk periods used to wrap the
+/// count to nf and end the start ramp after one period, at full speed.
+#[test]
+fn speed_ramp_period_counts_beyond_the_limit_are_refused() {
+    let too_long = [
+        (1 << 31, 0),
+        (u32::MAX, 5),
+        (MAX_RAMP_PERIODS / 2, 1),
+        (1, MAX_RAMP_PERIODS),
+    ];
+    for (n_jerk, n_flat) in too_long {
+        assert_eq!(
+            SpeedRamp::<f64>::from_periods(0.01, n_jerk, n_flat, 1e-4).err(),
+            Some(ConfigError::out_of_range("n_jerk")),
+            "{n_jerk} {n_flat}"
+        );
+    }
+    // The longest accepted ramp starts on its jerk phase: after one period
+    // v = J′Ts²/2 with J′ = V/(nj²Ts²) (A eq. 51), far below V.
+    let n_jerk = MAX_RAMP_PERIODS / 2;
+    let mut ramp = SpeedRamp::<f64>::from_periods(0.01, n_jerk, 0, 1e-4).unwrap();
+    assert_eq!(ramp.ramp_periods(), MAX_RAMP_PERIODS);
+    ramp.start();
+    let first = ramp.step();
+    let expected = 0.5 * 0.01 / (f64::from(n_jerk) * f64::from(n_jerk));
+    assert!(
+        (first.v - expected).abs() <= 1e-12 * expected,
+        "{}",
+        first.v
+    );
+    assert!(!ramp.is_cruising());
+}
+
+/// `laps()` over several laps against laps counted apart from the follower: the arc
+/// from θ = 0 to the start plus the arc an `f64` ramp commanded, over the lap length
+/// (Simpson on the coefficients the scalar holds). Within two steps and the measured
+/// drift (below 1e-6 of the distance, `step_length_and_drift_over_whole_contours`)
+/// of a lap's end either count is right, so those periods are not compared.
+fn laps_match_the_distance_travelled<T: Float>() {
+    let ellipse: [[f64; 2]; 128] = shapes::ellipse(10e-3, 5e-3);
+    let config = config(0.05, 10.0);
+    let efd = Efd::<T, 30>::from_polygon(&ellipse, 30).unwrap();
+    let coefficients: Vec<[f64; 4]> = efd.coefficients().iter().map(|r| r.map(to_f64)).collect();
+    let sigma = |th: f64| speed_direct(&coefficients, th);
+    let lap = simpson(0.0, 2.0 * PI, 20_000, sigma);
+    let theta0 = 0.3;
+    let mut travelled = simpson(0.0, to_f64(lit::<T>(theta0)), 2_000, sigma);
+    let end = travelled + 5.5 * lap;
+    let mut f = ContourFollower::new(efd, &config, theta0).unwrap();
+    let mut ramp = SpeedRamp::<f64>::new(&config.ramp).unwrap();
+    f.start();
+    ramp.start();
+    let step = config.ramp.speed_m_s * config.ramp.ts_s;
+    let (mut compared, mut most) = (0, 0);
+    while travelled < end {
+        f.step().unwrap();
+        travelled += ramp.step().ds;
+        let laps = libm::floor(travelled / lap);
+        let from_end = (travelled - laps * lap).min((laps + 1.0) * lap - travelled);
+        if from_end > 2.0 * step + 1e-6 * travelled {
+            assert_eq!(f64::from(f.laps()), laps, "at {travelled} m");
+            compared += 1;
+            most = most.max(f.laps());
+        }
+    }
+    assert!(
+        most >= 5 && compared > 1000,
+        "{most} laps, {compared} periods"
+    );
+}
+
+#[test]
+fn laps_count_every_wrap_in_every_scalar() {
+    laps_match_the_distance_travelled::<f32>();
+    laps_match_the_distance_travelled::<f64>();
+}
+
+/// A circle of radius `r` as a user's own [`Curve`] (the trait is public), in f32.
+struct Circle {
+    r: f32,
+}
+
+impl Curve<f32> for Circle {
+    fn evaluate(&self, theta: f32) -> EfdSample<f32> {
+        let (s, c) = theta.fsin_cos();
+        let r = self.r;
+        EfdSample {
+            position: Vector2::new(r * c, r * s),
+            d1: Vector2::new(-r * s, r * c),
+            d2: Vector2::new(-r * c, -r * s),
+            d3: Vector2::new(r * s, -r * c),
+        }
+    }
+    fn tangent(&self, theta: f32) -> Vector2<f32> {
+        self.evaluate(theta).d1
+    }
+    fn span(&self) -> f32 {
+        lit(2.0 * PI)
+    }
+    fn is_closed(&self) -> bool {
+        true
+    }
+    fn pieces(&self) -> usize {
+        1
+    }
+}
+
+/// A curve whose arc length overflows the scalar (an f32 circle of 1e30 m: |C′|²
+/// is 1e60) had σ = ∞ on every step and no curvature limit (κ = ∞/∞): refused by
+/// name, where a curve of 10 mm is followed.
+#[test]
+fn a_curve_whose_length_overflows_the_scalar_is_refused() {
+    let config = config(0.01, 10.0);
+    assert!(CurveFollower::new(Circle { r: 0.01 }, &config, 0.0).is_ok());
+    let huge = Circle { r: 1e30 };
+    assert!(huge.arc_length(0.0, lit(2.0 * PI), 16).is_infinite());
+    assert_eq!(
+        CurveFollower::new(huge, &config, 0.0).err(),
+        Some(ContourError::Config(ConfigError::not_representable(
+            "curve"
+        )))
+    );
+}
