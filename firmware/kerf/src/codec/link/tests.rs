@@ -297,3 +297,68 @@ proptest::proptest! {
         }
     }
 }
+
+/// A telemetry message with `value` in field `field` (0..11: position, reference,
+/// error, force, laser), framed by hand (version, postcard, CRC-32, COBS) as a sender
+/// that does not check would frame it.
+fn telemetry_frame(field: usize, value: f32) -> Vec<u8> {
+    let mut sample = TelemetrySample {
+        period: 9,
+        mode: ModeCode::Running,
+        position_m: [1e-3, -2e-3, 0.05],
+        reference_m: [1e-3, -2e-3, 0.05],
+        error_m: 3e-7,
+        force_n: [1.0, -2.5, 9.0],
+        laser_w: 12.5,
+    };
+    let slot = match field {
+        0..=2 => &mut sample.position_m[field],
+        3..=5 => &mut sample.reference_m[field - 3],
+        6 => &mut sample.error_m,
+        7..=9 => &mut sample.force_n[field - 7],
+        _ => &mut sample.laser_w,
+    };
+    *slot = value;
+    let mut payload = Vec::from([VERSION]);
+    let mut body = [0u8; 128];
+    let message = MachineMessage::Telemetry(sample);
+    payload.extend_from_slice(postcard::to_slice(&message, &mut body).unwrap());
+    let crc = crc32_bitwise(&payload);
+    payload.extend_from_slice(&crc.to_le_bytes());
+    let mut encoded = [0u8; MAX_FRAME];
+    let n = cobs::encode(&payload, &mut encoded);
+    encoded[..n].to_vec()
+}
+
+/// Every telemetry value NaN or infinite in turn: the decoder refuses the frame with
+/// its own error (its CRC is right), and the encoder refuses to write it; the largest
+/// finite values pass both ways.
+#[test]
+fn non_finite_telemetry_is_refused_both_ways() {
+    for field in 0..11 {
+        for value in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let mut frame = telemetry_frame(field, value);
+            assert_eq!(
+                decode::<MachineMessage>(&mut frame),
+                Err(FrameError::NotFinite),
+                "field {field} = {value}"
+            );
+            let mut raw = telemetry_frame(field, value);
+            let n = cobs::decode_in_place(&mut raw).unwrap();
+            let message = postcard::from_bytes::<MachineMessage>(&raw[1..n - 4]).unwrap();
+            let mut out = [0u8; MAX_FRAME];
+            assert_eq!(encode(&message, &mut out), Err(FrameError::NotFinite));
+        }
+        for value in [f32::MAX, f32::MIN, f32::MIN_POSITIVE, -0.0] {
+            let mut frame = telemetry_frame(field, value);
+            let message = decode::<MachineMessage>(&mut frame).unwrap();
+            let mut out = [0u8; MAX_FRAME];
+            let n = encode(&message, &mut out).unwrap();
+            assert_eq!(
+                decode::<MachineMessage>(&mut out[1..n - 1]).unwrap(),
+                message,
+                "field {field} = {value}"
+            );
+        }
+    }
+}
