@@ -13,7 +13,8 @@
 //! mid-stream, or sees garbage, resynchronises at the next zero byte: the leading
 //! delimiter ends whatever garbage came before, and the frame itself is not lost. A frame carries at most [`MAX_PAYLOAD`] bytes before
 //! COBS; job data travels in chunks of at most [`MAX_CHUNK`] bytes. Past the CRC the
-//! message's values are checked ([`LinkMessage::check`]: telemetry is finite), by the
+//! message's values are checked ([`LinkMessage::check`]: telemetry is finite, a chunk
+//! and a hello within their stated ranges), by the
 //! encoder as by the decoder, so nothing written is refused when read.
 //!
 //! # Conversation
@@ -379,6 +380,10 @@ pub enum FrameError {
     /// The message carries a NaN or infinite value (telemetry): a machine's reading is
     /// a number or a fault, never a NaN on the wire.
     NotFinite,
+    /// A field is outside its stated range: a [`Request::JobChunk`] of more than
+    /// [`MAX_CHUNK`] bytes, a [`Reply::Hello`] with a zero period or a largest chunk of
+    /// 0 or more than [`MAX_CHUNK`].
+    OutOfRange,
     /// The output buffer is too small for the frame.
     NoRoom,
 }
@@ -387,24 +392,45 @@ pub enum FrameError {
 /// that the encoder writes nothing the decoder refuses.
 pub trait LinkMessage {
     /// Every value in its stated range: [`FrameError::NotFinite`] for a NaN or an
-    /// infinity.
+    /// infinity, [`FrameError::OutOfRange`] for a field outside its documented range.
     fn check(&self) -> Result<(), FrameError>;
 }
 
 impl LinkMessage for HostFrame<'_> {
-    /// A request carries no floating-point value (a setting's value is JSON text,
-    /// checked as a configuration when it is applied).
+    /// A chunk holds at most [`MAX_CHUNK`] bytes; the other requests' fields take any
+    /// value of their type (a setting's value is JSON text, checked as a
+    /// configuration when it is applied).
     fn check(&self) -> Result<(), FrameError> {
-        Ok(())
+        match self.request {
+            Request::JobChunk { data, .. } if data.len() > MAX_CHUNK => Err(FrameError::OutOfRange),
+            _ => Ok(()),
+        }
     }
 }
 
 impl LinkMessage for MachineMessage<'_> {
-    /// Telemetry is checked ([`TelemetrySample::check`]); replies and events carry
-    /// no floating-point value.
+    /// Telemetry is checked ([`TelemetrySample::check`]); a hello's period is
+    /// positive and its largest chunk 1 to [`MAX_CHUNK`] bytes; the other replies'
+    /// and the events' fields take any value of their type.
     fn check(&self) -> Result<(), FrameError> {
         match self {
             Self::Telemetry(sample) => sample.check(),
+            Self::Reply {
+                reply:
+                    Reply::Hello {
+                        max_chunk,
+                        period_ns,
+                        ..
+                    },
+                ..
+            } => {
+                let chunk_ok = (1..=MAX_CHUNK).contains(&usize::from(*max_chunk));
+                if chunk_ok && *period_ns > 0 {
+                    Ok(())
+                } else {
+                    Err(FrameError::OutOfRange)
+                }
+            }
             Self::Reply { .. } | Self::Event(_) => Ok(()),
         }
     }
