@@ -14,7 +14,7 @@ fn main() {
             // the board's 128 KiB (memory.x); 1 MiB of the model's 4 MiB SRAM.
             println!("cargo:rustc-link-arg-bin=contour=--defsym=_kerf_ram_length=0x100000");
             // The remote image's slave calibrates in place (the fit's working set on
-            // the stack) and carries the recorded frames (87 KB) beside its code.
+            // the stack) and carries the recorded frames (88 KB) beside its code.
             println!("cargo:rustc-link-arg-bin=remote=--defsym=_kerf_ram_length=0x100000");
             println!("cargo:rustc-link-arg-bin=remote=--defsym=_kerf_flash_length=0x100000");
             // The link image carries the simulated delta like the contour image.

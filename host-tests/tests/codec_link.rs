@@ -7,8 +7,8 @@ use std::collections::BTreeSet;
 
 use hal_mock::link::{FrameEnd, LinkConfig};
 use host_tests::signals::{self, snr_db};
-use kerf::app::stream::{SignalReceiver, SignalSender, StreamError};
-use kerf::codec::packet::{self, PacketError, MAX_PACKET_LEN};
+use kerf::app::stream::{SignalReceiver, SignalSender, StreamError, FRAME_CRC_LEN, MAX_FRAME_LEN};
+use kerf::codec::packet::{self, PacketError};
 use kerf::codec::sdct::{SdctConfig, SdctDecoder, Selection};
 use kerf::hal::{FrameLink, LinkBusy};
 
@@ -29,14 +29,15 @@ struct Outcome {
 /// The simulated link end, recording what went in: each frame's sequence number,
 /// whether the link lost it, and its block decoded directly (no link).
 struct Tap {
-    end: FrameEnd<MAX_PACKET_LEN, 64>,
+    end: FrameEnd<MAX_FRAME_LEN, 64>,
     lost: BTreeSet<u16>,
     direct: Vec<f64>,
 }
 
 impl FrameLink for Tap {
     fn send(&mut self, frame: &[u8]) -> Result<(), LinkBusy> {
-        let p = packet::parse(frame).unwrap();
+        // One channel and no header: the frame is one packet and the frame's CRC.
+        let p = packet::parse(&frame[..frame.len() - FRAME_CRC_LEN]).unwrap();
         let mut y = [0.0f32; N];
         SdctDecoder::<N>::new()
             .unwrap()
@@ -210,7 +211,7 @@ fn a_restarted_sender_is_accepted_again_within_the_stated_bound() {
         m: M,
         selection: Selection::Largest,
     };
-    let mut link = FrameEnd::<MAX_PACKET_LEN, 64>::new(&config).unwrap();
+    let mut link = FrameEnd::<MAX_FRAME_LEN, 64>::new(&config).unwrap();
     let mut receiver = SignalReceiver::<N>::new().unwrap();
     let mut y = [0.0f32; N];
     // (sequences seen so far, sequence, resynchronised) of every accepted block: the

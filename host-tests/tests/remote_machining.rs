@@ -7,6 +7,7 @@ use host_tests::remote::{
     run, Faults, Network, RemoteCase, RemoteRun, D, LASER_POWER_W, N, OPERATOR_SPEED_M_S, TS,
 };
 use kerf::app::remote_slave::RemoteSlaveFault;
+use kerf::app::stream::FRAME_CRC_LEN;
 use kerf::app::supervisor::Mode;
 use kerf::control::laser::LaserMode;
 
@@ -148,8 +149,8 @@ fn packet_loss_and_compression() {
         out.push((max, r));
     }
     // Three f32 channels at 1 kHz with the same 13-byte packet overhead per block and
-    // channel, and the same 8-byte frame header.
-    let raw = 1000.0 * 12.0 + (3.0 * 13.0 + 8.0) * 1000.0 / N as f64;
+    // channel, and the same 8-byte frame header and frame CRC.
+    let raw = 1000.0 * 12.0 + (3.0 * 13.0 + 8.0 + FRAME_CRC_LEN as f64) * 1000.0 / N as f64;
     println!(
         "uncompressed f32 samples: {raw:.0} bytes/s; coding latency: a block of {N} samples at {} Hz, {:.0} ms for its first sample",
         1.0 / (f64::from(D) * TS),

@@ -99,6 +99,8 @@ pub struct LinkCounters {
 /// The host link of one machine with a job buffer of `J` bytes.
 pub struct HostLink<M: LinkMachine, const J: usize> {
     config: HostLinkConfig,
+    /// The control period as `Hello` carries it.
+    period_ns: u32,
     context: M::JobContext,
     reader: FrameReader<MAX_FRAME>,
     upload: Option<Upload<J>>,
@@ -114,10 +116,16 @@ pub struct HostLink<M: LinkMachine, const J: usize> {
     counters: LinkCounters,
 }
 
-/// A period in s as whole ns, rounded (positive; saturates past 4.3 s, which no
-/// control period comes near).
-fn period_ns(period_s: f64) -> u32 {
-    (period_s * 1e9 + 0.5) as u32
+/// A period in s as `Hello` carries it, whole ns rounded; `None` when that is 0 or
+/// past `u32::MAX` ns (4.29 s), which the link refuses ([`FrameError::OutOfRange`]
+/// for a zero) or cannot hold.
+///
+/// [`FrameError::OutOfRange`]: crate::codec::link::FrameError::OutOfRange
+fn period_ns(period_s: f64) -> Option<u32> {
+    let ns = libm::round(period_s * 1e9);
+    (1.0..=f64::from(u32::MAX))
+        .contains(&ns)
+        .then_some(ns as u32)
 }
 
 /// The wire form of a supervisor mode.
@@ -136,16 +144,19 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
     /// A link whose settings start at `settings` (the ones the machine runs), building
     /// jobs in `context`.
     ///
-    /// Errors: a period or timeout not finite and positive.
+    /// Errors: a period or timeout not finite and positive; a period `Hello` cannot
+    /// carry (below 0.5 ns or past 4.29 s).
     pub fn new(
         config: &HostLinkConfig,
         settings: M::Settings,
         context: M::JobContext,
     ) -> Result<Self, ConfigError> {
-        positive("period_s", config.period_s)?;
+        let period_ns = period_ns(positive("period_s", config.period_s)?)
+            .ok_or(ConfigError::out_of_range("period_s"))?;
         positive("heartbeat_timeout_s", config.heartbeat_timeout_s)?;
         Ok(Self {
             config: *config,
+            period_ns,
             context,
             reader: FrameReader::new(),
             upload: None,
@@ -268,7 +279,7 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
                     version: VERSION,
                     machine: M::NAME,
                     max_chunk: MAX_CHUNK as u16,
-                    period_ns: period_ns(self.config.period_s),
+                    period_ns: self.period_ns,
                 },
                 send,
             ),

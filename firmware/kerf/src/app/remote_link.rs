@@ -9,14 +9,18 @@
 //! so N ≤ 16). Slave → master: the slave's effector position on the same sample
 //! clock, in frames behind a 7-byte header: the tick of the command it was executing
 //! at the block's last sample (u32), the master session it belongs to (u16), and a
-//! flag byte (bit 0: the tick is valid, i.e. a command had played).
+//! flag byte (bit 0: the tick is valid, i.e. a command had played). Both headers are
+//! under the stream frame's CRC-32 with the packets (`app::stream`), so one flipped
+//! bit in a beam mask, a session or a tick refuses the frame instead of firing the
+//! beam, restarting the playout or moving a block.
 //!
 //! The slave end plays the commands out (`app::playout`) at a fixed latency; a frame
 //! of a new session (the master restarted) restarts the playout, so the new master's
 //! ticks are not refused as stale. The master end passes the newest report to its
 //! machine; a report of another session (the slave has not yet heard from this
-//! master) can start the delay observer but never corrects it. Frames the packet layer
-//! refuses (bad CRC, cut, spliced, replayed, out of order) are dropped and counted.
+//! master) can start the delay observer but never corrects it. Frames the stream
+//! refuses (bad frame or packet CRC, cut, spliced, replayed, out of order) are dropped
+//! and counted.
 
 use crate::app::playout::{Playing, Playout};
 use crate::app::remote_master::SlaveReport;
@@ -113,7 +117,7 @@ impl<const N: usize> MasterLink<N> {
         let _ = self.commands.push_frame(c.acceleration_m_s2, &header, link);
     }
 
-    /// The newest report that arrived (frames the packet layer refuses are counted).
+    /// The newest report that arrived (frames the stream refuses are counted).
     pub fn receive(&mut self, link: &mut impl FrameLink) -> Option<SlaveReport> {
         let mut newest = None;
         let mut header = [0u8; REPORT_HEADER];
@@ -294,16 +298,79 @@ mod tests {
         selection: Selection::Largest,
     };
 
-    /// Sends 8 commands (one block) of session `session` from tick `first`, the beam
-    /// on for the odd ones.
+    /// Sends 8 commands (one block) from tick `first`, the beam on for the odd ones.
     fn block(master: &mut MasterLink<8>, link: &mut Loopback, first: u32) {
+        beam_block(master, link, first, 0b1010_1010);
+    }
+
+    /// Sends 8 commands (one block) from tick `first`, ten ticks apart, the beam on
+    /// where `beam` has a bit set.
+    fn beam_block(master: &mut MasterLink<8>, link: &mut Loopback, first: u32, beam: u8) {
         for j in 0..8u32 {
             let command = RemoteCommand {
                 acceleration_m_s2: [0.01 * j as f32, -0.02, 0.0],
-                laser_on: j % 2 == 1,
+                laser_on: beam >> j & 1 == 1,
             };
             master.send(Some((first + 10 * j, command)), link);
         }
+    }
+
+    /// Every bit of a command frame's header flipped in turn (session, tick, beam
+    /// mask): the slave refuses the frame, so the beam stays off for a block the
+    /// master sent dark, the session does not restart and no tick of the block plays.
+    #[test]
+    fn a_flipped_command_header_bit_is_refused_and_never_fires_the_beam() {
+        let mut link = Loopback::default();
+        let mut master = MasterLink::<8>::new(&SDCT, 7, 1e-3).unwrap();
+        let mut slave = SlaveLink::<8, 64>::new(&SDCT, 10, 0).unwrap();
+        beam_block(&mut master, &mut link, 1, 0);
+        let (first, _) = slave.receive(0, &mut link);
+        assert!(first.is_some_and(|c| !c.laser_on));
+        beam_block(&mut master, &mut link, 81, 0);
+        let frame = link.0.remove(0);
+        // What the first block alone plays from period 1 on: ticks 11 to 71.
+        let expected: Vec<u32> = (1..8).map(|j| 1 + 10 * j).collect();
+        for bit in 0..8 * COMMAND_HEADER {
+            let mut flipped = frame.clone();
+            flipped[bit / 8] ^= 1 << (bit % 8);
+            let mut slave = slave.clone();
+            let mut bad = Loopback(std::vec![flipped]);
+            let (mut beam, mut ticks) = (false, Vec::new());
+            for now in 1..200u32 {
+                let (command, fresh) = slave.receive(now, &mut bad);
+                beam |= command.is_some_and(|c| c.laser_on);
+                if fresh {
+                    ticks.extend(slave.executing());
+                }
+            }
+            assert!(!beam, "bit {bit} fired the beam");
+            assert_eq!((slave.refused(), slave.restarts()), (1, 0), "bit {bit}");
+            assert_eq!(ticks, expected, "bit {bit}");
+        }
+    }
+
+    /// Every bit of a report frame's header flipped in turn (echo tick, session,
+    /// flags): the master refuses the frame and reports nothing from it.
+    #[test]
+    fn a_flipped_report_header_bit_is_refused() {
+        let (mut link, mut back) = (Loopback::default(), Loopback::default());
+        let mut master = MasterLink::<8>::new(&SDCT, 3, 1e-3).unwrap();
+        let mut slave = SlaveLink::<8, 64>::new(&SDCT, 1, 0).unwrap();
+        block(&mut master, &mut link, 5);
+        let _ = slave.receive(0, &mut link);
+        for _ in 0..8 {
+            slave.report(Some([0.001, 0.002, 0.05]), &mut back);
+        }
+        let frame = back.0.remove(0);
+        for bit in 0..8 * REPORT_HEADER {
+            let mut flipped = frame.clone();
+            flipped[bit / 8] ^= 1 << (bit % 8);
+            let mut master = master.clone();
+            let report = master.receive(&mut Loopback(std::vec![flipped]));
+            assert_eq!((report, master.refused()), (None, 1), "bit {bit}");
+        }
+        let report = master.receive(&mut Loopback(std::vec![frame])).unwrap();
+        assert_eq!((report.echo_tick, master.refused()), (Some(5), 0));
     }
 
     #[test]

@@ -1,8 +1,20 @@
 //! A machine's signals sent over a [`FrameLink`] (SPEC `codec::sdct`, T 7.2.3): blocks
 //! of N samples of each of C channels sampled together, SDCT-coded, one frame per
-//! block — the caller's header, then a packet per channel, each with the block's
-//! sequence number and the index of its first sample; the receiver validates the
-//! frame and its order and reconstructs.
+//! block; the receiver validates the frame and its order and reconstructs.
+//!
+//! # Frame
+//!
+//! | bytes | field |
+//! |---|---|
+//! | h | the caller's header (0 to [`MAX_FRAME_HEADER`] bytes; both ends agree on h) |
+//! | C × (13 to [`MAX_PACKET_LEN`]) | one packet per channel ([`packet`]: the block's sequence number, the index of its first sample, its own CRC-16) |
+//! | 4 | CRC-32 (ISO-HDLC, [`crc32`]) of every byte before it, little-endian |
+//!
+//! The trailing CRC covers the caller's header, which no packet CRC does: the
+//! receiver checks it before it reads anything else, so a frame with one flipped bit
+//! anywhere (a beam mask, a session, a tick) is refused whole. CRC-32 detects every
+//! error of up to three bits and every burst of up to 32 bits in frames of this size
+//! (at most [`MAX_FRAME_LEN`] bytes).
 //!
 //! The master sends the slave its motion this way, a machine its telemetry to the
 //! host. Both ends are sans-IO apart from the link, never block (a busy link drops
@@ -44,6 +56,7 @@
 //! assert_eq!((second.sequence, second.first_sample), (1, 32));
 //! ```
 
+use crate::codec::link::crc32;
 use crate::codec::packet::{self, PacketDecoder, PacketError, MAX_PACKET_LEN};
 use crate::codec::sdct::{Block, EncodeError, SdctConfig, SdctDecoder, SdctEncoder};
 use crate::error::ConfigError;
@@ -53,8 +66,11 @@ use crate::hal::{FrameLink, LinkBusy};
 pub const MAX_CHANNELS: usize = 4;
 /// Most bytes of the caller's header ahead of a frame's packets.
 pub const MAX_FRAME_HEADER: usize = 8;
-/// The longest frame: the header and [`MAX_CHANNELS`] packets of the largest size.
-pub const MAX_FRAME_LEN: usize = MAX_FRAME_HEADER + MAX_CHANNELS * MAX_PACKET_LEN;
+/// Bytes of the frame's trailing CRC-32.
+pub const FRAME_CRC_LEN: usize = 4;
+/// The longest frame: the header, [`MAX_CHANNELS`] packets of the largest size and
+/// the CRC.
+pub const MAX_FRAME_LEN: usize = MAX_FRAME_HEADER + MAX_CHANNELS * MAX_PACKET_LEN + FRAME_CRC_LEN;
 
 /// Why a block was not sent, or a frame not accepted.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -67,8 +83,10 @@ pub enum StreamError {
     /// The link was busy: the block is dropped.
     Busy(LinkBusy),
     /// A received frame's packets disagree (channel count, sequence number or
-    /// timestamp), or it is shorter than its header.
+    /// timestamp), or it is shorter than its header and CRC.
     Frame,
+    /// A received frame's CRC-32 does not match its bytes (header included).
+    Crc,
 }
 
 impl From<PacketError> for StreamError {
@@ -162,7 +180,12 @@ impl<const C: usize, const N: usize> StreamSender<C, N> {
             // The low 32 bits on the wire; the receiver unwraps them.
             len += packet::encode(&block, sequence, first_sample as u32, out)?;
         }
-        let frame = frame.get(..len).unwrap_or(&[]);
+        let crc = crc32(frame.get(..len).unwrap_or(&[]));
+        frame
+            .get_mut(len..len + FRAME_CRC_LEN)
+            .ok_or(StreamError::Packet(PacketError::BufferTooSmall))?
+            .copy_from_slice(&crc.to_le_bytes());
+        let frame = frame.get(..len + FRAME_CRC_LEN).unwrap_or(&[]);
         link.send(frame).map_err(StreamError::Busy)
     }
 
@@ -230,8 +253,9 @@ impl<const C: usize, const N: usize> StreamReceiver<C, N> {
 
     /// The next frame on `link`, if any: its header copied into `header` (whose length
     /// is the header's), every channel's block reconstructed into `out`; or why the
-    /// frame was rejected (`out` untouched, the sequence state unchanged). All packets
-    /// are validated before any is accepted.
+    /// frame was rejected (`header` and `out` untouched, the sequence state
+    /// unchanged). The frame's CRC is checked first, then every packet, before any
+    /// is accepted.
     pub fn poll_frame(
         &mut self,
         link: &mut impl FrameLink,
@@ -250,7 +274,14 @@ impl<const C: usize, const N: usize> StreamReceiver<C, N> {
         header: &mut [u8],
         out: &mut [[f32; N]; C],
     ) -> Result<ReceivedBlock, StreamError> {
-        let (head, mut rest) = bytes
+        let (checked, crc) = bytes
+            .split_last_chunk::<FRAME_CRC_LEN>()
+            .filter(|(checked, _)| checked.len() >= header.len())
+            .ok_or(StreamError::Frame)?;
+        if crc32(checked) != u32::from_le_bytes(*crc) {
+            return Err(StreamError::Crc);
+        }
+        let (head, mut rest) = checked
             .split_at_checked(header.len())
             .ok_or(StreamError::Frame)?;
         let mut blocks = [Block::<N>::from_parts(0, [0.0; N]); C];
@@ -361,7 +392,8 @@ pub(crate) mod tests {
 
     /// Three channels in one frame behind a 4-byte header: each comes back to its own
     /// signal within the Q15 step, the header unchanged; a frame whose packets were
-    /// cut, or spliced from two blocks, is rejected without moving the sequence state.
+    /// cut, or spliced from two blocks, is rejected without moving the sequence state
+    /// (by its CRC, and by the packets' checks when the CRC was sealed over the damage).
     #[test]
     fn three_channels_share_a_frame_and_a_sequence() {
         let config = SdctConfig {
@@ -381,28 +413,40 @@ pub(crate) mod tests {
         }
         assert_eq!(link.0.len(), 3);
         // Splice: the first frame's header and packets 0–1 with the second frame's
-        // packet 2; then the first frame cut short by one byte.
+        // packet 2 (its CRC as sent, then sealed again as a faulty sender would); the
+        // first frame cut short by one byte, and its last packet cut with the CRC
+        // sealed again.
+        let seal = |mut body: Vec<u8>| {
+            let crc = crc32(&body);
+            body.extend_from_slice(&crc.to_le_bytes());
+            body
+        };
         let lens: Vec<usize> = {
             let f = &link.0[0];
             let a = packet::packet_len(&f[4..]).unwrap();
             let b = packet::packet_len(&f[4 + a..]).unwrap();
-            std::vec![4 + a + b, f.len()]
+            std::vec![4 + a + b, f.len() - FRAME_CRC_LEN]
         };
         let mut spliced = link.0[0][..lens[0]].to_vec();
         spliced.extend_from_slice(&link.0[1][lens[0]..]);
+        let resealed = seal(spliced[..spliced.len() - FRAME_CRC_LEN].to_vec());
         let mut cut = link.0[0].clone();
         cut.pop();
-        let mut bad = Loopback(std::vec![spliced, cut]);
+        let cut_packet = seal(link.0[0][..lens[1] - 1].to_vec());
+        let mut bad = Loopback(std::vec![spliced, resealed, cut, cut_packet]);
         let mut header = [0u8; 4];
         let mut out = [[0.0f32; 16]; 3];
-        assert_eq!(
-            receiver.poll_frame(&mut bad, &mut header, &mut out),
-            Some(Err(StreamError::Frame))
-        );
-        assert_eq!(
-            receiver.poll_frame(&mut bad, &mut header, &mut out),
-            Some(Err(StreamError::Packet(PacketError::Truncated)))
-        );
+        for expected in [
+            StreamError::Crc,
+            StreamError::Frame,
+            StreamError::Crc,
+            StreamError::Packet(PacketError::Truncated),
+        ] {
+            assert_eq!(
+                receiver.poll_frame(&mut bad, &mut header, &mut out),
+                Some(Err(expected))
+            );
+        }
         assert_eq!(out, [[0.0; 16]; 3]);
         for b in 0..3u32 {
             let block = receiver
@@ -422,5 +466,45 @@ pub(crate) mod tests {
                 }
             }
         }
+    }
+
+    /// Every bit of a frame flipped in turn, its caller's header included: each is
+    /// refused with the header, the blocks and the sequence state untouched, and the
+    /// intact frame is then accepted as the first block.
+    #[test]
+    fn a_frame_with_any_bit_flipped_is_refused() {
+        let config = SdctConfig {
+            m: 4,
+            selection: Selection::Largest,
+        };
+        let mut sender = StreamSender::<2, 8>::new(&config).unwrap();
+        let mut receiver = StreamReceiver::<2, 8>::new().unwrap();
+        let mut link = Loopback::default();
+        for k in 0..8 {
+            let samples = [k as f32 * 0.25, 1.0 - k as f32 * 0.5];
+            sender
+                .push_frame(samples, &[0xA5, 0x00, 0xFF, 0x3C, 0x01], &mut link)
+                .unwrap();
+        }
+        let frame = link.0.remove(0);
+        for bit in 0..8 * frame.len() {
+            let mut flipped = frame.clone();
+            flipped[bit / 8] ^= 1 << (bit % 8);
+            let (mut header, mut out) = ([0u8; 5], [[0.0f32; 8]; 2]);
+            let result =
+                receiver.poll_frame(&mut Loopback(std::vec![flipped]), &mut header, &mut out);
+            assert!(matches!(result, Some(Err(_))), "bit {bit}: {result:?}");
+            assert_eq!((header, out), ([0; 5], [[0.0; 8]; 2]), "bit {bit}");
+        }
+        let (mut header, mut out) = ([0u8; 5], [[0.0f32; 8]; 2]);
+        let block = receiver
+            .poll_frame(&mut Loopback(std::vec![frame]), &mut header, &mut out)
+            .unwrap()
+            .unwrap();
+        assert_eq!(
+            (block.sequence, block.gap, block.resynchronised),
+            (0, 0, false)
+        );
+        assert_eq!(header, [0xA5, 0x00, 0xFF, 0x3C, 0x01]);
     }
 }

@@ -248,40 +248,50 @@ fn write(
     Ok(len)
 }
 
+/// A value as the file stores it: f32, rounded to nearest (a finite f64 beyond
+/// f32::MAX rounds to infinity).
+fn stored(v: &f64) -> f32 {
+    *v as f32
+}
+
+/// Writes `values` as the body of a job of `kind`, each as the file stores it, after
+/// checking every stored value the way [`JobFile::read`] does (finite in f32, not in
+/// f64), so the writer never writes a file its reader refuses.
+fn write_values<'v>(
+    kind: u8,
+    count: usize,
+    values: impl Iterator<Item = &'v f64> + Clone,
+    out: &mut [u8],
+) -> Result<usize, JobFileError> {
+    if !values.clone().all(|v| stored(v).is_finite()) {
+        return Err(JobFileError::NotFinite);
+    }
+    let body_bytes = 4 * values.clone().count();
+    write(kind, count, body_bytes, out, |body| {
+        for (chunk, v) in body.chunks_exact_mut(4).zip(values) {
+            chunk.copy_from_slice(&stored(v).to_le_bytes());
+        }
+    })
+}
+
 /// Writes an EFD job (centre and harmonics, m, stored as f32).
+///
+/// Errors: [`JobFileError::NotFinite`] for a value that is not finite once stored (NaN,
+/// infinite, or beyond f32's range); [`JobFileError::NoRoom`].
 pub fn write_efd(
     centre_m: [f64; 2],
     coefficients: &[[f64; 4]],
     out: &mut [u8],
 ) -> Result<usize, JobFileError> {
     let values = centre_m.iter().chain(coefficients.iter().flatten());
-    if !values.clone().all(|v| v.is_finite()) {
-        return Err(JobFileError::NotFinite);
-    }
-    write(
-        0,
-        coefficients.len(),
-        8 + 16 * coefficients.len(),
-        out,
-        |body| {
-            for (chunk, v) in body.chunks_exact_mut(4).zip(values) {
-                chunk.copy_from_slice(&(*v as f32).to_le_bytes());
-            }
-        },
-    )
+    write_values(0, coefficients.len(), values, out)
 }
 
 /// Writes a point job ((x, y) per point, m, stored as f32).
+///
+/// Errors: as [`write_efd`].
 pub fn write_points(points: &[[f64; 2]], out: &mut [u8]) -> Result<usize, JobFileError> {
-    let values = points.iter().flatten();
-    if !values.clone().all(|v| v.is_finite()) {
-        return Err(JobFileError::NotFinite);
-    }
-    write(1, points.len(), 8 * points.len(), out, |body| {
-        for (chunk, v) in body.chunks_exact_mut(4).zip(values) {
-            chunk.copy_from_slice(&(*v as f32).to_le_bytes());
-        }
-    })
+    write_values(1, points.len(), points.iter().flatten(), out)
 }
 
 /// Writes a G-code job.
@@ -342,5 +352,68 @@ mod tests {
             write_gcode(&[b'x'; 600], &mut buf),
             Err(JobFileError::NoRoom)
         );
+    }
+
+    /// Values at the boundary of what the file stores (f32): every value the writer
+    /// accepts, the reader accepts and returns as its f32 rounding; the rest (beyond
+    /// f32::MAX once rounded, NaN, infinities) the writer refuses. 1e39 and
+    /// f32::MAX · (1 + 2^-24) are finite in f64 and round to infinity in f32.
+    #[test]
+    fn the_writer_writes_only_what_the_reader_reads() {
+        let max = f64::from(f32::MAX);
+        // The f32 rounding boundary: halfway from f32::MAX (2^128 − 2^104) to 2^128,
+        // which rounds to even, that is to infinity; just below it, to f32::MAX.
+        let halfway = f64::powi(2.0, 128) - f64::powi(2.0, 103);
+        let values = [
+            0.0,
+            -0.0,
+            1e-3,
+            f64::from(f32::MIN_POSITIVE),
+            1e-46,
+            f64::MIN_POSITIVE,
+            max,
+            -max,
+            halfway - f64::powi(2.0, 75),
+            halfway,
+            -halfway,
+            1e39,
+            -1e39,
+            f64::MAX,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        let mut buf = [0u8; 64];
+        for (i, &v) in values.iter().enumerate() {
+            let stored = v as f32;
+            let others = [1e-3, -2e-3, 3e-3];
+            let mut point = [[others[0], others[1]], [others[2], 0.0]];
+            point[i % 2][i % 2] = v;
+            let written = [
+                write_points(&point, &mut buf).map(|n| {
+                    let file = JobFile::read(&buf[..n]);
+                    file.map(|f| f.point(i % 2).map(|p| p[i % 2]))
+                }),
+                write_efd([v, 0.0], &[[1e-3, 0.0, 0.0, 1e-3]], &mut buf).map(|n| {
+                    let file = JobFile::read(&buf[..n]);
+                    file.map(|f| match f {
+                        JobFile::Efd { centre_m, .. } => Some(centre_m[0]),
+                        _ => None,
+                    })
+                }),
+                write_efd([0.0, 0.0], &[[1e-3, 0.0, v, 1e-3]], &mut buf).map(|n| {
+                    let file = JobFile::read(&buf[..n]);
+                    file.map(|f| f.harmonic(0).map(|h| h[2]))
+                }),
+            ];
+            for result in written {
+                if stored.is_finite() {
+                    let read = result.expect("written").expect("read").expect("value");
+                    assert_eq!(read.to_bits(), stored.to_bits(), "{v}");
+                } else {
+                    assert_eq!(result, Err(JobFileError::NotFinite), "{v}");
+                }
+            }
+        }
     }
 }

@@ -12,7 +12,10 @@
 //! The whole is COBS-encoded between two 0x00 delimiters, so a receiver that joins
 //! mid-stream, or sees garbage, resynchronises at the next zero byte: the leading
 //! delimiter ends whatever garbage came before, and the frame itself is not lost. A frame carries at most [`MAX_PAYLOAD`] bytes before
-//! COBS; job data travels in chunks of at most [`MAX_CHUNK`] bytes.
+//! COBS; job data travels in chunks of at most [`MAX_CHUNK`] bytes. Past the CRC the
+//! message's values are checked ([`LinkMessage::check`]: telemetry is finite, a chunk
+//! and a hello within their stated ranges), by the
+//! encoder as by the decoder, so nothing written is refused when read.
 //!
 //! # Conversation
 //!
@@ -378,15 +381,92 @@ pub enum FrameError {
     Crc,
     /// The message does not decode (or has bytes left over).
     Message,
+    /// The message carries a NaN or infinite value (telemetry): a machine's reading is
+    /// a number or a fault, never a NaN on the wire.
+    NotFinite,
+    /// A field is outside its stated range: a [`Request::JobChunk`] of more than
+    /// [`MAX_CHUNK`] bytes, a [`Reply::Hello`] with a zero period or a largest chunk of
+    /// 0 or more than [`MAX_CHUNK`].
+    OutOfRange,
     /// The output buffer is too small for the frame.
     NoRoom,
 }
 
+/// A message of this link: what [`encode`] and [`decode`] check beyond the framing, so
+/// that the encoder writes nothing the decoder refuses.
+pub trait LinkMessage {
+    /// Every value in its stated range: [`FrameError::NotFinite`] for a NaN or an
+    /// infinity, [`FrameError::OutOfRange`] for a field outside its documented range.
+    fn check(&self) -> Result<(), FrameError>;
+}
+
+impl LinkMessage for HostFrame<'_> {
+    /// A chunk holds at most [`MAX_CHUNK`] bytes; the other requests' fields take any
+    /// value of their type (a setting's value is JSON text, checked as a
+    /// configuration when it is applied).
+    fn check(&self) -> Result<(), FrameError> {
+        match self.request {
+            Request::JobChunk { data, .. } if data.len() > MAX_CHUNK => Err(FrameError::OutOfRange),
+            _ => Ok(()),
+        }
+    }
+}
+
+impl LinkMessage for MachineMessage<'_> {
+    /// Telemetry is checked ([`TelemetrySample::check`]); a hello's period is
+    /// positive and its largest chunk 1 to [`MAX_CHUNK`] bytes; the other replies'
+    /// and the events' fields take any value of their type.
+    fn check(&self) -> Result<(), FrameError> {
+        match self {
+            Self::Telemetry(sample) => sample.check(),
+            Self::Reply {
+                reply:
+                    Reply::Hello {
+                        max_chunk,
+                        period_ns,
+                        ..
+                    },
+                ..
+            } => {
+                let chunk_ok = (1..=MAX_CHUNK).contains(&usize::from(*max_chunk));
+                if chunk_ok && *period_ns > 0 {
+                    Ok(())
+                } else {
+                    Err(FrameError::OutOfRange)
+                }
+            }
+            Self::Reply { .. } | Self::Event(_) => Ok(()),
+        }
+    }
+}
+
+impl TelemetrySample {
+    /// Every value finite, else [`FrameError::NotFinite`].
+    pub fn check(&self) -> Result<(), FrameError> {
+        let values = self
+            .position_m
+            .iter()
+            .chain(&self.reference_m)
+            .chain(&self.force_n)
+            .chain([&self.error_m, &self.laser_w]);
+        if values.into_iter().all(|v| v.is_finite()) {
+            Ok(())
+        } else {
+            Err(FrameError::NotFinite)
+        }
+    }
+}
+
 /// Encodes `message` into `out` as one frame between delimiters; returns its length.
 ///
-/// Errors: [`FrameError::NoRoom`] when the message exceeds [`MAX_PAYLOAD`] or `out`
-/// holds less than the encoded frame.
-pub fn encode<M: Serialize>(message: &M, out: &mut [u8]) -> Result<usize, FrameError> {
+/// Errors: [`FrameError::NotFinite`] for a message its decoder would refuse
+/// ([`LinkMessage::check`]); [`FrameError::NoRoom`] when the message exceeds
+/// [`MAX_PAYLOAD`] or `out` holds less than the encoded frame.
+pub fn encode<M: Serialize + LinkMessage>(
+    message: &M,
+    out: &mut [u8],
+) -> Result<usize, FrameError> {
+    message.check()?;
     let mut payload = [0u8; MAX_PAYLOAD];
     let (version, rest) = payload.split_first_mut().ok_or(FrameError::NoRoom)?;
     *version = VERSION;
@@ -412,8 +492,8 @@ pub fn encode<M: Serialize>(message: &M, out: &mut [u8]) -> Result<usize, FrameE
 /// message, which may borrow from `frame`.
 ///
 /// Errors: bad COBS, too short, another version, a CRC mismatch, a message that does
-/// not decode or leaves bytes over.
-pub fn decode<'a, M: Deserialize<'a>>(frame: &'a mut [u8]) -> Result<M, FrameError> {
+/// not decode or leaves bytes over, a value out of range ([`LinkMessage::check`]).
+pub fn decode<'a, M: Deserialize<'a> + LinkMessage>(frame: &'a mut [u8]) -> Result<M, FrameError> {
     let n = cobs::decode_in_place(frame).map_err(|_| FrameError::Cobs)?;
     let frame: &'a [u8] = frame.get(..n).ok_or(FrameError::Cobs)?;
     if n < 5 {
@@ -430,7 +510,7 @@ pub fn decode<'a, M: Deserialize<'a>>(frame: &'a mut [u8]) -> Result<M, FrameErr
         return Err(FrameError::Version(*version));
     }
     match postcard::take_from_bytes::<M>(body) {
-        Ok((message, [])) => Ok(message),
+        Ok((message, [])) => message.check().map(|()| message),
         _ => Err(FrameError::Message),
     }
 }

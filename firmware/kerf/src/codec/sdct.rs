@@ -44,6 +44,9 @@ pub struct SdctConfig {
 pub enum EncodeError {
     /// A sample is NaN or infinite.
     NotFinite,
+    /// A coefficient of the finite block exceeds f32's range (samples near
+    /// `f32::MAX`: a constant block's first coefficient is √N times its value).
+    Overflow,
 }
 
 /// One coded block: the index set and the coefficients, zero outside the set.
@@ -209,6 +212,12 @@ pub fn select<const N: usize>(c: &[f32; N], m: usize, selection: Selection) -> u
     }
 }
 
+/// Samples below this magnitude (2^64) go through the transform as they are: its
+/// sums stay far below f32::MAX (2^128). Larger ones are scaled down by it first
+/// ([`SdctEncoder::encode`]); such blocks exceed a packet's range anyway
+/// (`codec::packet`'s exponent limit), but the encoder's contract holds alone.
+pub const UNSCALED_BELOW: f32 = 18_446_744_073_709_551_616.0;
+
 /// Block encoder: DCT-II then selection.
 #[derive(Clone, Debug)]
 pub struct SdctEncoder<const N: usize> {
@@ -238,12 +247,30 @@ impl<const N: usize> SdctEncoder<N> {
     }
 
     /// Transforms the N samples `x` (oldest first) and keeps m coefficients.
+    ///
+    /// Errors: [`EncodeError::NotFinite`] for a NaN or infinite sample;
+    /// [`EncodeError::Overflow`] when a coefficient exceeds f32's range. A block with a
+    /// sample of [`UNSCALED_BELOW`] or more is transformed scaled down by 2^−64 and
+    /// the coefficients scaled back (both exact: powers of two), so the fast kernel's
+    /// intermediate sums, which grow with its twiddles (up to 20× at N = 64,
+    /// `codec::dct`), cannot overflow; a coefficient is then infinite only when its
+    /// true value is beyond f32::MAX, and that block is refused.
     pub fn encode(&self, x: &[f32; N]) -> Result<Block<N>, EncodeError> {
         if x.iter().any(|v| !v.is_finite()) {
             return Err(EncodeError::NotFinite);
         }
         let mut c = *x;
+        let large = c.iter().any(|v| v.abs() >= UNSCALED_BELOW);
+        if large {
+            c.iter_mut().for_each(|v| *v *= 1.0 / UNSCALED_BELOW);
+        }
         self.dct.forward(&mut c);
+        if large {
+            c.iter_mut().for_each(|v| *v *= UNSCALED_BELOW);
+        }
+        if c.iter().any(|v| !v.is_finite()) {
+            return Err(EncodeError::Overflow);
+        }
         Ok(Block::from_parts(select(&c, self.m, self.selection), c))
     }
 }
@@ -536,5 +563,113 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The orthonormal DCT-II of `x` in f64, straight from the module's sum
+    /// (`codec::dct`): the reference near f32's limit, where f64 has 900 binades to
+    /// spare.
+    fn dct_f64<const N: usize>(x: &[f32; N]) -> [f64; N] {
+        core::array::from_fn(|k| {
+            let s = if k == 0 {
+                (1.0 / N as f64).sqrt()
+            } else {
+                (2.0 / N as f64).sqrt()
+            };
+            s * x
+                .iter()
+                .enumerate()
+                .map(|(n, &v)| {
+                    let angle = ((2 * n + 1) * k) as f64 * core::f64::consts::PI / (2 * N) as f64;
+                    f64::from(v) * angle.cos()
+                })
+                .sum::<f64>()
+        })
+    }
+
+    /// Finite blocks near f32's limit (constant, alternating, ramps, impulses and
+    /// random ones, scaled from 2^64 up to f32::MAX): every block whose coefficients
+    /// are all below f32::MAX is encoded, each within 2e-6 · √N of the largest
+    /// sample of the f64 reference (the fast kernel's tested accuracy, `codec::dct`);
+    /// a block with a coefficient beyond f32::MAX is refused with `Overflow`, never
+    /// passed on as an infinity or a NaN.
+    fn near_the_limit<const N: usize>() {
+        let enc = SdctEncoder::<N>::new(&SdctConfig {
+            m: N,
+            selection: Selection::Largest,
+        })
+        .unwrap();
+        let mut seed = 0x9E37_79B9_7F4A_7C15u64 ^ N as u64;
+        let mut uniform = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let shapes: [fn(usize) -> f32; 5] = [
+            |_| 1.0,
+            |n| if n % 2 == 0 { 1.0 } else { -1.0 },
+            |n| n as f32 / 63.0,
+            |n| f32::from(u8::from(n == 0)),
+            |n| if n < 4 { -1.0 } else { 0.5 },
+        ];
+        let (mut accepted, mut refused) = (0, 0);
+        for scale in [
+            f32::MAX,
+            0.9 * f32::MAX,
+            f32::MAX / 8.0,
+            f32::MAX / 64.0,
+            1e36,
+            2e19,
+        ] {
+            let mut blocks: std::vec::Vec<[f32; N]> = shapes
+                .iter()
+                .map(|shape| core::array::from_fn(|n| shape(n) * scale))
+                .collect();
+            for _ in 0..20 {
+                blocks.push(core::array::from_fn(|_| {
+                    (uniform() * f64::from(scale)) as f32
+                }));
+            }
+            for x in &blocks {
+                let reference = dct_f64(x);
+                let peak = reference.iter().fold(0.0f64, |a, c| a.max(c.abs()));
+                let largest = x.iter().fold(0.0f64, |a, v| a.max(f64::from(v.abs())));
+                match enc.encode(x) {
+                    Ok(block) => {
+                        accepted += 1;
+                        for (k, (&c, &r)) in block.coefficients().iter().zip(&reference).enumerate()
+                        {
+                            assert!(c.is_finite(), "N {N}, {x:?}: c[{k}] = {c}");
+                            let bound = 2e-6 * (N as f64).sqrt() * largest;
+                            assert!(
+                                (f64::from(c) - r).abs() <= bound,
+                                "N {N}: c[{k}] {c} against {r}"
+                            );
+                        }
+                    }
+                    Err(e) => {
+                        refused += 1;
+                        assert_eq!(e, EncodeError::Overflow);
+                        // Refused only when the true coefficient overflows (to within
+                        // the kernel's accuracy).
+                        let tolerance = 2e-6 * (N as f64).sqrt() * largest;
+                        assert!(
+                            peak + tolerance > f64::from(f32::MAX),
+                            "N {N}: {peak} {x:?}"
+                        );
+                    }
+                }
+            }
+        }
+        // Both outcomes occur at every N.
+        assert!(accepted > 0 && refused > 0, "{accepted} {refused}");
+    }
+
+    #[test]
+    fn blocks_near_f32_s_limit_are_encoded_or_refused_never_non_finite() {
+        near_the_limit::<8>();
+        near_the_limit::<16>();
+        near_the_limit::<32>();
+        near_the_limit::<64>();
     }
 }

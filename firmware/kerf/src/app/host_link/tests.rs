@@ -614,3 +614,27 @@ fn a_board_fault_is_sent_and_kept_for_a_host_that_asks_later() {
         );
     });
 }
+
+/// The control period as `Hello` carries it (whole ns in a u32): periods that round
+/// to 0 ns or past u32::MAX ns (4.29 s) are refused at construction, not sent as 0 or
+/// saturated; the edges that fit pass.
+#[test]
+fn a_period_the_hello_cannot_carry_is_refused() {
+    let new = |period_s: f64| {
+        let config = HostLinkConfig {
+            period_s,
+            heartbeat_timeout_s: 0.05,
+        };
+        HostLink::<Toy, 64>::new(&config, SETTINGS, ()).map(|_| ())
+    };
+    for period_s in [1e-12, 0.49e-9, 4.3, 10.0] {
+        assert_eq!(
+            new(period_s),
+            Err(ConfigError::out_of_range("period_s")),
+            "{period_s}"
+        );
+    }
+    for period_s in [0.6e-9, 1e-4, 4.29] {
+        assert_eq!(new(period_s), Ok(()), "{period_s}");
+    }
+}

@@ -217,12 +217,13 @@ fn the_reader_resynchronises_after_garbage_and_overlong_frames() {
 
 #[test]
 fn a_message_past_the_payload_is_refused_not_truncated() {
-    let big = [1u8; MAX_PAYLOAD];
+    // A setting's value has no range of its own: only the payload bounds it.
+    let big = [b'1'; MAX_PAYLOAD];
     let frame = HostFrame {
         seq: 0,
-        request: Request::JobChunk {
-            offset: 0,
-            data: &big,
+        request: Request::Set {
+            path: "/p",
+            value: &big,
         },
     };
     let mut out = [0u8; 2 * MAX_FRAME];
@@ -295,5 +296,130 @@ proptest::proptest! {
             let n = encode(&frame, &mut out).unwrap();
             proptest::prop_assert_eq!(decode::<HostFrame>(&mut out[1..n - 1]).unwrap(), frame);
         }
+    }
+}
+
+/// A telemetry message with `value` in field `field` (0..11: position, reference,
+/// error, force, laser), framed as a sender that does not check would frame it.
+fn telemetry_frame(field: usize, value: f32) -> Vec<u8> {
+    let mut sample = TelemetrySample {
+        period: 9,
+        mode: ModeCode::Running,
+        position_m: [1e-3, -2e-3, 0.05],
+        reference_m: [1e-3, -2e-3, 0.05],
+        error_m: 3e-7,
+        force_n: [1.0, -2.5, 9.0],
+        laser_w: 12.5,
+    };
+    let slot = match field {
+        0..=2 => &mut sample.position_m[field],
+        3..=5 => &mut sample.reference_m[field - 3],
+        6 => &mut sample.error_m,
+        7..=9 => &mut sample.force_n[field - 7],
+        _ => &mut sample.laser_w,
+    };
+    *slot = value;
+    framed_unchecked(&MachineMessage::Telemetry(sample))
+}
+
+/// Every telemetry value NaN or infinite in turn: the decoder refuses the frame with
+/// its own error (its CRC is right), and the encoder refuses to write it; the largest
+/// finite values pass both ways.
+#[test]
+fn non_finite_telemetry_is_refused_both_ways() {
+    for field in 0..11 {
+        for value in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let mut frame = telemetry_frame(field, value);
+            assert_eq!(
+                decode::<MachineMessage>(&mut frame),
+                Err(FrameError::NotFinite),
+                "field {field} = {value}"
+            );
+            let mut raw = telemetry_frame(field, value);
+            let n = cobs::decode_in_place(&mut raw).unwrap();
+            let message = postcard::from_bytes::<MachineMessage>(&raw[1..n - 4]).unwrap();
+            let mut out = [0u8; MAX_FRAME];
+            assert_eq!(encode(&message, &mut out), Err(FrameError::NotFinite));
+        }
+        for value in [f32::MAX, f32::MIN, f32::MIN_POSITIVE, -0.0] {
+            let mut frame = telemetry_frame(field, value);
+            let message = decode::<MachineMessage>(&mut frame).unwrap();
+            let mut out = [0u8; MAX_FRAME];
+            let n = encode(&message, &mut out).unwrap();
+            assert_eq!(
+                decode::<MachineMessage>(&mut out[1..n - 1]).unwrap(),
+                message,
+                "field {field} = {value}"
+            );
+        }
+    }
+}
+
+/// `message` framed by hand (version, postcard, CRC-32, COBS), as a sender that does
+/// not check would frame it.
+fn framed_unchecked<M: Serialize>(message: &M) -> Vec<u8> {
+    let mut payload = Vec::from([VERSION]);
+    let mut body = [0u8; MAX_PAYLOAD];
+    payload.extend_from_slice(postcard::to_slice(message, &mut body).unwrap());
+    let crc = crc32_bitwise(&payload);
+    payload.extend_from_slice(&crc.to_le_bytes());
+    let mut encoded = [0u8; MAX_FRAME];
+    let n = cobs::encode(&payload, &mut encoded);
+    encoded[..n].to_vec()
+}
+
+/// Fields at and past the edges of their stated ranges: a chunk of MAX_CHUNK bytes
+/// and a hello of 1 to MAX_CHUNK bytes with a positive period pass both ways; one
+/// byte more, a zero largest chunk or a zero period are refused by the decoder (its
+/// CRC is right) and by the encoder.
+#[test]
+fn fields_outside_their_stated_range_are_refused_both_ways() {
+    let data = [0x5Au8; MAX_CHUNK + 1];
+    let chunk = |len: usize| HostFrame {
+        seq: 1,
+        request: Request::JobChunk {
+            offset: 0,
+            data: &data[..len],
+        },
+    };
+    let hello = |max_chunk: usize, period_ns: u32| MachineMessage::Reply {
+        seq: 2,
+        reply: Reply::Hello {
+            version: VERSION,
+            machine: "m",
+            max_chunk: max_chunk as u16,
+            period_ns,
+        },
+    };
+    let mut out = [0u8; MAX_FRAME];
+    for good in [chunk(0), chunk(MAX_CHUNK)] {
+        let mut frame = framed_unchecked(&good);
+        assert_eq!(decode::<HostFrame>(&mut frame), Ok(good));
+        assert!(encode(&good, &mut out).is_ok());
+    }
+    let bad = chunk(MAX_CHUNK + 1);
+    let mut frame = framed_unchecked(&bad);
+    assert_eq!(decode::<HostFrame>(&mut frame), Err(FrameError::OutOfRange));
+    assert_eq!(encode(&bad, &mut out), Err(FrameError::OutOfRange));
+    for (max_chunk, period_ns, ok) in [
+        (1, 1, true),
+        (MAX_CHUNK, u32::MAX, true),
+        (0, 100_000, false),
+        (MAX_CHUNK + 1, 100_000, false),
+        (MAX_CHUNK, 0, false),
+    ] {
+        let message = hello(max_chunk, period_ns);
+        let mut frame = framed_unchecked(&message);
+        let expected = if ok {
+            Ok(message)
+        } else {
+            Err(FrameError::OutOfRange)
+        };
+        assert_eq!(
+            decode::<MachineMessage>(&mut frame),
+            expected,
+            "{message:?}"
+        );
+        assert_eq!(encode(&message, &mut out).map(|_| ()), expected.map(|_| ()));
     }
 }
