@@ -44,6 +44,10 @@ pub trait Real:
     /// The step of a fixed-point scalar (its absolute resolution); 0 for the floats,
     /// whose resolution is relative.
     const FIXED_STEP: f64 = 0.0;
+    /// Largest magnitude a signal of this scalar holds (a fixed-point scalar saturates
+    /// beyond it, a float becomes infinite): a job's times and positions must stay
+    /// below it, as `check_job` requires.
+    const RANGE: f64;
     /// Converts a configuration value (call at configuration time, not per period).
     fn from_f64(v: f64) -> Self;
     /// Converts to `f64` for reporting and tests.
@@ -130,6 +134,7 @@ macro_rules! impl_real_for_float {
     ($($float:ty),*) => {$(
         impl Real for $float {
             const ZERO: Self = 0.0;
+            const RANGE: f64 = <$float>::MAX as f64;
             #[inline]
             fn from_f64(v: f64) -> Self {
                 v as $float
@@ -226,6 +231,7 @@ impl Neg for Q31_32 {
 
 impl Real for Q31_32 {
     const ZERO: Self = Q31_32(I32F32::ZERO);
+    const RANGE: f64 = 2_147_483_648.0;
     #[inline]
     fn from_f64(v: f64) -> Self {
         // v · 2^32 is exact (a power-of-two scale); `rint` rounds it to the nearest

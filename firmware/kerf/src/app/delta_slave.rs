@@ -31,23 +31,23 @@ use crate::app::joints::{
 use crate::app::supervisor::{Machine, Step};
 use crate::control::contouring::Contouring;
 use crate::control::laser::{Laser, LaserConfig};
-use crate::control::pd::Reference;
 use crate::control::preview::Preview;
 use crate::error::{positive, ConfigContext, ConfigError, ConfigErrorKind};
 use crate::hal::ForceAndLaser;
 use crate::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
 use crate::scalar::{lit, Float, Real};
 use crate::sensing::hall::{HallConfig, SelfCalibration};
-use crate::trajectory::quintic::Quintic;
 use crate::trajectory::ContourError;
 pub use contour::{
     ContourConfig, ContourCurve, ContourLaw, ContourPlan, CONTOUR_HARMONICS, OPEN_PATH_POINTS,
     PLAN_SAMPLES_PER_LAP,
 };
 use contour::{ContourJob, ContourRun};
+use line::{joint_references, Line};
 use nalgebra::Vector3;
 
 mod contour;
+mod line;
 pub mod link;
 
 /// Instants per move at which a plan checks the joint limits (plus the end). A
@@ -220,56 +220,6 @@ impl Limits {
             accel_limit_m_s2: config.joints.accel_limit_m_s2,
             period_s: config.joints.period_s,
         }
-    }
-}
-
-/// Joint references from the effector's position, velocity and acceleration
-/// (T eq. 146 and its time derivative).
-fn joint_references<T: Float>(
-    geometry: &DeltaGeometry<T>,
-    p: &Vector3<T>,
-    p_dot: &Vector3<T>,
-    p_ddot: &Vector3<T>,
-) -> Result<[Reference<T>; 3], KinematicsError> {
-    let [q, q_dot, q_ddot] = geometry.joint_motion(p, p_dot, p_ddot)?;
-    let reference = |position, velocity, acceleration| Reference {
-        position,
-        velocity,
-        acceleration,
-    };
-    Ok([
-        reference(q.x, q_dot.x, q_ddot.x),
-        reference(q.y, q_dot.y, q_ddot.y),
-        reference(q.z, q_dot.z, q_ddot.z),
-    ])
-}
-
-/// One straight move: the effector at `from + line · s(t)` with s a minimum-jerk 0 → 1.
-#[derive(Copy, Clone, Debug)]
-struct Line<T> {
-    from: Vector3<T>,
-    line: Vector3<T>,
-    profile: Quintic<T>,
-}
-
-impl<T: Float> Line<T> {
-    fn new(from: [f64; 3], to: [f64; 3], duration_s: f64) -> Result<Self, ConfigError> {
-        let v = |a: [f64; 3]| Vector3::new(lit(a[0]), lit(a[1]), lit(a[2]));
-        Ok(Self {
-            from: v(from),
-            line: v([to[0] - from[0], to[1] - from[1], to[2] - from[2]]),
-            profile: Quintic::new(0.0, 1.0, duration_s)?,
-        })
-    }
-
-    /// The effector's position, velocity and acceleration `t_s` into the move.
-    fn at(&self, t_s: T) -> (Vector3<T>, Vector3<T>, Vector3<T>) {
-        let s = self.profile.sample(t_s);
-        (
-            self.from + self.line * s.position,
-            self.line * s.velocity,
-            self.line * s.acceleration,
-        )
     }
 }
 
@@ -700,6 +650,8 @@ impl<T: Float> Machine for DeltaSlave<T> {
     }
 
     fn check_job(&self, job: &DeltaJob) -> Result<(), DeltaJobError> {
+        // Its floats hold any time a job can have: `plan` bounds them by the period
+        // counter (`Real::RANGE` binds the fixed-point joints only).
         if job.planned_for == Some(self.limits) {
             Ok(())
         } else {

@@ -83,8 +83,9 @@ pub enum JobError {
         /// Axis index.
         axis: u8,
     },
-    /// A segment lasts 2^32 control periods or more (about 5 days at 10 kHz): split
-    /// it (a week-long dwell is two segments).
+    /// A segment lasts 2^32 control periods or more (about 5 days at 10 kHz), or longer
+    /// than the scalar holds a time (`Real::RANGE`: 64 s in Q6.25): split it (a
+    /// week-long dwell is two segments).
     TooLong {
         /// Segment index.
         segment: u8,
@@ -599,7 +600,10 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
                     segment: segment_index,
                 });
             }
-            if segment.duration_s / self.period_s >= f64::from(u32::MAX) {
+            // The move's time since its start is a signal of the scalar (64 s in Q6.25).
+            if segment.duration_s / self.period_s >= f64::from(u32::MAX)
+                || segment.duration_s >= T::RANGE
+            {
                 return Err(JobError::TooLong {
                     segment: segment_index,
                 });

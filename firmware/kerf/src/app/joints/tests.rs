@@ -1,4 +1,5 @@
-//! Jobs, the period counter across a week, and in-place job copies.
+//! Jobs, the period counter across a week, times the scalar holds, and in-place job
+//! copies.
 
 use super::*;
 use crate::sensing::hall::HallConfig;
@@ -109,4 +110,30 @@ fn a_week_long_job_fast_forwarded_across_its_segments() {
     }
     assert_eq!(boundaries, 3);
     assert!((f64::from(last) - (home + 0.01)).abs() < 1e-6, "{last}");
+}
+
+/// The time into a move is a signal of the machine's scalar: in Q6.25 it saturates
+/// at 64 s, so a longer move froze there and jumped at its end (30 mm in 100 s: 7.5
+/// mm in the last period). Refused at load in Q6.25, accepted in f32.
+#[test]
+fn a_move_longer_than_the_scalar_holds_a_time_is_refused() {
+    use crate::scalar::Q6_25;
+    let ts = <Q6_25 as Real>::coef(JointsConfig::LM1247.period_s);
+    assert_eq!(
+        Q6_25::count_times(1_000_000, ts),
+        Q6_25::MAX,
+        "100 s saturates"
+    );
+    let home = JointsConfig::LM1247.home_m[0];
+    let fixed = Joints::<Q6_25, 1>::new(&JointsConfig::LM1247).unwrap();
+    let float = Joints::<f32, 1>::new(&JointsConfig::LM1247).unwrap();
+    let slow = job(&[(home + 0.03, 100.0)]);
+    assert_eq!(
+        fixed.check_job(&slow),
+        Err(JobError::TooLong { segment: 0 })
+    );
+    assert_eq!(float.check_job(&slow), Ok(()));
+    // Split in two moves below 64 s, it runs.
+    let split = job(&[(home + 0.015, 50.0), (home + 0.03, 50.0)]);
+    assert_eq!(fixed.check_job(&split), Ok(()));
 }
