@@ -322,6 +322,19 @@ pub(crate) fn representable<T: Real>(name: &'static str, value: f64) -> Result<T
     }
 }
 
+/// Every element of the array field `name` as by [`representable`]; a bad one is named
+/// with its index (`home_m[1]`).
+pub(crate) fn representable_each<T: Real, const N: usize>(
+    name: &'static str,
+    values: [f64; N],
+) -> Result<[T; N], ConfigError> {
+    let mut out = [T::ZERO; N];
+    for (k, (o, v)) in out.iter_mut().zip(values).enumerate() {
+        *o = representable(name, v).map_err(|e| e.indexed(k))?;
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -28,7 +28,7 @@ use crate::app::calibrate::{fit_sensors, CalibrationFailure, CalibrationFit, Hal
 use crate::app::joints::{
     JobError, JointFault, JointJob, JointTelemetry, Joints, JointsConfig, Segment,
 };
-use crate::app::supervisor::{Machine, Step};
+use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
 use crate::control::contouring::Contouring;
 use crate::control::laser::{Laser, LaserConfig};
 use crate::control::pd::Reference;
@@ -36,7 +36,7 @@ use crate::control::preview::Preview;
 use crate::error::{positive, ConfigContext, ConfigError, ConfigErrorKind};
 use crate::hal::ForceAndLaser;
 use crate::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
-use crate::scalar::{lit, Float, Real};
+use crate::scalar::{Float, Real};
 use crate::sensing::hall::{HallConfig, SelfCalibration};
 use crate::trajectory::quintic::Quintic;
 use crate::trajectory::ContourError;
@@ -254,10 +254,10 @@ struct Line<T> {
 
 impl<T: Float> Line<T> {
     fn new(from: [f64; 3], to: [f64; 3], duration_s: f64) -> Result<Self, ConfigError> {
-        let v = |a: [f64; 3]| Vector3::new(lit(a[0]), lit(a[1]), lit(a[2]));
+        let v = |name, a| crate::error::representable_each::<T, 3>(name, a).map(Vector3::from);
         Ok(Self {
-            from: v(from),
-            line: v([to[0] - from[0], to[1] - from[1], to[2] - from[2]]),
+            from: v("from_m", from)?,
+            line: v("to_m", [to[0] - from[0], to[1] - from[1], to[2] - from[2]])?,
             profile: Quintic::new(0.0, 1.0, duration_s)?,
         })
     }
@@ -419,6 +419,8 @@ pub enum DeltaFault {
     },
     /// A carriage's force stayed at its limit longer than the saturation limit.
     Saturated,
+    /// An output was NaN or infinite: the carriage forces 0–2, the laser duty 3.
+    Output(NonFiniteOutput),
 }
 
 /// One period's commands: the carriages' forces and the laser, written together.
@@ -512,7 +514,7 @@ impl<T: Float> DeltaSlave<T> {
             joints,
             geometry,
             limits: Limits::of(config),
-            ts: lit(config.joints.period_s),
+            ts: crate::error::coefficient("period_s", config.joints.period_s).within("joints")?,
             approach: JointJob::new(),
             phase: None,
             effector_reference_m: None,
