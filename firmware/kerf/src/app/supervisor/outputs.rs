@@ -132,3 +132,6 @@ impl From<NonFiniteOutput> for ArrowFault {
         Self::Output(output)
     }
 }
+
+#[cfg(test)]
+mod tests;
