@@ -121,7 +121,7 @@ impl<T: Real, const N: usize> CalibrationSweep<T, N> {
         // counter), and then so does each part of it.
         let way_periods = libm::round(way / ts);
         let periods = f64::from(WAYS) * way_periods + libm::ceil(FINAL_REST_S / ts);
-        if !(periods < f64::from(u32::MAX)) {
+        if periods >= f64::from(u32::MAX) {
             return Err(ConfigError::out_of_range("period_s"));
         }
         let (way_periods, periods) = (way_periods as u32, periods as u32);
