@@ -263,6 +263,24 @@ pub(crate) fn coefficient<T: Real>(name: &'static str, value: f64) -> Result<T, 
     }
 }
 
+/// Converts a derived coefficient that may be exactly zero (a gain switched off, a
+/// zero noise floor) to the target scalar: zero as it is, anything else checked as by
+/// [`coefficient`], so that a non-zero gain never becomes zero, infinite or NaN in `T`
+/// (a derivative gain K_D/Ts of 1e300 is finite in `f64` and ∞ in `f32`, and ∞ × 0 is
+/// NaN in the first period). A NaN or infinite value is named `NotFinite`.
+pub(crate) fn coefficient_or_zero<T: Real>(
+    name: &'static str,
+    value: f64,
+) -> Result<T, ConfigError> {
+    if !value.is_finite() {
+        Err(ConfigError::not_finite(name))
+    } else if value == 0.0 {
+        Ok(T::ZERO)
+    } else {
+        coefficient(name, value)
+    }
+}
+
 /// Converts a derived, necessarily non-zero constant factor of a signal to the target
 /// scalar's coefficient type ([`Real::coef`]), or names `name` as not representable.
 ///
@@ -302,6 +320,19 @@ pub(crate) fn representable<T: Real>(name: &'static str, value: f64) -> Result<T
     } else {
         Err(ConfigError::not_representable(name))
     }
+}
+
+/// Every element of the array field `name` as by [`representable`]; a bad one is named
+/// with its index (`home_m[1]`).
+pub(crate) fn representable_each<T: Real, const N: usize>(
+    name: &'static str,
+    values: [f64; N],
+) -> Result<[T; N], ConfigError> {
+    let mut out = [T::ZERO; N];
+    for (k, (o, v)) in out.iter_mut().zip(values).enumerate() {
+        *o = representable(name, v).map_err(|e| e.indexed(k))?;
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -394,5 +425,18 @@ mod tests {
                 Err(ConfigError::not_representable("g"))
             );
         }
+        // A gain that may be off: zero passes, any other value is checked the same way.
+        assert_eq!(coefficient_or_zero::<f32>("g", 0.0), Ok(0.0));
+        assert_eq!(coefficient_or_zero::<f32>("g", 2.5), Ok(2.5));
+        for bad in [1e300, -1e300, 1e-50, 3e-45] {
+            assert_eq!(
+                coefficient_or_zero::<f32>("g", bad),
+                Err(ConfigError::not_representable("g"))
+            );
+        }
+        assert_eq!(
+            coefficient_or_zero::<f64>("g", f64::NAN),
+            Err(ConfigError::not_finite("g"))
+        );
     }
 }

@@ -1,7 +1,8 @@
 //! Panic-free, proven at link time.
 //!
 //! This image calls every control-period entry point of kerf — each machine's
-//! per-period methods and its supervisor step, the axis law, Hall decoding, velocity
+//! per-period methods and its supervisor step (the joints, the delta slave, ARROW and
+//! the remote master), the axis law, Hall decoding, velocity
 //! observation, image sharpness and the autofocus law, delta kinematics, ARROW's machine, the
 //! contour and joint references, the DCT/SDCT
 //! codec and the packet format with its stream ends — and the constructors and
@@ -27,14 +28,21 @@ use kerf::app::arrow::ArrowLaw;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
 use kerf::app::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
+use kerf::app::remote_master::{
+    FixtureJob, RemoteMaster, RemoteMasterConfig, RemoteMasterInputs, SlaveReport,
+};
 use kerf::app::stream::{SignalReceiver, SignalSender};
 use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
 use kerf::codec::dct::Dct;
 use kerf::codec::packet::{self, PacketDecoder, MAX_PACKET_LEN};
 use kerf::codec::sdct::{SdctConfig, SdctDecoder, SdctEncoder, Selection};
 use kerf::control::autofocus::{Autofocus, AutofocusConfig, AutofocusState};
+use kerf::control::bilateral::BilateralConfig;
+use kerf::control::constraint::FixtureConfig;
+use kerf::control::dob::DobConfig;
 use kerf::control::dob::{Dob, DobState};
 use kerf::control::pd::{Pd, Reference};
+use kerf::control::preview::PreviewConfig;
 use kerf::control::redundant_pid::{RedundantPid, RedundantPidConfig};
 use kerf::hal::{FrameLink, LinkBusy};
 use kerf::kinematics::arrow::{
@@ -42,6 +50,7 @@ use kerf::kinematics::arrow::{
 };
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
+use kerf::sensing::encoder::EncoderConfig;
 use kerf::sensing::hall::{HallConfig, HallDecoder, HallState};
 use kerf::sensing::sharpness::{normalized_variance, window_moments, Window};
 use kerf::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
@@ -90,6 +99,7 @@ fn main() -> ! {
             9 => codec::<64>(),
             10 => arrow_machine(),
             11 => autofocus(),
+            12 => remote_master(),
             _ => stream(),
         }
     }
@@ -185,6 +195,56 @@ fn arrow_machine() {
     let inputs = ArrowInputs {
         joints_m: opaque(Joints6::zeros()),
         table_rad: opaque([0.0; 2]),
+    };
+    periods(machine, inputs, job, ());
+}
+
+/// The remote master on the horizontal master delta (the host's remote scenario's
+/// settings), following a square fixture and answering the slave's reports.
+fn remote_master() {
+    let row = PreviewConfig {
+        surface_slope_per_s: 125.0,
+        reaching_rate_per_s: 250.0,
+    };
+    let config = opaque(RemoteMasterConfig {
+        period_s: 1e-4,
+        delta: DeltaConfig::MASTER_HORIZONTAL,
+        encoders: [EncoderConfig::MASTER_0_5_UM; 3],
+        home_m: [0.0; 3],
+        velocity: TrackingObserverConfig {
+            bandwidth_rad_s: 1885.0,
+        },
+        dob: DobConfig {
+            nominal_mass_kg: 0.335,
+            bandwidth_rad_s: 250.0,
+            force_limit_n: 10.0,
+            compensate: true,
+        },
+        fixture: FixtureConfig {
+            normal: row,
+            vertical: row,
+        },
+        constraint: ConstraintConfig::closed_contour(),
+        tracking: BilateralConfig::critically_damped(0.5, [0.0; 3], [0.0; 3], 31.4),
+        observer_bandwidth_rad_s: 62.8,
+        compensate_delay: true,
+        samples_per_command: 10,
+        haptic: None,
+    });
+    let Ok(machine) = RemoteMaster::<f32>::new(&config) else {
+        return;
+    };
+    let square = opaque([[0.0, 0.0], [0.01, 0.0], [0.01, 0.01], [0.0, 0.01]]);
+    let Ok(job) = FixtureJob::new(&square, &config.constraint, opaque(0.1), opaque(true)) else {
+        return;
+    };
+    let inputs = RemoteMasterInputs {
+        encoder_counts: opaque([0u16; 3]),
+        report: opaque(Some(SlaveReport {
+            echo_tick: Some(0),
+            position_m: [0.0; 3],
+            velocity_m_s: [0.0; 3],
+        })),
     };
     periods(machine, inputs, job, ());
 }

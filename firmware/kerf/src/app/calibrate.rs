@@ -28,7 +28,7 @@
 use crate::app::axis::HallAxis;
 use crate::app::supervisor::Machine;
 use crate::control::pd::Reference;
-use crate::error::{positive, ConfigError};
+use crate::error::{coefficient, factor, positive, ConfigError};
 use crate::scalar::Real;
 use crate::sensing::hall::{
     CalibrationError, HallCalibration, HallCalibrator, HallConfig, SelfCalibration,
@@ -104,7 +104,14 @@ pub struct CalibrationSweep<T: Real, const N: usize> {
 impl<T: Real, const N: usize> CalibrationSweep<T, N> {
     /// The sweep of axes starting (and ending) at `start_m`, for a sensor of `pitch_m`
     /// and a control period of `period_s`.
+    ///
+    /// Errors: a start that is not finite (`start_m[i]`); a period so long that the
+    /// coast has too few samples, or so short that the sweep's period count passes
+    /// `u32` (`period_s` out of range); a coefficient the scalar cannot hold.
     pub fn new(start_m: [T; N], pitch_m: f64, period_s: f64) -> Result<Self, ConfigError> {
+        if let Some(k) = start_m.iter().position(|s| !s.is_finite()) {
+            return Err(ConfigError::not_finite("start_m").indexed(k));
+        }
         let pitch = positive("pitch_m", pitch_m)?;
         let ts = positive("period_s", period_s)?;
         let speed = CRUISE_PITCHES_PER_S * pitch;
@@ -112,28 +119,35 @@ impl<T: Real, const N: usize> CalibrationSweep<T, N> {
         // Each ramp covers speed·RAMP_S/2; the cruise the rest.
         let cruise_s = distance / speed - RAMP_S;
         let way = REST_S + RAMP_S + cruise_s + RAMP_S;
-        let way_periods = libm::round(way / ts) as u32;
-        let periods = WAYS * way_periods + libm::ceil(FINAL_REST_S / ts) as u32;
+        // Every count in f64 first: the whole sweep's must fit a u32 (the period
+        // counter), and then so does each part of it.
+        let way_periods = libm::round(way / ts);
+        let periods = f64::from(WAYS) * way_periods + libm::ceil(FINAL_REST_S / ts);
+        if periods >= f64::from(u32::MAX) {
+            return Err(ConfigError::out_of_range("period_s"));
+        }
+        let (way_periods, periods) = (way_periods as u32, periods as u32);
         let settle_from = libm::ceil((REST_S + RAMP_S + SETTLE_DELAY_S) / ts) as u32;
         // The settle averages the force over exactly one pitch of the cruise: the
         // loop's force ripple from the nominal decoder's error (periodic in the pitch)
         // then averages out.
-        let settle_to = settle_from + libm::round(1.0 / CRUISE_PITCHES_PER_S / ts) as u32;
+        let settle_to =
+            settle_from.saturating_add(libm::round(1.0 / CRUISE_PITCHES_PER_S / ts) as u32);
         let coast_from = settle_from;
         let coast_to = libm::floor((REST_S + RAMP_S + cruise_s) / ts) as u32;
         // The fit's segments need samples, and the coast must be a whole pitch.
-        if coast_to < coast_from + 64 || (cruise_s - SETTLE_DELAY_S) * speed < pitch {
+        if coast_to < coast_from.saturating_add(64) || (cruise_s - SETTLE_DELAY_S) * speed < pitch {
             return Err(ConfigError::out_of_range("period_s"));
         }
         Ok(Self {
             start_m,
-            ts: T::coef(ts),
-            rest: T::from_f64(REST_S),
-            ramp: T::from_f64(RAMP_S),
-            inv_ramp: T::from_f64(1.0 / RAMP_S),
-            cruise_end: T::from_f64(RAMP_S + cruise_s),
-            speed: T::from_f64(speed),
-            distance: T::from_f64(distance),
+            ts: factor::<T>("period_s", ts)?,
+            rest: coefficient("period_s", REST_S)?,
+            ramp: coefficient("period_s", RAMP_S)?,
+            inv_ramp: coefficient("period_s", 1.0 / RAMP_S)?,
+            cruise_end: coefficient("pitch_m", RAMP_S + cruise_s)?,
+            speed: coefficient("pitch_m", speed)?,
+            distance: coefficient("pitch_m", distance)?,
             period: 0,
             periods,
             way_periods,
@@ -346,6 +360,22 @@ pub trait HallMachine<const N: usize>: Machine {
 mod tests {
     use super::*;
     use std::vec::Vec;
+
+    /// A period short enough that the sweep's count passes u32 (4 ways of 0.148 s
+    /// and the 0.2 s rest at 1e-10 s: 7.9e9 periods) is refused, as is a NaN start;
+    /// the shortest period whose count fits still builds.
+    #[test]
+    fn sweep_counts_and_start_are_checked() {
+        assert_eq!(
+            CalibrationSweep::<f64, 1>::new([0.0], 0.018, 1e-10).err(),
+            Some(ConfigError::out_of_range("period_s"))
+        );
+        assert!(CalibrationSweep::<f64, 1>::new([0.0], 0.018, 1e-9).is_ok());
+        assert_eq!(
+            CalibrationSweep::<f64, 2>::new([0.0, f64::NAN], 0.018, 1e-4).err(),
+            Some(ConfigError::not_finite("start_m").indexed(1))
+        );
+    }
 
     #[test]
     fn sweep_goes_out_and_back_and_streams_two_coasts_at_cruise() {

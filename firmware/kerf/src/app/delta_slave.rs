@@ -28,14 +28,14 @@ use crate::app::calibrate::{fit_sensors, CalibrationFailure, CalibrationFit, Hal
 use crate::app::joints::{
     JobError, JointFault, JointJob, JointTelemetry, Joints, JointsConfig, Segment,
 };
-use crate::app::supervisor::{Machine, Step};
+use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
 use crate::control::contouring::Contouring;
 use crate::control::laser::{Laser, LaserConfig};
 use crate::control::preview::Preview;
 use crate::error::{positive, ConfigContext, ConfigError, ConfigErrorKind};
 use crate::hal::ForceAndLaser;
 use crate::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
-use crate::scalar::{lit, Float, Real};
+use crate::scalar::{Float, Real};
 use crate::sensing::hall::{HallConfig, SelfCalibration};
 use crate::trajectory::ContourError;
 pub use contour::{
@@ -369,6 +369,8 @@ pub enum DeltaFault {
     },
     /// A carriage's force stayed at its limit longer than the saturation limit.
     Saturated,
+    /// An output was NaN or infinite: the carriage forces 0–2, the laser duty 3.
+    Output(NonFiniteOutput),
 }
 
 /// One period's commands: the carriages' forces and the laser, written together.
@@ -462,7 +464,7 @@ impl<T: Float> DeltaSlave<T> {
             joints,
             geometry,
             limits: Limits::of(config),
-            ts: lit(config.joints.period_s),
+            ts: crate::error::coefficient("period_s", config.joints.period_s).within("joints")?,
             approach: JointJob::new(),
             phase: None,
             effector_reference_m: None,

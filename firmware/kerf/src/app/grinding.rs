@@ -40,13 +40,13 @@
 //! Between periods of contact the watch starts a new window, so only readings at rest
 //! are ever averaged; a drift during a pass shows at the first rest after it.
 
-use crate::app::supervisor::{Machine, Step};
+use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
 use crate::control::adrc::{Adrc, AdrcConfig, AdrcState};
 use crate::control::hybrid_force::{
     HybridFault, HybridForce, HybridForceConfig, HybridForceError, HybridForceState, HybridOutput,
 };
 use crate::control::pid::{Pid, PidConfig, PidState};
-use crate::error::{positive, ConfigContext, ConfigError};
+use crate::error::{coefficient, positive, ConfigContext, ConfigError};
 use crate::scalar::{lit, Float};
 use crate::sensing::force::{
     BiasCapture, BiasCaptureConfig, BiasDrift, BiasDriftConfig, BiasDriftWatch, Eccentricity,
@@ -202,6 +202,8 @@ pub enum GrindingFault {
     /// At rest, the compensated forces' mean left the noise bound: the sensor's bias
     /// moved since its capture.
     BiasDrift(BiasDrift),
+    /// An output was NaN or infinite: the piezo 0, the hexapod feed 1, the spindle 2.
+    Output(NonFiniteOutput),
 }
 
 impl From<DeviceFault> for GrindingFault {
@@ -340,8 +342,11 @@ impl<T: Float + crate::control::adrc::FalPower> GrindingCell<T> {
             spindle_rpm: zero,
             length_m: zero,
             fed_m: zero,
-            ts: lit(config.period_s),
-            force_limit: lit(positive("force_limit_n", config.force_limit_n)?),
+            ts: coefficient("period_s", config.period_s)?,
+            force_limit: coefficient(
+                "force_limit_n",
+                positive("force_limit_n", config.force_limit_n)?,
+            )?,
             telemetry: GrindingTelemetry {
                 forces: LocalForces {
                     tangential_n: zero,

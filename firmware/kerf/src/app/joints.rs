@@ -17,7 +17,7 @@ use crate::app::calibrate::{
 };
 use crate::app::supervisor::{Machine, Step};
 use crate::control::pd::Reference;
-use crate::error::{in_range, positive, ConfigContext, ConfigError};
+use crate::error::{factor, in_range, positive, representable_each, ConfigContext, ConfigError};
 use crate::scalar::Real;
 use crate::sensing::hall::{HallConfig, SelfCalibration};
 use crate::trajectory::quintic::Quintic;
@@ -226,12 +226,12 @@ impl<T: Real, const N: usize> Joints<T, N> {
         }
         let speed_limit_m_s = positive("speed_limit_m_s", config.speed_limit_m_s)?;
         let accel_limit_m_s2 = positive("accel_limit_m_s2", config.accel_limit_m_s2)?;
-        let home = config.home_m.map(T::from_f64);
+        let home = representable_each::<T, N>("home_m", config.home_m)?;
         let axes = home.map(AxisState::homed_at);
         let reference = home.map(rest);
         Ok(Self {
             period_s,
-            ts: T::coef(period_s),
+            ts: factor::<T>("period_s", period_s)?,
             law,
             sensors,
             last: axes.map(|a| AxisOutput {

@@ -90,7 +90,10 @@ impl<const N: usize> MasterLink<N> {
             filled: 0,
             first_tick: 0,
             laser_mask: 0,
-            inv_sample_period: (1.0 / positive("sample_period_s", sample_period_s)?) as f32,
+            inv_sample_period: crate::error::coefficient::<f32>(
+                "sample_period_s",
+                1.0 / positive("sample_period_s", sample_period_s)?,
+            )?,
             refused: 0,
         })
     }

@@ -39,7 +39,7 @@ use crate::control::bilateral::{Bilateral, BilateralConfig, MasterState};
 use crate::control::constraint::{Fixture, FixtureConfig, FixtureError};
 use crate::control::delay_observer::{DelayObserver, DelayObserverConfig};
 use crate::control::dob::{Dob, DobConfig, DobState};
-use crate::error::{positive, ConfigContext, ConfigError};
+use crate::error::{coefficient, positive, representable, ConfigContext, ConfigError};
 use crate::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
 use crate::scalar::{lit, Float};
 use crate::sensing::encoder::{Encoder, EncoderConfig, EncoderFault, EncoderState};
@@ -260,10 +260,7 @@ impl<T: Float> RemoteMaster<T> {
                 .map_err(|e| e.indexed(k))
         };
         let [e0, e1, e2] = &config.encoders;
-        let mut home_m = [T::zero(); 3];
-        for (k, (h, c)) in home_m.iter_mut().zip(config.home_m).enumerate() {
-            *h = crate::error::representable("home_m", c).map_err(|e| e.indexed(k))?;
-        }
+        let home_m = crate::error::representable_each::<T, 3>("home_m", config.home_m)?;
         let dob_config = DobConfig {
             compensate: false,
             ..config.dob
@@ -277,7 +274,13 @@ impl<T: Float> RemoteMaster<T> {
                 }
                 let gain = positive("gain_n_s_per_m", h.gain_n_s_per_m).within("haptic")?;
                 let max = positive("max_force_n", h.max_force_n).within("haptic")?;
-                Some((lit(lo), lit(hi), lit(gain), lit(max)))
+                let scalar = |name, v| coefficient::<T>(name, v).within("haptic");
+                Some((
+                    representable::<T>("speed_band_m_s", lo).within("haptic")?,
+                    scalar("speed_band_m_s", hi)?,
+                    scalar("gain_n_s_per_m", gain)?,
+                    scalar("max_force_n", max)?,
+                ))
             }
         };
         if config.samples_per_command == 0 {
@@ -300,7 +303,8 @@ impl<T: Float> RemoteMaster<T> {
             home_m,
             velocity: TrackingObserver::new(&config.velocity, ts).within("velocity")?,
             dob: Dob::new(&dob_config, ts).within("dob")?,
-            inv_mass: lit(1.0 / config.dob.nominal_mass_kg),
+            inv_mass: coefficient("nominal_mass_kg", 1.0 / config.dob.nominal_mass_kg)
+                .within("dob")?,
             fixture: Fixture::new(&config.fixture).within("fixture")?,
             tracking: Bilateral::new(&config.tracking).within("tracking")?,
             haptic,
@@ -495,14 +499,16 @@ impl<T: Float> RemoteMaster<T> {
     }
 
     /// The slave's command of this period, if one is due, for the master's `master`
-    /// state (its acceleration left out: module docs).
+    /// state (its acceleration left out: module docs). A command that is not finite
+    /// as the link carries it (in `f32`: a finite `f64` beyond 3.4e38 is ∞ there) is
+    /// never sent nor run by the observer's model: the period faults.
     fn slave_command(
         &mut self,
         master: &MasterState<T>,
         laser_on: bool,
-    ) -> Option<(u32, RemoteCommand)> {
+    ) -> Result<Option<(u32, RemoteCommand)>, RemoteMasterFault> {
         if !self.observer_ready {
-            return None;
+            return Ok(None);
         }
         let due = self.phase_in_sample == 0;
         if due {
@@ -512,26 +518,37 @@ impl<T: Float> RemoteMaster<T> {
                 self.measured_slave
             };
             if let Some((x, v)) = slave {
-                self.command = self.tracking.task_acceleration(master, &x, &v).0;
+                let command = self.tracking.task_acceleration(master, &x, &v).0;
+                if !command.iter().all(|a| (a.to_f64() as f32).is_finite()) {
+                    return Err(RemoteMasterFault::NotFinite);
+                }
+                self.command = command;
                 self.telemetry.slave_estimate_m = Some([x.x, x.y, x.z]);
             }
         }
-        self.phase_in_sample = (self.phase_in_sample + 1) % self.samples_per_command;
+        // The next phase without a remainder (`samples_per_command` ≥ 1, checked in
+        // `new`; a comparison leaves no division by zero in the period).
+        let next = self.phase_in_sample.saturating_add(1);
+        self.phase_in_sample = if next >= self.samples_per_command {
+            0
+        } else {
+            next
+        };
         let tick = self.observer.step(&self.command);
         if !due {
-            return None;
+            return Ok(None);
         }
         self.observer.sent();
         self.telemetry.round_trip_periods = self.observer.round_trip_periods();
         self.telemetry.rejected_reports = self.observer.rejected();
         let c = self.command.map(|a| a.to_f64() as f32);
-        Some((
+        Ok(Some((
             tick,
             RemoteCommand {
                 acceleration_m_s2: [c.x, c.y, c.z],
                 laser_on,
             },
-        ))
+        )))
     }
 
     fn safe(&self) -> MasterOutputs<T> {
@@ -615,7 +632,7 @@ impl<T: Float> Machine for RemoteMaster<T> {
         self.take_report(&inputs.report);
         let (acceleration, master) = self.fixture_forces(job, &q, &q_dot)?;
         let force_n = self.actuate(&acceleration, &q_dot)?;
-        let command = self.slave_command(&master, job.laser_on);
+        let command = self.slave_command(&master, job.laser_on)?;
         Ok(Step::Continue(MasterOutputs { force_n, command }))
     }
 

@@ -207,7 +207,7 @@ impl<T: Float> RemoteSlave<T> {
             max_acceleration: crate::error::representable("max_acceleration_m_s2", max)?,
             model_following: Pd::new(&config.model_following).within("model_following")?,
             model: None,
-            ts: lit(period),
+            ts: crate::error::coefficient("period_s", period).within("slave.joints")?,
             laser_mode: LaserMode::Off,
             approach: JointJob::new(),
             phase: None,

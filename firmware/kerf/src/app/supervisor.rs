@@ -33,7 +33,7 @@
 //! | 8 | Running | job done | Ready | safe |
 //! | 9 | Running | `Stop` | Stopping | ramp to rest |
 //! | 10 | Stopping | at rest | Ready | safe |
-//! | 11 | any but Fault | machine fault (sensor, non-finite value, …) | Fault(reason) | safe in the same period |
+//! | 11 | any but Fault | machine fault (sensor, non-finite value, …), or a NaN or infinite output ([`NonFiniteOutput`]) | Fault(reason) | safe in the same period |
 //! | 12 | Fault | `ResetFault` | Idle | safe |
 //! | 13 | any | `ChangeSettings(coefficients)` | unchanged, coefficients replaced (state kept: bumpless) | as the mode |
 //! | 14 | any | any other command | unchanged, refused with [`CommandError::InvalidInMode`] | as the mode |
@@ -48,19 +48,24 @@
 //! # use kerf::app::supervisor::{Machine, Step};
 //! # /// A machine that needs no calibration data and runs jobs of `n` periods.
 //! # struct Counter { left: u32 }
+//! # #[derive(Copy, Clone, Debug, PartialEq)]
+//! # enum Fault { Sensor, Output }
+//! # impl From<kerf::app::supervisor::NonFiniteOutput> for Fault {
+//! #     fn from(_: kerf::app::supervisor::NonFiniteOutput) -> Self { Fault::Output }
+//! # }
 //! # impl Machine for Counter {
 //! #     type Inputs = bool; type Outputs = f32; type Job = u32; type JobError = ();
-//! #     type Coefficients = (); type Calibration = (); type Fault = (); type Telemetry = u32;
+//! #     type Coefficients = (); type Calibration = (); type Fault = Fault; type Telemetry = u32;
 //! #     fn safe_outputs(&self) -> f32 { 0.0 }
-//! #     fn monitor(&mut self, ok: &bool) -> Result<(), ()> { if *ok { Ok(()) } else { Err(()) } }
+//! #     fn monitor(&mut self, ok: &bool) -> Result<(), Fault> { if *ok { Ok(()) } else { Err(Fault::Sensor) } }
 //! #     fn begin_calibration(&mut self) {}
-//! #     fn calibrate(&mut self, ok: &bool, _: &mut dyn FnMut(u8, [u16; 3])) -> Result<Step<f32>, ()> { self.monitor(ok)?; Ok(Step::Done(0.0)) }
+//! #     fn calibrate(&mut self, ok: &bool, _: &mut dyn FnMut(u8, [u16; 3])) -> Result<Step<f32>, Fault> { self.monitor(ok)?; Ok(Step::Done(0.0)) }
 //! #     fn finish_calibration(&mut self, _: &()) {}
 //! #     fn check_job(&self, job: &u32) -> Result<(), ()> { if *job > 0 { Ok(()) } else { Err(()) } }
 //! #     fn begin_job(&mut self, job: &u32) -> Result<(), ()> { self.left = *job; Ok(()) }
-//! #     fn run(&mut self, _: &u32, ok: &bool) -> Result<Step<f32>, ()> { self.monitor(ok)?; self.left -= 1; Ok(if self.left == 0 { Step::Done(1.0) } else { Step::Continue(1.0) }) }
+//! #     fn run(&mut self, _: &u32, ok: &bool) -> Result<Step<f32>, Fault> { self.monitor(ok)?; self.left -= 1; Ok(if self.left == 0 { Step::Done(1.0) } else { Step::Continue(1.0) }) }
 //! #     fn begin_stop(&mut self) {}
-//! #     fn stop(&mut self, _job: &Self::Job, ok: &bool) -> Result<Step<f32>, ()> { self.monitor(ok)?; Ok(Step::Done(0.5)) }
+//! #     fn stop(&mut self, _job: &Self::Job, ok: &bool) -> Result<Step<f32>, Fault> { self.monitor(ok)?; Ok(Step::Done(0.5)) }
 //! #     fn set_coefficients(&mut self, _: &()) {}
 //! #     fn reset(&mut self) {}
 //! #     fn telemetry(&self) -> u32 { self.left }
@@ -81,7 +86,7 @@
 //! assert_eq!(supervisor.mode(), Mode::Running);
 //! // A broken sensor: safe outputs in the same period, and a latched fault.
 //! assert_eq!(supervisor.step(&false), 0.0);
-//! assert_eq!(supervisor.mode(), Mode::Fault(()));
+//! assert_eq!(supervisor.mode(), Mode::Fault(Fault::Sensor));
 //! // Refused: no start from Fault.
 //! to_machine.enqueue(Command::Start).ok();
 //! supervisor.step(&true);
@@ -90,6 +95,9 @@
 //! ```
 
 use heapless::spsc::{Consumer, Producer};
+
+mod outputs;
+pub use outputs::{FiniteOutputs, NonFiniteOutput};
 
 /// What a machine's control step is asked to do in a period, and what it answers.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -122,8 +130,9 @@ impl<O> Step<O> {
 pub trait Machine {
     /// One period's inputs, sampled together.
     type Inputs;
-    /// One period's outputs, written together.
-    type Outputs: Copy;
+    /// One period's outputs, written together; checked finite by the supervisor
+    /// before they are (a NaN or ∞ faults the machine: [`NonFiniteOutput`]).
+    type Outputs: Copy + FiniteOutputs;
     /// What `Running` follows. `Default` is the empty job the supervisor holds before
     /// the first `LoadJob`; `clone_from` should copy in place (it runs in the control
     /// period, and a temporary of a job's size would land on the interrupt's stack).
@@ -134,8 +143,8 @@ pub trait Machine {
     type Coefficients;
     /// The result of a calibration fit, computed in the slower context.
     type Calibration;
-    /// Why the machine stopped.
-    type Fault: Copy + core::fmt::Debug + PartialEq;
+    /// Why the machine stopped; a non-finite output is one of the reasons.
+    type Fault: Copy + core::fmt::Debug + PartialEq + From<NonFiniteOutput>;
     /// What the machine reports each period.
     type Telemetry: Copy;
 
@@ -442,19 +451,26 @@ impl<M: Machine> Core<'_, M> {
                 self.enter(Mode::Fault(fault));
                 self.machine.safe_outputs()
             }
-            (mode, Ok(step)) => {
-                if let Step::Done(_) = step {
-                    match mode {
-                        Mode::Calibrating => {
-                            self.swept = true;
-                            self.report(Report::SweepDone);
-                        }
-                        Mode::Running | Mode::Stopping => self.enter(Mode::Ready),
-                        _ => {}
-                    }
+            // The one check of every machine's outputs before they are written.
+            (mode, Ok(step)) => match step.outputs().first_not_finite() {
+                Some(index) => {
+                    self.enter(Mode::Fault(NonFiniteOutput { index }.into()));
+                    self.machine.safe_outputs()
                 }
-                step.outputs()
-            }
+                None => {
+                    if let Step::Done(_) = step {
+                        match mode {
+                            Mode::Calibrating => {
+                                self.swept = true;
+                                self.report(Report::SweepDone);
+                            }
+                            Mode::Running | Mode::Stopping => self.enter(Mode::Ready),
+                            _ => {}
+                        }
+                    }
+                    step.outputs()
+                }
+            },
         };
         let telemetry_due = self.telemetry_decimation != 0 && self.telemetry_due_in == 0;
         if self.telemetry_decimation != 0 {

@@ -115,7 +115,7 @@ impl<T: FalPower> Fal<T> {
         } else if alpha == 0.25 {
             Exponent::Quarter
         } else {
-            Exponent::General(lit(alpha))
+            Exponent::General(coefficient("alpha", alpha)?)
         };
         Ok(Self {
             exponent,

@@ -35,7 +35,7 @@ use crate::control::pd::PdConfig;
 use crate::error::{coefficient, positive, ConfigContext, ConfigError};
 use crate::kinematics::contour_frame::{ContourFrame, ContourFrameError};
 use crate::kinematics::delta::{DeltaGeometry, KinematicsError};
-use crate::scalar::{lit, Float};
+use crate::scalar::Float;
 use nalgebra::Vector3;
 
 /// Gains of the three frame directions and the slowest reference that still has a
@@ -136,7 +136,7 @@ impl<T: Float> Contouring<T> {
         Ok(Self {
             kp: Vector3::new(kp_t, kp_n, kp_z),
             kd: Vector3::new(kd_t, kd_n, kd_z),
-            min_speed_m_s: lit(min_speed),
+            min_speed_m_s: coefficient("min_speed_m_s", min_speed)?,
         })
     }
 

@@ -28,7 +28,7 @@
 //! and Wada 1977) given σ²: with R⁻¹ ≈ W P (W the samples' summed weight),
 //! (I − σ² W P D) θ = θ_LS.
 
-use crate::error::{in_range, positive, ConfigError};
+use crate::error::{coefficient, in_range, positive, representable, ConfigError};
 use crate::scalar::{lit, Float};
 use nalgebra::{Matrix3, Vector3};
 
@@ -90,18 +90,18 @@ impl<T: Float> Rls<T> {
     pub fn new(config: &RlsConfig) -> Result<Self, ConfigError> {
         let lambda = in_range("forgetting", config.forgetting, 1e-3, 1.0)?;
         let p0 = positive("initial_covariance", config.initial_covariance)?;
-        for v in config.initial {
-            in_range("initial", v, -1e6, 1e6)?;
+        let mut theta = Vector3::zeros();
+        for (k, (t, v)) in theta.iter_mut().zip(config.initial).enumerate() {
+            in_range("initial", v, -1e6, 1e6).map_err(|e| e.indexed(k))?;
+            *t = representable("initial", v).map_err(|e| e.indexed(k))?;
         }
+        let max_trace = positive("max_covariance_trace", config.max_covariance_trace)?;
         Ok(Self {
-            theta: Vector3::from(config.initial.map(lit)),
-            covariance: Matrix3::identity() * lit::<T>(p0),
-            forgetting: lit(lambda),
-            inv_forgetting: lit(1.0 / lambda),
-            max_trace: lit(positive(
-                "max_covariance_trace",
-                config.max_covariance_trace,
-            )?),
+            theta,
+            covariance: Matrix3::identity() * coefficient::<T>("initial_covariance", p0)?,
+            forgetting: coefficient("forgetting", lambda)?,
+            inv_forgetting: coefficient("forgetting", 1.0 / lambda)?,
+            max_trace: coefficient("max_covariance_trace", max_trace)?,
             y1: T::zero(),
             y2: T::zero(),
             u1: T::zero(),

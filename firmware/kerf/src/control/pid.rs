@@ -29,7 +29,7 @@
 //! Only `+ − ×` and comparisons run per period, so the law is generic over
 //! [`Real`] (`f32`, `f64`, [`Q31_32`](crate::scalar::Q31_32)).
 
-use crate::error::{coefficient, in_range, positive, ConfigError};
+use crate::error::{coefficient, coefficient_or_zero, in_range, positive, ConfigError};
 use crate::scalar::Real;
 
 /// Lower and upper bound of the command, in the command's unit.
@@ -155,18 +155,6 @@ pub struct PidOutput<T> {
     pub rate_limited: bool,
 }
 
-/// A gain that may be zero (then exactly zero in `T`), else checked like any
-/// derived coefficient.
-fn gain<T: Real>(name: &'static str, value: f64) -> Result<T, ConfigError> {
-    if !value.is_finite() {
-        Err(ConfigError::not_finite(name))
-    } else if value == 0.0 {
-        Ok(T::ZERO)
-    } else {
-        coefficient(name, value)
-    }
-}
-
 /// A bound that may be zero or negative, checked in the target scalar.
 fn bound<T: Real>(name: &'static str, value: f64) -> Result<T, ConfigError> {
     crate::error::representable(name, value)
@@ -208,11 +196,11 @@ impl<T: Real> Pid<T> {
             )?),
         };
         Ok(Self {
-            kp: gain("kp", config.kp)?,
-            ki_ts: gain("ki_per_s", config.ki_per_s * ts)?,
-            d_memory: gain("derivative_filter_s", tau / (tau + ts))?,
-            d_gain: gain("kd_s", config.kd_s / (tau + ts))?,
-            kaw_ts: gain("anti_windup_per_s", kaw_ts)?,
+            kp: coefficient_or_zero("kp", config.kp)?,
+            ki_ts: coefficient_or_zero("ki_per_s", config.ki_per_s * ts)?,
+            d_memory: coefficient_or_zero("derivative_filter_s", tau / (tau + ts))?,
+            d_gain: coefficient_or_zero("kd_s", config.kd_s / (tau + ts))?,
+            kaw_ts: coefficient_or_zero("anti_windup_per_s", kaw_ts)?,
             limits,
             max_step,
         })

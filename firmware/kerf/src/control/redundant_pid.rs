@@ -32,8 +32,8 @@
 //! Without regularization (`regularize: false`) the same law is the plain joint PID
 //! of eq. 35 with anti-windup, the baseline of A 3.2.1.
 
-use crate::error::{coefficient, positive, ConfigError};
-use crate::scalar::{lit, Float};
+use crate::error::{coefficient, coefficient_or_zero, positive, ConfigError};
+use crate::scalar::Float;
 use nalgebra::{SMatrix, SVector};
 
 /// Gains of one machine part (A table 2), the force limit and the period.
@@ -136,19 +136,19 @@ pub enum RedundantPidError {
 }
 
 impl<T: Float> RedundantPid<T> {
-    /// Coefficients for period `ts_s` (gains finite and positive, K_I and K_AWP may
-    /// be zero).
+    /// Coefficients for period `ts_s` (gains finite and positive, K_D, K_I and K_AWP
+    /// may be zero). Every coefficient is checked in `T`: a K_D/Ts or K_I·Ts that is
+    /// finite in `f64` but ∞ or zero in `f32` is refused, naming the gain.
     pub fn new(config: &RedundantPidConfig, ts_s: f64) -> Result<Self, ConfigError> {
         let ts = positive("ts_s", ts_s)?;
-        let nonneg = |name, v: f64| nonneg_f64(name, v).map(lit::<T>);
+        let kd = nonneg_f64("kd", config.kd)?;
+        let ki = nonneg_f64("ki", config.ki)?;
+        let k_awp = nonneg_f64("k_awp", config.k_awp)?;
         Ok(Self {
             kp: coefficient("kp", positive("kp", config.kp)?)?,
-            kd_per_ts: nonneg("kd", config.kd / ts)?,
-            ki_ts: nonneg("ki", config.ki * ts)?,
-            back_calculation: nonneg(
-                "k_awp",
-                -libm::expm1(-nonneg_f64("k_awp", config.k_awp)? * config.ki * ts),
-            )?,
+            kd_per_ts: coefficient_or_zero("kd", kd / ts)?,
+            ki_ts: coefficient_or_zero("ki", ki * ts)?,
+            back_calculation: coefficient_or_zero("k_awp", -libm::expm1(-k_awp * ki * ts))?,
             limit: coefficient("force_limit", positive("force_limit", config.force_limit)?)?,
             regularize: config.regularize,
         })
@@ -441,5 +441,35 @@ mod tests {
         let mut bad = RedundantPidConfig::ARROW_TURNTABLE;
         bad.kd = -1.0;
         assert!(RedundantPid::<f64>::new(&bad, 2e-4).is_err());
+    }
+
+    /// Gains whose coefficients are finite in `f64` but not in `f32` are refused for
+    /// `f32`, naming the gain: K_D/Ts of 4e38/2e-4 and 1e300/2e-4 overflow f32 (∞ × a
+    /// zero first difference is NaN in the first period), K_I·Ts of 1e300 · 2e-4 too,
+    /// and K_D/Ts of 1e-49/2e-4 rounds to zero in `f32`. The
+    /// same gains build in `f64`, and gains that are off (zero) build in both.
+    #[test]
+    fn gains_beyond_the_target_scalar_are_refused() {
+        let base = RedundantPidConfig::ARROW_PARALLEL;
+        for (field, config) in [
+            ("kd", RedundantPidConfig { kd: 4e38, ..base }),
+            ("kd", RedundantPidConfig { kd: 1e300, ..base }),
+            ("kd", RedundantPidConfig { kd: 1e-49, ..base }),
+            ("ki", RedundantPidConfig { ki: 1e300, ..base }),
+        ] {
+            assert_eq!(
+                RedundantPid::<f32>::new(&config, 2e-4),
+                Err(ConfigError::not_representable(field)),
+                "{config:?}"
+            );
+            assert!(RedundantPid::<f64>::new(&config, 2e-4).is_ok());
+        }
+        let off = RedundantPidConfig {
+            kd: 0.0,
+            ki: 0.0,
+            k_awp: 0.0,
+            ..base
+        };
+        assert!(RedundantPid::<f32>::new(&off, 2e-4).is_ok());
     }
 }

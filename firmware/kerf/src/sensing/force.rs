@@ -124,7 +124,7 @@ impl<T: Float> FtSensor<T> {
                     return Err(ConfigError::not_finite("calibration").indexed(i));
                 }
                 if let Some(m) = matrix.get_mut((i, j)) {
-                    *m = lit(v);
+                    *m = crate::error::representable("calibration", v).map_err(|e| e.indexed(i))?;
                 }
             }
         }
@@ -334,10 +334,10 @@ impl<T: Float> ToolGeometry<T> {
             dx: crate::error::representable("dx_m", dx).map_err(|x| x.within("eccentricity"))?,
             dy: crate::error::representable("dy_m", dy).map_err(|x| x.within("eccentricity"))?,
             rounding: lit::<T>(16.0) * T::default_epsilon(),
-            noise_sq: lit({
+            noise_sq: crate::error::coefficient_or_zero("noise_n", {
                 let noise = crate::error::in_range("noise_n", config.noise_n, 0.0, 1e3)?;
                 49.0 * noise * noise
-            }),
+            })?,
         })
     }
 

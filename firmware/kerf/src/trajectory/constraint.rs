@@ -29,7 +29,7 @@
 //!   Pi+1), which is continuous when x passes a data point.
 
 use super::{lit, to_f64, ContourError, Float};
-use crate::error::positive;
+use crate::error::{coefficient, positive, representable};
 use heapless::Vec;
 use nalgebra::{Matrix2x3, Matrix3, Vector2, Vector3};
 
@@ -299,18 +299,20 @@ impl<T: Float, const N: usize> MotionConstraint<T, N> {
         // `evaluate` subtracts the origin as stored in T, so the data are centred on
         // that same rounded value: centring on the exact mean instead would put the
         // query and the data in frames ½ ulp(|mean|) apart (15 nm at 0.36 m in f32).
-        let origin: Vector2<T> = Vector2::new(lit(sx / n), lit(sy / n));
+        // Every value in the target scalar: points valid in f64 can overflow f32.
+        let scalar = |value: f64| representable::<T>("points", value);
+        let origin: Vector2<T> = Vector2::new(scalar(sx / n)?, scalar(sy / n)?);
         let (ox, oy) = (to_f64(origin.x), to_f64(origin.y));
         let mut v = Vec::new();
         for p in points {
-            v.push(Vector2::new(lit(p[0] - ox), lit(p[1] - oy)))
+            v.push(Vector2::new(scalar(p[0] - ox)?, scalar(p[1] - oy)?))
                 .map_err(|_| ContourError::Capacity)?;
         }
         Ok(Self {
             points: v,
             origin,
             config: *config,
-            line_sagitta: lit(sag),
+            line_sagitta: coefficient("line_sagitta_m", sag)?,
         })
     }
 

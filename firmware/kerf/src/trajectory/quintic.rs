@@ -3,7 +3,7 @@
 //! Peak velocity 1.875 D/T, peak acceleration 5.7735 D/T².
 
 use crate::control::pd::Reference;
-use crate::error::{positive, representable, ConfigError};
+use crate::error::{coefficient, positive, representable, ConfigError};
 use crate::scalar::Real;
 
 /// A single rest-to-rest move, coefficients precomputed so evaluation is `+ − *` only.
@@ -31,7 +31,7 @@ impl<T: Real> Quintic<T> {
         Ok(Self {
             start: representable("start_m", start_m)?,
             distance: representable("distance_m", distance_m)?,
-            inv_duration: representable("duration_s", 1.0 / duration)?,
+            inv_duration: coefficient("duration_s", 1.0 / duration)?,
             velocity_scale: scaled(distance_m / duration)?,
             acceleration_scale: scaled(distance_m / (duration * duration))?,
         })

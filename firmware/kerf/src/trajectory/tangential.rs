@@ -143,7 +143,7 @@ impl<T: Float> SpeedRamp<T> {
         Ok(Self {
             // In the target scalar: f64-valid extremes can overflow f32.
             speed: representable("speed_m_s", v)?,
-            jerk: representable("jerk_m_s3", j_used)?,
+            jerk: crate::error::coefficient("jerk_m_s3", j_used)?,
             ts: representable("ts_s", ts)?,
             n_jerk,
             n_flat,

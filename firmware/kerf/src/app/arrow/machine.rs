@@ -22,10 +22,10 @@
 
 use super::job::{split_pose, ArrowJob};
 use super::{ArrowDesired, ArrowLaw, ArrowLoopState, ArrowPeriodError};
-use crate::app::supervisor::{Machine, Step};
-use crate::error::{positive, ConfigError};
+use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
+use crate::error::{coefficient, positive, ConfigError};
 use crate::kinematics::arrow::{Joints, Pose};
-use crate::scalar::{lit, Float};
+use crate::scalar::Float;
 use crate::trajectory::feed::FeedFollower;
 
 /// One period's encoder readings.
@@ -61,6 +61,8 @@ pub enum ArrowFault {
     Law(ArrowPeriodError),
     /// The path follower lost the spline.
     Path,
+    /// An output was NaN or infinite: the actuator forces 0–5, the table torques 6–7.
+    Output(NonFiniteOutput),
 }
 
 /// Why a job may not start.
@@ -160,7 +162,7 @@ impl<T: Float, const N: usize, const R: usize> ArrowMachine<T, N, R> {
     /// Errors: a limit or the period not finite and positive.
     pub fn new(law: ArrowLaw<T>, period_s: f64, limits: &ArrowLimits) -> Result<Self, ConfigError> {
         positive("period_s", period_s)?;
-        let t = |name, v| positive(name, v).map(lit::<T>);
+        let t = |name, v| coefficient::<T>(name, positive(name, v)?);
         let limits = Limits {
             jump: [
                 t("encoder_jump_m", limits.encoder_jump_m)?,

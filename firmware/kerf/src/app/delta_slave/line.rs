@@ -3,7 +3,7 @@
 use crate::control::pd::Reference;
 use crate::error::ConfigError;
 use crate::kinematics::delta::{DeltaGeometry, KinematicsError};
-use crate::scalar::{lit, Float};
+use crate::scalar::Float;
 use crate::trajectory::quintic::Quintic;
 use nalgebra::Vector3;
 
@@ -38,10 +38,10 @@ pub(super) struct Line<T> {
 
 impl<T: Float> Line<T> {
     pub(super) fn new(from: [f64; 3], to: [f64; 3], duration_s: f64) -> Result<Self, ConfigError> {
-        let v = |a: [f64; 3]| Vector3::new(lit(a[0]), lit(a[1]), lit(a[2]));
+        let v = |name, a| crate::error::representable_each::<T, 3>(name, a).map(Vector3::from);
         Ok(Self {
-            from: v(from),
-            line: v([to[0] - from[0], to[1] - from[1], to[2] - from[2]]),
+            from: v("from_m", from)?,
+            line: v("to_m", [to[0] - from[0], to[1] - from[1], to[2] - from[2]])?,
             profile: Quintic::new(0.0, 1.0, duration_s)?,
         })
     }

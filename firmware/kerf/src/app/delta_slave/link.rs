@@ -169,6 +169,7 @@ pub fn fault_reason(code: u16) -> &'static str {
         4 => "the effector left the contour by more than the contour-error limit",
         5 => "a carriage fell behind its reference by more than the following-error limit",
         6 => "a carriage's force stayed at its limit longer than allowed",
+        7 => "an output (a carriage force, the laser duty) was not finite",
         _ => "unknown fault",
     }
 }
@@ -178,6 +179,7 @@ pub fn fault_reason(code: u16) -> &'static str {
 pub fn fault_detail(code: u16) -> Option<&'static str> {
     match code {
         5 => Some("carriage"),
+        7 => Some("output (0-2 the carriage forces, 3 the laser duty)"),
         _ => crate::codec::link::board_fault::detail(code),
     }
 }
@@ -285,6 +287,7 @@ impl<T: Float> LinkMachine for DeltaSlave<T> {
             DeltaFault::ContourError => (4, 0),
             DeltaFault::FollowingError { axis } => (5, u16::from(*axis)),
             DeltaFault::Saturated => (6, 0),
+            DeltaFault::Output(output) => (7, u16::from(output.index)),
         }
     }
 

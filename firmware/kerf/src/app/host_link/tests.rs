@@ -32,6 +32,12 @@ struct Toy {
     gain: f32,
 }
 
+impl From<crate::app::supervisor::NonFiniteOutput> for u8 {
+    fn from(output: crate::app::supervisor::NonFiniteOutput) -> Self {
+        output.index
+    }
+}
+
 impl Machine for Toy {
     type Inputs = bool;
     type Outputs = u8;

@@ -25,6 +25,12 @@ struct Toy {
     resets: u32,
 }
 
+impl From<super::NonFiniteOutput> for &'static str {
+    fn from(_: super::NonFiniteOutput) -> Self {
+        "output"
+    }
+}
+
 impl Machine for Toy {
     type Inputs = bool;
     type Outputs = u8;
