@@ -4,8 +4,11 @@
 
 use hal_mock::hall_sensor::{HallSensor, HallSensorParams};
 use host_tests::hall::{calibrate, PITCH_M};
+use kerf::app::calibrate::{CalibrationFit, CalibrationSweep, HallMachine};
+use kerf::app::joints::Joints;
 use kerf::sensing::hall::{
-    CalibrationWarning, CorrectionLearner, HallConfig, HallCorrection, HallDecoder, HallState,
+    CalibrationWarning, CorrectionLearner, FaultBudgetRaised, HallConfig, HallCorrection,
+    HallDecoder, HallState,
 };
 use kerf::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
 
@@ -238,5 +241,61 @@ fn fit_residual_warns_for_sensors_beyond_the_model() {
                 "{bits} bit, {name}: {fit:?}"
             );
         }
+    }
+}
+
+/// Samples of one axis' calibration sweep (`app::calibrate`) on `sensor`, the axis
+/// following the sweep's reference exactly (the coasts' smoothness is the fit's
+/// requirement, met here by the reference itself).
+fn sweep_samples(sensor: &mut HallSensor) -> CalibrationFit<1> {
+    let mut sweep = CalibrationSweep::<f64, 1>::new([0.0], PITCH_M, 1e-4).unwrap();
+    let mut fit = CalibrationFit::<1>::default();
+    loop {
+        let counts = sensor.sample(sweep.reference()[0].position);
+        if sweep.advance(&[counts], &mut |axis, c| fit.push(axis, c).unwrap()) {
+            return fit;
+        }
+    }
+}
+
+/// A machine calibrates on every drawn sensor set (`lm1247_drawn`, harmonics of any
+/// phase per channel, noise at the model's limit) at 12 and 16 bits, through the
+/// machine path (`HallMachine::fit`). Where the fitted noise cannot keep the 20 µm fault
+/// budget, the installed budget is the smallest it can keep and says so, typed; where
+/// it can, 20 µm is installed and nothing is reported.
+#[test]
+fn a_machine_calibrates_on_every_drawn_sensor_at_12_and_16_bits() {
+    let draws = 24u64;
+    for (bits, noise_lsb) in [(12u8, 1.0), (16, 4.0)] {
+        let hall = [HallConfig::lm1247(bits)];
+        let (mut raised, mut largest) = (0, 0.0f64);
+        for seed in 0..draws {
+            let params = HallSensorParams::lm1247_drawn(bits, noise_lsb, seed);
+            let samples = sweep_samples(&mut HallSensor::new(params, 100 + seed));
+            let (_, fits) = <Joints<f64, 1> as HallMachine<1>>::fit(&hall, &samples)
+                .unwrap_or_else(|e| panic!("{bits} bit, draw {seed}: {e:?}"));
+            let fit = &fits[0];
+            let smallest = hall[0]
+                .with_self_calibration(fit)
+                .smallest_fault_error_budget_m()
+                .unwrap();
+            match fit.fault_budget_raised {
+                Some(FaultBudgetRaised {
+                    requested_m,
+                    installed_m,
+                }) => {
+                    assert_eq!(requested_m, 20e-6);
+                    assert!(smallest > 20e-6, "{bits} bit, draw {seed}: {smallest}");
+                    assert!((installed_m / smallest - 1.0).abs() < 1e-6);
+                    raised += 1;
+                    largest = largest.max(installed_m);
+                }
+                None => assert!(smallest <= 20e-6, "{bits} bit, draw {seed}: {smallest}"),
+            }
+        }
+        println!(
+            "{bits} bit, {noise_lsb} LSB: {draws} drawn sensor sets calibrate; {raised} installed above 20 µm (largest {:.1} µm)",
+            largest * 1e6
+        );
     }
 }

@@ -421,6 +421,10 @@ pub struct SelfCalibration {
     pub residual_limit_counts: f64,
     /// `Some` when the sensor does not fit the model.
     pub warning: Option<CalibrationWarning>,
+    /// `Some` when the calibration was installed with a larger fault-error budget than
+    /// configured, the smallest its noise allows (set by the machine path,
+    /// `app::calibrate::fit_sensors`; `None` from the fit itself).
+    pub fault_budget_raised: Option<super::FaultBudgetRaised>,
 }
 
 /// Collects raw samples during calibration coasts and fits the channel model.
@@ -591,6 +595,7 @@ impl<const N: usize> HallCalibrator<N> {
             residual_rms_counts,
             residual_limit_counts,
             warning,
+            fault_budget_raised: None,
         })
     }
 

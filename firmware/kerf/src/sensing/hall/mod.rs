@@ -145,6 +145,37 @@ impl HallConfig {
         }
     }
 
+    /// This configuration with a self-calibration installed as
+    /// [`HallConfig::with_self_calibration`] does, and with the configured
+    /// `fault_error_budget_m` if the fitted noise allows it; otherwise with the smallest
+    /// budget it allows ([`HallConfig::smallest_fault_error_budget_m`]), reported as
+    /// [`FaultBudgetRaised`]. A machine calibrates whatever its sensors' noise (a 12-bit
+    /// ADC's rounding alone shows about as much residual as a 20 µm fault, see
+    /// [`residual`]); what it can promise is said, never loosened quietly.
+    pub fn with_self_calibration_within_noise(
+        &self,
+        fit: &SelfCalibration,
+    ) -> (Self, Option<FaultBudgetRaised>) {
+        let installed = self.with_self_calibration(fit);
+        match installed.smallest_fault_error_budget_m() {
+            // The ratio's rounding (a few ulp) must not refuse the smallest budget itself.
+            Some(smallest) if smallest > self.fault_error_budget_m => {
+                let raised = smallest * (1.0 + 1e-9);
+                (
+                    Self {
+                        fault_error_budget_m: raised,
+                        ..installed
+                    },
+                    Some(FaultBudgetRaised {
+                        requested_m: self.fault_error_budget_m,
+                        installed_m: raised,
+                    }),
+                )
+            }
+            _ => (installed, None),
+        }
+    }
+
     /// The smallest `fault_error_budget_m` the installed calibration can keep without
     /// false alarms (where the budget's own limit meets the healthy band, see
     /// [`residual`]); `None` without a healthy-residual table. A budget below it is
@@ -161,6 +192,17 @@ impl HallConfig {
     pub const LM1247_16BIT: Self = Self::lm1247(16);
     /// [`HallConfig::lm1247`] on a 12-bit ADC.
     pub const LM1247_12BIT: Self = Self::lm1247(12);
+}
+
+/// A calibration installed with a larger fault-error budget than configured, because
+/// the fitted noise does not allow the configured one
+/// ([`HallConfig::with_self_calibration_within_noise`]).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct FaultBudgetRaised {
+    /// The configured budget (`HallConfig::fault_error_budget_m`), m.
+    pub requested_m: f64,
+    /// The budget installed instead: the smallest the fitted noise allows, m.
+    pub installed_m: f64,
 }
 
 /// Why a sample was rejected. The accumulator does not move on a fault.
