@@ -143,10 +143,10 @@ impl HallSensorParams {
         let amplitude = 0.4 * full_scale;
         let nominal = [0.0, 2.0 * PI / 3.0, -2.0 * PI / 3.0];
         let mut p = Self::lm1247_imperfect(adc_bits, noise_lsb);
-        for k in 0..3 {
+        for (k, nominal) in nominal.iter().enumerate() {
             p.offset_counts[k] = 0.5 * full_scale + OFFSET * full_scale * symmetric();
             p.amplitude_counts[k] = amplitude * (1.0 + GAIN * symmetric());
-            p.phase_rad[k] = nominal[k] + MOUNTING_RAD * symmetric();
+            p.phase_rad[k] = nominal + MOUNTING_RAD * symmetric();
             p.harmonic3[k] = HARMONIC3 * 0.5 * (1.0 + symmetric());
             p.harmonic3_phase_rad[k] = PI * symmetric();
             p.harmonic5[k] = HARMONIC5 * 0.5 * (1.0 + symmetric());
