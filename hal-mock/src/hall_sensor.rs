@@ -108,6 +108,54 @@ impl HallSensorParams {
     }
 }
 
+/// Bounds of the LM1247 class a drawn sensor set stays within
+/// ([`HallSensorParams::lm1247_drawn`]): what the decoder's uncalibrated range
+/// (`kerf::sensing::hall::UNCALIBRATED_RANGE`, 1.15 A) still holds at a channel's peak
+/// with every error at its bound (7.5 % of A offset, 5 % gain, 4 % third and 1.5 % fifth
+/// harmonic: 1.183 A, inside the rail margin's 1.2 A).
+pub mod drawn_bounds {
+    /// Largest offset from mid-scale, fraction of full scale.
+    pub const OFFSET: f64 = 0.03;
+    /// Largest gain error, relative.
+    pub const GAIN: f64 = 0.05;
+    /// Largest mounting error of a channel's phase, rad (1.5°).
+    pub const MOUNTING_RAD: f64 = 1.5 * core::f64::consts::PI / 180.0;
+    /// Largest third-harmonic amplitude relative to the fundamental.
+    pub const HARMONIC3: f64 = 0.04;
+    /// Largest fifth-harmonic amplitude relative to the fundamental.
+    pub const HARMONIC5: f64 = 0.015;
+}
+
+impl HallSensorParams {
+    /// A seeded random LM1247 sensor set, each channel drawn on its own within
+    /// [`drawn_bounds`]: offset, gain and mounting error uniform within their bounds,
+    /// third and fifth harmonics of any amplitude up to their bounds and of any phase
+    /// (a magnet's shape and a sensor's placement over its edge set both per channel;
+    /// [`HallSensorParams::lm1247_worst`] keeps them within ±10° of the mounting), and
+    /// `noise_lsb` RMS noise (tests pass the model's limit: 4 LSB at 16 bits, 1 LSB at
+    /// 12).
+    pub fn lm1247_drawn(adc_bits: u8, noise_lsb: f64, seed: u64) -> Self {
+        use drawn_bounds::*;
+        let mut draw = Noise::new(seed ^ 0x4a11_5e75);
+        // Uniform in [−1, 1).
+        let mut symmetric = move || 2.0 * draw.uniform() - 1.0;
+        let full_scale = libm::exp2(f64::from(adc_bits));
+        let amplitude = 0.4 * full_scale;
+        let nominal = [0.0, 2.0 * PI / 3.0, -2.0 * PI / 3.0];
+        let mut p = Self::lm1247_imperfect(adc_bits, noise_lsb);
+        for (k, nominal) in nominal.iter().enumerate() {
+            p.offset_counts[k] = 0.5 * full_scale + OFFSET * full_scale * symmetric();
+            p.amplitude_counts[k] = amplitude * (1.0 + GAIN * symmetric());
+            p.phase_rad[k] = nominal + MOUNTING_RAD * symmetric();
+            p.harmonic3[k] = HARMONIC3 * 0.5 * (1.0 + symmetric());
+            p.harmonic3_phase_rad[k] = PI * symmetric();
+            p.harmonic5[k] = HARMONIC5 * 0.5 * (1.0 + symmetric());
+            p.harmonic5_phase_rad[k] = PI * symmetric();
+        }
+        p
+    }
+}
+
 /// Pitches covered by one [`calibration_coast_m`].
 pub const COAST_PITCHES: f64 = 1.5;
 

@@ -204,6 +204,14 @@ impl LinkTask {
                         fit.calibration.offset_counts,
                         fit.residual_rms_counts
                     );
+                    if let Some(raised) = fit.fault_budget_raised {
+                        defmt::warn!(
+                            "calibration: axis {} fault budget {} um (configured {} um: more than its noise allows)",
+                            axis,
+                            raised.installed_m * 1e6,
+                            raised.requested_m * 1e6
+                        );
+                    }
                 }
                 if self
                     .commands

@@ -141,6 +141,11 @@ impl<T: Real> HallAxis<T> {
             pitches_per_m: factor::<T>("pitch_m", 1.0 / config.pitch_m)?,
         })
     }
+
+    /// The axis' Hall decoder (its limits, e.g. the installed residual limit).
+    pub fn decoder(&self) -> &HallDecoder {
+        &self.decoder
+    }
 }
 
 /// The running part of one axis.

@@ -321,7 +321,10 @@ pub enum CalibrationFailure {
 }
 
 /// The slower context's end of a calibration: fits every axis from the streamed
-/// samples, returns the decoders to send with `FinishCalibration` and the fits.
+/// samples, returns the decoders to send with `FinishCalibration` and the fits. An
+/// axis whose noise cannot keep its configured fault-error budget is installed with
+/// the smallest budget it can keep, reported in its fit's
+/// [`SelfCalibration::fault_budget_raised`].
 pub fn fit_sensors<T: Real, const N: usize>(
     hall: &[HallConfig; N],
     samples: &CalibrationFit<N>,
@@ -329,10 +332,13 @@ pub fn fit_sensors<T: Real, const N: usize>(
     let mut sensors = heapless::Vec::<HallAxis<T>, N>::new();
     let mut fits = heapless::Vec::<SelfCalibration, N>::new();
     for (axis, hall) in hall.iter().enumerate() {
-        let fit = samples
+        let mut fit = samples
             .finish(axis, &hall.calibration)
             .map_err(|error| CalibrationFailure::Fit { axis, error })?;
-        let sensor = HallAxis::new(&hall.with_self_calibration(&fit))
+        // A budget the sensors' noise cannot keep is raised to the one it can, and said.
+        let (config, raised) = hall.with_self_calibration_within_noise(&fit);
+        fit.fault_budget_raised = raised;
+        let sensor = HallAxis::new(&config)
             .map_err(|e| CalibrationFailure::Config(e.at(axis).within("hall")))?;
         let _ = sensors.push(sensor);
         let _ = fits.push(fit);

@@ -44,9 +44,10 @@
 //! (≤ [`MAX_SEGMENTS`]·4 unknowns), so its stack stays a few KB.
 //!
 //! From the fitted model the calibration gives a linear demodulation (rows of M⁻¹, M's
-//! rows (A_k cos p_k, A_k sin p_k, e_k) with e_k the channels' common third-harmonic
-//! direction) and a [`HallCorrection`] table: what the linear decoder still gets wrong
-//! as a function of phase, subtracted after the atan2. Both travel in one
+//! rows (A_k cos p_k, A_k sin p_k, Ā) with Ā the mean amplitude: the common mode, see
+//! [`SensorModel::linear_calibration`]) and a [`HallCorrection`] table: what the linear
+//! decoder still gets wrong as a function of phase, subtracted after the atan2. Both
+//! travel in one
 //! [`HallCalibration`], so installing a calibration is one step.
 //! The fit's residual (RMS of u − model, counts) is reported; above
 //! [`SelfCalibration::residual_limit_counts`] the result carries a typed
@@ -264,13 +265,6 @@ impl ChannelModel {
                     + self.harmonic3 * libm::sin(3.0 * a + self.harmonic3_phase_rad)
                     + self.harmonic5 * libm::sin(5.0 * a + self.harmonic5_phase_rad))
     }
-
-    /// The channel's coefficient of sin 3φ and cos 3φ.
-    fn third_harmonic(&self) -> (f64, f64) {
-        let angle = 3.0 * self.phase_rad + self.harmonic3_phase_rad;
-        let h = self.amplitude_counts * self.harmonic3;
-        (h * libm::cos(angle), h * libm::sin(angle))
-    }
 }
 
 /// The fitted sensor model of one axis.
@@ -296,30 +290,20 @@ impl SensorModel {
     }
 
     /// Linear demodulation: offsets and the first two rows of M⁻¹, no table. M's third
-    /// column is the channels' third harmonic along its mean phase (120° channels see
-    /// it nearly in common mode), so the rows reject its main part; without a
-    /// measurable harmonic it is the plain common mode (equal entries).
+    /// column is the plain common mode (equal entries), so the rows are the generalized
+    /// Clarke transform of the fitted fundamentals: every channel weighs in the phase by
+    /// about (2/3)/A whatever the harmonics, and the correction table takes up what the
+    /// harmonics leave. Rejecting the channels' fitted third harmonic instead would
+    /// trade the table's work for rows that lean on one channel when the harmonics
+    /// differ in phase between channels; a fault on that channel then moves the phase
+    /// along the healthy residual's own slope, where the health check is nearly blind
+    /// (see [`super::residual`]: sensitivities of 0.3 A per rad instead of 1.4 A).
     pub fn linear_calibration(&self) -> Result<HallCalibration, CalibrationError> {
         let c = &self.channels;
         let mean_amplitude = self.mean_amplitude_counts();
-        let (sum_s, sum_c) = c.iter().fold((0.0, 0.0), |(s, cc), ch| {
-            let (hs, hc) = ch.third_harmonic();
-            (s + hs, cc + hc)
-        });
-        let has_harmonic = libm::hypot(sum_s, sum_c) > 3e-4 * mean_amplitude;
-        let direction = libm::atan2(sum_c, sum_s);
         let row = |ch: &ChannelModel| {
             let (a, p) = (ch.amplitude_counts, ch.phase_rad);
-            let (hs, hc) = ch.third_harmonic();
-            [
-                a * libm::cos(p),
-                a * libm::sin(p),
-                if has_harmonic {
-                    hs * libm::cos(direction) + hc * libm::sin(direction)
-                } else {
-                    mean_amplitude
-                },
-            ]
+            [a * libm::cos(p), a * libm::sin(p), mean_amplitude]
         };
         let [r0, r1, r2] = [row(&c[0]), row(&c[1]), row(&c[2])];
         let m = Matrix3::new(
@@ -421,6 +405,10 @@ pub struct SelfCalibration {
     pub residual_limit_counts: f64,
     /// `Some` when the sensor does not fit the model.
     pub warning: Option<CalibrationWarning>,
+    /// `Some` when the calibration was installed with a larger fault-error budget than
+    /// configured, the smallest its noise allows (set by the machine path,
+    /// `app::calibrate::fit_sensors`; `None` from the fit itself).
+    pub fault_budget_raised: Option<super::FaultBudgetRaised>,
 }
 
 /// Collects raw samples during calibration coasts and fits the channel model.
@@ -591,6 +579,7 @@ impl<const N: usize> HallCalibrator<N> {
             residual_rms_counts,
             residual_limit_counts,
             warning,
+            fault_budget_raised: None,
         })
     }
 

@@ -25,14 +25,17 @@
 //!    (from its velocity estimate), so any speed unwraps as long as the prediction is
 //!    within a quarter pitch; a larger innovation is an implausible jump.
 //!
-//! # Detection guarantee (issue 10 item 6)
+//! # Detection guarantee
 //!
 //! With a self-calibration installed, every single-channel failure (frozen, stuck at
 //! any level, open wire floating or pulled to a rail, gain collapse) is flagged before
 //! the position error it causes exceeds [`HallConfig::fault_error_budget_m`] (20 µm by
 //! default): the residual limit is derived from the budget through the decoder's own
-//! demodulation columns (the inequality in [`residual`]), and a budget the healthy
-//! noise does not fit under is refused at [`HallDecoder::new`]. A channel that fails
+//! demodulation columns (the inequality in [`residual`]), with the healthy noise kept
+//! [`NOISE_SIGMAS`] away from both a false alarm and a missed budget; a budget that
+//! leaves no such limit is refused at [`HallDecoder::new`], and a machine's calibration
+//! installs the smallest one its sensors allow instead, said as [`FaultBudgetRaised`]
+//! ([`HallConfig::with_self_calibration_within_noise`]). A channel that fails
 //! while the axis stands still is harmless until the axis moves (a frozen channel
 //! holds the right value); it is caught within the same distance once motion starts.
 //! Without a calibration the decoder cannot know the sensors' harmonics and uses the
@@ -145,22 +148,66 @@ impl HallConfig {
         }
     }
 
-    /// The smallest `fault_error_budget_m` the installed calibration can keep without
-    /// false alarms (where the budget's own limit meets the healthy band, see
-    /// [`residual`]); `None` without a healthy-residual table. A budget below it is
-    /// refused by [`HallDecoder::new`].
+    /// This configuration with a self-calibration installed as
+    /// [`HallConfig::with_self_calibration`] does, and with the configured
+    /// `fault_error_budget_m` if the fitted noise allows it; otherwise with the smallest
+    /// budget it allows ([`HallConfig::smallest_fault_error_budget_m`]), reported as
+    /// [`FaultBudgetRaised`]. A machine calibrates whatever its sensors' noise (a 12-bit
+    /// ADC's rounding alone shows about as much residual as a 20 µm fault, see
+    /// [`residual`]); what it can promise is said, never loosened quietly.
+    pub fn with_self_calibration_within_noise(
+        &self,
+        fit: &SelfCalibration,
+    ) -> (Self, Option<FaultBudgetRaised>) {
+        let installed = self.with_self_calibration(fit);
+        match installed.smallest_fault_error_budget_m() {
+            // The ratio's rounding (a few ulp) must not refuse the smallest budget itself.
+            Some(smallest) if smallest > self.fault_error_budget_m => {
+                let raised = smallest * (1.0 + 1e-9);
+                (
+                    Self {
+                        fault_error_budget_m: raised,
+                        ..installed
+                    },
+                    Some(FaultBudgetRaised {
+                        requested_m: self.fault_error_budget_m,
+                        installed_m: raised,
+                    }),
+                )
+            }
+            _ => (installed, None),
+        }
+    }
+
+    /// The smallest `fault_error_budget_m` the installed calibration can keep with
+    /// neither a false alarm nor a missed budget within [`NOISE_SIGMAS`] of the noise
+    /// (where the budget's own limit is twice the healthy band, see [`residual`]);
+    /// `None` without a healthy-residual table. A budget below it is refused by
+    /// [`HallDecoder::new`].
     pub fn smallest_fault_error_budget_m(&self) -> Option<f64> {
         let table = self.calibration.residual?;
         let slope = residual::correction_slope(&self.calibration);
-        // The budget's limit is proportional to the budget.
+        // The budget's limit is proportional to the budget; the smallest is the one
+        // whose limit is twice the healthy band.
         let per_pitch = table.budget_limit_counts(2.0 * core::f64::consts::PI, slope);
-        Some(table.healthy_band_counts() / per_pitch * self.pitch_m)
+        Some(2.0 * table.healthy_band_counts() / per_pitch * self.pitch_m)
     }
 
     /// [`HallConfig::lm1247`] on a 16-bit ADC.
     pub const LM1247_16BIT: Self = Self::lm1247(16);
     /// [`HallConfig::lm1247`] on a 12-bit ADC.
     pub const LM1247_12BIT: Self = Self::lm1247(12);
+}
+
+/// A calibration installed with a larger fault-error budget than configured, because
+/// the fitted noise does not allow the configured one
+/// ([`HallConfig::with_self_calibration_within_noise`]).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct FaultBudgetRaised {
+    /// The configured budget (`HallConfig::fault_error_budget_m`), m.
+    pub requested_m: f64,
+    /// The budget installed instead: the smallest the fitted noise allows, m.
+    pub installed_m: f64,
 }
 
 /// Why a sample was rejected. The accumulator does not move on a fault.
@@ -544,11 +591,11 @@ impl HallDecoder {
     }
 }
 
-/// The residual limit of a calibrated decoder, counts: halfway between the healthy
-/// band H and the largest residual T_budget a fault shows while within the budget
-/// (`budget_pitches` of a pitch), so that noise needs as many standard deviations for
-/// a false alarm as for a missed budget; `fault_error_budget_m` is refused when
-/// H > T_budget (see [`residual`]).
+/// The residual limit of a calibrated decoder, counts: half the largest residual
+/// T_budget a fault shows while within the budget (`budget_pitches` of a pitch), the
+/// middle of [H, T_budget − H] in which neither the healthy band H reaches the limit
+/// nor a fault at the budget stays under it; `fault_error_budget_m` is refused when
+/// that interval is empty, T_budget < 2H (see [`residual`]).
 fn residual_limit_counts(
     table: &ResidualTable,
     calibration: &HallCalibration,
@@ -560,10 +607,10 @@ fn residual_limit_counts(
     if !(budget.is_finite() && healthy.is_finite()) {
         return Err(ConfigError::not_finite("calibration.residual"));
     }
-    if budget < healthy {
+    if budget < 2.0 * healthy {
         return Err(ConfigError::out_of_range("fault_error_budget_m"));
     }
-    Ok(0.5 * (healthy + budget))
+    Ok(0.5 * budget)
 }
 
 /// The channel that read the same value in this and the two previous samples while

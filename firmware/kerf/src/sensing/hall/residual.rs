@@ -28,13 +28,20 @@
 //!
 //!   T_budget = min_k sensitivity_k · β / C
 //!
-//! counts of residual. A healthy sensor stays within H = [`ResidualTable::
-//! healthy_band_counts`] (table error plus [`NOISE_SIGMAS`] standard deviations of the
-//! noise seen through the check). The decoder places its limit halfway,
-//! T = (H + T_budget)/2, so that the noise has the same number of standard deviations
-//! to cross for a false alarm as for a missed budget; if H > T_budget no limit keeps
-//! both promises and [`HallDecoder::new`](super::HallDecoder::new) refuses the
+//! counts of residual from the fault, to which the healthy part of the sample adds its
+//! own. A healthy sensor stays within H = [`ResidualTable::healthy_band_counts`] (table
+//! error plus [`NOISE_SIGMAS`] standard deviations of the noise seen through the
+//! check), and so does the healthy part of a faulty sample, of either sign. A limit T
+//! gives no false alarm if T ≥ H, and misses no fault at the budget if
+//! T_budget − H ≥ T: both promises at the same [`NOISE_SIGMAS`] hold for T in
+//! [H, T_budget − H]. The decoder takes its middle, T = T_budget/2; if T_budget < 2H
+//! the interval is empty and [`HallDecoder::new`](super::HallDecoder::new) refuses the
 //! configuration by naming `fault_error_budget_m` (never a silently looser check).
+//! So the smallest budget a calibration can keep,
+//! [`HallConfig::smallest_fault_error_budget_m`](super::HallConfig::smallest_fault_error_budget_m),
+//! is the one whose T_budget is 2H: twice the error at which a fault's residual equals
+//! the healthy band. At 12 bits with 1 LSB of noise that is about 30 to 35 µm at an
+//! 18 mm pitch, at 16 bits with 4 LSB about 12 µm (README).
 //!
 //! A channel that fails while the axis stands still causes no error until the axis
 //! moves (a frozen channel holds the right value): it is caught within the detection

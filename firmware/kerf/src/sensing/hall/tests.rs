@@ -500,9 +500,10 @@ fn counts_near_a_rail_are_rail_faults() {
     }
 }
 
-/// The calibrated limit follows the budget: it grows with it, lies between the
-/// healthy band and the budget's own limit, and a budget below the healthy band (0.1
-/// µm) is refused by name; without a table the limit is `sum_limit · A`.
+/// The calibrated limit follows the budget: it grows with it, is half the budget's
+/// own limit and at least the healthy band, and a budget whose own limit is below twice
+/// the healthy band (0.1 µm; just below the smallest) is refused by name; without a
+/// table the limit is `sum_limit · A`.
 #[test]
 fn the_residual_limit_follows_the_budget() {
     for cfg in [HallConfig::LM1247_16BIT, HallConfig::LM1247_12BIT] {
@@ -519,11 +520,10 @@ fn the_residual_limit_follows_the_budget() {
             let limit = HallDecoder::new(&config).unwrap().residual_limit_counts();
             let own = table.budget_limit_counts(2.0 * PI * budget_m / cfg.pitch_m, slope);
             let healthy = table.healthy_band_counts();
-            // Halfway, to Q4 rounding.
-            assert!(
-                (limit - 0.5 * (own + healthy)).abs() <= 1.0 / 32.0,
-                "{limit}"
-            );
+            // Half the budget's own limit (the middle of [H, own − H]), to Q4 rounding,
+            // and at least the healthy band.
+            assert!((limit - 0.5 * own).abs() <= 1.0 / 32.0, "{limit}");
+            assert!(limit >= healthy, "{limit} {healthy}");
             assert!(limit > last);
             last = limit;
         }
