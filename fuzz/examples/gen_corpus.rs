@@ -14,20 +14,28 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 fn corpus_dir(target: &Target) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("corpus").join(target.name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("corpus")
+        .join(target.name)
 }
 
 fn seed_files(dir: &Path) -> Vec<PathBuf> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).collect())
         .unwrap_or_default();
-    files.retain(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("seed-")));
+    files.retain(|p| {
+        p.file_name()
+            .is_some_and(|n| n.to_string_lossy().starts_with("seed-"))
+    });
     files.sort();
     files
 }
 
 fn count(name: &str, dirs: &[String]) -> Result<(), String> {
-    let target = TARGETS.iter().find(|t| t.name == name).ok_or(format!("no target {name}"))?;
+    let target = TARGETS
+        .iter()
+        .find(|t| t.name == name)
+        .ok_or(format!("no target {name}"))?;
     let (mut inputs, mut past, mut messages) = (0, 0, 0);
     for dir in dirs {
         let entries = std::fs::read_dir(dir).map_err(|e| format!("{dir}: {e}"))?;
@@ -66,13 +74,18 @@ fn main() -> ExitCode {
         for (k, seed) in seeds.iter().enumerate() {
             let n = (target.run)(seed);
             if n == 0 {
-                eprintln!("gen_corpus: {} seed {k} does not get past the checks", target.name);
+                eprintln!(
+                    "gen_corpus: {} seed {k} does not get past the checks",
+                    target.name
+                );
                 failed = true;
             }
         }
         if check {
-            let committed: Vec<Vec<u8>> =
-                seed_files(&dir).iter().filter_map(|p| std::fs::read(p).ok()).collect();
+            let committed: Vec<Vec<u8>> = seed_files(&dir)
+                .iter()
+                .filter_map(|p| std::fs::read(p).ok())
+                .collect();
             if committed != seeds {
                 eprintln!(
                     "gen_corpus: {} is stale: run `cargo run --example gen_corpus` in fuzz/",

@@ -33,7 +33,8 @@ impl<'a> Input<'a> {
 
     /// The next u32.
     pub fn u32(&mut self) -> Option<u32> {
-        self.bytes(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        self.bytes(4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     }
 
     /// The next f32 (any bit pattern, NaN and infinities included).

@@ -31,21 +31,89 @@ use targets::{codec, devices, host, job, link, replay, stream};
 
 /// Every target, firmware side first.
 pub const TARGETS: [Target; 17] = [
-    Target { name: "packet_decode", run: codec::packet_decode, seeds: codec::packet_decode_seeds },
-    Target { name: "spindle_reply", run: codec::spindle_reply, seeds: codec::spindle_reply_seeds },
-    Target { name: "gcode_parse", run: codec::gcode_parse, seeds: codec::gcode_parse_seeds },
-    Target { name: "gcs_reply", run: codec::gcs_reply, seeds: codec::gcs_reply_seeds },
-    Target { name: "link_frame", run: link::link_frame, seeds: link::link_frame_seeds },
-    Target { name: "host_link", run: link::host_link, seeds: link::host_link_seeds },
-    Target { name: "job_file", run: job::job_file, seeds: job::job_file_seeds },
-    Target { name: "stream_frame", run: stream::stream_frame, seeds: stream::stream_frame_seeds },
-    Target { name: "remote_link", run: stream::remote_link, seeds: stream::remote_link_seeds },
-    Target { name: "playout", run: replay::playout, seeds: replay::playout_seeds },
-    Target { name: "grinding_devices", run: devices::grinding_devices, seeds: devices::grinding_devices_seeds },
-    Target { name: "arrow_gcode", run: job::arrow_gcode, seeds: job::arrow_gcode_seeds },
-    Target { name: "replay_recording", run: replay::replay_recording, seeds: replay::replay_recording_seeds },
-    Target { name: "host_reader", run: host::host_reader, seeds: host::host_reader_seeds },
-    Target { name: "telemetry_log", run: host::telemetry_log, seeds: host::telemetry_log_seeds },
-    Target { name: "host_job", run: job::host_job, seeds: job::job_file_seeds },
-    Target { name: "plan_image", run: host::plan_image, seeds: host::plan_image_seeds },
+    Target {
+        name: "packet_decode",
+        run: codec::packet_decode,
+        seeds: codec::packet_decode_seeds,
+    },
+    Target {
+        name: "spindle_reply",
+        run: codec::spindle_reply,
+        seeds: codec::spindle_reply_seeds,
+    },
+    Target {
+        name: "gcode_parse",
+        run: codec::gcode_parse,
+        seeds: codec::gcode_parse_seeds,
+    },
+    Target {
+        name: "gcs_reply",
+        run: codec::gcs_reply,
+        seeds: codec::gcs_reply_seeds,
+    },
+    Target {
+        name: "link_frame",
+        run: link::link_frame,
+        seeds: link::link_frame_seeds,
+    },
+    Target {
+        name: "host_link",
+        run: link::host_link,
+        seeds: link::host_link_seeds,
+    },
+    Target {
+        name: "job_file",
+        run: job::job_file,
+        seeds: job::job_file_seeds,
+    },
+    Target {
+        name: "stream_frame",
+        run: stream::stream_frame,
+        seeds: stream::stream_frame_seeds,
+    },
+    Target {
+        name: "remote_link",
+        run: stream::remote_link,
+        seeds: stream::remote_link_seeds,
+    },
+    Target {
+        name: "playout",
+        run: replay::playout,
+        seeds: replay::playout_seeds,
+    },
+    Target {
+        name: "grinding_devices",
+        run: devices::grinding_devices,
+        seeds: devices::grinding_devices_seeds,
+    },
+    Target {
+        name: "arrow_gcode",
+        run: job::arrow_gcode,
+        seeds: job::arrow_gcode_seeds,
+    },
+    Target {
+        name: "replay_recording",
+        run: replay::replay_recording,
+        seeds: replay::replay_recording_seeds,
+    },
+    Target {
+        name: "host_reader",
+        run: host::host_reader,
+        seeds: host::host_reader_seeds,
+    },
+    Target {
+        name: "telemetry_log",
+        run: host::telemetry_log,
+        seeds: host::telemetry_log_seeds,
+    },
+    Target {
+        name: "host_job",
+        run: job::host_job,
+        seeds: job::job_file_seeds,
+    },
+    Target {
+        name: "plan_image",
+        run: host::plan_image,
+        seeds: host::plan_image_seeds,
+    },
 ];

@@ -26,7 +26,8 @@ fn reconstruct<const N: usize>(packet: &packet::Packet) {
         assert_eq!(block.m(), usize::from(packet.m));
         // Every accepted packet decodes to finite samples inside the declared range.
         assert!(
-            out.iter().all(|x| x.is_finite() && x.abs() <= MAX_SAMPLE_ABS),
+            out.iter()
+                .all(|x| x.is_finite() && x.abs() <= MAX_SAMPLE_ABS),
             "{out:?}"
         );
     }
@@ -88,10 +89,22 @@ pub fn packet_decode_seeds() -> std::vec::Vec<std::vec::Vec<u8>> {
     let mut packets = std::vec::Vec::new();
     let mut buf = [0u8; packet::MAX_PACKET_LEN];
     let mut add = |len: Result<usize, _>, buf: &[u8]| packets.push(buf[..len.unwrap()].to_vec());
-    add(packet::encode(&sine_block::<8>(3, 1.0), 8, 16, &mut buf), &buf);
-    add(packet::encode(&sine_block::<16>(16, 1e-3), 8, 16, &mut buf), &buf);
-    add(packet::encode(&sine_block::<32>(5, 250.0), 8, 32, &mut buf), &buf);
-    add(packet::encode(&sine_block::<64>(64, 1e12), 8, 64, &mut buf), &buf);
+    add(
+        packet::encode(&sine_block::<8>(3, 1.0), 8, 16, &mut buf),
+        &buf,
+    );
+    add(
+        packet::encode(&sine_block::<16>(16, 1e-3), 8, 16, &mut buf),
+        &buf,
+    );
+    add(
+        packet::encode(&sine_block::<32>(5, 250.0), 8, 32, &mut buf),
+        &buf,
+    );
+    add(
+        packet::encode(&sine_block::<64>(64, 1e12), 8, 64, &mut buf),
+        &buf,
+    );
     packets
         .iter()
         .flat_map(|p| [0u8, 1].map(|flag| Seed::new().u8(flag).u16(7).bytes(p).0))

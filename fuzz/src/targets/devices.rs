@@ -4,7 +4,6 @@
 //! own requests.
 
 use crate::input::{Input, Seed};
-use std::cell::RefCell;
 use hal_mock::hexapod::{HexapodLimits, SimHexapod, REFERENCE_TIME_S};
 use hal_mock::spindle::SimSpindle;
 use kerf::app::grinding::devices::{
@@ -12,6 +11,7 @@ use kerf::app::grinding::devices::{
 };
 use kerf::codec::gcs::{AxisSet, Command};
 use kerf::hal::{LinkError, Transact};
+use std::cell::RefCell;
 
 /// A device whose replies come from the fuzz input: per exchange one status byte
 /// (7: the link is down, 6: busy, 5: overrun) and a record, the reply.
@@ -65,18 +65,31 @@ pub fn grinding_devices(data: &[u8]) -> usize {
             halt: halt & 1 == 1,
         };
         // Both devices read their replies from the one input, in the order asked.
-        let mut hexapod = Scripted { input: &input, requests: Vec::new() };
-        let mut spindle = Scripted { input: &input, requests: Vec::new() };
+        let mut hexapod = Scripted {
+            input: &input,
+            requests: Vec::new(),
+        };
+        let mut spindle = Scripted {
+            input: &input,
+            requests: Vec::new(),
+        };
         let result = link.tick(&mut state, &demand, &mut hexapod, &mut spindle);
         let hexapod_requests = hexapod.requests;
         for request in &hexapod_requests {
-            assert!(Command::parse(request).is_ok(), "{:?}", String::from_utf8_lossy(request));
+            assert!(
+                Command::parse(request).is_ok(),
+                "{:?}",
+                String::from_utf8_lossy(request)
+            );
         }
         match (latched, result) {
             (Some(f), r) => assert_eq!(r, Err(f), "a fault stays latched"),
             (None, Ok(report)) => {
                 healthy += 1;
-                assert!(report.position_mm.is_finite() && report.path_mm.is_finite(), "{report:?}");
+                assert!(
+                    report.position_mm.is_finite() && report.path_mm.is_finite(),
+                    "{report:?}"
+                );
                 assert_eq!(report.halted, demand.halt);
             }
             (None, Err(fault)) => {
@@ -130,8 +143,14 @@ pub fn grinding_devices_seeds() -> Vec<Vec<u8>> {
         let link = DeviceLink::new(&DeviceLinkConfig::SEED).unwrap();
         let mut state = DeviceLinkState::new();
         let seed = RefCell::new(Seed::new());
-        let mut hexapod = Recorded { device: SimHexapod::new(HexapodLimits::H824), seed: &seed };
-        let mut spindle = Recorded { device: SimSpindle::new(), seed: &seed };
+        let mut hexapod = Recorded {
+            device: SimHexapod::new(HexapodLimits::H824),
+            seed: &seed,
+        };
+        let mut spindle = Recorded {
+            device: SimSpindle::new(),
+            seed: &seed,
+        };
         spindle.device.answering = answering;
         // Referenced first, as the cell's start-up does.
         let (mut request, mut reply) = ([0u8; 64], [0u8; 64]);
@@ -139,9 +158,16 @@ pub fn grinding_devices_seeds() -> Vec<Vec<u8>> {
         hexapod.device.handle(&request[..n], &mut reply);
         hexapod.device.step(REFERENCE_TIME_S + 0.1);
         for k in 0..32 {
-            let demand = DeviceDemand { feed_m_s: 1e-4, spindle_rpm: 18_000.0, halt: k >= 30 };
+            let demand = DeviceDemand {
+                feed_m_s: 1e-4,
+                spindle_rpm: 18_000.0,
+                halt: k >= 30,
+            };
             let s = core::mem::take(&mut *seed.borrow_mut());
-            *seed.borrow_mut() = s.f32(demand.feed_m_s as f32).f32(demand.spindle_rpm as f32).u8(u8::from(demand.halt));
+            *seed.borrow_mut() = s
+                .f32(demand.feed_m_s as f32)
+                .f32(demand.spindle_rpm as f32)
+                .u8(u8::from(demand.halt));
             let _ = link.tick(&mut state, &demand, &mut hexapod, &mut spindle);
             hexapod.device.step(0.01);
             spindle.device.advance(0.01, 0.0);

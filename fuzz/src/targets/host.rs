@@ -24,12 +24,17 @@ use std::time::Duration;
 pub fn host_reader(data: &[u8]) -> usize {
     let delimiters = data.iter().filter(|&&b| b == 0).count() as u32;
     let reader = Box::new(Cursor::new(data.to_vec()));
-    let Ok(mut machine) = Machine::connect(reader, Box::new(std::io::sink()), Duration::from_secs(5)) else {
+    let Ok(mut machine) =
+        Machine::connect(reader, Box::new(std::io::sink()), Duration::from_secs(5))
+    else {
         return 0;
     };
     let hello = machine.hello().clone();
     assert_eq!(hello.version, VERSION);
-    assert!(hello.period_s.is_finite() && hello.period_s >= 0.0, "{hello:?}");
+    assert!(
+        hello.period_s.is_finite() && hello.period_s >= 0.0,
+        "{hello:?}"
+    );
     let mut heard = 1;
     if machine.status().is_ok() {
         heard += 1;
@@ -68,15 +73,36 @@ fn sample(period: u32, mode: ModeCode, k: f32) -> TelemetrySample {
 /// Seeds of [`host_reader`]: a slave's answers to the reader's hello, status and
 /// get, with telemetry and events among them, and line noise before the hello.
 pub fn host_reader_seeds() -> Vec<Vec<u8>> {
-    let hello = Reply::Hello { version: VERSION, machine: "keops-slave", max_chunk: 192, period_ns: 100_000 };
-    let status = MachineStatus { mode: ModeCode::Ready, period: 1234, ..Default::default() };
+    let hello = Reply::Hello {
+        version: VERSION,
+        machine: "keops-slave",
+        max_chunk: 192,
+        period_ns: 100_000,
+    };
+    let status = MachineStatus {
+        mode: ModeCode::Ready,
+        period: 1234,
+        ..Default::default()
+    };
     let mut stream = vec![0x55, 0x13, 0x37];
     for message in [
-        MachineMessage::Reply { seq: 1, reply: hello },
+        MachineMessage::Reply {
+            seq: 1,
+            reply: hello,
+        },
         MachineMessage::Telemetry(sample(100, ModeCode::Ready, 0.0)),
-        MachineMessage::Reply { seq: 2, reply: Reply::Status(status) },
-        MachineMessage::Event(Event::Mode { from: ModeCode::Ready, to: ModeCode::Running }),
-        MachineMessage::Reply { seq: 3, reply: Reply::Value { value: b"120" } },
+        MachineMessage::Reply {
+            seq: 2,
+            reply: Reply::Status(status),
+        },
+        MachineMessage::Event(Event::Mode {
+            from: ModeCode::Ready,
+            to: ModeCode::Running,
+        }),
+        MachineMessage::Reply {
+            seq: 3,
+            reply: Reply::Value { value: b"120" },
+        },
         MachineMessage::Telemetry(sample(200, ModeCode::Running, 1.0)),
         MachineMessage::Event(Event::Fault { code: 5, detail: 2 }),
         MachineMessage::Event(Event::HostLost),
@@ -114,7 +140,9 @@ fn read_sample(input: &mut Input<'_>) -> Option<TelemetrySample> {
 
 fn floats(s: &TelemetrySample) -> [f32; 11] {
     let (p, r, f) = (s.position_m, s.reference_m, s.force_n);
-    [p[0], p[1], p[2], r[0], r[1], r[2], s.error_m, f[0], f[1], f[2], s.laser_w]
+    [
+        p[0], p[1], p[2], r[0], r[1], r[2], s.error_m, f[0], f[1], f[2], s.laser_w,
+    ]
 }
 
 /// `telemetry_log`: samples as the link delivers them (any bits) into the host's log,
@@ -151,19 +179,42 @@ pub fn telemetry_log(data: &[u8]) -> usize {
     for (row, s) in rows[1..].iter().zip(&samples) {
         let fields: Vec<&str> = row.split(',').collect();
         assert_eq!(fields.len(), 14, "{row}");
-        let back: Vec<f32> = float_columns.iter().map(|&c| fields[c].parse().unwrap()).collect();
+        let back: Vec<f32> = float_columns
+            .iter()
+            .map(|&c| fields[c].parse().unwrap())
+            .collect();
         let want = floats(s);
-        let same = back.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()));
+        let same = back
+            .iter()
+            .zip(&want)
+            .all(|(a, b)| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()));
         assert!(same, "{row} for {s:?}");
     }
     let summary = log.summary();
-    let cutting: Vec<&TelemetrySample> = samples.iter().filter(|s| s.mode == ModeCode::Running).collect();
-    assert_eq!((summary.samples, summary.cutting_samples), (samples.len(), cutting.len()));
+    let cutting: Vec<&TelemetrySample> = samples
+        .iter()
+        .filter(|s| s.mode == ModeCode::Running)
+        .collect();
+    assert_eq!(
+        (summary.samples, summary.cutting_samples),
+        (samples.len(), cutting.len())
+    );
     assert!(log.since_cut_s() >= 0.0 && summary.cut_s >= 0.0);
-    if cutting.iter().all(|s| floats(s).iter().all(|v| v.is_finite())) {
-        let values = [summary.error_max_m, summary.error_rms_m, summary.force_peak_n, summary.laser_mean_w];
+    if cutting
+        .iter()
+        .all(|s| floats(s).iter().all(|v| v.is_finite()))
+    {
+        let values = [
+            summary.error_max_m,
+            summary.error_rms_m,
+            summary.force_peak_n,
+            summary.laser_mean_w,
+        ];
         assert!(values.iter().all(|v| v.is_finite()), "{summary:?}");
-        assert!(summary.error_rms_m <= summary.error_max_m * (1.0 + 1e-12), "{summary:?}");
+        assert!(
+            summary.error_rms_m <= summary.error_max_m * (1.0 + 1e-12),
+            "{summary:?}"
+        );
     }
     samples.len()
 }
@@ -172,7 +223,11 @@ pub fn telemetry_log(data: &[u8]) -> usize {
 pub fn telemetry_log_seeds() -> Vec<Vec<u8>> {
     let mut seed = Seed::new().u32(100_000);
     for k in 0..12u32 {
-        let mode = if (2..10).contains(&k) { ModeCode::Running } else { ModeCode::Ready };
+        let mode = if (2..10).contains(&k) {
+            ModeCode::Running
+        } else {
+            ModeCode::Ready
+        };
         let s = sample((u32::MAX - 500).wrapping_add(100 * k), mode, k as f32);
         seed = seed.u32(s.period).u8(mode as u8);
         for v in floats(&s) {
@@ -247,26 +302,51 @@ pub fn plan_image(data: &[u8]) -> usize {
     let back = Job::from_bytes(&bytes).expect("and read");
     assert_eq!(back.kind(), p.job.kind());
     match (&p.job, &back) {
-        (Job::Efd { centre_m: a, coefficients: ca }, Job::Efd { centre_m: b, coefficients: cb }) => {
+        (
+            Job::Efd {
+                centre_m: a,
+                coefficients: ca,
+            },
+            Job::Efd {
+                centre_m: b,
+                coefficients: cb,
+            },
+        ) => {
             assert!(same_bits(a, b) && same_bits(ca.as_flattened(), cb.as_flattened()));
             assert!(!ca.is_empty() && ca.len() <= config.harmonics.min(CONTOUR_HARMONICS));
             assert!(p.closed);
         }
         (Job::Path { points_m: a }, Job::Path { points_m: b }) => {
             assert!(same_bits(a.as_flattened(), b.as_flattened()));
-            assert!(a.len() >= 2 && a.len() <= OPEN_PATH_POINTS, "{} points", a.len());
+            assert!(
+                a.len() >= 2 && a.len() <= OPEN_PATH_POINTS,
+                "{} points",
+                a.len()
+            );
         }
         other => panic!("the planner wrote {other:?}"),
     }
     let (w, h) = (f64::from(gray.width()), f64::from(gray.height()));
-    assert!(p.chain_px.iter().all(|q| (0.0..w).contains(&q[0]) && (0.0..h).contains(&q[1])));
+    assert!(p
+        .chain_px
+        .iter()
+        .all(|q| (0.0..w).contains(&q[0]) && (0.0..h).contains(&q[1])));
     assert!(p.contour_mm.iter().flatten().all(|v| v.is_finite()));
     let side = |k: usize| {
-        let (lo, hi) = p.contour_mm.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| (lo.min(q[k]), hi.max(q[k])));
+        let (lo, hi) = p
+            .contour_mm
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+                (lo.min(q[k]), hi.max(q[k]))
+            });
         hi - lo
     };
     let larger = side(0).max(side(1));
-    assert!((larger - config.width_mm).abs() <= 1e-9 * config.width_mm, "{larger} mm against {}", config.width_mm);
+    assert!(
+        (larger - config.width_mm).abs() <= 1e-9 * config.width_mm,
+        "{larger} mm against {}",
+        config.width_mm
+    );
     1
 }
 
@@ -290,10 +370,18 @@ fn stroke(side: u32) -> GrayImage {
 pub fn plan_image_seeds() -> Vec<Vec<u8>> {
     let defaults = [4u8, 20, 25, 3, 10, 120, 12, 0];
     let as_pixels = |settings: [u8; 8], image: &GrayImage| {
-        Seed::new().u8(0).bytes(&settings).u8(image.width() as u8 - 1).u8(image.height() as u8 - 1).bytes(image.as_raw()).0
+        Seed::new()
+            .u8(0)
+            .bytes(&settings)
+            .u8(image.width() as u8 - 1)
+            .u8(image.height() as u8 - 1)
+            .bytes(image.as_raw())
+            .0
     };
     let mut png = Vec::new();
-    disc(40).write_to(&mut Cursor::new(&mut png), ImageFormat::Png).expect("PNG of a small image");
+    disc(40)
+        .write_to(&mut Cursor::new(&mut png), ImageFormat::Png)
+        .expect("PNG of a small image");
     let mut points = defaults;
     points[7] = 4;
     let mut open = defaults;

@@ -42,10 +42,17 @@ pub fn job_file(data: &[u8]) -> usize {
         JobFile::Efd { centre_m, .. } => {
             let harmonics: Vec<[f32; 4]> = (0..n).map(|k| file.harmonic(k).unwrap()).collect();
             assert!(file.harmonic(n).is_none());
-            let numbers: Vec<f32> = centre_m.iter().chain(harmonics.iter().flatten()).copied().collect();
+            let numbers: Vec<f32> = centre_m
+                .iter()
+                .chain(harmonics.iter().flatten())
+                .copied()
+                .collect();
             assert!(numbers.iter().all(|v| v.is_finite()), "{numbers:?}");
             let wide: Vec<[f64; 4]> = harmonics.iter().map(|h| h.map(f64::from)).collect();
-            (8 + 16 * n, write_efd(centre_m.map(f64::from), &wide, &mut out))
+            (
+                8 + 16 * n,
+                write_efd(centre_m.map(f64::from), &wide, &mut out),
+            )
         }
         JobFile::Points { .. } => {
             let points: Vec<[f32; 2]> = (0..n).map(|k| file.point(k).unwrap()).collect();
@@ -77,8 +84,14 @@ pub fn host_job(data: &[u8]) -> usize {
     assert_eq!(back.kind(), job.kind());
     match (&job, &back) {
         (
-            HostJob::Efd { centre_m: a, coefficients: ca },
-            HostJob::Efd { centre_m: b, coefficients: cb },
+            HostJob::Efd {
+                centre_m: a,
+                coefficients: ca,
+            },
+            HostJob::Efd {
+                centre_m: b,
+                coefficients: cb,
+            },
         ) => {
             assert!(same_bits(a, b));
             assert!(same_bits(ca.as_flattened(), cb.as_flattened()));
@@ -132,8 +145,14 @@ pub fn arrow_gcode(data: &[u8]) -> usize {
     for m in moves {
         let plan = &m.plan;
         assert!(plan.length_m.is_finite() && plan.length_m > 0.0, "{plan:?}");
-        assert!(plan.speed_m_s.is_finite() && plan.speed_m_s > 0.0, "{plan:?}");
-        assert!(plan.periods() > 0 && plan.duration_s().is_finite(), "{plan:?}");
+        assert!(
+            plan.speed_m_s.is_finite() && plan.speed_m_s > 0.0,
+            "{plan:?}"
+        );
+        assert!(
+            plan.periods() > 0 && plan.duration_s().is_finite(),
+            "{plan:?}"
+        );
         assert!(m.line >= 1 && m.line <= lines, "line {}", m.line);
         assert!(m.spline.points() >= 2);
     }

@@ -108,7 +108,9 @@ mod step {
 fn check_value(value: &[u8]) {
     let text = core::str::from_utf8(value).expect("JSON is UTF-8");
     if text != "true" && text != "false" {
-        let v: f64 = text.parse().unwrap_or_else(|_| panic!("not a number: {text}"));
+        let v: f64 = text
+            .parse()
+            .unwrap_or_else(|_| panic!("not a number: {text}"));
         assert!(v.is_finite(), "{text}");
     }
 }
@@ -198,7 +200,9 @@ pub fn host_link(data: &[u8]) -> usize {
             match reply {
                 Reply::JobProgress { received } => assert!(received as usize <= LINK_JOB_BYTES),
                 Reply::Status(s) => {
-                    assert!(s.upload_received.is_none_or(|r| r as usize <= LINK_JOB_BYTES));
+                    assert!(s
+                        .upload_received
+                        .is_none_or(|r| r as usize <= LINK_JOB_BYTES));
                 }
                 Reply::Value { value } => check_value(value),
                 Reply::Hello { max_chunk, .. } => assert_eq!(usize::from(max_chunk), MAX_CHUNK),
@@ -238,13 +242,32 @@ fn session() -> Vec<(u8, Vec<u8>)> {
     ask(&mut steps, Request::Telemetry { every_periods: 100 });
     let path = "/slave/dob/bandwidth_hz";
     ask(&mut steps, Request::Get { path });
-    ask(&mut steps, Request::Set { path, value: b"120" });
+    ask(
+        &mut steps,
+        Request::Set {
+            path,
+            value: b"120",
+        },
+    );
     ask(&mut steps, Request::Set { path, value: b"-1" });
-    ask(&mut steps, Request::Set { path: "/slave/dob/compensate", value: b"true" });
+    ask(
+        &mut steps,
+        Request::Set {
+            path: "/slave/dob/compensate",
+            value: b"true",
+        },
+    );
     steps.push((step::ANSWER, vec![0]));
     let total_bytes = job.len() as u32;
     let crc32 = crc32(&job);
-    ask(&mut steps, Request::JobBegin { kind: JobKind::Efd, total_bytes, crc32 });
+    ask(
+        &mut steps,
+        Request::JobBegin {
+            kind: JobKind::Efd,
+            total_bytes,
+            crc32,
+        },
+    );
     for (k, data) in job.chunks(MAX_CHUNK).enumerate() {
         let offset = (k * MAX_CHUNK) as u32;
         ask(&mut steps, Request::JobChunk { offset, data });
@@ -269,7 +292,9 @@ fn session() -> Vec<(u8, Vec<u8>)> {
 /// Seeds of [`host_link`]: the session as frames, and as bodies the harness frames.
 pub fn host_link_seeds() -> Vec<Vec<u8>> {
     let steps = session();
-    let as_frames = steps.iter().fold(Seed::new(), |s, (k, r)| s.u8(*k).record(r));
+    let as_frames = steps
+        .iter()
+        .fold(Seed::new(), |s, (k, r)| s.u8(*k).record(r));
     let as_bodies = steps.iter().fold(Seed::new(), |s, (k, r)| match *k {
         step::RAW => s.u8(step::BODY).record(&body_of(r)),
         _ => s.u8(*k).record(r),
@@ -311,12 +336,9 @@ fn replay_answers(data: &[u8], out: &mut Vec<u8>) {
         heartbeat_timeout_s: 0.05,
     };
     let settings = SlaveSettings::of(&machine.joints.axis);
-    let mut link = HostLink::<Slave, LINK_JOB_BYTES>::new(
-        &config,
-        settings,
-        contour_defaults(&machine, 1.0),
-    )
-    .unwrap();
+    let mut link =
+        HostLink::<Slave, LINK_JOB_BYTES>::new(&config, settings, contour_defaults(&machine, 1.0))
+            .unwrap();
     let mut commands = Queue::<Command<Slave>, 4>::new();
     let (mut to_machine, mut from_link) = commands.split();
     let mut send = |frame: &[u8]| {

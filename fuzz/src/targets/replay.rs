@@ -46,7 +46,10 @@ pub fn playout(data: &[u8]) -> usize {
                         assert!(playout.offset().is_some());
                     }
                     Err(PlayoutRejected::Stale) => {
-                        assert!(playing.is_some_and(|(p, _)| !after(tick, p)) || accepted.contains_key(&tick));
+                        assert!(
+                            playing.is_some_and(|(p, _)| !after(tick, p))
+                                || accepted.contains_key(&tick)
+                        );
                     }
                     Err(PlayoutRejected::Full) => {}
                 }
@@ -54,8 +57,16 @@ pub fn playout(data: &[u8]) -> usize {
             }
             1 => match playout.next(now) {
                 Playing::Waiting => assert!(playing.is_none()),
-                Playing::Command { tick, value, held_periods } => {
-                    assert_eq!(accepted.get(&tick), Some(&value), "tick {tick} never accepted so");
+                Playing::Command {
+                    tick,
+                    value,
+                    held_periods,
+                } => {
+                    assert_eq!(
+                        accepted.get(&tick),
+                        Some(&value),
+                        "tick {tick} never accepted so"
+                    );
                     if held_periods == 0 {
                         if let Some((p, _)) = playing {
                             assert!(after(tick, p), "{tick} started after {p}");
@@ -138,7 +149,9 @@ pub fn replay_recording(data: &[u8]) -> usize {
     for r in references.chunks_exact(16) {
         let tick = u32_at(r, 0);
         let position: [f32; 3] = core::array::from_fn(|i| f32::from_bits(u32_at(r, 4 + 4 * i)));
-        let found = recording.reference_m(tick).expect("every reference is found");
+        let found = recording
+            .reference_m(tick)
+            .expect("every reference is found");
         assert!(same_bits(&found, &position));
         assert!(writer.reference(tick, position), "ticks rise");
         if let Some(next) = tick.checked_add(1) {
@@ -155,7 +168,9 @@ pub fn replay_recording(data: &[u8]) -> usize {
         let len = usize::from(u16::from_le_bytes([data[cursor + 4], data[cursor + 5]]));
         assert!(len <= MAX_FRAME_LEN);
         link.now = arrival;
-        let got = link.receive(&mut buf).expect("the frame arrives at its period");
+        let got = link
+            .receive(&mut buf)
+            .expect("the frame arrives at its period");
         assert_eq!(&buf[..got], &data[cursor + 6..cursor + 6 + len]);
         writer.frame(arrival, &buf[..got]);
         cursor += 6 + len;

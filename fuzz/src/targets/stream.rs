@@ -78,7 +78,10 @@ fn poll<const C: usize, const N: usize>(
         assert!(out.iter().flatten().all(|&x| in_range(x)), "{out:?}");
         if !block.resynchronised {
             let last = state.last;
-            assert!(last.is_none_or(|l| block.first_sample >= l), "{block:?} after {last:?}");
+            assert!(
+                last.is_none_or(|l| block.first_sample >= l),
+                "{block:?} after {last:?}"
+            );
         }
         state.last = Some(block.first_sample);
         match sent_blocks {
@@ -95,7 +98,11 @@ fn poll<const C: usize, const N: usize>(
     }
 }
 
-fn stream<const C: usize, const N: usize>(input: &mut Input<'_>, header_len: usize, m: usize) -> usize {
+fn stream<const C: usize, const N: usize>(
+    input: &mut Input<'_>,
+    header_len: usize,
+    m: usize,
+) -> usize {
     let config = SdctConfig {
         m: m.clamp(1, N),
         selection: Selection::Largest,
@@ -106,7 +113,11 @@ fn stream<const C: usize, const N: usize>(input: &mut Input<'_>, header_len: usi
     let mut header = [0u8; MAX_FRAME_HEADER];
     let header = &mut header[..header_len];
     let tag = [0xA5u8; MAX_FRAME_HEADER];
-    let mut state = Received { accepted: 0, last: None, clean: true };
+    let mut state = Received {
+        accepted: 0,
+        last: None,
+        clean: true,
+    };
     let mut sent_blocks = 0u64;
     while let (Some(kind), Some(record)) = (input.u8(), input.record()) {
         if kind % 2 == stream_step::SAMPLES {
@@ -120,7 +131,13 @@ fn stream<const C: usize, const N: usize>(input: &mut Input<'_>, header_len: usi
                 if link.0.len() > before || sent.is_err() {
                     sent_blocks += 1;
                 }
-                poll(&mut receiver, &mut link, header, Some(sent_blocks), &mut state);
+                poll(
+                    &mut receiver,
+                    &mut link,
+                    header,
+                    Some(sent_blocks),
+                    &mut state,
+                );
             }
         } else {
             link.0.push_back(record.to_vec());
@@ -164,13 +181,18 @@ fn samples_record(channels: usize, count: usize, phase: f32) -> Vec<u8> {
 /// the samples for the harness's sender.
 pub fn stream_frame_seeds() -> Vec<Vec<u8>> {
     fn frames<const C: usize, const N: usize>(header_len: usize, m: usize) -> Vec<Vec<u8>> {
-        let config = SdctConfig { m, selection: Selection::Largest };
+        let config = SdctConfig {
+            m,
+            selection: Selection::Largest,
+        };
         let mut sender = StreamSender::<C, N>::new(&config).unwrap();
         let mut link = Queued::default();
         let header = [0x5Au8; MAX_FRAME_HEADER];
         for k in 0..3 * N {
             let x: [f32; C] = core::array::from_fn(|c| (0.05 * k as f32 + c as f32).sin() * 1e-2);
-            sender.push_frame(x, &header[..header_len], &mut link).unwrap();
+            sender
+                .push_frame(x, &header[..header_len], &mut link)
+                .unwrap();
         }
         link.0.into_iter().collect()
     }
@@ -184,17 +206,26 @@ pub fn stream_frame_seeds() -> Vec<Vec<u8>> {
     for (layout, coding, channels, frames) in layouts {
         let received = frames
             .iter()
-            .fold(Seed::new().u8(layout).u8(coding), |s, f| s.u8(stream_step::FRAME).record(f));
+            .fold(Seed::new().u8(layout).u8(coding), |s, f| {
+                s.u8(stream_step::FRAME).record(f)
+            });
         seeds.push(received.0);
         let samples = samples_record(channels, 130, 0.0);
-        let sent = Seed::new().u8(layout).u8(coding).u8(stream_step::SAMPLES).record(&samples);
+        let sent = Seed::new()
+            .u8(layout)
+            .u8(coding)
+            .u8(stream_step::SAMPLES)
+            .record(&samples);
         seeds.push(sent.0);
     }
     seeds
 }
 
 /// The remote link's coding in the seeds: 8 of 16 coefficients, as the recording.
-pub const REMOTE_SDCT: SdctConfig = SdctConfig { m: 8, selection: Selection::Largest };
+pub const REMOTE_SDCT: SdctConfig = SdctConfig {
+    m: 8,
+    selection: Selection::Largest,
+};
 
 /// The step kinds of a `remote_link` input.
 mod remote_step {
@@ -228,16 +259,17 @@ pub fn remote_link(data: &[u8]) -> usize {
     let mut own = MasterLink::<BLOCK>::new(&REMOTE_SDCT, session, 1e-3).unwrap();
     let (mut to_slave, mut to_master) = (Queued::default(), Queued::default());
     let (mut now, mut tick, mut through) = (0u32, 0u32, 0);
-    let period = |slave: &mut SiteLink, to_slave: &mut Queued, to_master: &mut Queued, now: &mut u32| {
-        let (command, _fresh) = slave.receive(*now, to_slave);
-        if let Some(c) = command {
-            assert!(command_ok(&c), "{c:?}");
-            assert!(slave.executing().is_some() && slave.latency_periods().is_some());
-        }
-        slave.report(command.map(|c| c.acceleration_m_s2), to_master);
-        *now = now.wrapping_add(1);
-        usize::from(command.is_some())
-    };
+    let period =
+        |slave: &mut SiteLink, to_slave: &mut Queued, to_master: &mut Queued, now: &mut u32| {
+            let (command, _fresh) = slave.receive(*now, to_slave);
+            if let Some(c) = command {
+                assert!(command_ok(&c), "{c:?}");
+                assert!(slave.executing().is_some() && slave.latency_periods().is_some());
+            }
+            slave.report(command.map(|c| c.acceleration_m_s2), to_master);
+            *now = now.wrapping_add(1);
+            usize::from(command.is_some())
+        };
     while let (Some(kind), Some(record)) = (input.u8(), input.record()) {
         match kind % 4 {
             remote_step::TO_SLAVE => {
@@ -260,10 +292,16 @@ pub fn remote_link(data: &[u8]) -> usize {
             }
             _ => {
                 let mut commands = Input::new(record);
-                while let (Some(x), Some(y), Some(z), Some(beam)) =
-                    (commands.f32(), commands.f32(), commands.f32(), commands.u8())
-                {
-                    let c = RemoteCommand { acceleration_m_s2: [x, y, z], laser_on: beam & 1 == 1 };
+                while let (Some(x), Some(y), Some(z), Some(beam)) = (
+                    commands.f32(),
+                    commands.f32(),
+                    commands.f32(),
+                    commands.u8(),
+                ) {
+                    let c = RemoteCommand {
+                        acceleration_m_s2: [x, y, z],
+                        laser_on: beam & 1 == 1,
+                    };
                     own.send(Some((tick, c)), &mut to_slave);
                     tick = tick.wrapping_add(1);
                 }
@@ -305,7 +343,10 @@ pub fn remote_link_seeds() -> Vec<Vec<u8>> {
     let frames = master_frames(session, 100, 3);
     let start = Seed::new().u16(session).u8(20);
     let to_slave = frames.iter().fold(start.clone(), |s, f| {
-        s.u8(remote_step::TO_SLAVE).record(f).u8(remote_step::WAIT).record(&[16])
+        s.u8(remote_step::TO_SLAVE)
+            .record(f)
+            .u8(remote_step::WAIT)
+            .record(&[16])
     });
     let mut slave = SiteLink::new(&REMOTE_SDCT, 1, 20).unwrap();
     let (mut from_master, mut reports) = (Queued::default(), Queued::default());
