@@ -1,0 +1,167 @@
+//! Job files (`KRFJ`, [`kerf::codec::job`]) as the machine reads them (`job_file`) and
+//! as the host reads them (`host_job`), and G-code programs as ARROW loads them
+//! (`arrow_gcode`). Seeds are files of the codec's own writer.
+
+use crate::input::same_bits;
+use crate::targets::link::octagon_job;
+use kerf::app::arrow::job::ArrowJobConfig;
+use kerf::codec::job::{write_efd, write_gcode, write_points, JobFile, HEADER_BYTES};
+use kerf::codec::link::crc32;
+use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry};
+use kerf::trajectory::gcode::GcodePoint;
+use kerf_host::job::Job as HostJob;
+use kerf_sim::arrow::{Job as ArrowJob, PROGRAM_POINTS};
+
+/// The file of an input: one flag byte, then the file. With bit 0 of the flag set the
+/// last four bytes are overwritten with the CRC-32 of the bytes before them, so that
+/// mutations reach the reserved-byte, count and finiteness checks.
+fn file_of(data: &[u8]) -> Option<Vec<u8>> {
+    let (flags, file) = data.split_first()?;
+    let mut file = file.to_vec();
+    if flags & 1 == 1 && file.len() >= 4 {
+        let n = file.len() - 4;
+        let crc = crc32(&file[..n]);
+        file[n..].copy_from_slice(&crc.to_le_bytes());
+    }
+    Some(file)
+}
+
+/// `job_file`: the machine's reader. A file read has the length its kind and count
+/// say, only finite numbers, nothing past its count, and writing its numbers again
+/// with the codec's writer gives the same bytes. Returns 1 for a file read.
+pub fn job_file(data: &[u8]) -> usize {
+    let Some(bytes) = file_of(data) else {
+        return 0;
+    };
+    let Ok(file) = JobFile::read(&bytes) else {
+        return 0;
+    };
+    let n = file.count();
+    let mut out = vec![0u8; bytes.len()];
+    let (body, written) = match file {
+        JobFile::Efd { centre_m, .. } => {
+            let harmonics: Vec<[f32; 4]> = (0..n).map(|k| file.harmonic(k).unwrap()).collect();
+            assert!(file.harmonic(n).is_none());
+            let numbers: Vec<f32> = centre_m
+                .iter()
+                .chain(harmonics.iter().flatten())
+                .copied()
+                .collect();
+            assert!(numbers.iter().all(|v| v.is_finite()), "{numbers:?}");
+            let wide: Vec<[f64; 4]> = harmonics.iter().map(|h| h.map(f64::from)).collect();
+            (
+                8 + 16 * n,
+                write_efd(centre_m.map(f64::from), &wide, &mut out),
+            )
+        }
+        JobFile::Points { .. } => {
+            let points: Vec<[f32; 2]> = (0..n).map(|k| file.point(k).unwrap()).collect();
+            assert!(file.point(n).is_none());
+            assert!(points.iter().flatten().all(|v| v.is_finite()), "{points:?}");
+            let wide: Vec<[f64; 2]> = points.iter().map(|p| p.map(f64::from)).collect();
+            (8 * n, write_points(&wide, &mut out))
+        }
+        JobFile::Gcode { text } => (text.len(), write_gcode(text, &mut out)),
+    };
+    assert_eq!(bytes.len(), HEADER_BYTES + body + 4);
+    assert_eq!(written, Ok(bytes.len()));
+    assert_eq!(out, bytes, "the file written again differs");
+    1
+}
+
+/// `host_job`: the host's reader. A job read writes back to the same bytes, with its
+/// numbers bit for bit. Returns 1 for a job read.
+pub fn host_job(data: &[u8]) -> usize {
+    let Some(bytes) = file_of(data) else {
+        return 0;
+    };
+    let Ok(job) = HostJob::from_bytes(&bytes) else {
+        return 0;
+    };
+    let again = job.to_bytes().expect("a job read is written");
+    assert_eq!(again, bytes);
+    let back = HostJob::from_bytes(&again).expect("and read again");
+    assert_eq!(back.kind(), job.kind());
+    match (&job, &back) {
+        (
+            HostJob::Efd {
+                centre_m: a,
+                coefficients: ca,
+            },
+            HostJob::Efd {
+                centre_m: b,
+                coefficients: cb,
+            },
+        ) => {
+            assert!(same_bits(a, b));
+            assert!(same_bits(ca.as_flattened(), cb.as_flattened()));
+        }
+        (HostJob::Path { points_m: a }, HostJob::Path { points_m: b }) => {
+            assert!(same_bits(a.as_flattened(), b.as_flattened()));
+        }
+        (HostJob::Gcode { text: a }, HostJob::Gcode { text: b }) => assert_eq!(a, b),
+        _ => unreachable!("the kinds agree"),
+    }
+    1
+}
+
+/// Seeds of [`job_file`] and [`host_job`]: a file of each kind, as written (flag 0)
+/// and for the CRC patch (flag 1).
+pub fn job_file_seeds() -> Vec<Vec<u8>> {
+    let mut files = vec![octagon_job()];
+    let mut out = vec![0u8; 2048];
+    let points = [[0.0, 0.0], [1e-3, 2e-3], [4e-3, -1e-3], [6e-3, 0.0]];
+    let n = write_points(&points, &mut out).unwrap();
+    files.push(out[..n].to_vec());
+    let n = write_gcode(super::codec::GCODE_SEEDS[1].as_bytes(), &mut out).unwrap();
+    files.push(out[..n].to_vec());
+    files
+        .iter()
+        .flat_map(|f| [0u8, 1].map(|flag| [&[flag][..], f].concat()))
+        .collect()
+}
+
+/// `arrow_gcode`: `ArrowJob::from_gcode` on ARROW's preset (in f32, the machine's
+/// scalar). A job has at least one move, each with a finite positive length and
+/// speed, at least one period, a finite duration and a line of the program; the
+/// start's joints are finite. A refusal names a line of the program (0 for none).
+/// Returns the moves of a job.
+pub fn arrow_gcode(data: &[u8]) -> usize {
+    let geometry = ArrowGeometry::<f64>::new(&ArrowConfig::ARROW).expect("ARROW's preset");
+    let lines = data.split(|&b| b == b'\n').count() as u32;
+    let mut points = Box::new(heapless::Vec::<GcodePoint, PROGRAM_POINTS>::new());
+    let mut job = Box::<ArrowJob<f32>>::default();
+    match ArrowJob::<f32>::from_gcode(data, &mut points, &geometry, &ArrowJobConfig::ARROW) {
+        Ok(j) => *job = j,
+        Err(e) => {
+            assert!(e.line <= lines, "{e:?}");
+            return 0;
+        }
+    }
+    let moves = job.moves();
+    assert!(!moves.is_empty());
+    assert_eq!(job.period_s(), ArrowJobConfig::ARROW.period_s);
+    assert!(job.start_joints_m().iter().all(|q| q.is_finite()));
+    for m in moves {
+        let plan = &m.plan;
+        assert!(plan.length_m.is_finite() && plan.length_m > 0.0, "{plan:?}");
+        assert!(
+            plan.speed_m_s.is_finite() && plan.speed_m_s > 0.0,
+            "{plan:?}"
+        );
+        assert!(
+            plan.periods() > 0 && plan.duration_s().is_finite(),
+            "{plan:?}"
+        );
+        assert!(m.line >= 1 && m.line <= lines, "line {}", m.line);
+        assert!(m.spline.points() >= 2);
+    }
+    moves.len()
+}
+
+/// Seeds of [`arrow_gcode`]: the G-code seeds that make ARROW jobs.
+pub fn arrow_gcode_seeds() -> Vec<Vec<u8>> {
+    let mut seeds = super::codec::gcode_parse_seeds();
+    seeds.retain(|s| arrow_gcode(s) > 0);
+    seeds
+}
