@@ -3,7 +3,7 @@
 
 use crate::input::{same_bits, Input, Seed};
 use crate::targets::stream::master_frames;
-use kerf::app::playout::{Playing, Playout, PlayoutRejected};
+use kerf::app::playout::{Playing, Playout, PlayoutRejected, TICK_WINDOW};
 use kerf::app::stream::MAX_FRAME_LEN;
 use kerf::hal::FrameLink;
 use kerf_sim::remote::{
@@ -52,6 +52,11 @@ pub fn playout(data: &[u8]) -> usize {
                         );
                     }
                     Err(PlayoutRejected::Full) => {}
+                    Err(PlayoutRejected::OutOfWindow) => {
+                        let far =
+                            |t: u32| t.wrapping_sub(tick).min(tick.wrapping_sub(t)) > TICK_WINDOW;
+                        assert!(accepted.keys().any(|t| far(*t)));
+                    }
                 }
                 assert!(playout.late() >= late);
             }

@@ -15,7 +15,10 @@
 //! [`Playout::next`] says for how long nothing new has played.
 //!
 //! Ticks and local periods are `u32` compared by wrapping difference (5 days at 10 kHz
-//! per wrap): the playout works across the wrap.
+//! per wrap): the playout works across the wrap. That order is total only among ticks
+//! less than 2^31 apart, so the playout holds commands within [`TICK_WINDOW`] of each
+//! other and refuses a tick farther from them (a corrupted or forged tick; a master
+//! that restarts opens a new session, which restarts the playout).
 
 use heapless::Vec;
 
@@ -28,7 +31,14 @@ pub enum PlayoutRejected {
     Stale,
     /// The queue is full.
     Full,
+    /// Its tick is more than [`TICK_WINDOW`] from a command played or queued.
+    OutOfWindow,
 }
+
+/// Most ticks between the oldest and the newest command the playout holds, 2^30 (1.2
+/// days at 10 kHz): every tick it holds is then within 2^31 of every other, where the
+/// wrapping order is total.
+pub const TICK_WINDOW: u32 = 1 << 30;
 
 /// What plays in a local period.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -90,6 +100,12 @@ impl<V: Copy, const CAP: usize> Playout<V, CAP> {
         }
         if self.queue.iter().any(|q| q.0 == tick) {
             return Err(PlayoutRejected::Stale);
+        }
+        // Within the window of the oldest and the newest held, the new span stays in it.
+        let oldest = self.playing.or(self.queue.first().copied()).map(|p| p.0);
+        let near = |t: u32| t.wrapping_sub(tick).min(tick.wrapping_sub(t)) <= TICK_WINDOW;
+        if !oldest.into_iter().chain(newest).all(near) {
+            return Err(PlayoutRejected::OutOfWindow);
         }
         let anchored = now.wrapping_sub(tick).wrapping_add(self.margin_periods);
         match self.offset {
@@ -234,5 +250,45 @@ mod tests {
             }
         }
         assert_eq!(seen, std::vec![(55, 2)]);
+    }
+
+    /// A tick half the range away from the commands held (one flipped top bit) used to
+    /// land in front of them and play, and the next command then played "after" it
+    /// 2^31 ticks back: refused, and the stream plays on in order.
+    #[test]
+    fn a_tick_outside_the_window_is_refused() {
+        let mut playout = Playout::<u32, 8>::new(35);
+        playout.push(0, 1000, 1).unwrap();
+        playout.push(1, 1001, 2).unwrap();
+        let forged = (1 << 31) + 1002;
+        assert_eq!(
+            playout.push(2, forged, 3),
+            Err(PlayoutRejected::OutOfWindow)
+        );
+        assert_eq!(
+            playout.push(2, 1001 + TICK_WINDOW + 1, 3),
+            Err(PlayoutRejected::OutOfWindow)
+        );
+        playout.push(3, 1004, 4).unwrap();
+        let mut started = StdVec::new();
+        for now in 0..100 {
+            if let Playing::Command {
+                tick,
+                held_periods: 0,
+                ..
+            } = playout.next(now)
+            {
+                started.push(tick);
+            }
+        }
+        assert_eq!(started, [1000, 1001, 1004]);
+        // Across the wrap, the window holds on both sides.
+        let mut wrap = Playout::<u32, 8>::new(0);
+        wrap.push(0, u32::MAX - 5, 1).unwrap();
+        wrap.push(0, 4, 2).unwrap();
+        assert_eq!(
+            wrap.push(0, TICK_WINDOW + 10, 3),
+            Err(PlayoutRejected::OutOfWindow)
+        );
     }
 }
