@@ -32,8 +32,11 @@ fn m_neighbours(mask: &Mask, p: Px) -> BTreeSet<Px> {
 
 #[test]
 fn neighbours_are_the_m_adjacent_set_pixels() {
-    // A pseudo-random 12 × 9 mask, about 40 % set.
-    let mask = Mask::from_fn(12, 9, |x, y| (x * 7 + y * 13 + x * y * 5) % 5 < 2);
+    // A pseudo-random 12 × 9 mask, about 40 % set (a multiplicative hash of the
+    // pixel's index), so that every corner case of the adjacency occurs.
+    let mask = Mask::from_fn(12, 9, |x, y| {
+        ((y * 12 + x).wrapping_mul(2_654_435_761) >> 16) % 5 < 2
+    });
     let mut checked = 0;
     for y in 0..9 {
         for x in 0..12 {
