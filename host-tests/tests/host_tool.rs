@@ -260,3 +260,27 @@ fn a_machine_that_stops_answering_is_a_timeout() {
         other => panic!("{other:?}"),
     }
 }
+
+/// Two requests out before any reply is read: waiting for the second skips the
+/// first's reply as late and returns the second's, each matched by its number.
+#[test]
+fn reply_to_matches_the_request_number() {
+    let mut rig = rig(None, Vec::new());
+    let heartbeat = rig.machine.send(Request::Heartbeat).unwrap();
+    let status = rig.machine.send(Request::Status).unwrap();
+    assert_ne!(heartbeat, status);
+    match rig.machine.reply_to(status, "status").unwrap() {
+        OwnedReply::Status(s) => assert_eq!(s.bad_frames, 0, "{s:?}"),
+        other => panic!("{other:?}"),
+    }
+    // The heartbeat's reply came first and was passed over: nothing is left for it.
+    match rig.machine.reply_to(heartbeat, "heartbeat") {
+        Err(LinkError::Timeout { request, .. }) => assert_eq!(request, "heartbeat"),
+        other => panic!("{other:?}"),
+    }
+    let again = rig.machine.send(Request::Heartbeat).unwrap();
+    assert!(matches!(
+        rig.machine.reply_to(again, "heartbeat"),
+        Ok(OwnedReply::Ack)
+    ));
+}

@@ -641,4 +641,98 @@ mod tests {
             assert!(idle.position_m().is_finite());
         }
     }
+
+    /// A latched fault holds through good samples (zero force, `measure` refuses)
+    /// until `reset`; an axis that was never latched keeps running.
+    #[test]
+    fn latch_holds_the_fault_until_reset() {
+        let (law, sensor, mut axis) = parts();
+        let rest = Reference {
+            position: 0.0,
+            velocity: 0.0,
+            acceleration: 0.0,
+        };
+        law.step(&sensor, &mut axis, counts(0.2), &rest);
+        assert_eq!(axis.status(), AxisStatus::Running);
+        law.latch(&mut axis, AxisFault::CoastOutOfBound);
+        let latched = AxisStatus::Fault(AxisFault::CoastOutOfBound);
+        assert_eq!(axis.status(), latched);
+        // Far from the reference: a running law would push hard.
+        let away = Reference {
+            position: 0.002,
+            ..rest
+        };
+        for _ in 0..3 {
+            let out = law.step(&sensor, &mut axis, counts(0.2), &away);
+            assert_eq!((out.force_n, out.status), (0.0, latched));
+        }
+        assert_eq!(
+            law.measure(&sensor, &mut axis, counts(0.2)),
+            Err(AxisFault::CoastOutOfBound)
+        );
+        axis.reset();
+        assert_eq!(axis.status(), AxisStatus::Starting);
+        let out = law.step(&sensor, &mut axis, counts(0.2), &away);
+        assert_eq!(out.status, AxisStatus::Running);
+        assert!(out.force_n > 0.1, "{out:?}");
+    }
+
+    /// The PD law against its closed form (module docs of `control::pd`) with the
+    /// configured gains, and one step as the machine's halves compose it:
+    /// `measure`, `pd_acceleration`, `actuate` give what `step` gives.
+    #[test]
+    fn pd_acceleration_is_the_configured_law_and_step_is_its_halves() {
+        let (law, sensor, mut axis) = parts();
+        let pd = AxisConfig::LM1247_SLAVE.pd;
+        let reference = Reference {
+            position: 0.003,
+            velocity: -0.02,
+            acceleration: 0.7,
+        };
+        let (x, v) = (0.0012, 0.015);
+        let expected = 0.7 + pd.kd_per_s * (-0.02 - v) + pd.kp_per_s2 * (0.003 - x);
+        let got = law.pd_acceleration(&reference, x, v);
+        assert!(
+            (got - expected).abs() <= 1e-12 * expected.abs(),
+            "{got} {expected}"
+        );
+
+        law.step(&sensor, &mut axis, counts(0.2), &reference);
+        let mut halves = axis;
+        let whole = law.step(&sensor, &mut axis, counts(0.25), &reference);
+        let v = law.measure(&sensor, &mut halves, counts(0.25)).unwrap();
+        let a = law.pd_acceleration(&reference, halves.position_m(), v);
+        assert_eq!(law.actuate(&mut halves, a, v), whole);
+        assert_eq!(halves, axis);
+    }
+
+    /// `actuate` after `engage` (no disturbance estimate yet): F = An·q̈des below the
+    /// limit, the limit and the flag beyond it, a fault on NaN, nothing once latched.
+    #[test]
+    fn actuate_commands_the_nominal_mass_times_the_acceleration() {
+        let (law, sensor, mut axis) = parts();
+        let mass = AxisConfig::LM1247_SLAVE.dob.nominal_mass_kg;
+        law.monitor(&sensor, &mut axis, counts(0.2)).unwrap();
+        for (a, force, saturated) in [
+            (10.0, mass * 10.0, false),
+            (-20.0, -mass * 20.0, false),
+            (1e3, 3.6, true),
+            (-1e3, -3.6, true),
+        ] {
+            let mut state = axis;
+            state.engage();
+            let out = law.actuate(&mut state, a, 0.0);
+            assert!((out.force_n - force).abs() < 1e-12, "{a}: {out:?}");
+            assert_eq!(
+                (out.saturated, out.status),
+                (saturated, AxisStatus::Running)
+            );
+        }
+        let out = law.actuate(&mut axis, f64::NAN, 0.0);
+        assert_eq!(out.status, AxisStatus::Fault(AxisFault::NotFinite));
+        assert_eq!(out.force_n, 0.0);
+        let out = law.actuate(&mut axis, 10.0, 0.0);
+        assert_eq!((out.force_n, out.saturated), (0.0, false));
+        assert_eq!(out.status, AxisStatus::Fault(AxisFault::NotFinite));
+    }
 }

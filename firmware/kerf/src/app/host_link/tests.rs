@@ -644,3 +644,46 @@ fn a_period_the_hello_cannot_carry_is_refused() {
         assert_eq!(new(period_s), Ok(()), "{period_s}");
     }
 }
+
+/// Each corrupted frame is one bad frame (counted once, no reply), a good frame is
+/// not counted, and every message the sender refuses is one unsent message; the
+/// status reply carries both counts.
+#[test]
+fn bad_frames_and_unsent_messages_are_counted_once_each() {
+    with_rig(|rig| {
+        assert_eq!(rig.link.counters(), LinkCounters::default());
+        for k in 1..=3u32 {
+            let mut bad = frame(10 + k as u16, Request::Heartbeat);
+            // A payload byte changed, never to the delimiter.
+            let b = &mut bad[3];
+            *b = if *b == 0xff { 0xfe } else { *b + 1 };
+            assert!(rig.exchange(&bad, 0).is_empty());
+            assert_eq!(rig.link.counters().bad_frames, k);
+        }
+        assert_eq!(
+            rig.exchange(&frame(20, Request::Heartbeat), 0),
+            [reply(20, "Ack")]
+        );
+        assert_eq!(rig.link.counters().bad_frames, 3);
+        // The sender refuses: each reply not sent is counted.
+        for k in 1..=2u32 {
+            for &b in &frame(30, Request::Heartbeat) {
+                rig.link
+                    .receive(b, rig.now_s, &mut rig.to_machine, &mut |_| false);
+            }
+            assert_eq!(rig.link.counters().unsent, k);
+        }
+        let status = rig.exchange(&frame(40, Request::Status), 0);
+        let [Got::Reply(40, text)] = &status[..] else {
+            panic!("{status:?}")
+        };
+        assert!(text.contains("bad_frames: 3, unsent: 2"), "{text}");
+        assert_eq!(
+            rig.link.counters(),
+            LinkCounters {
+                bad_frames: 3,
+                unsent: 2
+            }
+        );
+    });
+}
