@@ -1,21 +1,25 @@
 //! Panic-free, proven at link time.
 //!
 //! This image calls every control-period entry point of kerf — each machine's
-//! per-period methods and its supervisor step (the joints, the delta slave, ARROW and
-//! the remote master), the axis law, Hall decoding, velocity
-//! observation, image sharpness and the autofocus law, delta kinematics, ARROW's machine, the
-//! contour and joint references, the DCT/SDCT
-//! codec and the packet format with its stream ends — and the constructors and
-//! planners that feed them, on inputs the optimiser cannot see through (`core::hint::black_box`).
+//! per-period methods and its supervisor step (the joints, the delta slave, ARROW, the
+//! remote master, the remote slave and the grinding cell), the axis law, Hall decoding,
+//! velocity observation, image sharpness and the autofocus law, delta kinematics,
+//! ARROW's machine, the contour and joint references, the DCT/SDCT codec and the packet
+//! format with its stream ends — and the constructors and planners that feed them, on
+//! inputs the optimiser cannot see through (`core::hint::black_box`).
 //! Its panic handler calls a symbol that no object defines, so the image links only if
 //! the optimised, LTO-linked code contains no path to a panic: a bounds check, an
 //! `unwrap`, an arithmetic overflow check or a `panic!` that survives optimisation
-//! anywhere below these calls is a link error naming `kerf_panic_is_reachable`.
+//! anywhere below these calls is a link error naming `kerf_panic_is_reachable`. It is
+//! built in the `panic-check` profile, which turns overflow checks on in kerf's own
+//! code: an add, multiply, shift or negation that may wrap without saying so (by
+//! `wrapping_*`, `saturating_*` or `checked_*`) fails the link too.
 //!
 //! It is linked for the board (thumbv7em-none-eabihf, `memory.x`) by `scripts/test`
 //! and never run. To find the call that still panics, build it with
 //! `KERF_PANIC_CHECK_FIND=1 scripts/panic-check`, which defines the symbol and
-//! disassembles the callers.
+//! disassembles the callers. The decoders of outside data and the calibration fit are
+//! in the sibling image `panic-check-decoders` (`src/decoders.rs`).
 #![no_std]
 #![no_main]
 
