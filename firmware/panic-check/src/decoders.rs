@@ -11,9 +11,9 @@
 //! Unlike the control image it does not link yet: kerf's own arithmetic here is
 //! written without a silent wrap (no overflow check remains), but panic paths stay in
 //! code it calls: core's decimal float parser (`str::parse::<f64>`, the G-code and GCS
-//! number readers), serde-json-core (the settings' float reader and serializer), the
-//! `cobs` crate's in-place decoding (`codec::link::decode`) and nalgebra's view bounds
-//! assertion (the calibration fit's Gauss-Newton step).
+//! number readers), serde-json-core (the settings' float reader and serializer) and the
+//! `cobs` crate's in-place decoding (`codec::link::decode`); the calibration fit has
+//! none left.
 //! `KERF_PANIC_CHECK_DECODERS=1 scripts/panic-check` lists them.
 #![no_std]
 #![no_main]
