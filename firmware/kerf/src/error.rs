@@ -90,13 +90,17 @@ impl ConfigPath {
 
     fn prepend(mut self, segment: PathSegment) -> Self {
         let len = usize::from(self.len);
-        if len >= MAX_PATH_DEPTH {
+        let Some(grown) = self
+            .len
+            .checked_add(1)
+            .filter(|&n| usize::from(n) <= MAX_PATH_DEPTH)
+        else {
             self.truncated = true;
             return self;
-        }
+        };
         self.segments.copy_within(0..len, 1);
         self.segments[0] = segment;
-        self.len += 1;
+        self.len = grown;
         self
     }
 }

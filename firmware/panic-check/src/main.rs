@@ -1,25 +1,31 @@
 //! Panic-free, proven at link time.
 //!
 //! This image calls every control-period entry point of kerf — each machine's
-//! per-period methods and its supervisor step (the joints, the delta slave, ARROW and
-//! the remote master), the axis law, Hall decoding, velocity
-//! observation, image sharpness and the autofocus law, delta kinematics, ARROW's machine, the
-//! contour and joint references, the DCT/SDCT
-//! codec and the packet format with its stream ends — and the constructors and
-//! planners that feed them, on inputs the optimiser cannot see through (`core::hint::black_box`).
+//! per-period methods and its supervisor step (the joints, the delta slave, ARROW, the
+//! remote master, the remote slave and the grinding cell), the axis law, Hall decoding,
+//! velocity observation, image sharpness and the autofocus law, delta kinematics,
+//! ARROW's machine, the contour and joint references, the DCT/SDCT codec and the packet
+//! format with its stream ends — and the constructors and planners that feed them, on
+//! inputs the optimiser cannot see through (`core::hint::black_box`).
 //! Its panic handler calls a symbol that no object defines, so the image links only if
 //! the optimised, LTO-linked code contains no path to a panic: a bounds check, an
 //! `unwrap`, an arithmetic overflow check or a `panic!` that survives optimisation
-//! anywhere below these calls is a link error naming `kerf_panic_is_reachable`.
+//! anywhere below these calls is a link error naming `kerf_panic_is_reachable`. It is
+//! built in the `panic-check` profile, which turns overflow checks on in kerf's own
+//! code: an add, multiply, shift or negation that may wrap without saying so (by
+//! `wrapping_*`, `saturating_*` or `checked_*`) fails the link too.
 //!
 //! It is linked for the board (thumbv7em-none-eabihf, `memory.x`) by `scripts/test`
 //! and never run. To find the call that still panics, build it with
 //! `KERF_PANIC_CHECK_FIND=1 scripts/panic-check`, which defines the symbol and
-//! disassembles the callers.
+//! disassembles the callers. The decoders of outside data and the calibration fit are
+//! in the sibling image `panic-check-decoders` (`src/decoders.rs`).
 #![no_std]
 #![no_main]
 
-use core::hint::black_box;
+mod common;
+
+use common::{opaque, sink, OpaqueLink};
 use cortex_m_rt::entry;
 use heapless::spsc::Queue;
 use kerf::app::arrow::job::ArrowJob;
@@ -27,9 +33,13 @@ use kerf::app::arrow::machine::{ArrowInputs, ArrowLimits, ArrowMachine};
 use kerf::app::arrow::ArrowLaw;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
 use kerf::app::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
+use kerf::app::grinding::{GrindingCalibration, GrindingCell, GrindingConfig, GrindingInputs};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
 use kerf::app::remote_master::{
     FixtureJob, RemoteMaster, RemoteMasterConfig, RemoteMasterInputs, SlaveReport,
+};
+use kerf::app::remote_slave::{
+    FollowJob, RemoteCommand, RemoteSlave, RemoteSlaveConfig, RemoteSlaveInputs,
 };
 use kerf::app::stream::{SignalReceiver, SignalSender};
 use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
@@ -44,13 +54,13 @@ use kerf::control::dob::{Dob, DobState};
 use kerf::control::pd::{Pd, Reference};
 use kerf::control::preview::PreviewConfig;
 use kerf::control::redundant_pid::{RedundantPid, RedundantPidConfig};
-use kerf::hal::{FrameLink, LinkBusy};
 use kerf::kinematics::arrow::{
     ArrowConfig, ArrowDynamics, ArrowGeometry, ArrowMasses, Joints as Joints6,
 };
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
 use kerf::sensing::encoder::EncoderConfig;
+use kerf::sensing::force::Eccentricity;
 use kerf::sensing::hall::{HallConfig, HallDecoder, HallState};
 use kerf::sensing::sharpness::{normalized_variance, window_moments, Window};
 use kerf::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
@@ -60,28 +70,6 @@ use kerf::trajectory::resample::ArcResampler;
 use kerf::trajectory::spline::{JointSpline, KnotTiming};
 use kerf::trajectory::tangential::{ContourFollower, FollowerConfig, SpeedRamp, SpeedRampConfig};
 use kerf::{Real, Q31_32, Q6_25};
-
-#[panic_handler]
-fn panic(_: &core::panic::PanicInfo) -> ! {
-    extern "Rust" {
-        // Defined nowhere: referencing it makes any reachable panic a link error.
-        fn kerf_panic_is_reachable() -> !;
-    }
-    // SAFETY: never executed in an image that links; the call exists to be resolved.
-    unsafe { kerf_panic_is_reachable() }
-}
-
-/// A value the optimiser must treat as unknown.
-#[inline(always)]
-fn opaque<T>(value: T) -> T {
-    black_box(value)
-}
-
-/// Keeps a result alive so that the call producing it is not removed.
-#[inline(always)]
-fn sink<T>(value: T) {
-    black_box(value);
-}
 
 #[entry]
 fn main() -> ! {
@@ -100,6 +88,8 @@ fn main() -> ! {
             10 => arrow_machine(),
             11 => autofocus(),
             12 => remote_master(),
+            13 => remote_slave(),
+            14 => grinding_cell(),
             _ => stream(),
         }
     }
@@ -247,6 +237,46 @@ fn remote_master() {
         })),
     };
     periods(machine, inputs, job, ());
+}
+
+/// The remote slave following the master's commands.
+fn remote_slave() {
+    let config = opaque(RemoteSlaveConfig::KEOPS);
+    let (Ok(machine), Ok(axis)) = (
+        RemoteSlave::<f32>::new(&config),
+        HallAxis::<f32>::new(&opaque(HallConfig::LM1247_16BIT)),
+    ) else {
+        return;
+    };
+    let inputs = RemoteSlaveInputs {
+        hall: opaque([[0u16; 3]; 3]),
+        command: opaque(Some(RemoteCommand::default())),
+        fresh: opaque(true),
+    };
+    periods(
+        machine,
+        inputs,
+        opaque(FollowJob::default()),
+        [axis, axis, axis],
+    );
+}
+
+/// The grinding cell's force laws on its force/torque sensor.
+fn grinding_cell() {
+    let Ok(machine) = GrindingCell::<f32>::new(&opaque(GrindingConfig::SEED)) else {
+        return;
+    };
+    let inputs = GrindingInputs {
+        ft_raw_v: opaque([0.0f32; 6]),
+        device_fault: None,
+    };
+    let calibration = GrindingCalibration {
+        eccentricity: opaque(Eccentricity {
+            dx_m: 0.0,
+            dy_m: 0.0,
+        }),
+    };
+    periods(machine, inputs, opaque(Default::default()), calibration);
 }
 
 fn delta_machine() {
@@ -438,27 +468,6 @@ fn codec<const N: usize>() {
         }
     }
     sink(x);
-}
-
-/// A link whose frames and readiness the optimiser cannot predict.
-struct OpaqueLink;
-
-impl FrameLink for OpaqueLink {
-    fn send(&mut self, frame: &[u8]) -> Result<(), LinkBusy> {
-        sink(frame);
-        if opaque(false) {
-            Err(LinkBusy)
-        } else {
-            Ok(())
-        }
-    }
-
-    fn receive(&mut self, buf: &mut [u8]) -> Option<usize> {
-        for b in buf.iter_mut() {
-            *b = opaque(0);
-        }
-        opaque(Some(buf.len()))
-    }
 }
 
 fn stream() {

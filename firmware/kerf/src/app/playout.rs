@@ -129,7 +129,9 @@ impl<V: Copy, const CAP: usize> Playout<V, CAP> {
             .push((tick, value))
             .map_err(|_| PlayoutRejected::Full)?;
         // Into its place in tick order (an overtaken command lands before the newer).
-        if let Some(tail) = self.queue.get_mut(at..) {
+        // The tail holds the command just pushed, so it is never empty (which
+        // `rotate_right` would refuse with a panic).
+        if let Some(tail) = self.queue.get_mut(at..).filter(|t| !t.is_empty()) {
             tail.rotate_right(1);
         }
         Ok(())

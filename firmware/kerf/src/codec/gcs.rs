@@ -563,13 +563,17 @@ pub fn parse_number(token: &[u8]) -> Result<f64, GcsError> {
         .position(|b| matches!(b, b'e' | b'E'))
         .unwrap_or(unsigned.len());
     let (mantissa, exponent) = unsigned.split_at(mantissa_len);
-    let digits = mantissa.iter().filter(|b| b.is_ascii_digit()).count();
-    let points = mantissa.iter().filter(|b| **b == b'.').count();
+    // Digits and at most one point, at least one digit (tests, not counts: a count
+    // keeps an overflow check the optimiser cannot remove).
+    let has_digit = mantissa.iter().any(u8::is_ascii_digit);
+    let only_digits_and_points = mantissa.iter().all(|b| b.is_ascii_digit() || *b == b'.');
+    let mut points = mantissa.iter().filter(|b| **b == b'.');
+    let at_most_one_point = points.next().is_none() || points.next().is_none();
     let exponent_ok = match exponent {
         [] => true,
         [_, b'+' | b'-', d @ ..] | [_, d @ ..] => !d.is_empty() && d.iter().all(u8::is_ascii_digit),
     };
-    if digits == 0 || points > 1 || digits + points != mantissa.len() || !exponent_ok {
+    if !has_digit || !at_most_one_point || !only_digits_and_points || !exponent_ok {
         return Err(GcsError::MalformedNumber);
     }
     let text = core::str::from_utf8(token).map_err(|_| GcsError::MalformedNumber)?;

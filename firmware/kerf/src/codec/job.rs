@@ -98,9 +98,16 @@ pub enum JobFile<'a> {
     },
 }
 
-fn f32_at(bytes: &[u8], index: usize) -> Option<f32> {
-    let b = bytes.get(4 * index..4 * index + 4)?;
-    Some(f32::from_le_bytes(b.try_into().ok()?))
+/// Row `row` of `N` little-endian f32s; `None` past the end (an index so large that
+/// its byte offset passes `usize` included).
+fn f32_row<const N: usize>(bytes: &[u8], row: usize) -> Option<[f32; N]> {
+    let start = row.checked_mul(4 * N)?;
+    let mut out = [0.0f32; N];
+    let mut words = bytes.get(start..)?.chunks_exact(4);
+    for value in &mut out {
+        *value = f32::from_le_bytes(words.next()?.try_into().ok()?);
+    }
+    Some(out)
 }
 
 impl<'a> JobFile<'a> {
@@ -127,12 +134,7 @@ impl<'a> JobFile<'a> {
         let Self::Efd { coefficients, .. } = self else {
             return None;
         };
-        Some([
-            f32_at(coefficients, 4 * k)?,
-            f32_at(coefficients, 4 * k + 1)?,
-            f32_at(coefficients, 4 * k + 2)?,
-            f32_at(coefficients, 4 * k + 3)?,
-        ])
+        f32_row::<4>(coefficients, k)
     }
 
     /// Point `k` of a point job, m.
@@ -140,7 +142,7 @@ impl<'a> JobFile<'a> {
         let Self::Points { points } = self else {
             return None;
         };
-        Some([f32_at(points, 2 * k)?, f32_at(points, 2 * k + 1)?])
+        f32_row::<2>(points, k)
     }
 
     /// Reads and checks a job file.
@@ -186,18 +188,21 @@ impl<'a> JobFile<'a> {
         if header.get(6..8) != Some(&[0, 0][..]) {
             return Err(JobFileError::Reserved);
         }
-        let finite = |b: &[u8]| (0..b.len() / 4).all(|i| f32_at(b, i).is_some_and(f32::is_finite));
+        let finite = |b: &[u8]| {
+            b.chunks_exact(4).all(|w| {
+                w.try_into()
+                    .is_ok_and(|w| f32::from_le_bytes(w).is_finite())
+            })
+        };
         match kind {
             0 => {
                 if !finite(body) {
                     return Err(JobFileError::NotFinite);
                 }
-                let (centre, coefficients) = body.split_at(8);
+                let (centre, coefficients) =
+                    body.split_at_checked(8).ok_or(JobFileError::Truncated)?;
                 Ok(Self::Efd {
-                    centre_m: [
-                        f32_at(centre, 0).unwrap_or(0.0),
-                        f32_at(centre, 1).unwrap_or(0.0),
-                    ],
+                    centre_m: f32_row::<2>(centre, 0).unwrap_or([0.0; 2]),
                     coefficients,
                 })
             }
@@ -352,6 +357,24 @@ mod tests {
             write_gcode(&[b'x'; 600], &mut buf),
             Err(JobFileError::NoRoom)
         );
+    }
+
+    /// An index whose byte offset passes `usize` is past the end, not a wrapped
+    /// offset that reads the first harmonic or point again.
+    #[test]
+    fn an_index_past_the_address_space_reads_nothing() {
+        let mut buf = [0u8; 512];
+        let n = write_efd([0.0; 2], &[[1e-3, 2e-3, 3e-3, 4e-3]], &mut buf).unwrap();
+        let file = JobFile::read(&buf[..n]).unwrap();
+        assert_eq!(file.harmonic(0), Some([1e-3, 2e-3, 3e-3, 4e-3]));
+        // 16 bytes a harmonic: 2^(bits − 4) · 16 wraps to 0.
+        assert_eq!(file.harmonic(1 << (usize::BITS - 4)), None);
+        assert_eq!(file.harmonic(usize::MAX), None);
+        let n = write_points(&[[1e-3, 2e-3]], &mut buf).unwrap();
+        let file = JobFile::read(&buf[..n]).unwrap();
+        assert_eq!(file.point(0), Some([1e-3, 2e-3]));
+        assert_eq!(file.point(1 << (usize::BITS - 3)), None);
+        assert_eq!(file.point(usize::MAX), None);
     }
 
     /// Values at the boundary of what the file stores (f32): every value the writer

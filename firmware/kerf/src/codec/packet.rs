@@ -243,15 +243,16 @@ pub fn encode_parts(
         return Err(PacketError::UnsupportedN(n_byte));
     }
     if mask & !prefix_mask(n) != 0 {
+        // The highest set bit (mask ≠ 0 here), without a subtraction to check.
         return Err(PacketError::IndexOutOfRange(
-            63 - mask.leading_zeros() as u8,
+            mask.checked_ilog2().unwrap_or(0) as u8,
         ));
     }
+    // A bounded index range rather than `enumerate` (no counter overflow check).
     let kept = || {
-        coeffs
-            .iter()
-            .enumerate()
-            .filter(move |&(k, _)| mask >> k & 1 == 1)
+        (0..n)
+            .zip(coeffs.iter())
+            .filter(move |&(k, _)| has_bit(mask, k))
     };
     let mut max_abs = 0.0f32;
     for (_, c) in kept() {
@@ -294,7 +295,9 @@ pub fn encode_parts(
     let (index_bytes, values) = rest.split_at_mut(index_len);
     write_index_set(form, n, mask, index_bytes);
     for ((_, &c), dst) in kept().zip(values.chunks_exact_mut(2)) {
-        let q = libm::roundf(libm::ldexpf(c, 15 - exponent)).clamp(-32768.0, 32767.0) as i16;
+        // exponent ∈ [MIN_EXPONENT, MAX_EXPONENT] (above): never saturates.
+        let q = libm::roundf(libm::ldexpf(c, 15i32.saturating_sub(exponent)))
+            .clamp(-32768.0, 32767.0) as i16;
         dst.copy_from_slice(&q.to_le_bytes());
     }
     crc_bytes.copy_from_slice(&CRC16.checksum(body).to_le_bytes());
@@ -348,7 +351,7 @@ fn write_index_set(form: IndexForm, n: usize, mask: u64, out: &mut [u8]) {
             let width = index_bits(n);
             let mut bytes = out.iter_mut();
             let (mut acc, mut filled) = (0u32, 0u32);
-            for k in (0..n).filter(|&k| mask >> k & 1 == 1) {
+            for k in (0..n).filter(|&k| has_bit(mask, k)) {
                 acc |= (k as u32) << filled;
                 filled += width;
                 while filled >= 8 {
@@ -364,6 +367,15 @@ fn write_index_set(form: IndexForm, n: usize, mask: u64, out: &mut [u8]) {
             }
         }
     }
+}
+
+/// Whether bit `k` of `mask` is set; false past bit 63 (a shift the optimiser
+/// cannot bound would otherwise keep an overflow check).
+fn has_bit(mask: u64, k: usize) -> bool {
+    u32::try_from(k)
+        .ok()
+        .and_then(|k| mask.checked_shr(k))
+        .is_some_and(|m| m & 1 == 1)
 }
 
 /// Reads a packed index list; returns the mask or the first bad index.
@@ -382,22 +394,25 @@ fn read_index_list(n: usize, m: usize, bytes: &[u8]) -> Result<(u64, [u8; MAX_N]
             acc |= u32::from(b) << filled;
             filled += 8;
         }
-        let k = (acc & ((1 << width) - 1)) as u8;
-        acc >>= width;
+        // The low `width` bits, then the rest (width = log2 N ≤ 6; a width of 32 or
+        // more, which no supported N has, would take every bit).
+        let index_mask = 1u32.checked_shl(width).unwrap_or(0).wrapping_sub(1);
+        let k = (acc & index_mask) as u8;
+        acc = acc.checked_shr(width).unwrap_or(0);
         filled -= width;
         read += 1;
         // A `width`-bit index is always < N; the check documents the invariant.
         if usize::from(k) >= n {
             return Err(PacketError::IndexOutOfRange(k));
         }
-        if mask >> k & 1 == 1 {
+        if has_bit(mask, usize::from(k)) {
             return Err(PacketError::DuplicateIndex(k));
         }
-        // Ascending: no set bit at or above k yet.
-        if mask >> k != 0 {
+        // Ascending: no set bit at or above k yet (k < n ≤ 64, checked above).
+        if mask.checked_shr(u32::from(k)).unwrap_or(0) != 0 {
             return Err(PacketError::UnsortedIndex(k));
         }
-        mask |= 1 << k;
+        mask |= 1u64.checked_shl(u32::from(k)).unwrap_or(0);
         if let Some(slot) = slots.next() {
             *slot = k;
         }
@@ -500,7 +515,7 @@ pub fn parse(bytes: &[u8]) -> Result<Packet, PacketError> {
     let mut order = [0u8; MAX_N];
     let mask = match form {
         IndexForm::Prefix => {
-            order.iter_mut().zip(0u8..).for_each(|(o, k)| *o = k);
+            order.iter_mut().zip(0..=u8::MAX).for_each(|(o, k)| *o = k);
             prefix_mask(m)
         }
         IndexForm::Bitmask => {
@@ -617,7 +632,10 @@ impl PacketDecoder {
                     return Err(PacketError::SequenceBackwards { last, got });
                 } else {
                     let run = match self.candidate {
-                        Some((previous, n)) if got == previous.wrapping_add(1) => n + 1,
+                        // n < RESYNC_PACKETS (kept only below it): never saturates.
+                        Some((previous, n)) if got == previous.wrapping_add(1) => {
+                            n.saturating_add(1)
+                        }
                         _ => 1,
                     };
                     if run < RESYNC_PACKETS {

@@ -112,7 +112,9 @@ impl Gain {
         }
         // |v| ∈ [2^(e−1), 2^e): |v| · 2^(31 − e) ∈ [2^30, 2^31).
         let (_, e) = libm::frexp(v);
-        let shift = (31 - e).clamp(1, 62);
+        // e is within ±1100 for any f64; saturating keeps the clamp's input in range
+        // without an overflow check.
+        let shift = 31i32.saturating_sub(e).clamp(1, 62);
         // `as` saturates the ±∞ and out-of-range products; a mantissa that rounds up
         // to 2^31 saturates to 2^31 − 1, a relative change of 5e-10. −2^31 is kept
         // out too: with |mantissa| < 2^31 every product with a signal is below 2^62
@@ -128,7 +130,11 @@ impl Gain {
 
     /// The exact value.
     pub fn to_f64(self) -> f64 {
-        libm::ldexp(f64::from(self.mantissa), -(self.shift as i32))
+        // The shift is 1..=62: negating it never saturates.
+        libm::ldexp(
+            f64::from(self.mantissa),
+            (self.shift as i32).saturating_neg(),
+        )
     }
 }
 

@@ -408,13 +408,18 @@ fn split_words(line: &[u8]) -> Result<Vec<Word, MAX_WORDS>, (usize, GcodeErrorKi
                 i += 1;
             }
             b'(' => {
-                let Some(close) = line.iter().skip(i).position(|&b| b == b')') else {
+                // Positions in a slice rather than a `skip`ped iterator, whose count
+                // keeps an overflow check.
+                let rest = line.get(i..).unwrap_or(&[]);
+                let Some(close) = rest.iter().position(|&b| b == b')') else {
                     return Err((column, GcodeErrorKind::UnclosedComment));
                 };
-                for &b in line.iter().skip(i).take(close + 1) {
+                // Positions in the line (fewer than usize::MAX bytes): never saturate.
+                let end = i.saturating_add(close).saturating_add(1);
+                for &b in line.get(i..end).unwrap_or(&[]) {
                     xor ^= b;
                 }
-                i += close + 1;
+                i = end;
             }
             b')' => return Err((column, GcodeErrorKind::UnclosedComment)),
             b';' => break,
@@ -431,12 +436,14 @@ fn split_words(line: &[u8]) -> Result<Vec<Word, MAX_WORDS>, (usize, GcodeErrorKi
                     ));
                 }
                 // Only blanks or a `;` comment may follow the checksum.
-                match line.iter().skip(end).position(|b| !b.is_ascii_whitespace()) {
+                let rest = line.get(end..).unwrap_or(&[]);
+                match rest.iter().position(|b| !b.is_ascii_whitespace()) {
                     None => break,
-                    Some(k) if at(end + k) == Some(b';') => break,
+                    Some(k) if at(end.saturating_add(k)) == Some(b';') => break,
                     Some(k) => {
-                        let b = at(end + k).unwrap_or(0);
-                        return Err((end + k + 1, GcodeErrorKind::UnexpectedByte(b)));
+                        let at_k = end.saturating_add(k);
+                        let b = at(at_k).unwrap_or(0);
+                        return Err((at_k.saturating_add(1), GcodeErrorKind::UnexpectedByte(b)));
                     }
                 }
             }
@@ -496,11 +503,11 @@ fn checksum_value(line: &[u8], start: usize) -> Option<(u8, usize)> {
     if digits == 0 || digits > 3 {
         return None;
     }
-    let value = line
-        .iter()
-        .skip(start)
-        .take(digits)
-        .fold(0u32, |acc, &d| acc * 10 + u32::from(d - b'0'));
+    let value = line.iter().skip(start).take(digits).fold(0u32, |acc, &d| {
+        // At most three digits (above): never saturates.
+        acc.saturating_mul(10)
+            .saturating_add(char::from(d).to_digit(10).unwrap_or(0))
+    });
     Some((u8::try_from(value).ok()?, start + digits))
 }
 
@@ -514,17 +521,19 @@ fn parse_number(bytes: &[u8]) -> Option<(f64, usize)> {
         .skip(sign)
         .take_while(|b| b.is_ascii_digit())
         .count();
-    let mut len = sign + int;
+    // Lengths within `bytes` (fewer than usize::MAX): the saturating adds never
+    // saturate.
+    let mut len = sign.saturating_add(int);
     let mut frac = 0;
     if bytes.get(len) == Some(&b'.') {
         frac = bytes
             .iter()
-            .skip(len + 1)
+            .skip(len.saturating_add(1))
             .take_while(|b| b.is_ascii_digit())
             .count();
-        len += 1 + frac;
+        len = len.saturating_add(1).saturating_add(frac);
     }
-    if int + frac == 0 {
+    if int == 0 && frac == 0 {
         return None;
     }
     let text = core::str::from_utf8(bytes.get(..len)?).ok()?;

@@ -172,11 +172,13 @@ impl<T: Float, const N: usize> OpenPath<T, N> {
         let last = self.len.saturating_sub(2);
         let (mut lo, mut hi) = (0, last);
         while lo < hi {
-            let mid = (lo + hi).div_ceil(2);
+            // lo < hi ≤ len: the midpoint without a sum that could pass usize, and
+            // mid > lo ≥ 0, so mid − 1 never saturates.
+            let mid = lo + (hi - lo).div_ceil(2);
             if self.knots().get(mid).is_some_and(|k| k.u <= u) {
                 lo = mid;
             } else {
-                hi = mid - 1;
+                hi = mid.saturating_sub(1);
             }
         }
         lo

@@ -169,7 +169,8 @@ impl<T: Float> SpeedRamp<T> {
 
     /// Periods one ramp takes.
     pub fn ramp_periods(&self) -> u32 {
-        2 * self.n_jerk + self.n_flat
+        // At most MAX_RAMP_PERIODS (checked at construction): never saturates.
+        self.n_jerk.saturating_mul(2).saturating_add(self.n_flat)
     }
 
     /// Cruise speed V, m/s.
@@ -368,7 +369,7 @@ pub fn max_speed_m_s<T: Float, C: Curve<T>>(
     accel_limit_m_s2: f64,
 ) -> Result<f64, ConfigError> {
     let limit = positive("accel_limit_m_s2", accel_limit_m_s2)?;
-    let kappa = to_f64(curve.max_curvature(64 * curve.pieces().max(16)));
+    let kappa = to_f64(curve.max_curvature(curve.pieces().max(16).saturating_mul(64)));
     Ok(if kappa > 0.0 {
         libm::sqrt(limit / kappa)
     } else {
@@ -499,7 +500,8 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
     /// ([`ContourError::SpeedAboveCurvatureLimit`] carries the highest allowed speed).
     pub fn new(curve: C, config: &FollowerConfig, theta0: f64) -> Result<Self, ContourError> {
         let limit = positive("accel_limit_m_s2", config.accel_limit_m_s2)?;
-        let length = to_f64(curve.arc_length(T::ZERO, curve.span(), 16 * curve.pieces()));
+        let length =
+            to_f64(curve.arc_length(T::ZERO, curve.span(), curve.pieces().saturating_mul(16)));
         if !length.is_finite() {
             return Err(ConfigError::not_representable("curve").into());
         }

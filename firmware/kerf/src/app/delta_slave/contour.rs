@@ -308,7 +308,7 @@ impl ContourJob {
         CurveFollower::new(curve, &follower, theta0_rad).map_err(contour)?;
         let ramp = SpeedRamp::<f64>::new(&follower.ramp).map_err(config_error)?;
         let span = curve.span();
-        let lap_m = curve.arc_length(0.0, span, 64 * curve.pieces());
+        let lap_m = curve.arc_length(0.0, span, curve.pieces().saturating_mul(64));
         let length_m = laps * lap_m;
         let cruise_m = length_m - 2.0 * ramp.ramp_distance_m();
         let cruise_periods = cruise_m / (plan.speed_m_s * period_s);
@@ -317,7 +317,11 @@ impl ContourJob {
             let field = if curve.is_closed() { "laps" } else { "curve" };
             return Err(config_error(ConfigError::out_of_range(field)));
         }
-        let stop_after_periods = ramp.ramp_periods() + libm::round(cruise_periods) as u32;
+        let field = if curve.is_closed() { "laps" } else { "curve" };
+        let stop_after_periods = ramp
+            .ramp_periods()
+            .checked_add(libm::round(cruise_periods) as u32)
+            .ok_or(config_error(ConfigError::out_of_range(field)))?;
 
         let geometry =
             DeltaGeometry::<f64>::new(&config.delta).map_err(|_| DeltaJobError::OtherMachine)?;

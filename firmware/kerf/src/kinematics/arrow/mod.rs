@@ -169,7 +169,8 @@ impl<T: Float> ArrowGeometry<T> {
     pub fn inverse(&self, pose: &Pose<T>) -> Result<Joints<T>, ArrowError> {
         let turn = Self::turn(pose)?;
         let mut q = Joints::zeros();
-        for (i, (arm, out)) in self.arms.iter().zip(q.iter_mut()).enumerate() {
+        // A bounded index range rather than `enumerate` (no counter overflow check).
+        for (i, (arm, out)) in (0..self.arms.len()).zip(self.arms.iter().zip(q.iter_mut())) {
             *out = Self::closure(arm, pose, turn, i)?.q_m;
         }
         Ok(q)

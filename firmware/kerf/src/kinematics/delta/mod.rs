@@ -278,10 +278,10 @@ impl<T: Float> DeltaGeometry<T> {
             ik_sign: T::one(),
         }; 3];
         let mut arm_product = 1.0;
-        for (index, (out, a)) in actuators
-            .iter_mut()
-            .zip(config.actuators.iter())
-            .enumerate()
+        // A bounded index range rather than `enumerate`, whose counter keeps an
+        // overflow check the optimiser cannot remove.
+        for (index, (out, a)) in
+            (0..actuators.len()).zip(actuators.iter_mut().zip(config.actuators.iter()))
         {
             let checked = || {
                 let theta = in_range("theta_rad", a.theta_rad, -360.0 * DEG, 360.0 * DEG)?;

@@ -34,22 +34,35 @@ pub(crate) fn atan2_turns_below_2_20(y_negative: bool, x_negative: bool, ay: u32
     }
     // r = num/den ≤ 1 to 22 fraction bits, 11 bits per step (remainder < den < 2^20).
     let high = (num << 11) / den;
-    let low = (((num << 11) - high * den) << 11) / den;
+    // The remainder of that division (< den), as `%` rather than `num << 11 − high·den`:
+    // the same value without a subtraction the optimiser would have to prove.
+    let low = (((num << 11) % den) << 11) / den;
     let ratio_q22 = (high << 11) | low;
     let index = (ratio_q22 >> FRACTION_BITS) as usize;
     // The fraction as a Q32 word (the index bits shift out): the interpolation's
     // product then ends in the upper word, (d·f) >> FRACTION_BITS without a shift.
     let fraction_q32 = ratio_q22 << (32 - FRACTION_BITS);
     // Ratio ≤ 1 keeps index ≤ ATAN_INTERVALS, which the padded table covers.
-    let Some(&[lo, hi]) = ATAN_TURN_Q32.get(index..index + 2) else {
+    let Some(&[lo, hi]) = ATAN_TURN_Q32
+        .get(index..)
+        .and_then(<[u32]>::first_chunk::<2>)
+    else {
         return 0;
     };
-    let octant = lo + ((u64::from(hi - lo) * u64::from(fraction_q32)) >> 32) as u32;
+    // Phase words in turns (2^32 to the turn): their arithmetic is modular, so the
+    // interpolation and the octant and quadrant folds below wrap by meaning. (The
+    // table increases and its entries stay below a quarter turn, so none does wrap.)
+    let octant =
+        lo.wrapping_add(((u64::from(hi.wrapping_sub(lo)) * u64::from(fraction_q32)) >> 32) as u32);
     const QUARTER: u32 = 1 << 30;
     const HALF: u32 = 1 << 31;
-    let first_quadrant = if ay <= ax { octant } else { QUARTER - octant };
+    let first_quadrant = if ay <= ax {
+        octant
+    } else {
+        QUARTER.wrapping_sub(octant)
+    };
     let half_plane = if x_negative {
-        HALF - first_quadrant
+        HALF.wrapping_sub(first_quadrant)
     } else {
         first_quadrant
     };

@@ -637,13 +637,15 @@ impl<const N: usize> HallCalibrator<N> {
         let mut time = SMatrix::<f64, PHASE_UNKNOWNS, PHASE_UNKNOWNS>::zeros();
         let mut rho_theta = SMatrix::<f64, BASIS, 3>::zeros();
         let mut rho_time = SVector::<f64, PHASE_UNKNOWNS>::zeros();
+        // Segments used so far; `index` from a bounded range so that the optimiser
+        // sees every block below inside the matrices (no view bounds assertion left).
         let mut segment = 0usize;
-        for (samples, p) in self.segments().zip(poly) {
+        for ((samples, p), index) in self.segments().zip(poly).zip(0..MAX_SEGMENTS) {
             let scale = 2.0 / (samples.len().max(2) - 1) as f64;
             // A sample's phase depends on its own segment's TERMS time unknowns only:
             // the products touch that segment's block of columns (and rows) alone, so
             // they are accumulated there, without full-width temporaries.
-            let columns = segment * TERMS;
+            let columns = index * TERMS;
             for (i, raw) in samples.iter().enumerate() {
                 let powers = powers(i as f64 * scale - 1.0);
                 let phi = dot(p, &powers);
@@ -669,7 +671,7 @@ impl<const N: usize> HallCalibrator<N> {
                     rho_block += g_powers * r;
                 }
             }
-            segment += 1;
+            segment = index + 1;
         }
         let chol = gram.cholesky().ok_or(CalibrationError::Singular)?;
         let mut schur = time;

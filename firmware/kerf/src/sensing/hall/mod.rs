@@ -364,7 +364,8 @@ impl HallDecoder {
             let high = libm::floor(hi + margin)
                 .min(full_scale - 1.0)
                 .max(f64::from(*low)) as u16;
-            *span = high - *low;
+            // high ≥ low (the `max` above): never saturates.
+            *span = high.saturating_sub(*low);
         }
         let mut offset_q4 = [0i32; 3];
         let mut sin_row_q = [0i32; 3];
@@ -411,14 +412,16 @@ impl HallDecoder {
                 return Err(ConfigError::out_of_range("calibration.residual"));
             }
         }
-        // Σ row·o in i64: |row| < 2^30 and |o| < 2^21 (checked above).
+        // Σ row·o in i64: |row| < 2^30 and |o| < 2^21 (checked above), so every sum
+        // stays below 2^53: the wrapping operations never wrap, and state that no
+        // overflow check is needed.
         let folded = |row: &[i32; 3], rounding: i64| {
-            rounding
-                - row
-                    .iter()
+            rounding.wrapping_sub(
+                row.iter()
                     .zip(&offset_q4)
                     .map(|(&w, &o)| i64::from(w) * i64::from(o))
-                    .sum::<i64>()
+                    .fold(0i64, i64::wrapping_add),
+            )
         };
         let nominal = f64::from(DEMODULATED_RADIUS);
         // In the integer path's 2^-5 scale (see `phase`).
@@ -623,7 +626,7 @@ fn stuck_channel(raw: [u16; 3], history: &[u32; 3]) -> Option<HallFault> {
         .zip(history)
         .any(|(&r, &h)| u32::from(r) != h & 0xFFFF);
     let repeated = |(&r, &h): (&u16, &u32)| h == u32::from(r) * 0x0001_0001;
-    (0u8..)
+    (0u8..3)
         .zip(raw.iter().zip(history))
         .find(|&(_, pair)| moved && repeated(pair))
         .map(|(k, _)| HallFault::StuckChannel(k))
@@ -632,10 +635,13 @@ fn stuck_channel(raw: [u16; 3], history: &[u32; 3]) -> Option<HallFault> {
 /// Σ row·v + constant in the integer path (offsets and rounding in the constant).
 #[inline]
 fn dot_q(row: &[i32; 3], constant: i64, v: &[i32; 3]) -> i64 {
+    // Each product of two i32 is below 2^62 in magnitude; the rows (< 2^30), the
+    // channels (< 2^21) and the constant (the offsets folded in, below 2^53) keep the
+    // sum far from 2^63, so the wrapping adds never wrap (no overflow check needed).
     constant
-        + i64::from(row[0]) * i64::from(v[0])
-        + i64::from(row[1]) * i64::from(v[1])
-        + i64::from(row[2]) * i64::from(v[2])
+        .wrapping_add(i64::from(row[0]) * i64::from(v[0]))
+        .wrapping_add(i64::from(row[1]) * i64::from(v[1]))
+        .wrapping_add(i64::from(row[2]) * i64::from(v[2]))
 }
 
 /// Radians (−π, π] to a phase word.
