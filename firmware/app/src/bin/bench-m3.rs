@@ -160,12 +160,13 @@ fn hold_inputs() -> [[[u16; 3]; 3]; INPUTS] {
     core::array::from_fn(|k| core::array::from_fn(|axis| hold_hall_at(axis, k)))
 }
 
-/// The job of the `Joints` row: every carriage held at its home for 1000 s (longer
+/// The job of the `Joints` row: every carriage held at its home for 60 s (longer
 /// than every counted run).
 fn hold_job() -> Option<JointJob<3>> {
     JointJob::from_slice(&[Segment {
         target_m: DeltaSlaveConfig::KEOPS.joints.home_m,
-        duration_s: 1000.0,
+        // Below the 64 s a Q6.25 machine holds as a move's time (`Real::RANGE`).
+        duration_s: 60.0,
     }])
 }
 
