@@ -132,4 +132,16 @@ mod tests {
         let r = q.sample(5e-7);
         assert!(r.position.is_finite() && r.velocity.is_finite() && r.acceleration.is_finite());
     }
+
+    /// 1/T is a coefficient of the scalar: a duration whose inverse underflows f32 (a
+    /// move that would never move) is refused there, and accepted in f64.
+    #[test]
+    fn a_duration_whose_inverse_the_scalar_cannot_hold_is_refused() {
+        assert_eq!(
+            Quintic::<f32>::new(0.0, 0.01, 1e50).err(),
+            Some(ConfigError::not_representable("duration_s"))
+        );
+        assert!(Quintic::<f64>::new(0.0, 0.01, 1e50).is_ok());
+        assert!(Quintic::<f32>::new(0.0, 0.01, 1e30).is_ok());
+    }
 }
