@@ -249,3 +249,15 @@ fn a_reference_at_rest_is_held_in_the_base_frame_and_bad_input_refused() {
     let bad_normal = ContouringConfig::critically_damped(1.0, f64::NAN, 1.0, 1e-4);
     assert!(Contouring::<f32>::new(&bad_normal).is_err());
 }
+
+/// The minimum speed is a coefficient of the scalar: one that underflows f32 (where
+/// every reference would count as moving) is refused there, accepted in f64.
+#[test]
+fn a_minimum_speed_the_scalar_cannot_hold_is_refused() {
+    let tiny = ContouringConfig::critically_damped(1.0, 1.0, 1.0, 1e-50);
+    assert_eq!(
+        Contouring::<f32>::new(&tiny).err(),
+        Some(ConfigError::not_representable("min_speed_m_s"))
+    );
+    assert!(Contouring::<f64>::new(&tiny).is_ok());
+}
