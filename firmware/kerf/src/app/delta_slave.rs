@@ -748,5 +748,11 @@ impl<T: Float> HallMachine<3> for DeltaSlave<T> {
     }
 }
 
+impl From<NonFiniteOutput> for DeltaFault {
+    fn from(output: NonFiniteOutput) -> Self {
+        Self::Output(output)
+    }
+}
+
 #[cfg(test)]
 mod tests;

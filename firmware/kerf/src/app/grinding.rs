@@ -40,14 +40,16 @@
 //! Between periods of contact the watch starts a new window, so only readings at rest
 //! are ever averaged; a drift during a pass shows at the first rest after it.
 
-use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
+use crate::app::supervisor::{
+    first_non_finite_index, FiniteOutputs, Machine, NonFiniteOutput, Step,
+};
 use crate::control::adrc::{Adrc, AdrcConfig, AdrcState};
 use crate::control::hybrid_force::{
     HybridFault, HybridForce, HybridForceConfig, HybridForceError, HybridForceState, HybridOutput,
 };
 use crate::control::pid::{Pid, PidConfig, PidState};
 use crate::error::{coefficient, positive, ConfigContext, ConfigError};
-use crate::scalar::{lit, Float};
+use crate::scalar::{lit, Float, Real};
 use crate::sensing::force::{
     BiasCapture, BiasCaptureConfig, BiasDrift, BiasDriftConfig, BiasDriftWatch, Eccentricity,
     ForceError, FtBias, FtSensor, FtSensorConfig, LocalForces, ToolConfig, ToolGeometry,
@@ -671,5 +673,18 @@ impl<T: Float + crate::control::adrc::FalPower> Machine for GrindingCell<T> {
 
     fn telemetry(&self) -> GrindingTelemetry<T> {
         self.telemetry
+    }
+}
+
+/// The piezo 0, the hexapod feed 1, the spindle speed 2.
+impl<T: Real> FiniteOutputs for GrindingOutputs<T> {
+    fn first_not_finite(&self) -> Option<u8> {
+        first_non_finite_index([self.piezo_m, self.hexapod_feed_m_s, self.spindle_rpm])
+    }
+}
+
+impl From<NonFiniteOutput> for GrindingFault {
+    fn from(output: NonFiniteOutput) -> Self {
+        Self::Output(output)
     }
 }

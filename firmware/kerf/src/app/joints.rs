@@ -15,7 +15,7 @@ use crate::app::calibrate::{
     fit_sensors, CalibrationFailure, CalibrationFit, CalibrationSweep, HallMachine, SweepMode,
     COAST_BOUND_M,
 };
-use crate::app::supervisor::{Machine, Step};
+use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
 use crate::control::pd::Reference;
 use crate::error::{factor, in_range, positive, representable_each, ConfigContext, ConfigError};
 use crate::scalar::Real;
@@ -744,6 +744,16 @@ impl<T: Real, const N: usize> HallMachine<N> for Joints<T, N> {
         samples: &CalibrationFit<N>,
     ) -> Result<([HallAxis<T>; N], [SelfCalibration; N]), CalibrationFailure> {
         fit_sensors(hall, samples)
+    }
+}
+
+/// Output `index` is axis `index`'s force: that axis, a value not finite.
+impl From<NonFiniteOutput> for JointFault {
+    fn from(output: NonFiniteOutput) -> Self {
+        Self {
+            axis: output.index,
+            fault: AxisFault::NotFinite,
+        }
     }
 }
 

@@ -34,14 +34,16 @@
 //! micrometres on the scenarios' curves.
 
 use crate::app::remote_slave::RemoteCommand;
-use crate::app::supervisor::{Machine, Step};
+use crate::app::supervisor::{
+    first_non_finite_index, FiniteOutputs, Machine, NonFiniteOutput, Step,
+};
 use crate::control::bilateral::{Bilateral, BilateralConfig, MasterState};
 use crate::control::constraint::{Fixture, FixtureConfig, FixtureError};
 use crate::control::delay_observer::{DelayObserver, DelayObserverConfig};
 use crate::control::dob::{Dob, DobConfig, DobState};
 use crate::error::{coefficient, positive, representable, ConfigContext, ConfigError};
 use crate::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
-use crate::scalar::{lit, Float};
+use crate::scalar::{lit, Float, Real};
 use crate::sensing::encoder::{Encoder, EncoderConfig, EncoderFault, EncoderState};
 use crate::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
 use crate::trajectory::constraint::{ConstraintConfig, MotionConstraint};
@@ -666,5 +668,20 @@ impl<T: Float> Machine for RemoteMaster<T> {
 
     fn telemetry(&self) -> MasterTelemetry<T> {
         self.telemetry
+    }
+}
+
+/// The carriage forces 0–2, the slave command's accelerations 3–5 (f32, as sent).
+impl<T: Real> FiniteOutputs for MasterOutputs<T> {
+    fn first_not_finite(&self) -> Option<u8> {
+        let command = self.command.map_or([0.0; 3], |(_, c)| c.acceleration_m_s2);
+        first_non_finite_index(self.force_n)
+            .or_else(|| first_non_finite_index(command).map(|i| i + 3))
+    }
+}
+
+impl From<NonFiniteOutput> for RemoteMasterFault {
+    fn from(_: NonFiniteOutput) -> Self {
+        Self::NotFinite
     }
 }

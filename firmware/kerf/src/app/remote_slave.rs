@@ -32,7 +32,7 @@ use crate::app::axis::{AxisConfig, AxisLaw, HallAxis};
 use crate::app::calibrate::{fit_sensors, CalibrationFailure, CalibrationFit, HallMachine};
 use crate::app::delta_slave::{DeltaFault, DeltaSlave, DeltaSlaveConfig, DeltaTelemetry};
 use crate::app::joints::{JobError, JointJob, Segment};
-use crate::app::supervisor::{Machine, Step};
+use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
 use crate::control::laser::LaserMode;
 use crate::control::pd::{Pd, PdConfig, Reference};
 use crate::error::{positive, ConfigContext, ConfigError, ConfigErrorKind};
@@ -555,6 +555,13 @@ impl<T: Float> HallMachine<3> for RemoteSlave<T> {
         samples: &CalibrationFit<3>,
     ) -> Result<([HallAxis<T>; 3], [SelfCalibration; 3]), CalibrationFailure> {
         fit_sensors(hall, samples)
+    }
+}
+
+/// The remote slave's outputs are its delta slave's.
+impl From<NonFiniteOutput> for RemoteSlaveFault {
+    fn from(output: NonFiniteOutput) -> Self {
+        Self::Slave(DeltaFault::Output(output))
     }
 }
 

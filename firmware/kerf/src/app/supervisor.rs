@@ -97,6 +97,7 @@
 use heapless::spsc::{Consumer, Producer};
 
 mod outputs;
+pub(crate) use outputs::first_non_finite_index;
 pub use outputs::{FiniteOutputs, NonFiniteOutput};
 
 /// What a machine's control step is asked to do in a period, and what it answers.

@@ -22,7 +22,9 @@
 
 use super::job::{split_pose, ArrowJob};
 use super::{ArrowDesired, ArrowLaw, ArrowLoopState, ArrowPeriodError};
-use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
+use crate::app::supervisor::{
+    first_non_finite_index, FiniteOutputs, Machine, NonFiniteOutput, Step,
+};
 use crate::error::{coefficient, positive, ConfigError};
 use crate::kinematics::arrow::{Joints, Pose};
 use crate::scalar::Float;
@@ -417,5 +419,18 @@ impl<T: Float, const N: usize, const R: usize> Machine for ArrowMachine<T, N, R>
 
     fn telemetry(&self) -> ArrowTelemetry<T> {
         self.telemetry
+    }
+}
+
+/// The actuator forces 0–5, the table torques 6–7.
+impl<T: Float> FiniteOutputs for ArrowOutputs<T> {
+    fn first_not_finite(&self) -> Option<u8> {
+        first_non_finite_index(self.forces_n.iter().chain(&self.torques_n_m).copied())
+    }
+}
+
+impl From<NonFiniteOutput> for ArrowFault {
+    fn from(output: NonFiniteOutput) -> Self {
+        Self::Output(output)
     }
 }

@@ -8,13 +8,6 @@
 //! `Mode::Fault(NonFiniteOutput.into())` and the machine's safe outputs are written in
 //! the same period (row 11 of the supervisor's transition table).
 
-use crate::app::arrow::machine::{ArrowFault, ArrowOutputs};
-use crate::app::axis::AxisFault;
-use crate::app::delta_slave::DeltaFault;
-use crate::app::grinding::{GrindingFault, GrindingOutputs};
-use crate::app::joints::JointFault;
-use crate::app::remote_master::{MasterOutputs, RemoteMasterFault};
-use crate::app::remote_slave::RemoteSlaveFault;
 use crate::hal::ForceAndLaser;
 use crate::scalar::Real;
 
@@ -35,7 +28,7 @@ pub struct NonFiniteOutput {
 }
 
 /// The position of the first non-finite value of `values`.
-fn first<T: Real>(values: impl IntoIterator<Item = T>) -> Option<u8> {
+pub(crate) fn first_non_finite_index<T: Real>(values: impl IntoIterator<Item = T>) -> Option<u8> {
     values
         .into_iter()
         .position(|v| !v.is_finite())
@@ -45,7 +38,7 @@ fn first<T: Real>(values: impl IntoIterator<Item = T>) -> Option<u8> {
 /// A single output.
 impl<T: Real> FiniteOutputs for T {
     fn first_not_finite(&self) -> Option<u8> {
-        first([*self])
+        first_non_finite_index([*self])
     }
 }
 
@@ -59,77 +52,14 @@ impl FiniteOutputs for u8 {
 /// One output per axis, index = axis.
 impl<T: Real, const N: usize> FiniteOutputs for [T; N] {
     fn first_not_finite(&self) -> Option<u8> {
-        first(*self)
+        first_non_finite_index(*self)
     }
 }
 
 /// The forces 0 to N − 1, the laser duty N.
 impl<T: Real, const N: usize> FiniteOutputs for ForceAndLaser<T, N> {
     fn first_not_finite(&self) -> Option<u8> {
-        first(self.force_n.iter().chain([&self.laser_duty]).copied())
-    }
-}
-
-/// The piezo 0, the hexapod feed 1, the spindle speed 2.
-impl<T: Real> FiniteOutputs for GrindingOutputs<T> {
-    fn first_not_finite(&self) -> Option<u8> {
-        first([self.piezo_m, self.hexapod_feed_m_s, self.spindle_rpm])
-    }
-}
-
-/// The carriage forces 0–2, the slave command's accelerations 3–5 (f32, as sent).
-impl<T: Real> FiniteOutputs for MasterOutputs<T> {
-    fn first_not_finite(&self) -> Option<u8> {
-        let command = self.command.map_or([0.0; 3], |(_, c)| c.acceleration_m_s2);
-        first(self.force_n).or_else(|| first(command).map(|i| i + 3))
-    }
-}
-
-/// The actuator forces 0–5, the table torques 6–7.
-impl<T: crate::scalar::Float> FiniteOutputs for ArrowOutputs<T> {
-    fn first_not_finite(&self) -> Option<u8> {
-        first(self.forces_n.iter().chain(&self.torques_n_m).copied())
-    }
-}
-
-/// Output `index` is axis `index`'s force: that axis, a value not finite.
-impl From<NonFiniteOutput> for JointFault {
-    fn from(output: NonFiniteOutput) -> Self {
-        Self {
-            axis: output.index,
-            fault: AxisFault::NotFinite,
-        }
-    }
-}
-
-impl From<NonFiniteOutput> for DeltaFault {
-    fn from(output: NonFiniteOutput) -> Self {
-        Self::Output(output)
-    }
-}
-
-/// The remote slave's outputs are its delta slave's.
-impl From<NonFiniteOutput> for RemoteSlaveFault {
-    fn from(output: NonFiniteOutput) -> Self {
-        Self::Slave(DeltaFault::Output(output))
-    }
-}
-
-impl From<NonFiniteOutput> for RemoteMasterFault {
-    fn from(_: NonFiniteOutput) -> Self {
-        Self::NotFinite
-    }
-}
-
-impl From<NonFiniteOutput> for GrindingFault {
-    fn from(output: NonFiniteOutput) -> Self {
-        Self::Output(output)
-    }
-}
-
-impl From<NonFiniteOutput> for ArrowFault {
-    fn from(output: NonFiniteOutput) -> Self {
-        Self::Output(output)
+        first_non_finite_index(self.force_n.iter().chain([&self.laser_duty]).copied())
     }
 }
 

@@ -3,6 +3,13 @@
 //! outputs are indexed and named as documented.
 
 use super::*;
+use crate::app::arrow::machine::{ArrowFault, ArrowOutputs};
+use crate::app::axis::AxisFault;
+use crate::app::delta_slave::DeltaFault;
+use crate::app::grinding::{GrindingFault, GrindingOutputs};
+use crate::app::joints::JointFault;
+use crate::app::remote_master::{MasterOutputs, RemoteMasterFault};
+use crate::app::remote_slave::RemoteSlaveFault;
 use crate::app::supervisor::{Command, Machine, Mode, Report, Step, Supervisor};
 use crate::kinematics::arrow::Joints;
 use heapless::spsc::Queue;
