@@ -231,7 +231,8 @@ impl Neg for Q31_32 {
 
 impl Real for Q31_32 {
     const ZERO: Self = Q31_32(I32F32::ZERO);
-    const RANGE: f64 = 2_147_483_648.0;
+    // The magnitude of I32F32::MIN: 2^31.
+    const RANGE: f64 = -(i32::MIN as f64);
     #[inline]
     fn from_f64(v: f64) -> Self {
         // v · 2^32 is exact (a power-of-two scale); `rint` rounds it to the nearest

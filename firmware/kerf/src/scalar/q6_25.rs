@@ -141,7 +141,8 @@ impl Gain {
 impl Real for Q6_25 {
     const ZERO: Self = Q6_25(0);
     const FIXED_STEP: f64 = Self::RESOLUTION;
-    const RANGE: f64 = 64.0;
+    // The magnitude of MIN, 2^31 steps: 64.
+    const RANGE: f64 = -(Self::MIN.0 as f64) * Self::RESOLUTION;
     /// Round to nearest (ties to even), saturating; NaN → 0.
     #[inline]
     fn from_f64(v: f64) -> Self {
