@@ -50,7 +50,7 @@ impl ArrowPlantConfig {
         Self {
             geometry,
             masses: ArrowMasses::ARROW,
-            period_s: 2e-4,
+            period_s: kerf::app::arrow::product::PERIOD_S,
             substeps: 4,
             encoder_resolution_m: 1e-6,
             turntable_counts_per_turn: 20_000,

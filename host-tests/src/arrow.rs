@@ -5,11 +5,12 @@
 use hal_mock::arrow::{ArrowPlant, ArrowPlantConfig, ArrowReading};
 use kerf::app::arrow::job::ArrowJobError;
 use kerf::app::arrow::machine::{ArrowFault, ArrowOutputs};
+use kerf::app::arrow::product::load_job;
 use kerf::app::arrow::{ArrowDesired, ArrowLaw, ArrowLoopState, ArrowPeriodError};
 use kerf::app::supervisor::Mode;
 use kerf::control::redundant_pid::{regularization, RedundantPidConfig};
 use kerf::kinematics::arrow::{ArrowError, ArrowGeometry, Joints, Pose};
-use kerf_sim::arrow::{load_job, ArrowPeriod, ArrowScenario, TrackingRms, TrackingSums};
+use kerf_sim::arrow::{ArrowPeriod, ArrowScenario, TrackingRms, TrackingSums};
 use nalgebra::SMatrix;
 
 /// The desired motion at time t: pose, rate, acceleration, and θx with its
@@ -176,14 +177,14 @@ pub fn quintic_move(
 }
 
 /// A job on the host (the scenario's capacities).
-pub type Job = kerf_sim::arrow::Job<f64>;
+pub type Job = kerf::app::arrow::product::Job<f64>;
 
 /// A checked job from G-code on the nominal model.
 #[allow(clippy::result_large_err)]
 pub fn job_from_gcode(text: &str) -> Result<Box<Job>, ArrowJobError> {
     let mut points = Box::new(heapless::Vec::new());
     let mut job = Box::<Job>::default();
-    load_job(text, &mut points, &mut job)?;
+    load_job(text.as_bytes(), &mut points, &mut job)?;
     Ok(job)
 }
 

@@ -11,6 +11,7 @@
 
 use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::hall_sensor::HallSensorParams;
+use kerf::app::delta_slave::product::{APPROACH_S, CUT_HEIGHT_M, CUT_MOTION};
 use kerf::app::delta_slave::{
     ContourConfig, ContourCurve, ContourLaw, ContourPlan, DeltaFault, DeltaJob, DeltaJobError,
     DeltaSlaveConfig, CONTOUR_HARMONICS, OPEN_PATH_POINTS,
@@ -22,9 +23,6 @@ use kerf::trajectory::open_path::OpenPath;
 use kerf::trajectory::tangential::Curve;
 use kerf::Float;
 use kerf_sim::slave::{run_slave_job, SlaveError, SlaveScenario};
-
-/// Cutting height of the experiment, m (the square scenario's, mid-workspace).
-pub const CUT_HEIGHT_M: f64 = 0.050;
 
 /// What a case cuts, m, centred near the origin.
 #[derive(Clone, Debug)]
@@ -209,8 +207,9 @@ pub fn path_length_m(case: &ContourCase) -> Result<f64, DeltaJobError> {
     })
 }
 
-/// Plans the case's job: one lap from θ = 0 (or the open path), ramps of 0.1 m/s² and
-/// 10 m/s³.
+/// Plans the case's job: one lap from θ = 0 (or the open path) at the Keops slave's
+/// cutting height, approach and ramps ([`CUT_MOTION`]), the case's speed, law and
+/// laser.
 pub fn plan(case: &ContourCase) -> Result<DeltaJob, DeltaJobError> {
     let planned = Planned::of(case)?;
     let curve = planned.curve();
@@ -220,9 +219,9 @@ pub fn plan(case: &ContourCase) -> Result<DeltaJob, DeltaJobError> {
             curve,
             centre_m: [0.0, 0.0, CUT_HEIGHT_M],
             speed_m_s: case.speed_m_s,
-            accel_m_s2: 0.1,
-            jerk_m_s3: 10.0,
-            approach_s: 0.3,
+            accel_m_s2: CUT_MOTION.accel_m_s2,
+            jerk_m_s3: CUT_MOTION.jerk_m_s3,
+            approach_s: APPROACH_S,
             law: case.law,
             laser: case.laser,
         },

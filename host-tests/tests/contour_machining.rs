@@ -213,7 +213,7 @@ fn a_contour_beyond_the_workspace_names_its_first_unreachable_point() {
     // vertex nearest the axis side) and its far side leaves the Keops workspace.
     let big = scaled(&shapes::octagon(), 2.0);
     let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&big, 30).unwrap();
-    let centre = [-0.010, 0.0, host_tests::machining::CUT_HEIGHT_M];
+    let centre = [-0.010, 0.0, kerf::app::delta_slave::product::CUT_HEIGHT_M];
     let err = DeltaJob::plan_contour(
         &host_tests::machining::machine(1e-4),
         &ContourPlan {

@@ -115,7 +115,7 @@ fn scenario() -> SlaveScenario {
 #[test]
 fn a_host_uploads_runs_retunes_and_hears_the_end_of_a_contour() {
     let mut host = Host::default();
-    with_linked_slave::<f64, _>(&scenario(), 0.25, 10, |slave| {
+    with_linked_slave::<f64, _>(&scenario(), 0.25, |slave| {
         // Power-up: the stored calibration makes the slave ready.
         for _ in 0..3 {
             host.period(slave, &[]);
@@ -180,7 +180,7 @@ fn a_sensor_fault_reaches_the_host_and_a_silent_host_stops_the_job() {
     let mut faulty = scenario();
     faulty.sensor_fault = Some((0.4, 1, hal_mock::hall_sensor::ChannelFault::OpenWire(0)));
     let mut host = Host::default();
-    with_linked_slave::<f64, _>(&faulty, 0.25, 10, |slave| {
+    with_linked_slave::<f64, _>(&faulty, 0.25, |slave| {
         for _ in 0..3 {
             host.period(slave, &[]);
         }
@@ -214,7 +214,7 @@ fn a_sensor_fault_reaches_the_host_and_a_silent_host_stops_the_job() {
     .unwrap();
 
     let mut host = Host::default();
-    with_linked_slave::<f64, _>(&scenario(), 1.0, 10, |slave| {
+    with_linked_slave::<f64, _>(&scenario(), 1.0, |slave| {
         for _ in 0..3 {
             host.period(slave, &[]);
         }

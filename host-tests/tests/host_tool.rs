@@ -70,7 +70,7 @@ fn machine(
         scenario.substeps = 1;
         let mut out = socket.try_clone().unwrap();
         out.write_all(&noise).unwrap();
-        with_linked_slave::<f64, _>(&scenario, 1.0, 10, |slave| {
+        with_linked_slave::<f64, _>(&scenario, 1.0, |slave| {
             let mut buf = [0u8; 256];
             while !stop.load(Ordering::Relaxed) {
                 let n = match socket.read(&mut buf) {

@@ -113,7 +113,7 @@ fn start(host: &mut Host, slave: &mut LinkedSlave<'_, f64>, wait: u32) -> (u32, 
 /// [`start`] on a slave switched on for it.
 fn start_after(wait: u32) -> (u32, Vec<[f64; 3]>) {
     let mut host = Host::default();
-    with_linked_slave::<f64, _>(&scenario(), 0.25, 10, |slave| start(&mut host, slave, wait))
+    with_linked_slave::<f64, _>(&scenario(), 0.25, |slave| start(&mut host, slave, wait))
         .expect("the linked slave builds")
 }
 
@@ -153,7 +153,7 @@ fn a_job_starts_the_same_whenever_it_starts_after_power_up() {
 #[test]
 fn a_start_while_a_carriage_slides_is_refused_until_it_rests() {
     let mut host = Host::default();
-    with_linked_slave::<f64, _>(&scenario(), 0.25, 10, |slave| {
+    with_linked_slave::<f64, _>(&scenario(), 0.25, |slave| {
         let (refused, _) = start(&mut host, slave, 0);
         assert_eq!(refused, 0);
         // Stop mid-air: the ramp to rest, then the drives off and the carriages slide.

@@ -1,16 +1,15 @@
-//! `kerf gcode`: a G-code program checked as ARROW will check it at load (A §4,
-//! issue 15), with the firmware's own parser and job loader
-//! ([`kerf::app::arrow::job::ArrowJob::from_gcode`]) and the capacities of the
-//! machine's image (`kerf_sim::arrow`: [`JOB_MOVES`] moves of [`JOB_POINTS`] points,
-//! [`PROGRAM_POINTS`] points read).
+//! `kerf gcode`: a G-code program checked as ARROW will check it at load (A §4), with
+//! the firmware's own parser and job loader ([`kerf::app::arrow::product::load_job`])
+//! and the capacities of the machine as flashed ([`JOB_MOVES`] moves of
+//! [`JOB_POINTS`] points, [`PROGRAM_POINTS`] points read).
 
-use kerf::app::arrow::job::{ArrowJob, ArrowJobConfig, ArrowJobErrorKind};
-use kerf::kinematics::arrow::{ArrowConfig, ArrowError, ArrowGeometry};
+use kerf::app::arrow::job::ArrowJobErrorKind;
+use kerf::app::arrow::product::{load_job, JOB_MOVES, JOB_POINTS, PROGRAM_POINTS};
+use kerf::kinematics::arrow::ArrowError;
 use kerf::trajectory::gcode::{GcodeErrorKind, GcodePoint, MoveKind, MAX_LINE_BYTES};
-use kerf_sim::arrow::{JOB_MOVES, JOB_POINTS, PROGRAM_POINTS};
 
 /// The job as the machine holds it.
-pub type Job = ArrowJob<f64, JOB_POINTS, JOB_MOVES>;
+pub type Job = kerf::app::arrow::product::Job<f64>;
 
 /// One rest-to-rest move of a checked program.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -56,14 +55,9 @@ pub struct GcodeCheckError {
 
 /// Checks `text` for ARROW's preset machine (module docs).
 pub fn check(text: &[u8]) -> Result<GcodeReport, GcodeCheckError> {
-    let geometry = ArrowGeometry::<f64>::new(&ArrowConfig::ARROW).map_err(|e| GcodeCheckError {
-        line: 0,
-        column: 1,
-        message: format!("machine configuration: {e}"),
-    })?;
     let mut points = Box::new(heapless::Vec::<GcodePoint, PROGRAM_POINTS>::new());
     let mut job = Box::<Job>::default();
-    *job = Job::from_gcode(text, &mut points, &geometry, &ArrowJobConfig::ARROW).map_err(|e| {
+    load_job(text, &mut points, &mut job).map_err(|e| {
         let (column, message) = match e.kind {
             ArrowJobErrorKind::Gcode { kind, column } => (column.max(1), describe_gcode(kind)),
             other => (1, describe_job(other)),

@@ -18,15 +18,12 @@ use embassy_stm32::pac;
 use embassy_stm32::usart::{RingBufferedUartRx, UartTx};
 use heapless::spsc::{Consumer, Producer};
 use kerf::app::calibrate::{CalibrationFit, HallMachine};
+use kerf::app::delta_slave::product::LINK_JOB_BYTES;
 use kerf::app::host_link::HostLink;
 use kerf::app::supervisor::{Command, Mode, Report};
 use kerf::codec::link::BOARD_FAULT;
 use kerf::hal::Monotonic;
 use kerf::sensing::hall::HallConfig;
-
-/// Bytes of an uploaded job the board holds (a 30-harmonic EFD file is 504), as the
-/// QEMU link image.
-pub const LINK_JOB_BYTES: usize = 1024;
 
 /// The board's link.
 pub type BoardLink = HostLink<Machine, LINK_JOB_BYTES>;

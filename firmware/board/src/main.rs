@@ -38,10 +38,12 @@ use embassy_stm32::interrupt::{InterruptExt, Priority};
 use embassy_stm32::{bind_interrupts, dma, pac, peripherals, usart};
 use fault::Cause;
 use heapless::spsc::{Consumer, Producer, Queue};
-use kerf::app::axis::HallAxis;
 use kerf::app::calibrate::CalibrationFit;
-use kerf::app::delta_slave::link::{ContourDefaults, SlaveSettings};
-use kerf::app::delta_slave::{ContourLaw, DeltaSlaveConfig};
+use kerf::app::delta_slave::link::SlaveSettings;
+use kerf::app::delta_slave::product::{
+    contour_defaults, nominal_calibration, JOB_LAPS, TELEMETRY_DECIMATION,
+};
+use kerf::app::delta_slave::DeltaSlaveConfig;
 use kerf::app::host_link::{HostLink, HostLinkConfig};
 use kerf::app::supervisor::{Command, Report, Supervisor};
 use kerf::app::PeriodClock;
@@ -69,29 +71,8 @@ static EXECUTOR: StaticCell<Executor> = StaticCell::new();
 static CONTROL: StaticCell<control::Control> = StaticCell::new();
 static LINK: StaticCell<link::LinkTask> = StaticCell::new();
 
-/// Telemetry reports every this many periods, for the link to decimate further (as
-/// the QEMU link image).
-const TELEMETRY_DECIMATION: u32 = 10;
-
 /// The host link's received bytes: 1024 last 11 ms at 921 600 Bd, ten link ticks.
 const RX_RING_BYTES: usize = 1024;
-
-/// How host-link contour jobs are cut on the Keops slave: the motion and laser of the
-/// QEMU link image's contours (kerf-sim `contour_defaults`: 8 mm/s, ramps of 0.1 m/s²
-/// and 10 m/s³, 10 W, the contouring law, centred at 50 mm height), one lap.
-fn contour_defaults(machine: &DeltaSlaveConfig) -> ContourDefaults {
-    ContourDefaults {
-        machine: *machine,
-        centre_m: [0.0, 0.0, 0.050],
-        speed_m_s: 8e-3,
-        accel_m_s2: 0.1,
-        jerk_m_s3: 10.0,
-        approach_s: 0.3,
-        laps: 1.0,
-        law: ContourLaw::Contouring,
-        laser_power_w: 10.0,
-    }
-}
 
 /// Clocks: 170 MHz from HSI16 through the PLL, boost mode; the DMA interrupts of the
 /// link below the control interrupt.
@@ -162,12 +143,11 @@ fn store_nominal_calibration(
     machine: &DeltaSlaveConfig,
     commands: &mut Producer<'static, Command<control::Machine>>,
 ) {
-    let [a, b, c] = machine.joints.hall.map(|h| HallAxis::<f32>::new(&h));
-    let (Ok(a), Ok(b), Ok(c)) = (a, b, c) else {
+    let Ok(stored) = nominal_calibration::<f32>(machine) else {
         fault::fail(Cause::Startup, 5)
     };
     if commands
-        .enqueue(Command::FinishCalibration([a, b, c]))
+        .enqueue(Command::FinishCalibration(stored))
         .is_err()
     {
         fault::fail(Cause::Startup, 6)
@@ -188,7 +168,7 @@ fn start_link(
     let Ok(host_link) = HostLink::new(
         &link_config,
         SlaveSettings::of(&machine.joints.axis),
-        contour_defaults(machine),
+        contour_defaults(machine, JOB_LAPS),
     ) else {
         fault::fail(Cause::Startup, 7)
     };

@@ -6,26 +6,18 @@
 
 use hal_mock::arrow::{ArrowPlant, ArrowPlantConfig, ArrowReading};
 use heapless::spsc::Queue;
-use kerf::app::arrow::job::{ArrowJob, ArrowJobConfig, ArrowJobError, ArrowJobErrorKind};
-use kerf::app::arrow::machine::{ArrowFault, ArrowInputs, ArrowLimits, ArrowMachine, ArrowOutputs};
+use kerf::app::arrow::machine::{ArrowFault, ArrowInputs, ArrowLimits, ArrowOutputs};
+use kerf::app::arrow::product::{Arrow, Job};
 use kerf::app::arrow::ArrowLaw;
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::control::redundant_pid::{RedundantPid, RedundantPidConfig};
 use kerf::kinematics::arrow::{
     ArrowConfig, ArrowDynamics, ArrowError, ArrowGeometry, ArrowMasses, ForwardConfig, Joints, Pose,
 };
-use kerf::trajectory::gcode::GcodePoint;
 use kerf::{Float, Real};
 
 /// The pyramid of A fig. 26–27 as the G-code file the firmware image carries.
 pub const PYRAMID_GCODE: &str = include_str!("../../app/data/pyramid.gcode");
-
-/// Points a move holds (the pyramid's contour run has 166).
-pub const JOB_POINTS: usize = 192;
-/// Moves a job holds (the pyramid has three: the plunge, the contour, the retract).
-pub const JOB_MOVES: usize = 4;
-/// Points the G-code buffer holds while a program is read.
-pub const PROGRAM_POINTS: usize = 256;
 
 /// The smoke run's bounds: A table 3's Cartesian figures (eq. 55, 56), which the
 /// host's f64 run of the same scenario meets with margin (README).
@@ -59,11 +51,6 @@ impl TrackingBounds {
         r.cartesian_m < self.cartesian_m && r.cartesian_deg < self.cartesian_deg
     }
 }
-
-/// A job of this scenario.
-pub type Job<T> = ArrowJob<T, JOB_POINTS, JOB_MOVES>;
-/// The machine of this scenario.
-pub type Arrow<T> = ArrowMachine<T, JOB_POINTS, JOB_MOVES>;
 
 /// What a run varies.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -117,22 +104,6 @@ impl ArrowScenario {
             feedforward: self.feedforward,
         })
     }
-}
-
-/// Reads a G-code program into a job checked on the nominal model, with `points` as
-/// the parse buffer.
-#[allow(clippy::result_large_err)]
-pub fn load_job<T: Float>(
-    text: &str,
-    points: &mut heapless::Vec<GcodePoint, PROGRAM_POINTS>,
-    job: &mut Job<T>,
-) -> Result<(), ArrowJobError> {
-    let geometry = ArrowGeometry::<f64>::new(&ArrowConfig::ARROW).map_err(|e| ArrowJobError {
-        line: 0,
-        kind: ArrowJobErrorKind::Config(e),
-    })?;
-    *job = Job::<T>::from_gcode(text.as_bytes(), points, &geometry, &ArrowJobConfig::ARROW)?;
-    Ok(())
 }
 
 /// One period's errors, at its end against its reference.

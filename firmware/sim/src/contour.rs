@@ -12,21 +12,16 @@ use crate::slave::{run_slave_job, SlaveError, SlaveScenario};
 use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::hall_sensor::HallSensorParams;
 use heapless::Deque;
-use kerf::app::delta_slave::link::ContourDefaults;
+use kerf::app::delta_slave::product::{contour_defaults, APPROACH_S, CUT_MOTION};
 use kerf::app::delta_slave::{
-    ContourCurve, ContourLaw, ContourPlan, DeltaFault, DeltaJob, DeltaJobError, DeltaSlaveConfig,
+    ContourCurve, ContourLaw, DeltaFault, DeltaJob, DeltaJobError, DeltaSlaveConfig,
     CONTOUR_HARMONICS,
 };
 use kerf::app::supervisor::{Machine, Mode};
-use kerf::control::laser::LaserMode;
 use kerf::scalar::Float;
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::shapes::{octagon, OCTAGON_POINTS};
-use kerf::trajectory::tangential::SpeedRampConfig;
 use kerf::trajectory::ContourError;
-
-/// Cutting height, m.
-pub const CUT_HEIGHT_M: f64 = 0.050;
 
 /// Contour error bounds of the smoke run (max, RMS), m: a tenth of the 50 µm the
 /// machine's supervision allows, and what the ideal-plant runs reach (1.5 µm max,
@@ -127,44 +122,16 @@ pub struct ContourSummary {
     pub fault: Option<DeltaFault>,
 }
 
-/// Laser power at the octagon's cruising speed, W: half the Keops source's 20 W.
-pub const OCTAGON_LASER_POWER_W: f64 = 10.0;
-
-/// The octagon's tangential speed (m/s) and its ramps' acceleration (m/s²) and jerk
-/// (m/s³), at the Keops period (a job runs at its machine's period instead).
-pub const OCTAGON_MOTION: SpeedRampConfig = SpeedRampConfig {
-    speed_m_s: 8e-3,
-    accel_m_s2: 0.1,
-    jerk_m_s3: 10.0,
-    ts_s: 1e-4,
-};
-
-/// How the host link's contour jobs are cut on `machine`: the octagon's motion,
-/// centre, law and laser, `laps` laps.
-pub fn contour_defaults(machine: &DeltaSlaveConfig, laps: f64) -> ContourDefaults {
-    ContourDefaults {
-        machine: *machine,
-        centre_m: [0.0, 0.0, CUT_HEIGHT_M],
-        speed_m_s: OCTAGON_MOTION.speed_m_s,
-        accel_m_s2: OCTAGON_MOTION.accel_m_s2,
-        jerk_m_s3: OCTAGON_MOTION.jerk_m_s3,
-        approach_s: 0.3,
-        laps,
-        law: ContourLaw::Contouring,
-        laser_power_w: OCTAGON_LASER_POWER_W,
-    }
-}
-
 /// The octagon at ±6 mm (the stored shape scaled by 0.6) in `harmonics` harmonics.
 pub fn octagon_efd(harmonics: usize) -> Result<Efd<f64, CONTOUR_HARMONICS>, ContourError> {
     let points = octagon().map(|p| [0.6 * p[0], 0.6 * p[1]]);
     Efd::from_polygon(&points[..OCTAGON_POINTS], harmonics)
 }
 
-/// The octagon at ±6 mm in `harmonics` harmonics, `laps` laps at 8 mm/s under `law`,
-/// ramps of 0.1 m/s² and 10 m/s³, the laser at constant energy per length
-/// ([`OCTAGON_LASER_POWER_W`] at 8 mm/s), on `machine` (the smoke run's contour with 30
-/// harmonics and contouring control; the benchmark's slave period).
+/// The octagon at ±6 mm in `harmonics` harmonics, `laps` laps under `law`, cut as the
+/// Keops slave cuts an uploaded contour ([`contour_defaults`]: its motion and laser),
+/// on `machine` (the smoke run's contour with 30 harmonics and contouring control;
+/// the benchmark's slave period).
 pub fn octagon_job(
     machine: &DeltaSlaveConfig,
     laps: f64,
@@ -172,22 +139,15 @@ pub fn octagon_job(
     law: ContourLaw,
 ) -> Result<DeltaJob, DeltaJobError> {
     let efd = octagon_efd(harmonics).map_err(DeltaJobError::Contour)?;
+    let mut defaults = contour_defaults(machine, laps);
+    defaults.law = law;
     DeltaJob::plan_contour(
         machine,
-        &ContourPlan {
-            curve: ContourCurve::Closed {
-                efd: &efd,
-                theta0_rad: 0.0,
-                laps,
-            },
-            centre_m: [0.0, 0.0, CUT_HEIGHT_M],
-            speed_m_s: OCTAGON_MOTION.speed_m_s,
-            accel_m_s2: OCTAGON_MOTION.accel_m_s2,
-            jerk_m_s3: OCTAGON_MOTION.jerk_m_s3,
-            approach_s: 0.3,
-            law,
-            laser: LaserMode::constant_energy_of(OCTAGON_LASER_POWER_W, OCTAGON_MOTION.speed_m_s),
-        },
+        &defaults.plan(ContourCurve::Closed {
+            efd: &efd,
+            theta0_rad: 0.0,
+            laps,
+        }),
     )
 }
 
@@ -211,7 +171,7 @@ pub fn run_octagon<T: Float>(
     let job = octagon_job(&scenario.machine, laps, 30, ContourLaw::Contouring)
         .map_err(SlaveError::Job)?;
     // Approach, the lap, the ramps and a margin.
-    let job_s = 0.3 + laps * 0.045 / 8e-3 + 1.0;
+    let job_s = APPROACH_S + laps * 0.045 / CUT_MOTION.speed_m_s + 1.0;
     let mut meter = ContourMeter::<64>::new();
     let mut fault = None;
     run_slave_job::<T>(&scenario, job, job_s, 0, |period, rig| {

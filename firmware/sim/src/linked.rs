@@ -6,18 +6,16 @@
 //! the nominal Hall decoders as a stored calibration at power-up; everything after
 //! comes from the host.
 
-use crate::contour::contour_defaults;
 use crate::slave::{rest_unpowered, SlaveError, SlavePeriod, SlaveRig, SlaveScenario};
 use heapless::spsc::{Consumer, Producer, Queue};
-use kerf::app::axis::HallAxis;
 use kerf::app::delta_slave::link::SlaveSettings;
+use kerf::app::delta_slave::product::{
+    contour_defaults, nominal_calibration, LINK_JOB_BYTES, TELEMETRY_DECIMATION,
+};
 use kerf::app::delta_slave::DeltaSlave;
 use kerf::app::host_link::{HostLink, HostLinkConfig};
 use kerf::app::supervisor::{Command, Report};
 use kerf::scalar::Float;
-
-/// Bytes of an uploaded job the slave holds (a 30-harmonic EFD file is 504).
-pub const LINK_JOB_BYTES: usize = 1024;
 
 /// Longest the carriages may take to come to rest, unpowered, before the machine is
 /// switched on, s (the Keops slave's slide from its home takes about 0.1 s).
@@ -71,12 +69,11 @@ impl<'q, T: Float> LinkedSlave<'q, T> {
 }
 
 /// Builds the linked slave of `scenario` (nominal decoders installed, telemetry
-/// reports every `decimation` periods for the link to decimate further, contours cut
+/// reported as the product reports it for the link to decimate further, contours cut
 /// for `laps` laps) and hands it to `f`.
 pub fn with_linked_slave<T: Float, R>(
     scenario: &SlaveScenario,
     laps: f64,
-    decimation: u32,
     f: impl FnOnce(&mut LinkedSlave<'_, T>) -> R,
 ) -> Result<R, SlaveError> {
     let mut commands = Queue::<Command<DeltaSlave<T>>, 4>::new();
@@ -89,15 +86,9 @@ pub fn with_linked_slave<T: Float, R>(
     scenario.machine.joints.home_m = rest_unpowered(&scenario, POWER_UP_REST_S)?;
     let scenario = &scenario;
     let mut rig = SlaveRig::<T>::new(scenario, from_sender, to_link)?;
-    rig.set_telemetry_decimation(decimation);
+    rig.set_telemetry_decimation(TELEMETRY_DECIMATION);
     let machine = &scenario.machine;
-    let [a, b, c] = machine.joints.hall.map(|h| HallAxis::<T>::new(&h));
-    let stored = [a, b, c]
-        .into_iter()
-        .collect::<Result<heapless::Vec<_, 3>, _>>()
-        .map_err(SlaveError::Config)?
-        .into_array::<3>()
-        .map_err(|_| SlaveError::Timeout)?;
+    let stored = nominal_calibration::<T>(machine).map_err(SlaveError::Config)?;
     if to_machine
         .enqueue(Command::FinishCalibration(stored))
         .is_err()

@@ -18,8 +18,8 @@ use kerf::codec::link::{
     crc32, decode, encode, FrameReader, HostFrame, JobKind, MachineMessage, Reply, Request,
     MAX_CHUNK, MAX_FRAME, VERSION,
 };
-use kerf_sim::contour::{contour_defaults, octagon_efd};
-use kerf_sim::linked::LINK_JOB_BYTES;
+use kerf::app::delta_slave::product::{contour_defaults, LINK_JOB_BYTES};
+use kerf_sim::contour::octagon_efd;
 
 /// Encodes `$message`, decodes it as `$type`, encodes it again: the two frames are
 /// the same bytes (floats compared as bits, so a NaN does not fail the comparison).

@@ -12,12 +12,10 @@
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use heapless::Vec;
+use kerf::app::arrow::product::{load_job, Job, PROGRAM_POINTS};
 use kerf::app::supervisor::Mode;
 use kerf_app::exit;
-use kerf_sim::arrow::{
-    load_job, run_job, ArrowScenario, Job, TrackingSums, ARROW_SMOKE_BOUNDS, PROGRAM_POINTS,
-    PYRAMID_GCODE,
-};
+use kerf_sim::arrow::{run_job, ArrowScenario, TrackingSums, ARROW_SMOKE_BOUNDS, PYRAMID_GCODE};
 
 #[entry]
 fn main() -> ! {
@@ -28,7 +26,7 @@ fn main() -> ! {
     ) else {
         exit(false)
     };
-    if let Err(e) = load_job(PYRAMID_GCODE, points, job) {
+    if let Err(e) = load_job(PYRAMID_GCODE.as_bytes(), points, job) {
         hprintln!(
             "kerf qemu arrow: the pyramid was refused at line {}: {:?} -> FAIL",
             e.line,

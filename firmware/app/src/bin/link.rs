@@ -10,13 +10,11 @@
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use hal_mock::hall_sensor::HallSensorParams;
+use kerf::app::delta_slave::product::JOB_LAPS;
 use kerf_app::exit;
 use kerf_app::uart::{CmsdkUart, UART0_BASE};
 use kerf_sim::linked::with_linked_slave;
 use kerf_sim::slave::SlaveScenario;
-
-/// Laps of a contour job: one, the whole contour (the host's job is the part).
-const CONTOUR_LAPS: f64 = 1.0;
 
 #[entry]
 fn main() -> ! {
@@ -25,7 +23,7 @@ fn main() -> ! {
     let mut scenario = SlaveScenario::square();
     scenario.sensors = [HallSensorParams::LM1247_16BIT; 3];
     scenario.substeps = 1;
-    let ended = with_linked_slave::<f32, _>(&scenario, CONTOUR_LAPS, 10, |slave| {
+    let ended = with_linked_slave::<f32, _>(&scenario, JOB_LAPS, |slave| {
         let mut rx = [0u8; 64];
         loop {
             let mut n = 0;

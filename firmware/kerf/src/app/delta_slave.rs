@@ -49,6 +49,7 @@ use nalgebra::Vector3;
 mod contour;
 mod line;
 pub mod link;
+pub mod product;
 
 /// Instants per move at which a plan checks the joint limits (plus the end). A
 /// minimum-jerk move's joint speed and acceleration are smooth in time; between

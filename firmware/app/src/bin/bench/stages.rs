@@ -16,6 +16,7 @@
 
 use core::hint::black_box;
 use kerf::app::axis::{AxisLaw, AxisState, HallAxis};
+use kerf::app::delta_slave::product::CUT_MOTION;
 use kerf::app::delta_slave::DeltaSlaveConfig;
 use kerf::control::contouring::{Contouring, TaskReference};
 use kerf::kinematics::delta::DeltaGeometry;
@@ -23,7 +24,7 @@ use kerf::kinematics::Vector3;
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::tangential::{ContourFollower, FollowerConfig, SpeedRampConfig};
 use kerf_app::bench::Counter;
-use kerf_sim::contour::{octagon_efd, OCTAGON_MOTION};
+use kerf_sim::contour::octagon_efd;
 
 /// Stage names, in the order [`Stages::measure`] times them.
 pub const STAGES: [&str; 8] = [
@@ -177,7 +178,7 @@ fn follower(ts: f32) -> Option<ContourFollower<f32, 30>> {
     let config = FollowerConfig {
         ramp: SpeedRampConfig {
             ts_s: f64::from(ts),
-            ..OCTAGON_MOTION
+            ..CUT_MOTION
         },
         accel_limit_m_s2: machine.joints.accel_limit_m_s2,
         newton_steps: machine.contour.newton_steps,

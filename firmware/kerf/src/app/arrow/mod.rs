@@ -9,6 +9,7 @@
 
 pub mod job;
 pub mod machine;
+pub mod product;
 
 use crate::control::redundant_pid::{Factored, RedundantPid, RedundantPidError, RedundantPidState};
 use crate::kinematics::arrow::{ArrowDynamics, ArrowError, ArrowGeometry, Joints, Pose};

@@ -17,8 +17,8 @@
 //! bumplessly to all three carriages.
 
 use super::{
-    ContourCurve, ContourLaw, ContourPlan, DeltaFault, DeltaJob, DeltaJobError, DeltaSlave,
-    DeltaSlaveConfig, DeltaTelemetry, CONTOUR_HARMONICS,
+    ContourCurve, ContourLaw, DeltaFault, DeltaJob, DeltaJobError, DeltaSlave, DeltaSlaveConfig,
+    DeltaTelemetry, CONTOUR_HARMONICS,
 };
 use crate::app::axis::{AxisConfig, AxisLaw};
 use crate::app::host_link::LinkMachine;
@@ -26,7 +26,6 @@ use crate::app::joints::JobError;
 use crate::codec::job::JobFile;
 use crate::codec::link::{TelemetrySample, JOB_NOT_AT_REST};
 use crate::control::dob::DobConfig;
-use crate::control::laser::LaserMode;
 use crate::control::pd::PdConfig;
 use crate::error::ConfigError;
 use crate::scalar::{to_f64, Float};
@@ -243,20 +242,11 @@ impl<T: Float> LinkMachine for DeltaSlave<T> {
             coefficients.get(..n).unwrap_or(&[]),
         )
         .map_err(|_| load_codes::BAD_CURVE)?;
-        let plan = ContourPlan {
-            curve: ContourCurve::Closed {
-                efd: &efd,
-                theta0_rad: 0.0,
-                laps: context.laps,
-            },
-            centre_m: context.centre_m,
-            speed_m_s: context.speed_m_s,
-            accel_m_s2: context.accel_m_s2,
-            jerk_m_s3: context.jerk_m_s3,
-            approach_s: context.approach_s,
-            law: context.law,
-            laser: LaserMode::constant_energy_of(context.laser_power_w, context.speed_m_s),
-        };
+        let plan = context.plan(ContourCurve::Closed {
+            efd: &efd,
+            theta0_rad: 0.0,
+            laps: context.laps,
+        });
         *job = DeltaJob::plan_contour(&context.machine, &plan)
             .map_err(|e| <Self as LinkMachine>::job_error_code(&e))?;
         Ok(())
