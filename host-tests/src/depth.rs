@@ -1,5 +1,6 @@
-//! Energy deposited per unit path length, the measure of cut depth (SPEC
-//! `control::laser`: depth ∝ e = P / v), from a simulated run's per-period samples.
+//! Energy deposited per unit path length, the measure of cut depth (depth ∝ e = P / v,
+//! docs/control.md §23, Laser power and cut depth), from a simulated run's per-period
+//! samples.
 //!
 //! During period k the spot moves from s_k to s_{k+1} (arc length along the path, m,
 //! either way) while the laser holds the power P_k; the period's energy P_k·Ts is

@@ -1,5 +1,5 @@
-//! Self-optimizing autofocus on the simulated zoom camera (T 7.2.2, T 8.5; SPEC
-//! `control` autofocus). The firmware's parts run as on the MCU, in `f32`: the
+//! Self-optimizing autofocus on the simulated zoom camera (T 7.2.2, T 8.5;
+//! docs/control.md §24, Autofocus). The firmware's parts run as on the MCU, in `f32`: the
 //! integer sharpness kernel on each 64 × 64 frame, the gradient window and the
 //! sigmoid velocity reference once per frame, the acceleration-level tracking law
 //! every 1 ms period; the focus axis is the DOB-compensated double integrator of

@@ -1,5 +1,5 @@
 //! The app's signal stream (SDCT encoder → packets) → simulated link → receiver
-//! (SPEC `codec::sdct`, T 7.2.3): reconstruction over
+//! (docs/codec.md §30, T 7.2.3): reconstruction over
 //! a clean link, and over a lossy, reordering one where every lost or late packet must
 //! show up as a sequence gap or a `SequenceBackwards` rejection, never be used late.
 

@@ -1,5 +1,5 @@
 //! SDCT against the conventional first-m DCT codec over representative signals
-//! (SPEC `codec::sdct`, T 7.2.3), through the full wire path: f32 DCT, selection,
+//! (docs/codec.md §30, T 7.2.3), through the full wire path: f32 DCT, selection,
 //! Q15 block-floating-point packet, CRC, parse, zero-fill, inverse DCT.
 //!
 //! Prints, per block length N and per kept count m: bytes per packet and compression

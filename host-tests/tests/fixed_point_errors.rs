@@ -19,8 +19,9 @@
 //!   f32) into a stable linear system (the force clamp never acts, which the test
 //!   checks), so the difference from f64 is bounded: |Δ| ≤ Σ ‖h_i‖₁ b_i over the
 //!   injection points i, with h_i the impulse response from point i to the force or
-//!   to the plant's position. The h_i are computed here from the equations (SPEC
-//!   control: DOB, PD; sensing::velocity), not from the library's code; an injection
+//!   to the plant's position. The h_i are computed here from the equations (DOB and
+//!   PD: docs/control.md §17; velocity observer: docs/equations.md §3), not from the
+//!   library's code; an injection
 //!   whose rounding carries its remainder to the next period (Q6_25's observer
 //!   position update) enters as r_k − r_{k−1} with |r| ≤ b, so it counts
 //!   ‖h_i(k) − h_i(k−1)‖₁ b instead.

@@ -58,7 +58,7 @@ pub trait FrameLink {
 pub struct LinkBusy;
 
 /// A request/reply byte link to a device on a serial line or a socket (the grinding
-/// cell's hexapod controller and spindle converter, SPEC device protocols): the
+/// cell's hexapod controller and spindle converter, docs/codec.md §31): the
 /// request is written whole, then the reply read until the device's framing says it
 /// is complete or the link's reply timeout expires. Called from a slower task than
 /// the control period; a board bounds the wait with its timeout.

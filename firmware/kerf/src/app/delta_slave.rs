@@ -11,7 +11,7 @@
 //! Running a job: a joint-space approach move from wherever the carriages are to the
 //! job's start (checked against the speed and acceleration limits at `Start`), then the
 //! straight moves, each a rest-to-rest minimum-jerk profile along the line. The joint
-//! references come from the effector's (SPEC velocity, T eq. 146):
+//! references come from the effector's (docs/equations.md §6, velocity; T eq. 146):
 //! q = IK(p), q̇ = Jx⁻¹ ṗ, q̈ = Jx⁻¹ (p̈ − J̇x q̇).
 //!
 //! Calibration sweeps the three carriages together, by the same displacement. From a

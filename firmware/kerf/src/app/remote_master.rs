@@ -6,13 +6,14 @@
 //!
 //! 1. Sensing: the carriages' 0.5 µm encoders (`sensing::encoder`), a tracking
 //!    observer per carriage for q̇, the effector (x, ẋ) by FK and Jx.
-//! 2. The fixture (`control::constraint`, SPEC control T 5.2): the constrained task
-//!    acceleration ẍc and the projector P onto the constrained subspace. The carriages
-//!    get q̈c = Jx⁻¹(ẍc − P J̇x q̇), and each carriage's disturbance observer runs as a
-//!    monitor: its estimate d̂ (the operator's force, gravity, friction, the rest of
-//!    the inertia, as joint forces) is compensated only in the constrained subspace,
-//!    Jxᵀ P Jx⁻ᵀ d̂. Along the curve nothing resists or cancels the operator's push:
-//!    the fixture is force-transparent there and stiff across it and in z.
+//! 2. The fixture (`control::constraint`, docs/control.md §20, T 5.2): the constrained
+//!    task acceleration ẍc and the projector P onto the constrained subspace. The
+//!    carriages get q̈c = Jx⁻¹(ẍc − P J̇x q̇), and each carriage's disturbance observer
+//!    runs as a monitor: its estimate d̂ (the operator's force, gravity, friction, the
+//!    rest of the inertia, as joint forces) is compensated only in the constrained
+//!    subspace, Jxᵀ P Jx⁻ᵀ d̂. Along the curve nothing resists or cancels the
+//!    operator's push: the fixture is force-transparent there and stiff across it and
+//!    in z.
 //! 3. Haptics (beyond the seed, T 9.2): with the slave's beam at constant power the
 //!    cut's depth goes as 1/speed; when the operator's speed along the curve leaves
 //!    the band that keeps the energy per length inside its limits, a light force

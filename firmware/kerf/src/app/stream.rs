@@ -1,4 +1,4 @@
-//! A machine's signals sent over a [`FrameLink`] (SPEC `codec::sdct`, T 7.2.3): blocks
+//! A machine's signals sent over a [`FrameLink`] (docs/codec.md §30, T 7.2.3): blocks
 //! of N samples of each of C channels sampled together, SDCT-coded, one frame per
 //! block; the receiver validates the frame and its order and reconstructs.
 //!

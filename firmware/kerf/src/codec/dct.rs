@@ -1,4 +1,4 @@
-//! Orthonormal DCT-II and its inverse, the orthonormal DCT-III (SPEC `codec::sdct`,
+//! Orthonormal DCT-II and its inverse, the orthonormal DCT-III (docs/codec.md §30,
 //! T 7.2.3 eq. 162/164), for N = 8, 16, 32, 64.
 //!
 //! ```text

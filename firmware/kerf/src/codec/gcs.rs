@@ -1,6 +1,6 @@
-//! The PI GCS ASCII subset the seed's hexapod scripts use (SPEC "Device protocols of
-//! the grinding cell", G app. D through PI's MATLAB wrapper): commands into a
-//! caller's buffer, replies parsed without allocation.
+//! The PI GCS ASCII subset the grinding cell's hexapod scripts use (docs/codec.md §31,
+//! Device protocols of the grinding cell; G app. D, through PI's MATLAB wrapper):
+//! commands into a caller's buffer, replies parsed without allocation.
 //!
 //! # Commands
 //!
@@ -32,8 +32,8 @@
 //! # Replies
 //!
 //! A reply is lines ended by LF; every line but the last ends with a space before
-//! its LF (SPEC: "multi-line replies end with a line without a trailing space-LF
-//! continuation"). Axis values are `AXIS=value` lines in the order asked. A reply
+//! its LF (docs/codec.md §31: a multi-line reply ends with the first line that has no
+//! space before its LF). Axis values are `AXIS=value` lines in the order asked. A reply
 //! that stops after a continuation (or without its LF) is [`GcsError::Truncated`];
 //! replies longer than [`MAX_REPLY_LEN`] are refused. Numbers are decimal with an
 //! optional sign, fraction and exponent; NaN, infinities and values that overflow

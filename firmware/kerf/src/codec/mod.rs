@@ -1,6 +1,6 @@
 //! What crosses a link: the Selected-DCT block codec between master and slave
-//! (SPEC `codec::sdct`, T 7.2.3), and the grinding cell's device protocols
-//! ([`spindle`]: the spindle converter's frames, G app. B).
+//! (docs/codec.md §30, T 7.2.3), and the grinding cell's device protocols
+//! ([`spindle`]: the spindle converter's frames, G app. B; docs/codec.md §31).
 //!
 //! Data flow of one block of N samples (N = 8, 16, 32 or 64):
 //!

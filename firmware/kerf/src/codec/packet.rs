@@ -1,4 +1,4 @@
-//! Framed SDCT packets for the master/slave link (SPEC `codec::sdct`, T 7.2.3).
+//! Framed SDCT packets for the master/slave link (docs/codec.md §30, T 7.2.3).
 //!
 //! Wire format, version 1 (all multi-byte fields little-endian):
 //!

@@ -1,14 +1,15 @@
 //! Selected DCT: keep the m largest-magnitude coefficients of each block
-//! (SPEC `codec::sdct`, T 7.2.3, Algorithm 4).
+//! (docs/codec.md §30, DCT and Selected DCT; T 7.2.3, Algorithm 4).
 //!
 //! The encoder transforms N samples with the orthonormal DCT-II and keeps m of the N
 //! coefficients; the decoder zero-fills the others and applies the DCT-III. Because the
 //! basis is orthonormal, the reconstruction error energy equals the energy of the
-//! dropped coefficients (Parseval), so keeping the m largest |c\[k\]| is the best m-term
-//! approximation in L2 — SPEC's **CORRECTION**: the print sorts by signed value, which
-//! would drop large negative coefficients. [`Selection::First`] is the conventional DCT
-//! codec (c[0..m)), the baseline SDCT is compared against; it needs no indices on the
-//! wire, SDCT does (see [`packet`](super::packet)).
+//! dropped coefficients (Parseval), so keeping the m largest |c\[k\]| is the best
+//! m-term approximation in L2 — a **CORRECTION** of the print (docs/codec.md §30),
+//! which sorts by signed value and would drop large negative coefficients.
+//! [`Selection::First`] is the conventional DCT codec (c[0..m)), the baseline SDCT is
+//! compared against; it needs no indices on the wire, SDCT does (see
+//! [`packet`](super::packet)).
 //!
 //! Ties in magnitude go to the lower index, so the selection is a pure function of the
 //! coefficients. Exact ties do occur: an impulse at n = 0 has |c\[0\]| = |c\[N/2\]| =

@@ -1,4 +1,4 @@
-//! The grinding spindle's converter protocol (SPEC device protocols, G app. B): binary
+//! The grinding spindle's converter protocol (docs/codec.md §31, G app. B): binary
 //! frames over RS-232 at 115200 8N1, every request answered by three bytes.
 //!
 //! Requests (as the seed's controller sends them):

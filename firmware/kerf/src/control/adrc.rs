@@ -1,4 +1,4 @@
-//! Active disturbance rejection control (SPEC `control` ADRC, G 4.2 eq. 13–29).
+//! Active disturbance rejection control (docs/control.md §27, G 4.2 eq. 13–29).
 //!
 //! Three parts, stepped once per period h (the seed's 1 ms):
 //!

@@ -1,4 +1,4 @@
-//! Self-optimizing autofocus (SPEC `control` autofocus, T 7.2.2 eq. 156–161).
+//! Self-optimizing autofocus (docs/control.md §24, T 7.2.2 eq. 156–161).
 //!
 //! The focus motor's position q is driven to the maximum of the image sharpness S(q)
 //! ([`sensing::sharpness`](crate::sensing::sharpness)), which is unimodal in q at

@@ -1,5 +1,5 @@
-//! The slave's tracking law for remote machining (SPEC control, T 5.3.1): the slave
-//! delta reproduces the master's motion, scaled.
+//! The slave's tracking law for remote machining (docs/control.md §21, T 5.3.1): the
+//! slave delta reproduces the master's motion, scaled.
 //!
 //! Scaling as users think of it: slave displacement = `scale` × master displacement,
 //! each about its own workspace centre (T 8.3 cuts at 0.5 and 2/3). The print writes

@@ -1,5 +1,5 @@
-//! The master's virtual fixture (SPEC control, T 5.2): free and force-transparent
-//! along the contour, stiff across it and in z.
+//! The master's virtual fixture (docs/control.md §20, T 5.2): free and
+//! force-transparent along the contour, stiff across it and in z.
 //!
 //! The constraint φ(x) = [φ₁, φ₂] (φ₁ the signed distance to the contour's local
 //! circle or line, φ₂ = z_ref − z; `trajectory::constraint`) is driven to zero through
@@ -12,13 +12,13 @@
 //! Kq2 = Jx⁻¹J̇x + Jx⁻¹Jφ#J̇φJx + Jx⁻¹Jφ#C2⁻¹C1JφJx + Jx⁻¹Jφ#C2⁻¹KC2JφJx, is that
 //! demand mapped through φ̈ = Jφẍ + J̇φẋ and ẍ = Jx q̈ + J̇x q̇.
 //!
-//! SPEC's correction (implied by the seed's experiment): the operator must stay free
-//! along the curve. The law therefore gives the task acceleration only in the
-//! constrained subspace, ẍc = Jφ#(φ̈des − J̇φẋ), with Jφ# = Jφᵀ(JφJφᵀ)⁻¹, together with
-//! the projector P = Jφ#Jφ onto that subspace: the machine applies its force, and its
-//! disturbance compensation, through P only, so nothing acts along the free direction
-//! (I − P) and the operator's push there is not resisted or cancelled. The print's
-//! full −Jx⁻¹J̇x q̇ is likewise only applied through P.
+//! The correction of docs/control.md §20 (required by T's own experiment): the operator
+//! must stay free along the curve. The law therefore gives the task acceleration only
+//! in the constrained subspace, ẍc = Jφ#(φ̈des − J̇φẋ), with Jφ# = Jφᵀ(JφJφᵀ)⁻¹,
+//! together with the projector P = Jφ#Jφ onto that subspace: the machine applies its
+//! force, and its disturbance compensation, through P only, so nothing acts along the
+//! free direction (I − P) and the operator's push there is not resisted or cancelled.
+//! The print's full −Jx⁻¹J̇x q̇ is likewise only applied through P.
 //!
 //! A push across the curve with acceleration a (force over the effective mass) settles
 //! at φ = a/(λK): the fixture's stiffness is m·λ·K N/m.

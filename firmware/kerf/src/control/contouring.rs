@@ -1,4 +1,4 @@
-//! Contouring control in the frame moving with the path (SPEC control, T 4.3.2),
+//! Contouring control in the frame moving with the path (docs/control.md §19, T 4.3.2),
 //! extended to 3-D.
 //!
 //! The law regulates the task-space error e = x_ref − x in the frame of the reference

@@ -1,4 +1,4 @@
-//! The master's estimate of the slave over a delayed link (SPEC control "With delay",
+//! The master's estimate of the slave over a delayed link (docs/control.md §22,
 //! T 5.3.2): a Smith predictor whose delay is read off the packets, never configured.
 //!
 //! In the seed's arrangement (T eq. 93–96) the master side computes the slave's

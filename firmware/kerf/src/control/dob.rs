@@ -1,4 +1,4 @@
-//! Disturbance observer, velocity form (SPEC `control` DOB, T 4.1.2).
+//! Disturbance observer, velocity form (docs/control.md §17, T 4.1.2).
 //!
 //! The plant is An q̈ = F − Fdis, where Fdis lumps friction, load, and the error of the
 //! nominal mass An. The estimate is F̂dis = LPF_g(F − An q̈) with LPF_g = g/(s + g).

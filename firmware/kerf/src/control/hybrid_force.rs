@@ -1,5 +1,5 @@
-//! Hybrid force/velocity control of the grinding cell (SPEC `control` hybrid force,
-//! G ch. 4 eq. 11, G ch. 7 fig. 42).
+//! Hybrid force/velocity control of the grinding cell (docs/control.md §28, G ch. 4
+//! eq. 11, G ch. 7 fig. 42).
 //!
 //! Normal direction: a force law ([`ForceLaw`]: [`Pid`] or [`Adrc`], one
 //! implementation for both) turns the normal-force reference and measurement into a

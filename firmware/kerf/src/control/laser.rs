@@ -1,4 +1,4 @@
-//! Laser power for a constant cut depth (SPEC `control::laser`, T ch. 4 and 9.2).
+//! Laser power for a constant cut depth (docs/control.md §23, T ch. 4 and 9.2).
 //!
 //! At constant laser power P the depth removed along the path is inversely
 //! proportional to the speed v of the spot along it (T ch. 4: "the removed material

@@ -1,5 +1,6 @@
 //! Discrete PID with back-calculation anti-windup, output saturation and a rate limit
-//! (SPEC `control` PID, G 4.1 eq. 12; anti-windup A 3.2 with SPEC's **CORRECTION**).
+//! (docs/control.md §25, G 4.1 eq. 12; anti-windup A 3.2 with the sign **CORRECTION**
+//! of docs/control.md §26).
 //!
 //! One channel, error e = reference − measurement (G ch. 4: "the error is defined as
 //! the difference between reference normal force and the actual normal force"),

@@ -1,4 +1,4 @@
-//! Joint PD with preview of the reference (SPEC control, T 4.2.1):
+//! Joint PD with preview of the reference (docs/control.md §18, T 4.2.1):
 //!
 //!   q̈des(k) = q̈ref(k+2) + KP2 (q̇ref(k+1) − q̇(k)) + KP1 (qref(k) − q(k)),
 //!   KP2 = S2⁻¹ (S1 + λ S2),   KP1 = S2⁻¹ λ S1.

@@ -1,6 +1,6 @@
-//! PID for redundantly actuated machines (SPEC `control` PID for redundant robots,
-//! A 3.2–3.3): N actuators moving fewer degrees of freedom, regularized so that the
-//! actuators do not fight, with back-calculation anti-windup.
+//! PID for redundantly actuated machines (docs/control.md §26, A 3.2–3.3): N actuators
+//! moving fewer degrees of freedom, regularized so that the actuators do not fight,
+//! with back-calculation anti-windup.
 //!
 //! With more actuators than degrees of freedom, a joint error q̃ measured against
 //! references from an imperfect model has a part outside the column space of Jm that
@@ -14,17 +14,17 @@
 //!   U = Rm (K_P q̃_reg + Γ_I + K_D (q̃_reg(k) − q̃_reg(k−1))/Ts) + Γ_ff   (eq. 46),
 //!   ΔΓ = sat(U) − U.
 //!
-//! The back-calculation term's sign is SPEC's correction: eq. 45 as printed
-//! subtracts K_AWP ΔΓ, which with ΔΓ = sat − unsat pushes a saturated integrator
-//! further; here it is added, so that a saturated output pulls its integrator back.
-//! Its size: eq. 45's continuous law dΓ_I/dt = K_I (q̃ + K_AWP ΔΓ) relaxes a
-//! saturated integrator at the rate K_I K_AWP, which for A table 2's parallel module
-//! is 3.4·10⁴ s⁻¹: 6.8 per 0.2 ms period. Taken explicitly, K_I Ts K_AWP ΔΓ, that
-//! term overshoots by a factor 5.8 each period and the integrator diverges; γ is the
-//! exact decay of the continuous relaxation over one period, equal to eq. 45's
-//! K_I K_AWP Ts where that is small (the turntable's 5.5·10⁻⁵) and at most 1 (the
-//! whole excess removed in one period) where it is not, so the back-calculation is
-//! stable for any K_AWP. ΔΓ is the previous period's (the current one exists only
+//! The back-calculation term's sign is a correction (docs/control.md §26): eq. 45 as
+//! printed subtracts K_AWP ΔΓ, which with ΔΓ = sat − unsat pushes a saturated
+//! integrator further; here it is added, so that a saturated output pulls its
+//! integrator back. Its size: eq. 45's continuous law dΓ_I/dt = K_I (q̃ + K_AWP ΔΓ)
+//! relaxes a saturated integrator at the rate K_I K_AWP, which for A table 2's
+//! parallel module is 3.4·10⁴ s⁻¹: 6.8 per 0.2 ms period. Taken explicitly, K_I Ts
+//! K_AWP ΔΓ, that term overshoots by a factor 5.8 each period and the integrator
+//! diverges; γ is the exact decay of the continuous relaxation over one period, equal
+//! to eq. 45's K_I K_AWP Ts where that is small (the turntable's 5.5·10⁻⁵) and at most
+//! 1 (the whole excess removed in one period) where it is not, so the back-calculation
+//! is stable for any K_AWP. ΔΓ is the previous period's (the current one exists only
 //! after the output). The feedforward Γ_ff (eq. 46: the inverse dynamic model on the
 //! desired motion) is added before the saturation, so the anti-windup sees the force
 //! actually asked.

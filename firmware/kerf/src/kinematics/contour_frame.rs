@@ -1,5 +1,5 @@
-//! The orthogonal frame moving with a contour reference (SPEC
-//! `kinematics::contour_frame`, T 4.3.1), extended to 3-D.
+//! The orthogonal frame moving with a contour reference (docs/equations.md §8,
+//! T 4.3.1), extended to 3-D.
 //!
 //! For the planar part of a reference C(t) = (x, y) with speed v = |Ċ| > 0 and tangent
 //! angle ψ, the frame's axes are the unit tangent t = (cos ψ, sin ψ) and the unit
@@ -149,10 +149,11 @@ pub(crate) mod tests {
         ]
     }
 
-    /// The SPEC's frame matrices built literally for a reference moving at `v` and
-    /// turning at ψ̇, ψ̈: J_O = (1/v)[[ẋ, ẏ], [−ẏ, ẋ]] ⊕ 1, J̇_O = ψ̇ R′(ψ)ᵀ ⊕ 0 and
-    /// J̈_O = (ψ̈ R′(ψ)ᵀ − ψ̇² R(ψ)ᵀ) ⊕ 0, with ψ from atan2 (the reference the frame's
-    /// matrix-free maps are checked against, here and in `control::contouring`).
+    /// The frame matrices of docs/equations.md §8 built literally for a reference
+    /// moving at `v` and turning at ψ̇, ψ̈: J_O = (1/v)[[ẋ, ẏ], [−ẏ, ẋ]] ⊕ 1,
+    /// J̇_O = ψ̇ R′(ψ)ᵀ ⊕ 0 and J̈_O = (ψ̈ R′(ψ)ᵀ − ψ̇² R(ψ)ᵀ) ⊕ 0, with ψ from atan2 (the
+    /// reference the frame's matrix-free maps are checked against, here and in
+    /// `control::contouring`).
     pub(crate) fn literal_frame_matrices(
         v: &Vector3<f64>,
         turn_rate: f64,
@@ -204,9 +205,9 @@ pub(crate) mod tests {
         }
     }
 
-    /// The frame maps against the SPEC's matrices built literally: J_O = (1/v)[[ẋ, ẏ],
-    /// [−ẏ, ẋ]] ⊕ 1, J̇_O = ψ̇ R′(ψ)ᵀ ⊕ 0, J̈_O = (ψ̈ R′(ψ)ᵀ − ψ̇² R(ψ)ᵀ) ⊕ 0, with ψ
-    /// from atan2.
+    /// The frame maps against the matrices of docs/equations.md §8 built literally:
+    /// J_O = (1/v)[[ẋ, ẏ], [−ẏ, ẋ]] ⊕ 1, J̇_O = ψ̇ R′(ψ)ᵀ ⊕ 0,
+    /// J̈_O = (ψ̈ R′(ψ)ᵀ − ψ̇² R(ψ)ᵀ) ⊕ 0, with ψ from atan2.
     #[test]
     fn frame_maps_match_the_literal_matrices() {
         let e = Vector3::new(0.3e-3, -0.7e-3, 0.2e-3);

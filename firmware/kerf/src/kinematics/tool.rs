@@ -1,5 +1,4 @@
-//! Tool deflection and the hexapod's compensation (SPEC `control` tool deflection,
-//! G ch. 6).
+//! Tool deflection and the hexapod's compensation (docs/equations.md §9, G ch. 6).
 //!
 //! The tool is a cantilever of diameter d and length L clamped in a rigid spindle
 //! (G 6.1): under a tip force P it deflects by y = P L³/(3 E I) and its tip turns by

@@ -1,7 +1,7 @@
 //! Incremental (quadrature) encoder position from a hardware counter that wraps.
 //!
-//! The master's carriages carry 0.5 µm linear encoders (T 7.1.1, SPEC kinematics
-//! presets). A timer in encoder mode counts their edges in a 16-bit register that
+//! The master's carriages carry 0.5 µm linear encoders (T 7.1.1; docs/equations.md
+//! §6, presets). A timer in encoder mode counts their edges in a 16-bit register that
 //! wraps every 65 536 counts (33 mm at 0.5 µm); the control period reads it once and
 //! extends it in software by the wrapping difference from the last read, which is
 //! exact while the carriage moves less than half the counter's range per period

@@ -1,5 +1,5 @@
-//! Six-axis force/torque sensing and the local grinding forces (SPEC
-//! `sensing::force`, G ch. 4 eq. 1–4, G 3.1.4, G app. D).
+//! Six-axis force/torque sensing and the local grinding forces (docs/equations.md §4;
+//! G ch. 4 eq. 1–4, G 3.1.4, G app. D).
 //!
 //! - Calibration: wrench = CAL · (raw − bias), CAL the sensor's 6×6 matrix from gauge
 //!   channels (V) to (Fx, Fy, Fz) in N and (Mx, My, Mz) in N·m ([`FtSensor`]).
@@ -148,7 +148,7 @@ impl<T: Float> FtSensor<T> {
         Ok(())
     }
 
-    /// wrench = CAL · (raw − bias) (SPEC `sensing::force`), after [`FtSensor::check_raw`].
+    /// wrench = CAL · (raw − bias) (docs/equations.md §4), after [`FtSensor::check_raw`].
     pub fn wrench(&self, raw_v: &[T; 6], bias: &FtBias<T>) -> Result<Wrench<T>, ForceError> {
         self.check_raw(raw_v)?;
         let mut x = Vector6::<T>::zeros();

@@ -1,5 +1,5 @@
-//! Image sharpness: the normalized variance of a window of an 8-bit frame (SPEC
-//! `sensing` autofocus, T 7.2.2 eq. 155).
+//! Image sharpness: the normalized variance of a window of an 8-bit frame
+//! (docs/equations.md §5, T 7.2.2 eq. 155).
 //!
 //!   S = (1/(H W μ)) Σ (i − μ)²,   μ = (1/(H W)) Σ i,
 //!

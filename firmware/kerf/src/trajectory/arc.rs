@@ -1,4 +1,4 @@
-//! Stepping a curve by arc length (T 3.2.2, A 4.2; SPEC § trajectory): the Newton
+//! Stepping a curve by arc length (T 3.2.2, A 4.2; docs/equations.md §12): the Newton
 //! step on the arc-length integral and the parameter's time derivatives, shared by
 //! the contour follower ([`super::tangential`]) and the constant-feed path
 //! ([`super::feed`]).

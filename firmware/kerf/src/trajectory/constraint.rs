@@ -1,8 +1,9 @@
-//! Motion constraints for manual machining (T 3.3, SPEC § trajectory).
+//! Motion constraints for manual machining (T 3.3; docs/equations.md §15).
 //!
 //! Around the end effector x the contour data give a window of 2k + 1 points (T eq. 15),
 //! a circle is fitted to it and the constraint is φ(x) = [(x−cx)² + (y−cy)² − r²,
-//! z_ref − z] with Jφ = [[2(x−cx), 2(y−cy), 0], [0, 0, −1]] (SPEC, with the centre).
+//! z_ref − z] with Jφ = [[2(x−cx), 2(y−cy), 0], [0, 0, −1]] (with the centre the print
+//! leaves out: docs/equations.md §15).
 //!
 //! Choices made here, with reasons:
 //! - Fits run in coordinates centred on the window mean (the circle equation squares
@@ -23,7 +24,7 @@
 //!   between circle and line, nor a change of bending side, makes φ jump. Scaling a row
 //!   of φ and Jφ by the same constant leaves the constraint law's Jφ#φ, Jφ#J̇φ and
 //!   Jφ#…Jφ terms unchanged (diagonal gains), so the law of T 5.2 is unaffected;
-//!   [`Fit::spec_form`] gives the SPEC-scaled pair.
+//!   [`Fit::spec_form`] gives the unscaled pair of docs/equations.md §15.
 //! - Windows do not switch abruptly: x is projected on the nearest data segment
 //!   [Pi, Pi+1] at fraction u, and φ, Jφ are blended (1 − u)·(window at Pi) + u·(window at
 //!   Pi+1), which is continuous when x passes a data point.
@@ -68,8 +69,9 @@ pub enum Fit<T: Float> {
 }
 
 impl<T: Float> Fit<T> {
-    /// The SPEC form for a circle: (x−cx)² + (y−cy)² − r² and its gradient 2(x − c);
-    /// `None` for a line (SPEC's form has no finite line limit).
+    /// The unscaled form for a circle (docs/equations.md §15): (x−cx)² + (y−cy)² − r²
+    /// and its gradient 2(x − c); `None` for a line (that form has no finite line
+    /// limit).
     pub fn spec_form(&self, x: Vector2<T>) -> Option<(T, Vector2<T>)> {
         match *self {
             Fit::Circle { centre, radius } => {

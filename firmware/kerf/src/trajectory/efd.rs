@@ -1,4 +1,4 @@
-//! Elliptic Fourier descriptors of a closed contour (T 3.2.2, SPEC § trajectory):
+//! Elliptic Fourier descriptors of a closed contour (T 3.2.2; docs/equations.md §11):
 //! x(θ) = a0 + Σk (ak cos kθ + bk sin kθ), y(θ) = c0 + Σk (ck cos kθ + dk sin kθ).
 //!
 //! Coefficients come from a closed polygon by Kuhl & Giardina (1982): the parameter is

@@ -1,5 +1,5 @@
 //! Constant feed along a [`TaskSpline`] at the control rate, with constant-jerk start
-//! and stop (A §4.2–4.3, eq. 51–54; SPEC § trajectory).
+//! and stop (A §4.2–4.3, eq. 51–54; docs/equations.md §16).
 //!
 //! # Resampling (A 4.2)
 //!

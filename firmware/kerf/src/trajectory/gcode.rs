@@ -1,5 +1,5 @@
-//! G-code paths (A §4, SPEC § trajectory): the subset a CAM post-processor emits for a
-//! 5-axis milling path, read line by line without allocation into the caller's
+//! G-code paths (A §4; docs/equations.md §16): the subset a CAM post-processor emits
+//! for a 5-axis milling path, read line by line without allocation into the caller's
 //! fixed-capacity buffer of points in SI units.
 //!
 //! # What is read

@@ -1,6 +1,6 @@
 //! What to follow: references evaluated once per control period.
 //!
-//! Contour references follow T ch. 3 as restated in SPEC § trajectory:
+//! Contour references follow T ch. 3 as restated in docs/equations.md §10–16:
 //! [`efd`] (closed contours as elliptic Fourier descriptors), [`open_path`] (open
 //! contours as a C² spline in chord length), [`tangential`] (constant tangential speed
 //! along either curve, with a jerk-limited start and stop),

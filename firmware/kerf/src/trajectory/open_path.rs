@@ -1,4 +1,4 @@
-//! Open contours as a smooth planar curve (T 3.1.5, 3.2.1; SPEC § trajectory): a C²
+//! Open contours as a smooth planar curve (T 3.1.5, 3.2.1; docs/equations.md §13): a C²
 //! cubic spline through the contour's points, one per coordinate, in the chord-length
 //! parameter u (m), with natural ends (zero second derivative).
 //!

@@ -1,4 +1,4 @@
-//! Open contours (T 3.1.5, 3.2.1; SPEC § trajectory).
+//! Open contours (T 3.1.5, 3.2.1; docs/equations.md §13).
 //!
 //! [`densify`]: iterated 3-point quadratic interpolation. Each pass fits, per axis, the
 //! quadratic through a window of 3 consecutive points (parameter = point index) and

@@ -1,7 +1,7 @@
-//! Joint references (T 3.2.3–3.2.4, SPEC § trajectory): task-space samples taken every
-//! `h` seconds are mapped through an inverse kinematics q = I(x) (T eq. 10) and a C²
-//! cubic spline in time is fitted per joint, so that each control period can read
-//! q, q̇, q̈ and q⃛ (T eq. 11–14).
+//! Joint references (T 3.2.3–3.2.4; docs/equations.md §14): task-space samples taken
+//! every `h` seconds are mapped through an inverse kinematics q = I(x) (T eq. 10) and a
+//! C² cubic spline in time is fitted per joint, so that each control period can read q,
+//! q̇, q̈ and q⃛ (T eq. 11–14).
 //!
 //! The IK is a parameter (any `FnMut(Vector3<f64>) -> Result<Vector3<f64>, E>`), so the
 //! same code serves every kinematics. With knot values qi and second derivatives Mi,

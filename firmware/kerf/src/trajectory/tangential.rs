@@ -1,5 +1,5 @@
-//! Constant tangential speed along a curve — an EFD or an open path (T 3.2.2, SPEC §
-//! trajectory), online.
+//! Constant tangential speed along a curve — an EFD or an open path (T 3.2.2;
+//! docs/equations.md §12), online.
 //!
 //! The print resamples the curve offline and interpolates linearly between samples.
 //! Here the curve parameter θ is advanced each period so that the reference moves the
@@ -66,7 +66,7 @@ enum Phase {
 pub const MAX_RAMP_PERIODS: u32 = 200_000_000;
 
 /// Rest → V → rest with piecewise-constant jerk: +J′ for nj periods, 0 for nf, −J′ for
-/// nj (and mirrored to stop) — the constant-jerk S-curve of SPEC § trajectory (A §4).
+/// nj (and mirrored to stop) — the constant-jerk S-curve of docs/equations.md §16 (A §4).
 /// Phase lengths are whole periods, so each period integrates exactly
 /// (Δs = vTs + aTs²/2 + jTs³/6); J′ ≤ J and A′ = J′·nj·Ts ≤ A are chosen so that the
 /// speed lands exactly on V.

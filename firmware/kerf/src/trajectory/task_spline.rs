@@ -1,5 +1,5 @@
-//! The G-code path as a natural cubic spline in task space (A §4.1, eq. 47–50; SPEC §
-//! trajectory): one cubic per coordinate and segment through the points
+//! The G-code path as a natural cubic spline in task space (A §4.1, eq. 47–50;
+//! docs/equations.md §16): one cubic per coordinate and segment through the points
 //! (x, y, z in m, then the two angles in rad), C² at the points, zero second
 //! derivative at both ends.
 //!

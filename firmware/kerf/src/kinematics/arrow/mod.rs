@@ -1,5 +1,5 @@
-//! ARROW, the redundantly actuated 5-DOF parallel machining robot (SPEC
-//! `kinematics::arrow`, A 2.2): a parallel module of six linear actuators that sets the
+//! ARROW, the redundantly actuated 5-DOF parallel machining robot (docs/equations.md
+//! §7, A 2.2): a parallel module of six linear actuators that sets the
 //! travelling plate in x, y, z and θz (3T-1R), and a turntable that adds θx.
 //!
 //! # Geometry

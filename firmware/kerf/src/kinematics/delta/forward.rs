@@ -6,7 +6,8 @@ use nalgebra::Vector3;
 
 impl<T: Float> DeltaGeometry<T> {
     /// Forward kinematics: effector position p = (x, y, z) in m from the displacements
-    /// q = (d1, d2, d3) in m. Closed form, no iteration (SPEC FK, T eqs. 106–131).
+    /// q = (d1, d2, d3) in m. Closed form, no iteration (docs/equations.md §6, forward
+    /// kinematics; T eqs. 106–131).
     ///
     /// Subtracting sphere 3 from spheres 1 and 2 leaves two planes mi · p = hi whose
     /// intersection is the radical line with direction n = m1 × m2. Normally x, y are
@@ -126,7 +127,8 @@ impl<T: Float> DeltaGeometry<T> {
         }
     }
 
-    /// Working mode: each arm must be on its configured IK branch, sign(fdi) = si (SPEC).
+    /// Working mode: each arm must be on its configured IK branch, sign(fdi) = si
+    /// (docs/equations.md §6, branches).
     #[inline]
     fn check_branches(&self, q: &Vector3<T>, p: &Vector3<T>) -> Result<(), KinematicsError> {
         let [act1, act2, act3] = &self.actuators;

@@ -5,7 +5,8 @@ use crate::scalar::Float;
 use nalgebra::Vector3;
 
 impl<T: Float> Actuator<T> {
-    /// di = si √(μ1i²/4 − μ2i) − μ1i/2 for actuator `index` (SPEC IK, T eqs. 132–137),
+    /// di = si √(μ1i²/4 − μ2i) − μ1i/2 for actuator `index` (docs/equations.md §6,
+    /// inverse kinematics; T eqs. 132–137),
     /// see [`DeltaGeometry::inverse`].
     #[inline]
     fn displacement(&self, p: &Vector3<T>, index: u8) -> Result<T, KinematicsError> {
@@ -13,7 +14,7 @@ impl<T: Float> Actuator<T> {
     }
 
     /// [`Actuator::displacement`] and J1's entry fdi = wi · (vi + di wi) = vi · wi + di,
-    /// which is si √(μ1i²/4 − μ2i) (SPEC velocity: J1 comes free from IK).
+    /// which is si √(μ1i²/4 − μ2i) (J1 comes free from IK: docs/equations.md §6).
     #[inline]
     pub(super) fn displacement_and_fd(
         &self,
@@ -41,8 +42,8 @@ impl<T: Float> Actuator<T> {
 
 impl<T: Float> DeltaGeometry<T> {
     /// Inverse kinematics: displacements q in m for the effector position p in m
-    /// (SPEC IK, T eqs. 132–137): di = −μ1i/2 + si √(μ1i²/4 − μ2i), si the configured
-    /// branch. Errors when a discriminant is negative or di leaves the travel.
+    /// (docs/equations.md §6, T eqs. 132–137): di = −μ1i/2 + si √(μ1i²/4 − μ2i), si the
+    /// configured branch. Errors when a discriminant is negative or di leaves the travel.
     ///
     /// Evaluated in the equivalent geometric form: with vi = p + (re − rb)(cθi, sθi, 0)
     /// and the unit vector wi = (cθi cαi, sθi cαi, −sαi), the loop closure is

@@ -1,4 +1,4 @@
-//! Generalized linear (prismatic) delta robot (SPEC `kinematics::delta`, T ch. 6).
+//! Generalized linear (prismatic) delta robot (docs/equations.md §6, T ch. 6).
 //!
 //! Actuator i (i = 1..3) has azimuth θi, attack angle αi (0 horizontal, 30° Keops,
 //! 90° vertical), arm length li and base / effector circumradii rb, re. With the
@@ -11,13 +11,15 @@
 //! they can differ per actuator (calibration trims) at no cost.
 //!
 //! The code works with half coefficients: ai = (cθi ζi, sθi ζi, −di sαi) = (σ1i, σ2i,
-//! σ3i)/2, so the loop closure reads |p + ai|² = li² and every formula of SPEC appears
-//! with its factor 2 taken out (fewer multiplications, same roots).
+//! σ3i)/2, so the loop closure reads |p + ai|² = li² and every formula of
+//! docs/equations.md §6 appears with its factor 2 taken out (fewer multiplications,
+//! same roots).
 //!
-//! Branches (SPEC): [`Root::Plus`] for forward kinematics is the larger-z solution; the
-//! inverse-kinematics branch of actuator i is the sign of fdi = ±√Δi / 2. In the seed's
-//! frame (effector on +z, carriages radially outside) the pair is FK `Plus`, IK `Minus`;
-//! in the printer frame (z up, effector below the carriages) it is FK `Minus`, IK `Plus`.
+//! Branches (docs/equations.md §6): [`Root::Plus`] for forward kinematics is the
+//! larger-z solution; the inverse-kinematics branch of actuator i is the sign of
+//! fdi = ±√Δi / 2. In T's frame (effector on +z, carriages radially outside) the pair
+//! is FK `Plus`, IK `Minus`; in the printer frame (z up, effector below the carriages)
+//! it is FK `Minus`, IK `Plus`.
 //!
 //! Scalars: generic over [`Float`] (`f32` on the target, `f64` as the reference). The
 //! measured `f32` error against `f64` is listed on each preset. A fixed-point type is
@@ -44,7 +46,8 @@ use crate::error::{in_range, positive, ConfigContext, ConfigError};
 use crate::scalar::{lit, Float};
 use nalgebra::Vector3;
 
-/// Which root of a quadratic is taken (SPEC: the `±` of the closed-form solutions).
+/// Which root of a quadratic is taken (the `±` of the closed-form solutions,
+/// docs/equations.md §6).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Root {
@@ -166,8 +169,8 @@ fn cross3<T: Float>(a: &Vector3<T>, b: &Vector3<T>) -> Vector3<T> {
 }
 
 impl<T: Float> Actuator<T> {
-    /// Half coefficients ai = (σ1i, σ2i, σ3i)/2 = bi + di wi (SPEC FK, T eqs. 107–109:
-    /// ζi (cθi, sθi) = bi + di cαi (cθi, sθi) and −di sαi).
+    /// Half coefficients ai = (σ1i, σ2i, σ3i)/2 = bi + di wi (docs/equations.md §6,
+    /// T eqs. 107–109: ζi (cθi, sθi) = bi + di cαi (cθi, sθi) and −di sαi).
     #[inline]
     fn half_sigma(&self, d_m: T) -> Vector3<T> {
         Vector3::new(
@@ -177,16 +180,17 @@ impl<T: Float> Actuator<T> {
         )
     }
 
-    /// λi = li² − |ai|² (SPEC's corrected λ; T eq. 110 is garbled). As |wi| = 1,
-    /// |ai|² = |bi|² + 2 di wi · bi + di², so λi = λ0i − di (λ1i + di): no squares of
-    /// the components at run time.
+    /// λi = li² − |ai|² (the corrected λ of docs/equations.md §6; T eq. 110 is
+    /// garbled). As |wi| = 1, |ai|² = |bi|² + 2 di wi · bi + di², so
+    /// λi = λ0i − di (λ1i + di): no squares of the components at run time.
     #[inline]
     fn lambda(&self, d_m: T) -> T {
         self.lambda0_m2 - d_m * (self.lambda1_m + d_m)
     }
 
-    /// fdi = cαi (re − rb + cθi x + sθi y) − sαi z + di = wi · p + wi · bi + di (SPEC
-    /// velocity, T eq. 142), which is wi · (p + ai) since |wi| = 1.
+    /// fdi = cαi (re − rb + cθi x + sθi y) − sαi z + di = wi · p + wi · bi + di
+    /// (docs/equations.md §6, velocity; T eq. 142), which is wi · (p + ai) since
+    /// |wi| = 1.
     #[inline]
     fn fd(&self, d_m: T, p: &Vector3<T>) -> T {
         dot3(&self.rail, p) + (self.rail_offset_m + d_m)

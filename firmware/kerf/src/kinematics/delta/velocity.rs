@@ -4,7 +4,8 @@ use super::{cross3, dot3, or_not_finite, zero_if_finite, DeltaGeometry, Kinemati
 use crate::scalar::Float;
 use nalgebra::{Matrix3, Vector3};
 
-/// What the velocity maps share at (q, p) (SPEC velocity, T eqs. 138–145).
+/// What the velocity maps share at (q, p) (docs/equations.md §6, velocity;
+/// T eqs. 138–145).
 struct VelocityTerms<T> {
     /// Arm vectors gi = p + ai; J2's rows are fi = −gi, so J2 = −G.
     g: [Vector3<T>; 3],
@@ -71,7 +72,7 @@ fn finite_matrix<T: Float>(m: Matrix3<T>) -> Result<Matrix3<T>, KinematicsError>
 }
 
 impl<T: Float> DeltaGeometry<T> {
-    /// J2 = −G, J1 = diag(fdi) and J2⁻¹ = adj G / det J2 (SPEC velocity,
+    /// J2 = −G, J1 = diag(fdi) and J2⁻¹ = adj G / det J2 (docs/equations.md §6,
     /// T eqs. 138–145), with the singularity checks. Inlined so that each map keeps
     /// only what it uses in registers.
     ///
@@ -134,7 +135,7 @@ impl<T: Float> DeltaGeometry<T> {
     /// equal to [`inverse`](Self::inverse) then [`jacobian`](Self::jacobian) up to
     /// rounding. The two share each arm's vector: IK gives J1's entry fdi = si √Δi
     /// and the carriage di, so the arm gi = p + bi + di wi costs one multiply-add per
-    /// component and no dot product (SPEC velocity: J1 comes free from IK).
+    /// component and no dot product (J1 comes free from IK: docs/equations.md §6).
     pub fn inverse_with_jacobian(
         &self,
         p: &Vector3<T>,

@@ -1,4 +1,4 @@
-//! Analog Hall position decoding (SPEC `sensing::hall`, T 7.2.1).
+//! Analog Hall position decoding (docs/equations.md §2, T 7.2.1).
 //!
 //! Three linear Hall sensors 120° apart over one magnetic pitch τm give, ideally,
 //! u1 = A sin φ, u2 = A sin(φ + 2π/3), u3 = A sin(φ − 2π/3) around an ADC offset.
