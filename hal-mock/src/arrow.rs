@@ -35,11 +35,11 @@ pub struct ArrowPlantConfig {
 }
 
 impl ArrowPlantConfig {
-    /// ARROW at 5 kHz (A 5.1) with the geometric error of an assembled machine:
+    /// ARROW integrated over control periods of `period_s` with the geometric error of an assembled machine:
     /// arm 1 0.2 mm long, arm 4 0.15 mm short, the top rail 0.3 mm high, the bottom
     /// one 0.1 mm towards the plate (each within a machine shop's assembly tolerance,
     /// and together about 0.2–0.3 mm of joint inconsistency).
-    pub fn with_geometric_error() -> Self {
+    pub fn with_geometric_error(period_s: f64) -> Self {
         let mut geometry = ArrowConfig::ARROW;
         geometry.arms[0].length_m += 0.2e-3;
         geometry.arms[3].length_m -= 0.15e-3;
@@ -50,7 +50,7 @@ impl ArrowPlantConfig {
         Self {
             geometry,
             masses: ArrowMasses::ARROW,
-            period_s: kerf::app::arrow::product::PERIOD_S,
+            period_s,
             substeps: 4,
             encoder_resolution_m: 1e-6,
             turntable_counts_per_turn: 20_000,
@@ -208,7 +208,7 @@ mod tests {
     /// rest (to the RK4 round-off); the encoders read its joints to their resolution.
     #[test]
     fn feedforward_of_the_plant_model_holds_it_still() {
-        let config = ArrowPlantConfig::with_geometric_error();
+        let config = ArrowPlantConfig::with_geometric_error(2e-4);
         let pose = Pose::new(0.1, 0.5, 0.0, 0.1);
         let mut plant = ArrowPlant::<f64>::new(&config, pose, 0.0).unwrap();
         let ff = plant
@@ -229,7 +229,7 @@ mod tests {
     /// vertical acceleration is m_P g over the whole effective mass, below g).
     #[test]
     fn unsupported_plate_falls_and_the_table_turns() {
-        let config = ArrowPlantConfig::with_geometric_error();
+        let config = ArrowPlantConfig::with_geometric_error(2e-4);
         let mut plant =
             ArrowPlant::<f64>::new(&config, Pose::new(0.0, 0.5, 0.0, 0.0), 0.0).unwrap();
         for _ in 0..100 {

@@ -82,7 +82,7 @@ pub fn law(config: &ArrowRunConfig) -> Result<ArrowLaw<f64>, ArrowError> {
 
 /// Runs the plant from rest at the reference's start, with `kerf::app::arrow`'s period.
 pub fn run(config: &ArrowRunConfig, reference: &Reference) -> Result<Vec<ArrowSample>, ArrowError> {
-    let plant_config = ArrowPlantConfig::with_geometric_error();
+    let plant_config = ArrowPlantConfig::with_geometric_error(kerf::app::arrow::product::PERIOD_S);
     let ts = plant_config.period_s;
     let law = law(config)?;
     let (x0, _, _, tx0, _) = reference(0.0);

@@ -7,7 +7,7 @@
 use hal_mock::arrow::{ArrowPlant, ArrowPlantConfig, ArrowReading};
 use heapless::spsc::Queue;
 use kerf::app::arrow::machine::{ArrowFault, ArrowInputs, ArrowLimits, ArrowOutputs};
-use kerf::app::arrow::product::{Arrow, Job};
+use kerf::app::arrow::product::{Arrow, Job, PERIOD_S};
 use kerf::app::arrow::ArrowLaw;
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::control::redundant_pid::{RedundantPid, RedundantPidConfig};
@@ -73,7 +73,7 @@ impl ArrowScenario {
             parallel: RedundantPidConfig::ARROW_PARALLEL,
             turntable: RedundantPidConfig::ARROW_TURNTABLE,
             feedforward: true,
-            plant: ArrowPlantConfig::with_geometric_error(),
+            plant: ArrowPlantConfig::with_geometric_error(PERIOD_S),
         }
     }
 
