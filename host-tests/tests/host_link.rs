@@ -98,11 +98,23 @@ impl Host {
         self.heard
             .iter()
             .filter_map(|h| match h {
-                Heard::Telemetry(t) => Some(*t),
+                Heard::Telemetry(t) => Some(t.clone()),
                 _ => None,
             })
             .collect()
     }
+}
+
+/// The value of the slave's channel `name` in `sample`, as its description orders
+/// the channels.
+fn channel(sample: &TelemetrySample, name: &str) -> f32 {
+    use kerf::app::host_link::LinkMachine;
+    let channels = <kerf::app::delta_slave::DeltaSlave<f64> as LinkMachine>::CHANNELS;
+    let k = channels
+        .iter()
+        .position(|c| c.name == name)
+        .expect("a channel of the slave");
+    sample.values[k]
 }
 
 fn scenario() -> SlaveScenario {
@@ -154,12 +166,12 @@ fn a_host_uploads_runs_retunes_and_hears_the_end_of_a_contour() {
         let samples = host.samples();
         let running: Vec<&TelemetrySample> =
             samples.iter().filter(|s| s.mode == ModeCode::Running).collect();
-        let worst = running.iter().map(|s| s.error_m).fold(0.0f32, f32::max);
+        let worst = running.iter().map(|s| channel(s, "error")).fold(0.0f32, f32::max);
         println!(
             "host link: {} telemetry samples while cutting, contour error ≤ {:.2} µm, laser up to {:.1} W, {} bad frames",
             running.len(),
             worst * 1e6,
-            running.iter().map(|s| s.laser_w).fold(0.0f32, f32::max),
+            running.iter().map(|s| channel(s, "laser")).fold(0.0f32, f32::max),
             slave.link().counters().bad_frames
         );
         assert!(running.len() > 10);

@@ -48,7 +48,7 @@ fn a_host_cuts_retunes_and_hears_a_fault_over_the_emulated_serial_port() {
     let job = octagon_job_file();
 
     // A whole cut, the DOB retuned half a second in.
-    let mut log = TelemetryLog::new(hello.period_s);
+    let mut log = TelemetryLog::new(hello.period_s, &session.machine.description().channels);
     let mut lines = Vec::new();
     let mut uploaded = 0;
     session
@@ -104,7 +104,7 @@ fn a_host_cuts_retunes_and_hears_a_fault_over_the_emulated_serial_port() {
     );
 
     // Again, and the force limit lowered until the carriages cannot hold the cut.
-    let mut log = TelemetryLog::new(hello.period_s);
+    let mut log = TelemetryLog::new(hello.period_s, &session.machine.description().channels);
     let ended = session.run_job(
         JobKind::Efd,
         &job,

@@ -6,7 +6,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use kerf::codec::link::Request;
 use kerf_host::job::Job;
-use kerf_host::link::{fault_reason, Heard, LinkError};
+use kerf_host::link::{Heard, LinkError};
 use kerf_host::output::{io_words, OutputFile};
 use kerf_host::qemu;
 use kerf_host::session::{Progress, RunPlan, Session, SessionError, Target, TimedChange};
@@ -298,7 +298,7 @@ pub fn run(args: &RunArgs, report: &mut Report) -> Result<(), Failure> {
         bar.set_style(style);
     }
     bar.set_message("upload");
-    let mut log = TelemetryLog::new(hello.period_s);
+    let mut log = TelemetryLog::new(hello.period_s, &session.machine.description().channels);
     let lines = console();
     if lines.is_some() {
         let _ = writeln!(
@@ -405,7 +405,7 @@ pub fn status(machine: &MachineArgs, report: &mut Report) -> Result<(), Failure>
         Some((code, detail)) => say!(
             report,
             "last fault   {code}: {}",
-            fault_reason(&hello.machine, code, detail)
+            s.machine.description().fault_words(code, detail)
         ),
         None => say!(report, "last fault   none"),
     }
@@ -420,6 +420,28 @@ pub fn status(machine: &MachineArgs, report: &mut Report) -> Result<(), Failure>
         st.unsent,
         s.machine.bad_frames()
     );
+    let description = s.machine.description();
+    let channels: Vec<String> = description
+        .channels
+        .iter()
+        .map(|c| format!("{} ({})", c.name, c.unit))
+        .collect();
+    say!(report, "telemetry    {}", channels.join(", "));
+    let kinds: Vec<String> = description
+        .job_kinds
+        .iter()
+        .map(|k| format!("{k:?}"))
+        .collect();
+    say!(report, "job kinds    {}", kinds.join(", "));
+    for setting in &description.settings {
+        say!(
+            report,
+            "setting      {} {} {}",
+            setting.path,
+            setting.unit,
+            setting.range
+        );
+    }
     Ok(())
 }
 
@@ -442,7 +464,7 @@ pub fn log(args: &LogArgs, report: &mut Report) -> Result<(), Failure> {
     let mut s = args.machine.open()?;
     let period_s = s.machine.hello().period_s;
     s.machine.telemetry(hz).map_err(link_failure)?;
-    let mut log = TelemetryLog::new(period_s);
+    let mut log = TelemetryLog::new(period_s, &s.machine.description().channels);
     let bar = ProgressBar::new_spinner();
     let mut last_heard = Instant::now();
     loop {

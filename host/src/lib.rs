@@ -18,6 +18,7 @@
 //! Redundant Parallel Robotic Machining Tool: Design, Control and Real-Time
 //! Experiments", 2019), as the repository's README names them.
 
+pub mod description;
 pub mod gcode;
 pub mod job;
 pub mod link;

@@ -8,9 +8,10 @@
 //! decode (line noise, a machine that joined mid-frame) are counted and skipped, as
 //! the machine does with the host's.
 
+use crate::description::{Item, MachineDescription};
 use kerf::codec::link::{
-    decode, encode, Event, FrameReader, HostFrame, JobKind, MachineMessage, MachineStatus, Refusal,
-    Reply, Request, TelemetrySample, MAX_FRAME, VERSION,
+    decode, encode, Event, FrameError, FrameReader, HostFrame, JobKind, MachineMessage,
+    MachineStatus, Refusal, Reply, Request, TelemetrySample, MAX_FRAME, VERSION,
 };
 use std::collections::VecDeque;
 use std::io::{Read, Write};
@@ -78,7 +79,14 @@ pub enum LinkError {
     /// A request that does not fit a frame (a settings path or value too long).
     #[error("{0}: the request does not fit a frame (a path or value too long)")]
     RequestTooLong(&'static str),
+    /// The machine's description did not end (a machine that does not follow the
+    /// protocol).
+    #[error("the machine's description did not end after {0} items")]
+    EndlessDescription(u16),
 }
+
+/// Most items a machine's description may have.
+const MAX_DESCRIPTION_ITEMS: u16 = 1024;
 
 /// A reply, owned.
 #[derive(Clone, Debug, PartialEq)]
@@ -95,6 +103,14 @@ pub enum OwnedReply {
     Value(String),
     /// The machine's state.
     Status(MachineStatus),
+    /// Item `index` of the machine's description, `None` past the last (the
+    /// description is added to the machine's as it arrives).
+    Description {
+        /// The item asked for.
+        index: u16,
+        /// The item.
+        item: Option<Item>,
+    },
 }
 
 /// Who the machine is ([`Reply::Hello`]).
@@ -119,6 +135,8 @@ pub enum Heard {
     Telemetry(TelemetrySample),
     /// An event.
     Event(Event),
+    /// A frame of another link version (the machine's).
+    OtherVersion(u8),
 }
 
 impl Heard {
@@ -145,6 +163,10 @@ impl Heard {
                         OwnedReply::Value(String::from_utf8_lossy(value).into_owned())
                     }
                     Reply::Status(s) => OwnedReply::Status(s),
+                    Reply::Description { index, item } => OwnedReply::Description {
+                        index,
+                        item: item.as_ref().map(Item::of),
+                    },
                 },
             ),
             MachineMessage::Telemetry(t) => Heard::Telemetry(t),
@@ -169,47 +191,7 @@ fn name(request: &Request<'_>) -> &'static str {
         Request::Set { .. } => "set",
         Request::Telemetry { .. } => "telemetry",
         Request::Status => "status",
-    }
-}
-
-/// A refusal in words; job codes are the machine's own (`machine` from its hello).
-pub fn refusal_reason(machine: &str, refusal: &Refusal) -> String {
-    match refusal {
-        Refusal::ChunkOffset { expected } => {
-            format!("the machine expects the chunk at byte {expected}")
-        }
-        Refusal::TooLarge => "the job is larger than the machine holds".into(),
-        Refusal::Incomplete => "the uploaded bytes do not match the announced size or CRC".into(),
-        Refusal::NoJob => "no upload in progress, or no job loaded".into(),
-        Refusal::Job(code) => format!("job code {code:#06x}: {}", job_reason(machine, *code)),
-        Refusal::InvalidInMode => "not in the machine's present mode".into(),
-        Refusal::UnknownPath => "no setting at that path".into(),
-        Refusal::BadValue => {
-            "the value does not parse or fails the configuration's validation".into()
-        }
-        Refusal::Busy => "the machine's command queue is full; try again".into(),
-    }
-}
-
-/// A job refusal code in words, per machine.
-pub fn job_reason(machine: &str, code: u16) -> &'static str {
-    match machine {
-        "keops-slave" => kerf::app::delta_slave::link::job_refusal_reason(code),
-        _ => "(no description for this machine)",
-    }
-}
-
-/// A fault in words, per machine.
-pub fn fault_reason(machine: &str, code: u16, detail: u16) -> String {
-    match machine {
-        "keops-slave" => {
-            use kerf::app::delta_slave::link::{fault_detail, fault_reason};
-            match fault_detail(code) {
-                Some(what) => format!("{} ({what} {detail})", fault_reason(code)),
-                None => fault_reason(code).to_owned(),
-            }
-        }
-        _ => format!("fault {code} (detail {detail})"),
+        Request::Describe { .. } => "describe",
     }
 }
 
@@ -225,6 +207,7 @@ pub struct Machine {
     seq: u16,
     reply_timeout: Duration,
     hello: Hello,
+    description: MachineDescription,
 }
 
 impl Machine {
@@ -258,15 +241,16 @@ impl Machine {
                         Some(Ok(frame)) => decode::<MachineMessage>(frame).map(Heard::of),
                         Some(Err(e)) => Err(e),
                     };
-                    match decoded {
-                        Ok(h) => {
-                            if tx.send(Some(h)).is_err() {
-                                return;
-                            }
-                        }
+                    let heard = match decoded {
+                        Ok(h) => h,
+                        Err(FrameError::Version(v)) => Heard::OtherVersion(v),
                         Err(_) => {
                             bad.fetch_add(1, Ordering::Relaxed);
+                            continue;
                         }
+                    };
+                    if tx.send(Some(heard)).is_err() {
+                        return;
                     }
                 }
             }
@@ -285,6 +269,7 @@ impl Machine {
                 max_chunk: 0,
                 period_s: 0.0,
             },
+            description: MachineDescription::default(),
         };
         match machine.ask(Request::Hello)? {
             OwnedReply::Hello(h) if h.version == VERSION => machine.hello = h,
@@ -301,12 +286,38 @@ impl Machine {
                 })
             }
         }
+        machine.description = machine.ask_description()?;
         Ok(machine)
+    }
+
+    /// Asks the machine's description item by item until it says there is no more.
+    fn ask_description(&mut self) -> Result<MachineDescription, LinkError> {
+        let mut description = MachineDescription::default();
+        for index in 0..MAX_DESCRIPTION_ITEMS {
+            match self.ask(Request::Describe { index })? {
+                OwnedReply::Description { index: i, item } if i == index => match item {
+                    Some(item) => description.add(&item),
+                    None => return Ok(description),
+                },
+                other => {
+                    return Err(LinkError::Unexpected {
+                        request: "describe",
+                        reply: format!("{other:?}"),
+                    })
+                }
+            }
+        }
+        Err(LinkError::EndlessDescription(MAX_DESCRIPTION_ITEMS))
     }
 
     /// Who the machine said it is.
     pub fn hello(&self) -> &Hello {
         &self.hello
+    }
+
+    /// What the machine said of itself: channels, job kinds, settings, codes.
+    pub fn description(&self) -> &MachineDescription {
+        &self.description
     }
 
     /// Frames from the machine that did not decode so far.
@@ -360,6 +371,12 @@ impl Machine {
             let left = deadline.saturating_duration_since(Instant::now());
             match self.receive(left)? {
                 Some(Heard::Reply(s, reply)) if s == seq => return Ok(reply),
+                Some(Heard::OtherVersion(machine)) => {
+                    return Err(LinkError::Version {
+                        machine,
+                        host: VERSION,
+                    })
+                }
                 // A late reply to an earlier request: already given up on.
                 Some(Heard::Reply(..)) => {}
                 Some(other) => self.backlog.push_back(other),
@@ -383,10 +400,20 @@ impl Machine {
     }
 
     fn not_ack(&self, request: &'static str, reply: OwnedReply) -> LinkError {
+        self.not_ack_at(request, reply, None)
+    }
+
+    /// As [`Machine::not_ack`], for a request about the setting at `path`.
+    fn not_ack_at(
+        &self,
+        request: &'static str,
+        reply: OwnedReply,
+        path: Option<&str>,
+    ) -> LinkError {
         match reply {
             OwnedReply::Refused(refusal) => LinkError::Refused {
                 request,
-                reason: refusal_reason(&self.hello.machine, &refusal),
+                reason: self.description.refusal_words(&refusal, path),
                 refusal,
             },
             other => LinkError::Unexpected {
@@ -400,16 +427,21 @@ impl Machine {
     pub fn get(&mut self, path: &str) -> Result<String, LinkError> {
         match self.ask(Request::Get { path })? {
             OwnedReply::Value(v) => Ok(v),
-            other => Err(self.not_ack("get", other)),
+            other => Err(self.not_ack_at("get", other, Some(path))),
         }
     }
 
-    /// Sets a setting (JSON value); the machine validates it as a configuration.
+    /// Sets a setting (JSON value); the machine validates it as a configuration. A
+    /// refusal names the range the machine announced for the setting.
     pub fn set(&mut self, path: &str, value: &str) -> Result<(), LinkError> {
-        self.command(Request::Set {
+        let request = Request::Set {
             path,
             value: value.as_bytes(),
-        })
+        };
+        match self.ask(request)? {
+            OwnedReply::Ack => Ok(()),
+            other => Err(self.not_ack_at("set", other, Some(path))),
+        }
     }
 
     /// Asks for `rate_hz` telemetry samples per second of machine time (at most one
@@ -493,19 +525,48 @@ impl Machine {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use kerf::codec::link::{board_fault, BOARD_FAULT};
+    use kerf::codec::link::crc32;
 
+    /// `message` framed as a machine of link version `version` would frame it.
+    fn framed_as(version: u8, message: &MachineMessage<'_>) -> Vec<u8> {
+        let mut out = [0u8; MAX_FRAME];
+        let n = encode(message, &mut out).unwrap();
+        let mut raw = out[1..n - 1].to_vec();
+        let len = cobs::decode_in_place(&mut raw).unwrap();
+        raw.truncate(len);
+        raw[0] = version;
+        let crc = crc32(&raw[..len - 4]).to_le_bytes();
+        raw[len - 4..].copy_from_slice(&crc);
+        let mut encoded = vec![0u8; MAX_FRAME];
+        let m = cobs::encode(&raw, &mut encoded);
+        [&[0u8][..], &encoded[..m], &[0u8]].concat()
+    }
+
+    /// A machine that answers in another version is named with both versions (not
+    /// taken for a closed link or a silent machine).
     #[test]
-    fn a_fault_names_its_detail_where_the_code_has_one() {
-        let following = fault_reason("keops-slave", 5, 2);
-        assert!(following.ends_with("(carriage 2)"), "{following}");
-        let panic = fault_reason("keops-slave", BOARD_FAULT | board_fault::PANIC, 123);
-        assert!(
-            panic.contains("panicked") && panic.ends_with("(source line 123)"),
-            "{panic}"
+    fn a_machine_of_another_version_is_refused_naming_both() {
+        let hello = MachineMessage::Reply {
+            seq: 1,
+            reply: Reply::Hello {
+                version: VERSION + 1,
+                machine: "lathe",
+                max_chunk: 64,
+                period_ns: 1_000,
+            },
+        };
+        let stream = framed_as(VERSION + 1, &hello);
+        let reader = Box::new(std::io::Cursor::new(stream));
+        let result = Machine::connect(reader, Box::new(std::io::sink()), Duration::from_secs(30));
+        let Err(e) = result else {
+            panic!("connected to a machine of another version")
+        };
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "the machine speaks link version {}, this tool version {VERSION}",
+                VERSION + 1
+            )
         );
-        let contour = fault_reason("keops-slave", 4, 0);
-        assert!(!contour.contains('('), "{contour}");
-        assert_eq!(fault_reason("lathe", 1, 2), "fault 1 (detail 2)");
     }
 }

@@ -3,7 +3,7 @@
 //! given machine times or typed by the operator, until the job ends, faults or the
 //! machine stops it.
 
-use crate::link::{fault_reason, Heard, LinkError, Machine};
+use crate::link::{Heard, LinkError, Machine};
 use crate::qemu::{self, Qemu, QemuError};
 use crate::telemetry::TelemetryLog;
 use kerf::codec::link::{Event, JobKind, ModeCode, Refusal, Request, JOB_NOT_AT_REST};
@@ -224,7 +224,7 @@ impl Session {
         m.upload(kind, job, &mut |n| progress(Progress::Uploaded(n)))?;
         m.telemetry(plan.telemetry_hz)?;
         start_at_rest(m, progress)?;
-        let machine_name = m.hello().machine.clone();
+        let description = m.description().clone();
         let mut changes = plan.changes.iter().peekable();
         let mut last_heartbeat = Instant::now();
         let mut last_heard = Instant::now();
@@ -256,7 +256,7 @@ impl Session {
                     let now = log.since_cut_s();
                     let fault = match e {
                         Event::Fault { code, detail } => {
-                            Some(fault_reason(&machine_name, code, detail))
+                            Some(description.fault_words(code, detail))
                         }
                         _ => None,
                     };
@@ -266,6 +266,10 @@ impl Session {
                             format!("fault {code}: {}", fault.as_deref().unwrap_or_default())
                         }
                         Event::HostLost => "the machine lost the host".to_owned(),
+                        Event::VersionRefused { version } => format!(
+                            "the machine refused a frame of link version {version} (it speaks {})",
+                            kerf::codec::link::VERSION
+                        ),
                     };
                     if !matches!(e, Event::Mode { .. }) {
                         log.mark(&text);
@@ -296,6 +300,12 @@ impl Session {
                     }
                 }
                 Some(Heard::Reply(..)) => {}
+                Some(Heard::OtherVersion(machine)) => {
+                    return Err(SessionError::Link(LinkError::Version {
+                        machine,
+                        host: kerf::codec::link::VERSION,
+                    }))
+                }
                 None => {
                     if last_heard.elapsed() > Duration::from_secs(plan.quiet_s) {
                         return Err(SessionError::Quiet(plan.quiet_s));

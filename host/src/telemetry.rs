@@ -5,7 +5,14 @@
 //! ([`TelemetrySample::period`]); the log extends it to 64 bits by the forward
 //! difference to the previous sample, so a run that crosses the wrap (5 days at
 //! 10 kHz) keeps its time axis. Time is `period × period_s` from the machine's hello.
+//!
+//! The values are the machine's own channels, as it described them
+//! ([`crate::description`]): the CSV has a column per channel, and the summary and the
+//! picture use the channels a machine has — the path from `x`, `y` and `x_ref`,
+//! `y_ref`, the tracking error from `error`, the forces from every channel in N, the
+//! laser from `laser`; a machine without them gets the panels it has.
 
+use crate::description::ChannelInfo;
 use crate::output::OutputFile;
 use crate::plot::{err, legend, line, PlotError};
 use kerf::codec::link::{ModeCode, TelemetrySample};
@@ -14,7 +21,7 @@ use std::io::Write;
 use std::path::Path;
 
 /// One sample on the host's time axis.
-#[derive(Copy, Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Entry {
     /// The machine's period count, extended past the wire's 32 bits.
     pub period: u64,
@@ -28,6 +35,7 @@ pub struct Entry {
 #[derive(Clone, Debug, Default)]
 pub struct TelemetryLog {
     period_s: f64,
+    channels: Vec<ChannelInfo>,
     entries: Vec<Entry>,
     /// Index of the first entry that cut.
     cut_start: Option<usize>,
@@ -35,10 +43,12 @@ pub struct TelemetryLog {
 }
 
 impl TelemetryLog {
-    /// An empty log for a machine with control period `period_s`.
-    pub fn new(period_s: f64) -> Self {
+    /// An empty log for a machine with control period `period_s` and telemetry
+    /// `channels`.
+    pub fn new(period_s: f64, channels: &[ChannelInfo]) -> Self {
         Self {
             period_s,
+            channels: channels.to_vec(),
             entries: Vec::new(),
             cut_start: None,
             marks: Vec::new(),
@@ -90,22 +100,39 @@ impl TelemetryLog {
         &self.entries
     }
 
-    /// Writes the log as CSV: a header row, then one row per sample (SI units).
+    /// The telemetry channels.
+    pub fn channels(&self) -> &[ChannelInfo] {
+        &self.channels
+    }
+
+    /// The value of channel `name` in `entry` (`None`: no such channel, or a sample
+    /// without it).
+    pub fn value(&self, entry: &Entry, name: &str) -> Option<f64> {
+        let k = self.channels.iter().position(|c| c.name == name)?;
+        entry.sample.values.get(k).map(|v| f64::from(*v))
+    }
+
+    /// The indices of the channels in `unit`.
+    fn in_unit(&self, unit: &str) -> Vec<usize> {
+        (0..self.channels.len())
+            .filter(|&k| self.channels[k].unit == unit)
+            .collect()
+    }
+
+    /// Writes the log as CSV: a header row (period, time, mode, then a column per
+    /// channel: [`ChannelInfo::column`]), then one row per sample (SI units).
     pub fn write_csv(&self, out: &mut dyn Write) -> std::io::Result<()> {
-        writeln!(
-            out,
-            "period,time_s,mode,x_m,y_m,z_m,x_ref_m,y_ref_m,z_ref_m,error_m,force1_n,force2_n,force3_n,laser_w"
-        )?;
+        let columns: Vec<String> = self.channels.iter().map(ChannelInfo::column).collect();
+        writeln!(out, "period,time_s,mode,{}", columns.join(","))?;
         for e in &self.entries {
-            let s = &e.sample;
-            let [x, y, z] = s.position_m;
-            let [xr, yr, zr] = s.reference_m;
-            let [f1, f2, f3] = s.force_n;
-            writeln!(
-                out,
-                "{},{:.6},{:?},{x:e},{y:e},{z:e},{xr:e},{yr:e},{zr:e},{:e},{f1:e},{f2:e},{f3:e},{:e}",
-                e.period, e.time_s, s.mode, s.error_m, s.laser_w
-            )?;
+            write!(out, "{},{:.6},{:?}", e.period, e.time_s, e.sample.mode)?;
+            for k in 0..self.channels.len() {
+                match e.sample.values.get(k) {
+                    Some(v) => write!(out, ",{v:e}")?,
+                    None => write!(out, ",")?,
+                }
+            }
+            writeln!(out)?;
         }
         Ok(())
     }
@@ -118,24 +145,27 @@ impl TelemetryLog {
             .filter(|e| e.sample.mode == ModeCode::Running)
             .collect();
         let n = running.len();
-        let errors = running.iter().map(|e| f64::from(e.sample.error_m));
+        let errors = running
+            .iter()
+            .map(|e| self.value(e, "error").unwrap_or(0.0));
         let error_max_m = errors.clone().map(f64::abs).fold(0.0, f64::max);
         let error_rms_m = if n == 0 {
             0.0
         } else {
             (errors.map(|e| e * e).sum::<f64>() / n as f64).sqrt()
         };
+        let forces = self.in_unit("N");
         let force_peak_n = running
             .iter()
-            .flat_map(|e| e.sample.force_n)
-            .map(|f| f64::from(f).abs())
+            .flat_map(|e| forces.iter().filter_map(|&k| e.sample.values.get(k)))
+            .map(|f| f64::from(*f).abs())
             .fold(0.0, f64::max);
         let laser_mean_w = if n == 0 {
             0.0
         } else {
             running
                 .iter()
-                .map(|e| f64::from(e.sample.laser_w))
+                .map(|e| self.value(e, "laser").unwrap_or(0.0))
                 .sum::<f64>()
                 / n as f64
         };
@@ -190,7 +220,7 @@ impl TelemetryLog {
         let error: Vec<(f64, f64)> = self
             .entries
             .iter()
-            .map(|e| (e.time_s, f64::from(e.sample.error_m) * 1e6))
+            .filter_map(|e| Some((e.time_s, self.value(e, "error")? * 1e6)))
             .collect();
         draw_series(
             &mid,
@@ -208,20 +238,24 @@ impl TelemetryLog {
             RGBColor(0, 158, 115),
             RGBColor(204, 121, 167),
         ];
-        let forces: Vec<Vec<(f64, f64)>> = (0..3)
-            .map(|k| {
+        let force_channels = self.in_unit("N");
+        let forces: Vec<Vec<(f64, f64)>> = force_channels
+            .iter()
+            .map(|&k| {
                 self.entries
                     .iter()
-                    .map(|e| (e.time_s, f64::from(e.sample.force_n[k])))
+                    .filter_map(|e| Some((e.time_s, f64::from(*e.sample.values.get(k)?))))
                     .collect()
             })
             .collect();
-        let labels = ["carriage 1", "carriage 2", "carriage 3"];
-        let series: Vec<Series<'_>> = (0..3)
-            .map(|k| Series {
-                label: labels[k],
-                points: &forces[k],
-                color: colors[k],
+        let series: Vec<Series<'_>> = force_channels
+            .iter()
+            .zip(&forces)
+            .enumerate()
+            .map(|(i, (&k, points))| Series {
+                label: &self.channels[k].name,
+                points,
+                color: colors[i % colors.len()],
             })
             .collect();
         draw_series(&low, span, "force command, N", &series, marks)?;
@@ -233,16 +267,17 @@ impl TelemetryLog {
         &self,
         area: &DrawingArea<DB, plotters::coord::Shift>,
     ) -> Result<(), PlotError> {
-        let mm = |p: [f32; 3]| (f64::from(p[0]) * 1e3, f64::from(p[1]) * 1e3);
+        let mm =
+            |e: &Entry, x: &str, y: &str| Some((self.value(e, x)? * 1e3, self.value(e, y)? * 1e3));
         let measured: Vec<(f64, f64)> = self
             .entries
             .iter()
-            .map(|e| mm(e.sample.position_m))
+            .filter_map(|e| mm(e, "x", "y"))
             .collect();
         let reference: Vec<(f64, f64)> = self
             .entries
             .iter()
-            .map(|e| mm(e.sample.reference_m))
+            .filter_map(|e| mm(e, "x_ref", "y_ref"))
             .collect();
         let (lo, hi) = measured.iter().chain(&reference).fold(
             ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
@@ -385,20 +420,35 @@ impl std::fmt::Display for Summary {
 mod tests {
     use super::*;
 
+    /// A machine of an error, three forces and a laser.
+    fn channels() -> Vec<ChannelInfo> {
+        [
+            ("error", "m"),
+            ("force1", "N"),
+            ("force2", "N"),
+            ("force3", "N"),
+            ("laser", "W"),
+        ]
+        .map(|(name, unit)| ChannelInfo {
+            name: name.into(),
+            unit: unit.into(),
+        })
+        .to_vec()
+    }
+
     fn sample(period: u32, mode: ModeCode, error_m: f32, force: f32) -> TelemetrySample {
         TelemetrySample {
             period,
             mode,
-            error_m,
-            force_n: [force, -2.0 * force, 0.5],
-            laser_w: 10.0,
-            ..TelemetrySample::default()
+            values: [error_m, force, -2.0 * force, 0.5, 10.0]
+                .into_iter()
+                .collect(),
         }
     }
 
     #[test]
     fn the_period_keeps_counting_across_the_wire_wrap() {
-        let mut log = TelemetryLog::new(1e-4);
+        let mut log = TelemetryLog::new(1e-4, &channels());
         let wire = [u32::MAX - 150, u32::MAX - 50, 49, 149, 100_149];
         for p in wire {
             log.push(sample(p, ModeCode::Running, 0.0, 0.0));
@@ -419,7 +469,7 @@ mod tests {
 
     #[test]
     fn the_summary_counts_only_the_cut_and_the_csv_has_a_row_per_sample() {
-        let mut log = TelemetryLog::new(1e-3);
+        let mut log = TelemetryLog::new(1e-3, &channels());
         log.push(sample(0, ModeCode::Ready, 9e-6, 9.0));
         let errors = [1e-6f32, -3e-6, 2e-6];
         for (k, e) in errors.iter().enumerate() {

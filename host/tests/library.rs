@@ -4,8 +4,8 @@
 
 use kerf::codec::link::{ModeCode, Refusal, TelemetrySample};
 use kerf::trajectory::gcode::GcodeErrorKind;
+use kerf_host::description::{ChannelInfo, Item, MachineDescription};
 use kerf_host::gcode::describe_gcode;
-use kerf_host::link::{job_reason, refusal_reason};
 use kerf_host::mask::{Mask, Px};
 use kerf_host::telemetry::TelemetryLog;
 use std::collections::BTreeSet;
@@ -83,26 +83,44 @@ fn refusals_are_told_apart_and_name_their_figures() {
         Refusal::BadValue,
         Refusal::Busy,
     ];
+    let slave = keops_slave();
     let texts: BTreeSet<String> = refusals
         .iter()
-        .map(|r| refusal_reason("keops-slave", r))
+        .map(|r| slave.refusal_words(r, None))
         .collect();
     assert_eq!(texts.len(), refusals.len(), "{texts:?}");
-    assert!(refusal_reason("toy", &Refusal::ChunkOffset { expected: 4096 }).contains("4096"));
-    let job = refusal_reason("keops-slave", &Refusal::Job(3));
+    let unknown = MachineDescription::default();
+    assert!(unknown
+        .refusal_words(&Refusal::ChunkOffset { expected: 4096 }, None)
+        .contains("4096"));
+    let job = slave.refusal_words(&Refusal::Job(3), None);
     assert!(job.starts_with("job code 0x0003: "), "{job}");
-    assert!(job.ends_with(job_reason("keops-slave", 3)), "{job}");
-    // The slave's own words per code; another machine has none.
-    for code in 0..8 {
-        assert_eq!(
-            job_reason("keops-slave", code),
-            kerf::app::delta_slave::link::job_refusal_reason(code)
-        );
-        assert_eq!(
-            job_reason("arrow", code),
-            "(no description for this machine)"
-        );
+    assert!(job.ends_with(&slave.job_refusal_words(3)), "{job}");
+    assert!(job.contains("workspace"), "{job}");
+    // The slave's own words per code; a machine that described none has none.
+    for code in 1..=11 {
+        assert!(!slave.job_refusal_words(code).contains("does not describe"));
+        assert!(unknown
+            .job_refusal_words(code)
+            .contains("does not describe"));
     }
+    // A refused setting names the range the slave announced.
+    let bad = slave.refusal_words(&Refusal::BadValue, Some("/slave/dob/bandwidth_hz"));
+    assert!(bad.ends_with("takes > 0 and ≤ 3183 Hz"), "{bad}");
+}
+
+/// The Keops slave's description as the machine sends it, item by item.
+fn keops_slave() -> MachineDescription {
+    use kerf::app::host_link::{describe, SettingPath};
+    let mut d = MachineDescription::default();
+    for index in 0.. {
+        let mut path = SettingPath::default();
+        match describe::<kerf::app::delta_slave::DeltaSlave<f32>>(index, &mut path) {
+            Some(item) => d.add(&Item::of(&item)),
+            None => return d,
+        }
+    }
+    d
 }
 
 #[test]
@@ -130,8 +148,7 @@ fn sample(period: u32, mode: ModeCode) -> TelemetrySample {
     TelemetrySample {
         period,
         mode,
-        error_m: 1e-6 * period as f32,
-        ..TelemetrySample::default()
+        values: [1e-6 * period as f32].into_iter().collect(),
     }
 }
 
@@ -139,7 +156,11 @@ fn sample(period: u32, mode: ModeCode) -> TelemetrySample {
 /// one line per mark, labelled.
 #[test]
 fn marks_sit_at_the_latest_sample_and_are_drawn() {
-    let mut log = TelemetryLog::new(1e-3);
+    let error = ChannelInfo {
+        name: "error".into(),
+        unit: "m".into(),
+    };
+    let mut log = TelemetryLog::new(1e-3, &[error]);
     log.mark("start");
     for period in 0..50 {
         log.push(sample(period * 10, ModeCode::Running));

@@ -5,10 +5,12 @@
 use crate::input::{same_bits, Input, Seed};
 use image::{GrayImage, ImageFormat, ImageReader, Limits, Luma};
 use kerf::app::delta_slave::{CONTOUR_HARMONICS, OPEN_PATH_POINTS};
+use kerf::app::host_link::{describe, LinkMachine, SettingPath};
 use kerf::codec::link::{
-    encode, Event, MachineMessage, MachineStatus, ModeCode, Reply, TelemetrySample, MAX_FRAME,
-    VERSION,
+    encode, ChannelValues, Event, MachineMessage, MachineStatus, ModeCode, Reply, TelemetrySample,
+    MAX_CHANNELS, MAX_FRAME, VERSION,
 };
+use kerf_host::description::ChannelInfo;
 use kerf_host::job::Job;
 use kerf_host::link::{Heard, Machine};
 use kerf_host::plan::{plan_image as plan, Format, PlanConfig};
@@ -58,15 +60,39 @@ fn frame(message: &MachineMessage<'_>) -> Vec<u8> {
     out[..n].to_vec()
 }
 
+/// The Keops slave, whose description and samples the seeds carry.
+type Slave = kerf::app::delta_slave::DeltaSlave<f32>;
+
+/// The slave's channels as the host keeps them.
+fn slave_channels() -> Vec<ChannelInfo> {
+    Slave::CHANNELS
+        .iter()
+        .map(|c| ChannelInfo {
+            name: c.name.into(),
+            unit: c.unit.into(),
+        })
+        .collect()
+}
+
 fn sample(period: u32, mode: ModeCode, k: f32) -> TelemetrySample {
+    let (s, c) = (1e-3 * k.sin(), 1e-3 * k.cos());
+    let values = [
+        s,
+        c,
+        -0.25,
+        s,
+        c,
+        -0.25,
+        2e-7 * k.cos(),
+        0.4 * k,
+        -0.2,
+        1.1,
+        9.5,
+    ];
     TelemetrySample {
         period,
         mode,
-        position_m: [1e-3 * k.sin(), 1e-3 * k.cos(), -0.25],
-        reference_m: [1e-3 * k.sin(), 1e-3 * k.cos(), -0.25],
-        error_m: 2e-7 * k.cos(),
-        force_n: [0.4 * k, -0.2, 1.1],
-        laser_w: 9.5,
+        values: values.into_iter().collect(),
     }
 }
 
@@ -85,14 +111,28 @@ pub fn host_reader_seeds() -> Vec<Vec<u8>> {
         ..Default::default()
     };
     let mut stream = vec![0x55, 0x13, 0x37];
+    stream.extend(frame(&MachineMessage::Reply {
+        seq: 1,
+        reply: hello,
+    }));
+    // The description, item by item, and its end.
+    let mut seq = 2;
+    for index in 0u16.. {
+        let mut path = SettingPath::default();
+        let item = describe::<Slave>(index, &mut path);
+        stream.extend(frame(&MachineMessage::Reply {
+            seq,
+            reply: Reply::Description { index, item },
+        }));
+        seq += 1;
+        if item.is_none() {
+            break;
+        }
+    }
     for message in [
-        MachineMessage::Reply {
-            seq: 1,
-            reply: hello,
-        },
         MachineMessage::Telemetry(sample(100, ModeCode::Ready, 0.0)),
         MachineMessage::Reply {
-            seq: 2,
+            seq,
             reply: Reply::Status(status),
         },
         MachineMessage::Event(Event::Mode {
@@ -100,7 +140,7 @@ pub fn host_reader_seeds() -> Vec<Vec<u8>> {
             to: ModeCode::Running,
         }),
         MachineMessage::Reply {
-            seq: 3,
+            seq: seq + 1,
             reply: Reply::Value { value: b"120" },
         },
         MachineMessage::Telemetry(sample(200, ModeCode::Running, 1.0)),
@@ -112,7 +152,8 @@ pub fn host_reader_seeds() -> Vec<Vec<u8>> {
     vec![stream]
 }
 
-/// A sample of the input: period, mode byte, then the eleven floats.
+/// A sample of the input: period, mode byte, a count byte (at most [`MAX_CHANNELS`]
+/// values), then the floats.
 fn read_sample(input: &mut Input<'_>) -> Option<TelemetrySample> {
     let period = input.u32()?;
     let mode = match input.u8()? % 6 {
@@ -123,26 +164,16 @@ fn read_sample(input: &mut Input<'_>) -> Option<TelemetrySample> {
         4 => ModeCode::Stopping,
         _ => ModeCode::Fault,
     };
-    let mut f = [0.0f32; 11];
-    for v in &mut f {
-        *v = input.f32()?;
+    let count = usize::from(input.u8()?) % (MAX_CHANNELS + 1);
+    let mut values = ChannelValues::new();
+    for _ in 0..count {
+        values.push(input.f32()?).ok()?;
     }
     Some(TelemetrySample {
         period,
         mode,
-        position_m: [f[0], f[1], f[2]],
-        reference_m: [f[3], f[4], f[5]],
-        error_m: f[6],
-        force_n: [f[7], f[8], f[9]],
-        laser_w: f[10],
+        values,
     })
-}
-
-fn floats(s: &TelemetrySample) -> [f32; 11] {
-    let (p, r, f) = (s.position_m, s.reference_m, s.force_n);
-    [
-        p[0], p[1], p[2], r[0], r[1], r[2], s.error_m, f[0], f[1], f[2], s.laser_w,
-    ]
 }
 
 /// `telemetry_log`: samples as the link delivers them (any bits) into the host's log,
@@ -156,39 +187,41 @@ pub fn telemetry_log(data: &[u8]) -> usize {
     let Some(period_ns) = input.u32() else {
         return 0;
     };
-    let mut log = TelemetryLog::new(f64::from(period_ns) * 1e-9);
+    let channels = slave_channels();
+    let mut log = TelemetryLog::new(f64::from(period_ns) * 1e-9, &channels);
     let mut samples = Vec::new();
     while let Some(s) = read_sample(&mut input) {
         let previous = log.entries().last().map(|e| e.period);
-        let entry = *log.push(s);
+        let entry = log.push(s.clone()).clone();
         if let Some(p) = previous {
             assert_eq!(entry.period - p, u64::from(s.period.wrapping_sub(p as u32)));
         }
         assert!(entry.time_s.is_finite() && entry.time_s >= 0.0);
-        samples.push(s);
         if s.mode == ModeCode::Fault {
             log.mark("fault");
         }
+        samples.push(s);
     }
     let mut csv = Vec::new();
     log.write_csv(&mut csv).expect("a Vec takes the CSV");
     let text = String::from_utf8(csv).expect("the CSV is UTF-8");
     let rows: Vec<&str> = text.lines().collect();
     assert_eq!(rows.len(), samples.len() + 1);
-    let float_columns = [3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13];
+    // A column per channel; a sample's values fill them in order, a missing one is
+    // empty, one past the channels is not written.
     for (row, s) in rows[1..].iter().zip(&samples) {
         let fields: Vec<&str> = row.split(',').collect();
-        assert_eq!(fields.len(), 14, "{row}");
-        let back: Vec<f32> = float_columns
-            .iter()
-            .map(|&c| fields[c].parse().unwrap())
-            .collect();
-        let want = floats(s);
-        let same = back
-            .iter()
-            .zip(&want)
-            .all(|(a, b)| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()));
-        assert!(same, "{row} for {s:?}");
+        assert_eq!(fields.len(), 3 + channels.len(), "{row}");
+        for (k, field) in fields[3..].iter().enumerate() {
+            match s.values.get(k) {
+                Some(want) => {
+                    let back: f32 = field.parse().unwrap();
+                    let same = back.to_bits() == want.to_bits() || (back.is_nan() && want.is_nan());
+                    assert!(same, "{row} for {s:?}");
+                }
+                None => assert!(field.is_empty(), "{row}"),
+            }
+        }
     }
     let summary = log.summary();
     let cutting: Vec<&TelemetrySample> = samples
@@ -202,7 +235,7 @@ pub fn telemetry_log(data: &[u8]) -> usize {
     assert!(log.since_cut_s() >= 0.0 && summary.cut_s >= 0.0);
     if cutting
         .iter()
-        .all(|s| floats(s).iter().all(|v| v.is_finite()))
+        .all(|s| s.values.iter().all(|v| v.is_finite()))
     {
         let values = [
             summary.error_max_m,
@@ -229,9 +262,9 @@ pub fn telemetry_log_seeds() -> Vec<Vec<u8>> {
             ModeCode::Ready
         };
         let s = sample((u32::MAX - 500).wrapping_add(100 * k), mode, k as f32);
-        seed = seed.u32(s.period).u8(mode as u8);
-        for v in floats(&s) {
-            seed = seed.f32(v);
+        seed = seed.u32(s.period).u8(mode as u8).u8(s.values.len() as u8);
+        for v in &s.values {
+            seed = seed.f32(*v);
         }
     }
     vec![seed.0]

@@ -5,12 +5,12 @@
 use crate::input::same_bits;
 use crate::targets::link::octagon_job;
 use kerf::app::arrow::job::ArrowJobConfig;
+use kerf::app::arrow::product::{Job as ArrowJob, PROGRAM_POINTS};
 use kerf::codec::job::{write_efd, write_gcode, write_points, JobFile, HEADER_BYTES};
 use kerf::codec::link::crc32;
 use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry};
 use kerf::trajectory::gcode::GcodePoint;
 use kerf_host::job::Job as HostJob;
-use kerf::app::arrow::product::{Job as ArrowJob, PROGRAM_POINTS};
 
 /// The file of an input: one flag byte, then the file. With bit 0 of the flag set the
 /// last four bytes are overwritten with the CRC-32 of the bytes before them, so that

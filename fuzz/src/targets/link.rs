@@ -10,6 +10,7 @@
 use crate::input::{Input, Seed};
 use heapless::spsc::Queue;
 use kerf::app::delta_slave::link::SlaveSettings;
+use kerf::app::delta_slave::product::{contour_defaults, LINK_JOB_BYTES};
 use kerf::app::delta_slave::{DeltaFault, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::host_link::{HostLink, HostLinkConfig, LinkMachine};
 use kerf::app::supervisor::{Command, Mode, Report};
@@ -18,7 +19,6 @@ use kerf::codec::link::{
     crc32, decode, encode, FrameReader, HostFrame, JobKind, MachineMessage, Reply, Request,
     MAX_CHUNK, MAX_FRAME, VERSION,
 };
-use kerf::app::delta_slave::product::{contour_defaults, LINK_JOB_BYTES};
 use kerf_sim::contour::octagon_efd;
 
 /// Encodes `$message`, decodes it as `$type`, encodes it again: the two frames are
@@ -238,6 +238,9 @@ fn session() -> Vec<(u8, Vec<u8>)> {
         steps.push((step::RAW, out[..n].to_vec()));
     };
     ask(&mut steps, Request::Hello);
+    for index in [0, 11, 12, 17, 18, 40, u16::MAX] {
+        ask(&mut steps, Request::Describe { index });
+    }
     ask(&mut steps, Request::Status);
     ask(&mut steps, Request::Telemetry { every_periods: 100 });
     let path = "/slave/dob/bandwidth_hz";
@@ -315,10 +318,11 @@ pub fn link_frame_seeds() -> Vec<Vec<u8>> {
     replay_answers(&seed, &mut answers);
     let sample = kerf::codec::link::TelemetrySample {
         period: 12_345,
-        position_m: [1e-3, -2e-3, 0.25],
-        error_m: 3e-7,
-        force_n: [0.5, -1.0, 1.5],
-        laser_w: 10.0,
+        values: [
+            1e-3, -2e-3, 0.25, 0.0, 0.0, 0.25, 3e-7, 0.5, -1.0, 1.5, 10.0,
+        ]
+        .into_iter()
+        .collect(),
         ..Default::default()
     };
     let mut out = [0u8; MAX_FRAME];

@@ -26,25 +26,48 @@
 use crate::app::supervisor::{Command, CommandError, CommandKind, Machine, Mode, Report};
 use crate::codec::job::JobFile;
 use crate::codec::link::{
-    crc32, decode, encode, Event, FrameReader, HostFrame, JobKind, MachineMessage, MachineStatus,
-    ModeCode, Refusal, Reply, Request, TelemetrySample, JOB_FILE_UNREADABLE, JOB_KIND_MISMATCH,
-    MAX_CHUNK, MAX_FRAME, VERSION,
+    crc32, decode, encode, Channel, ChannelValues, CodeWords, Description, Event, FrameError,
+    FrameReader, HostFrame, JobKind, MachineMessage, MachineStatus, ModeCode, Refusal, Reply,
+    Request, TelemetrySample, JOB_FILE_UNREADABLE, JOB_KIND_MISMATCH, MAX_CHUNK, MAX_FRAME,
+    VERSION,
 };
 use crate::error::{positive, ConfigError};
 use heapless::spsc::Producer;
 use heapless::Deque;
-use miniconf::{json_core, TreeDeserialize, TreeSerialize};
+use miniconf::{json_core, ConstPath, TreeDeserialize, TreeSchema, TreeSerialize};
+
+/// Deepest setting path a machine describes (a leaf deeper is not announced; a test
+/// of each machine checks its tree).
+pub const SETTINGS_DEPTH: usize = 6;
+
+/// Longest setting path a machine describes, bytes.
+pub const SETTINGS_PATH_BYTES: usize = 64;
+
+/// A setting path as the description writes it.
+pub type SettingPath = ConstPath<heapless::String<SETTINGS_PATH_BYTES>, '/'>;
 
 /// A machine the host link can drive: its settings tree, how a job file becomes its
-/// job, and how its telemetry and faults go on the wire.
+/// job, and how its telemetry and faults go on the wire — everything a host needs to
+/// know of it, which the link announces ([`Request::Describe`]).
 pub trait LinkMachine: Machine {
-    /// The settings tree (miniconf): what `Get`/`Set` address.
-    type Settings: TreeSerialize + for<'de> TreeDeserialize<'de> + Copy;
+    /// The settings tree (miniconf): what `Get`/`Set` address. A leaf's `unit` and
+    /// `range` metadata (`#[tree(meta(unit = "Hz", range = "…"))]`) are announced.
+    type Settings: TreeSchema + TreeSerialize + for<'de> TreeDeserialize<'de> + Copy;
     /// What turns a job file into a job beyond the file (the machine's configuration,
     /// the motion a contour is cut with).
     type JobContext;
     /// The machine's name in `Hello`.
     const NAME: &'static str;
+    /// Its telemetry channels, in the order [`LinkMachine::sample`] writes them (at
+    /// most [`crate::codec::link::MAX_CHANNELS`]).
+    const CHANNELS: &'static [Channel];
+    /// The job kinds it takes.
+    const JOB_KINDS: &'static [JobKind];
+    /// Its fault codes ([`LinkMachine::fault_code`]) in words.
+    const FAULTS: &'static [CodeWords];
+    /// Its job refusal codes ([`LinkMachine::load_job`], [`LinkMachine::job_error_code`])
+    /// in words.
+    const JOB_REFUSALS: &'static [CodeWords];
     /// Validates settings into coefficients, as a configuration is.
     fn coefficients(
         settings: &Self::Settings,
@@ -60,8 +83,59 @@ pub trait LinkMachine: Machine {
     fn job_error_code(error: &Self::JobError) -> u16;
     /// The wire form of a fault: (what, where).
     fn fault_code(fault: &Self::Fault) -> (u16, u16);
-    /// The telemetry's wire form (period and mode are filled in by the link).
-    fn sample(telemetry: &Self::Telemetry) -> TelemetrySample;
+    /// The telemetry's values, one per channel of [`LinkMachine::CHANNELS`].
+    fn sample(telemetry: &Self::Telemetry, values: &mut ChannelValues);
+}
+
+/// Item `index` of `M`'s description: its channels, job kinds, settings (the path
+/// written into `path`), fault codes and job refusal codes, in that order; `None` past
+/// the last.
+pub fn describe<'a, M: LinkMachine>(
+    index: u16,
+    path: &'a mut SettingPath,
+) -> Option<Description<'a>> {
+    let mut i = usize::from(index);
+    if let Some(c) = M::CHANNELS.get(i) {
+        return Some(Description::Channel {
+            name: c.name,
+            unit: c.unit,
+        });
+    }
+    i -= M::CHANNELS.len();
+    if let Some(kind) = M::JOB_KINDS.get(i) {
+        return Some(Description::JobKind(*kind));
+    }
+    i -= M::JOB_KINDS.len();
+    let count = M::Settings::SCHEMA
+        .nodes::<SettingPath, SETTINGS_DEPTH>()
+        .len();
+    if i < count {
+        *path = M::Settings::SCHEMA
+            .nodes::<SettingPath, SETTINGS_DEPTH>()
+            .nth(i)?
+            .ok()?;
+        let path: &'a SettingPath = path;
+        let (edge, _) = M::Settings::SCHEMA.get_meta(path.as_ref()).ok()?;
+        let meta = |key| edge.and_then(|m| m.get(key)).unwrap_or("");
+        return Some(Description::Setting {
+            path: path.as_ref(),
+            unit: meta("unit"),
+            range: meta("range"),
+        });
+    }
+    i -= count;
+    if let Some(f) = M::FAULTS.get(i) {
+        return Some(Description::Fault {
+            code: f.code,
+            words: f.words,
+            detail: f.detail,
+        });
+    }
+    i -= M::FAULTS.len();
+    M::JOB_REFUSALS.get(i).map(|r| Description::JobRefusal {
+        code: r.code,
+        words: r.words,
+    })
 }
 
 /// How the link behaves.
@@ -260,7 +334,13 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
                 self.host_lost = false;
                 self.handle(seq, request, commands, send);
             }
-            Err(_) => self.counters.bad_frames = self.counters.bad_frames.saturating_add(1),
+            Err(e) => {
+                self.counters.bad_frames = self.counters.bad_frames.saturating_add(1);
+                if let FrameError::Version(version) = e {
+                    let refused = Event::VersionRefused { version };
+                    self.send(&MachineMessage::Event(refused), send);
+                }
+            }
         }
     }
 
@@ -284,6 +364,11 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
                 send,
             ),
             Request::Heartbeat => self.reply(seq, Reply::Ack, send),
+            Request::Describe { index } => {
+                let mut path = SettingPath::default();
+                let item = describe::<M>(index, &mut path);
+                self.reply(seq, Reply::Description { index, item }, send);
+            }
             Request::Status => {
                 let status = MachineStatus {
                     mode: self.mode,
@@ -465,11 +550,12 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
                     });
                 if due {
                     self.last_sample_period = Some(*period);
-                    let sample = TelemetrySample {
+                    let mut sample = TelemetrySample {
                         period: *period as u32,
                         mode: mode_code(mode),
-                        ..M::sample(telemetry)
+                        values: ChannelValues::new(),
                     };
+                    M::sample(telemetry, &mut sample.values);
                     self.send(&MachineMessage::Telemetry(sample), send);
                 }
             }

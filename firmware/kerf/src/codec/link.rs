@@ -1,5 +1,5 @@
-//! The host link (issue 16): messages between the operator's host tool and the
-//! machine over a byte stream (a UART, USB CDC), and their framing.
+//! The host link: messages between the operator's host tool and any kerf machine over
+//! a byte stream (a UART, USB CDC), and their framing.
 //!
 //! # Frame
 //!
@@ -26,12 +26,36 @@
 //! [`Request::JobChunk`]s at increasing offsets and [`Request::JobCommit`]; after a
 //! lost reply the host asks [`Request::JobStatus`] and resumes at the offset the
 //! machine reports.
+//!
+//! # A machine describes itself
+//!
+//! The link knows no machine. After [`Request::Hello`] a host asks
+//! [`Request::Describe`] for item 0, 1, 2, … until the machine answers `None`: the
+//! items ([`Description`]) are the telemetry channels in the order a
+//! [`TelemetrySample`] carries their values (name and unit), the job kinds the machine
+//! takes, its settings (path, unit, range), and the words for its fault and job
+//! refusal codes. A host with no code of its own for a machine then logs, plots, sets
+//! and explains it.
+//!
+//! # Versions
+//!
+//! The first byte of every frame is the link's [`VERSION`]. A frame of another
+//! version is not read; a machine that receives one (CRC intact) answers with
+//! [`Event::VersionRefused`] in its own version, so a host of either version names
+//! both: the one it speaks and the one it was sent.
 
 use serde::{Deserialize, Serialize};
 
 /// Version of the frame and the messages in it (2: `Hello` carries the control
-/// period; `Status`).
-pub const VERSION: u8 = 2;
+/// period, `Status`; 3: the machine describes itself, telemetry carries its own
+/// channels).
+pub const VERSION: u8 = 3;
+
+/// Most values a telemetry sample carries.
+pub const MAX_CHANNELS: usize = 16;
+
+/// The values of a telemetry sample, in the order of the machine's channels.
+pub type ChannelValues = heapless::Vec<f32, MAX_CHANNELS>;
 
 /// Most bytes of a frame before COBS: version, message and CRC.
 pub const MAX_PAYLOAD: usize = 256;
@@ -121,6 +145,11 @@ pub enum Request<'a> {
     },
     /// The machine's state: [`Reply::Status`].
     Status,
+    /// Item `index` of the machine's description: [`Reply::Description`].
+    Describe {
+        /// From 0; the machine answers `None` past its last item.
+        index: u16,
+    },
 }
 
 /// A request with its number.
@@ -216,6 +245,53 @@ pub mod board_fault {
     }
 }
 
+/// A telemetry channel of a machine: its name and unit ([`Description::Channel`]).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct Channel {
+    /// Name (`x`, `force1`).
+    pub name: &'static str,
+    /// Unit (`m`, `N`, `W`; `1` for a plain number).
+    pub unit: &'static str,
+}
+
+/// A code of a machine and its words ([`Description::Fault`],
+/// [`Description::JobRefusal`]).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct CodeWords {
+    /// The code.
+    pub code: u16,
+    /// What it means.
+    pub words: &'static str,
+    /// What its detail holds, for a fault (empty: nothing).
+    pub detail: &'static str,
+}
+
+impl CodeWords {
+    /// The entry of `code` in `table`.
+    pub fn find(table: &[CodeWords], code: u16) -> Option<&CodeWords> {
+        table.iter().find(|c| c.code == code)
+    }
+}
+
+/// The job refusals of the link itself, the same for every machine.
+pub const LINK_JOB_REFUSALS: [CodeWords; 3] = [
+    CodeWords {
+        code: JOB_FILE_UNREADABLE,
+        words: "not a job file the firmware reads (magic, version, CRC)",
+        detail: "",
+    },
+    CodeWords {
+        code: JOB_KIND_MISMATCH,
+        words: "the job file's kind differs from the announced one",
+        detail: "",
+    },
+    CodeWords {
+        code: JOB_NOT_AT_REST,
+        words: "an axis still moves; the job starts from rest",
+        detail: "",
+    },
+];
+
 /// [`Refusal::Job`]: the committed bytes are not a job file the firmware reads.
 pub const JOB_FILE_UNREADABLE: u16 = 0xFFFF;
 
@@ -259,6 +335,55 @@ pub enum Reply<'a> {
     },
     /// The machine's state, for a host that joins.
     Status(MachineStatus),
+    /// Item `index` of the machine's description, `None` past the last.
+    Description {
+        /// The item asked for.
+        index: u16,
+        /// The item.
+        #[serde(borrow)]
+        item: Option<Description<'a>>,
+    },
+}
+
+/// One item of a machine's description ([`Request::Describe`]).
+#[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Description<'a> {
+    /// A telemetry channel: the values of [`TelemetrySample::values`] are in the order
+    /// of these items.
+    Channel {
+        /// Its name (`x`, `force1`, …).
+        name: &'a str,
+        /// Its unit (`m`, `N`, `W`, `rad`, `1` for a plain number).
+        unit: &'a str,
+    },
+    /// A job kind the machine takes.
+    JobKind(JobKind),
+    /// A setting ([`Request::Get`], [`Request::Set`]).
+    Setting {
+        /// Its path.
+        path: &'a str,
+        /// Its unit (empty for a switch).
+        unit: &'a str,
+        /// The values the machine takes, in words (`0 < value ≤ 3183`; empty: any
+        /// value of its type).
+        range: &'a str,
+    },
+    /// What a fault code of [`Event::Fault`] means.
+    Fault {
+        /// The code.
+        code: u16,
+        /// What happened, in words.
+        words: &'a str,
+        /// What the fault's detail holds (empty: nothing).
+        detail: &'a str,
+    },
+    /// What a job refusal code of [`Refusal::Job`] means.
+    JobRefusal {
+        /// The code.
+        code: u16,
+        /// Why, in words.
+        words: &'a str,
+    },
 }
 
 /// The machine's state as [`Request::Status`] reports it.
@@ -284,22 +409,14 @@ pub struct MachineStatus {
 /// `period` is the low 32 bits of the machine's period count: it wraps (after 5.0
 /// days at 10 kHz), so a host extends it by the forward difference of each sample to
 /// the previous.
-#[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq, Default)]
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq, Default)]
 pub struct TelemetrySample {
     /// Control period count.
     pub period: u32,
     /// Supervisor mode ([`ModeCode`]).
     pub mode: ModeCode,
-    /// Measured position of the tool, m.
-    pub position_m: [f32; 3],
-    /// Its reference, m.
-    pub reference_m: [f32; 3],
-    /// Tracking (or contour) error, m.
-    pub error_m: f32,
-    /// Force commands, N.
-    pub force_n: [f32; 3],
-    /// Laser power, W.
-    pub laser_w: f32,
+    /// One value per channel of the machine ([`Description::Channel`]), in their order.
+    pub values: ChannelValues,
 }
 
 /// The supervisor's mode on the wire.
@@ -342,10 +459,16 @@ pub enum Event {
     },
     /// The host's heartbeats stopped while a job ran: the machine stopped it.
     HostLost,
+    /// The machine received a frame of link version `version`, which it does not
+    /// read (it speaks [`VERSION`]).
+    VersionRefused {
+        /// The version of the refused frame.
+        version: u8,
+    },
 }
 
 /// What the machine sends.
-#[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq)]
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
 pub enum MachineMessage<'a> {
     /// The answer to request `seq`.
     Reply {
@@ -443,13 +566,7 @@ impl LinkMessage for MachineMessage<'_> {
 impl TelemetrySample {
     /// Every value finite, else [`FrameError::NotFinite`].
     pub fn check(&self) -> Result<(), FrameError> {
-        let values = self
-            .position_m
-            .iter()
-            .chain(&self.reference_m)
-            .chain(&self.force_n)
-            .chain([&self.error_m, &self.laser_w]);
-        if values.into_iter().all(|v| v.is_finite()) {
+        if self.values.iter().all(|v| v.is_finite()) {
             Ok(())
         } else {
             Err(FrameError::NotFinite)

@@ -24,7 +24,7 @@ use crate::app::axis::{AxisConfig, AxisLaw};
 use crate::app::host_link::LinkMachine;
 use crate::app::joints::JobError;
 use crate::codec::job::JobFile;
-use crate::codec::link::{TelemetrySample, JOB_NOT_AT_REST};
+use crate::codec::link::{Channel, ChannelValues, CodeWords, JobKind, JOB_NOT_AT_REST};
 use crate::control::dob::DobConfig;
 use crate::control::pd::PdConfig;
 use crate::error::ConfigError;
@@ -38,26 +38,32 @@ use miniconf::Tree;
 #[derive(Tree, Copy, Clone, Debug, PartialEq)]
 pub struct PdSettings {
     /// Bandwidth of the critically damped error dynamics, Hz.
+    #[tree(meta(unit = "Hz", range = "> 0"))]
     pub bandwidth_hz: f64,
 }
 
 /// The disturbance observer's settings.
 #[derive(Tree, Copy, Clone, Debug, PartialEq)]
 pub struct DobSettings {
-    /// Observer bandwidth, Hz.
+    /// Observer bandwidth, Hz (ω·Ts ≤ 2: 3183 Hz at the 10 kHz period).
+    #[tree(meta(unit = "Hz", range = "> 0 and ≤ 3183"))]
     pub bandwidth_hz: f64,
     /// Nominal moving mass An, kg.
+    #[tree(meta(unit = "kg", range = "> 0"))]
     pub nominal_mass_kg: f64,
     /// Force saturation, N.
+    #[tree(meta(unit = "N", range = "> 0"))]
     pub force_limit_n: f64,
     /// Add the estimate to the command.
+    #[tree(meta(range = "true or false"))]
     pub compensate: bool,
 }
 
 /// The velocity observer's settings.
 #[derive(Tree, Copy, Clone, Debug, PartialEq)]
 pub struct VelocitySettings {
-    /// Observer bandwidth, Hz.
+    /// Observer bandwidth, Hz (ω·Ts ≤ 2: 3183 Hz at the 10 kHz period).
+    #[tree(meta(unit = "Hz", range = "> 0 and ≤ 3183"))]
     pub bandwidth_hz: f64,
 }
 
@@ -153,67 +159,166 @@ pub mod load_codes {
     pub const KIND: u16 = 0x203;
 }
 
-/// What a fault code of [`LinkMachine::fault_code`] means, for a host to print
-/// (`Event::Fault { code, .. }` of a `keops-slave`); the board's own codes
-/// (`codec::link::BOARD_FAULT | cause`) are named as `codec::link::board_fault` names
-/// them.
-pub fn fault_reason(code: u16) -> &'static str {
-    if let Some(reason) = crate::codec::link::board_fault::reason(code) {
-        return reason;
-    }
-    match code {
-        1 => "a carriage faulted (its Hall decoder or joint limits)",
-        2 => "the kinematics could not be solved (joint references or measured effector)",
-        3 => "the contour follower could not take a step",
-        4 => "the effector left the contour by more than the contour-error limit",
-        5 => "a carriage fell behind its reference by more than the following-error limit",
-        6 => "a carriage's force stayed at its limit longer than allowed",
-        7 => "an output (a carriage force, the laser duty) was not finite",
-        _ => "unknown fault",
+/// The words of one code.
+const fn words(code: u16, words: &'static str, detail: &'static str) -> CodeWords {
+    CodeWords {
+        code,
+        words,
+        detail,
     }
 }
 
-/// What the detail of a fault (`Event::Fault { detail, .. }`) of a `keops-slave` is,
-/// for the codes whose detail means something.
-pub fn fault_detail(code: u16) -> Option<&'static str> {
-    match code {
-        5 => Some("carriage"),
-        7 => Some("output (0-2 the carriage forces, 3 the laser duty)"),
-        _ => crate::codec::link::board_fault::detail(code),
-    }
-}
+/// What the fault codes of [`LinkMachine::fault_code`] mean.
+const FAULTS: [CodeWords; 7] = [
+    words(
+        1,
+        "a carriage faulted (its Hall decoder or joint limits)",
+        "",
+    ),
+    words(
+        2,
+        "the kinematics could not be solved (joint references or measured effector)",
+        "",
+    ),
+    words(3, "the contour follower could not take a step", ""),
+    words(
+        4,
+        "the effector left the contour by more than the contour-error limit",
+        "",
+    ),
+    words(
+        5,
+        "a carriage fell behind its reference by more than the following-error limit",
+        "carriage",
+    ),
+    words(
+        6,
+        "a carriage's force stayed at its limit longer than allowed",
+        "",
+    ),
+    words(
+        7,
+        "an output (a carriage force, the laser duty) was not finite",
+        "output (0-2 the carriage forces, 3 the laser duty)",
+    ),
+];
 
-/// What a job refusal code (`Refusal::Job`) of a `keops-slave` means: the planner's
-/// ([`LinkMachine::job_error_code`]), the loader's ([`load_codes`]) or the link's
-/// (`codec::link::JOB_FILE_UNREADABLE`, `JOB_KIND_MISMATCH`, `JOB_NOT_AT_REST`).
-pub fn job_refusal_reason(code: u16) -> &'static str {
-    use crate::codec::link::{JOB_FILE_UNREADABLE, JOB_KIND_MISMATCH, JOB_NOT_AT_REST};
-    match code {
-        1 => "the job has no move, or more moves than the machine holds",
-        2 => "a point or duration is not finite, or a duration is not positive",
-        3 => "a move leaves the workspace (reach, carriage travel or a singularity)",
-        4 => "a move needs more carriage speed or acceleration than the limits allow",
-        5 => "the job was planned for another machine",
-        6 => "the approach from where the carriages are is too fast",
-        7 => "a move lasts 2^32 control periods or more",
-        8 => "the contour, its speed or its ramps are bad (too short, above the curvature limit)",
-        9 => "a point of the contour leaves the workspace",
-        10 => "a point of the contour needs more carriage speed or acceleration than allowed",
-        11 => "the laser setting is out of range",
-        load_codes::TOO_MANY_HARMONICS => "more harmonics than a contour job holds (30)",
-        load_codes::BAD_CURVE => "the coefficients do not make a curve",
-        load_codes::KIND => "this machine cuts contours (EFD jobs) only",
-        JOB_FILE_UNREADABLE => "not a job file the firmware reads (magic, version, CRC)",
-        JOB_KIND_MISMATCH => "the job file's kind differs from the announced one",
-        JOB_NOT_AT_REST => "a carriage still moves; the job starts from rest",
-        _ => "unknown refusal",
-    }
-}
+/// What the job refusal codes of the planner ([`LinkMachine::job_error_code`]) and
+/// the loader ([`load_codes`]) mean.
+const JOB_REFUSALS: [CodeWords; 14] = [
+    words(
+        1,
+        "the job has no move, or more moves than the machine holds",
+        "",
+    ),
+    words(
+        2,
+        "a point or duration is not finite, or a duration is not positive",
+        "",
+    ),
+    words(
+        3,
+        "a move leaves the workspace (reach, carriage travel or a singularity)",
+        "",
+    ),
+    words(
+        4,
+        "a move needs more carriage speed or acceleration than the limits allow",
+        "",
+    ),
+    words(5, "the job was planned for another machine", ""),
+    words(
+        6,
+        "the approach from where the carriages are is too fast",
+        "",
+    ),
+    words(7, "a move lasts 2^32 control periods or more", ""),
+    words(
+        8,
+        "the contour, its speed or its ramps are bad (too short, above the curvature limit)",
+        "",
+    ),
+    words(9, "a point of the contour leaves the workspace", ""),
+    words(
+        10,
+        "a point of the contour needs more carriage speed or acceleration than allowed",
+        "",
+    ),
+    words(11, "the laser setting is out of range", ""),
+    words(
+        load_codes::TOO_MANY_HARMONICS,
+        "more harmonics than a contour job holds (30)",
+        "",
+    ),
+    words(
+        load_codes::BAD_CURVE,
+        "the coefficients do not make a curve",
+        "",
+    ),
+    words(
+        load_codes::KIND,
+        "this machine cuts contours (EFD jobs) only",
+        "",
+    ),
+];
+
+/// The telemetry channels.
+const CHANNELS: [Channel; 11] = [
+    Channel {
+        name: "x",
+        unit: "m",
+    },
+    Channel {
+        name: "y",
+        unit: "m",
+    },
+    Channel {
+        name: "z",
+        unit: "m",
+    },
+    Channel {
+        name: "x_ref",
+        unit: "m",
+    },
+    Channel {
+        name: "y_ref",
+        unit: "m",
+    },
+    Channel {
+        name: "z_ref",
+        unit: "m",
+    },
+    Channel {
+        name: "error",
+        unit: "m",
+    },
+    Channel {
+        name: "force1",
+        unit: "N",
+    },
+    Channel {
+        name: "force2",
+        unit: "N",
+    },
+    Channel {
+        name: "force3",
+        unit: "N",
+    },
+    Channel {
+        name: "laser",
+        unit: "W",
+    },
+];
+const _: () = assert!(CHANNELS.len() <= crate::codec::link::MAX_CHANNELS);
 
 impl<T: Float> LinkMachine for DeltaSlave<T> {
     type Settings = SlaveSettings;
     type JobContext = ContourDefaults;
     const NAME: &'static str = "keops-slave";
+    const CHANNELS: &'static [Channel] = &CHANNELS;
+    const JOB_KINDS: &'static [JobKind] = &[JobKind::Efd];
+    const FAULTS: &'static [CodeWords] = &FAULTS;
+    const JOB_REFUSALS: &'static [CodeWords] = &JOB_REFUSALS;
 
     fn coefficients(settings: &SlaveSettings, period_s: f64) -> Result<AxisLaw<T>, ConfigError> {
         AxisLaw::new(&settings.config(), period_s)
@@ -281,20 +386,31 @@ impl<T: Float> LinkMachine for DeltaSlave<T> {
         }
     }
 
-    fn sample(t: &DeltaTelemetry<T>) -> TelemetrySample {
+    fn sample(t: &DeltaTelemetry<T>, values: &mut ChannelValues) {
         let f = |v: T| to_f64(v) as f32;
         let reference = t.effector_reference_m.map_or([0.0; 3], |r| r.map(f));
         let (position, error) = t.contour.map_or((reference, 0.0), |c| {
             (c.effector_m.map(f), f(c.contour_error_m))
         });
-        TelemetrySample {
-            position_m: position,
-            reference_m: reference,
-            error_m: error,
-            force_n: t.joints.axes.map(|a| f(a.force_n)),
-            laser_w: f(t.laser_power_w),
-            ..TelemetrySample::default()
-        }
+        let [x, y, z] = position;
+        let [x_ref, y_ref, z_ref] = reference;
+        let [f1, f2, f3] = t.joints.axes.map(|a| f(a.force_n));
+        let row: [f32; CHANNELS.len()] = [
+            x,
+            y,
+            z,
+            x_ref,
+            y_ref,
+            z_ref,
+            error,
+            f1,
+            f2,
+            f3,
+            f(t.laser_power_w),
+        ];
+        values.clear();
+        // Within the capacity: checked at compile time below.
+        let _ = values.extend_from_slice(&row);
     }
 }
 
@@ -303,49 +419,131 @@ mod tests {
     use super::*;
     use crate::app::axis::AxisLaw;
     use miniconf::json_core;
+    use std::string::String;
     use std::vec::Vec;
 
     #[test]
-    fn every_fault_and_refusal_code_has_its_own_reason() {
-        use crate::codec::link::{JOB_FILE_UNREADABLE, JOB_KIND_MISMATCH, JOB_NOT_AT_REST};
-        let faults: Vec<&str> = (1..=6).map(fault_reason).collect();
-        let jobs: Vec<&str> = (1..=11)
-            .chain([
-                load_codes::TOO_MANY_HARMONICS,
-                load_codes::BAD_CURVE,
-                load_codes::KIND,
-                JOB_FILE_UNREADABLE,
-                JOB_KIND_MISMATCH,
-                JOB_NOT_AT_REST,
-            ])
-            .map(job_refusal_reason)
-            .collect();
-        for list in [&faults, &jobs] {
-            for (i, a) in list.iter().enumerate() {
-                assert!(!a.starts_with("unknown"), "{i}: {a}");
-                assert!(list[..i].iter().all(|b| b != a), "{a} twice");
+    fn every_fault_and_refusal_code_has_its_own_words() {
+        use crate::codec::link::LINK_JOB_REFUSALS;
+        type S = DeltaSlave<f32>;
+        let faults = [
+            DeltaFault::ContourError,
+            DeltaFault::FollowingError { axis: 2 },
+            DeltaFault::Saturated,
+            DeltaFault::Output(crate::app::supervisor::NonFiniteOutput { index: 3 }),
+        ];
+        for fault in &faults {
+            let (code, _) = S::fault_code(fault);
+            assert!(CodeWords::find(&FAULTS, code).is_some(), "{fault:?}");
+        }
+        // The codes of the variants with inner faults (1, 2, 3) are the table's too.
+        assert!(FAULTS.iter().map(|f| f.code).eq(1..=7));
+        let (code, axis) = S::fault_code(&DeltaFault::FollowingError { axis: 2 });
+        let entry = CodeWords::find(&FAULTS, code).unwrap();
+        assert!(entry.words.contains("following-error"));
+        assert_eq!((entry.detail, axis), ("carriage", 2));
+        let contour = CodeWords::find(&FAULTS, S::fault_code(&DeltaFault::ContourError).0);
+        assert!(contour.unwrap().words.contains("contour-error"));
+        let code = S::job_error_code(&DeltaJobError::OtherMachine);
+        assert!(CodeWords::find(&JOB_REFUSALS, code)
+            .unwrap()
+            .words
+            .contains("another machine"));
+        let code = S::job_error_code(&DeltaJobError::Approach(JobError::Moving { axis: 0 }));
+        assert!(CodeWords::find(&LINK_JOB_REFUSALS, code).is_some());
+        // Codes and words are each one of a kind, and the machine's refusals are not
+        // the link's.
+        for table in [&FAULTS[..], &JOB_REFUSALS[..]] {
+            for (i, a) in table.iter().enumerate() {
+                assert!(table[..i]
+                    .iter()
+                    .all(|b| b.code != a.code && b.words != a.words));
             }
         }
-        assert_eq!(fault_reason(0), "unknown fault");
-        assert_eq!(job_refusal_reason(12), "unknown refusal");
-        // The board's own faults reach a host of this machine with their names.
-        use crate::codec::link::{board_fault, BOARD_FAULT};
-        let watchdog = fault_reason(BOARD_FAULT | board_fault::WATCHDOG);
-        assert!(watchdog.contains("watchdog"), "{watchdog}");
-        assert!(faults.iter().all(|f| *f != watchdog));
-        // The codes the machine sends name the fault they stand for.
+        assert!(JOB_REFUSALS
+            .iter()
+            .all(|r| CodeWords::find(&LINK_JOB_REFUSALS, r.code).is_none()));
+    }
+
+    /// The description lists the channels in the order of a sample's values, the
+    /// job kind, every setting with its unit and range, and the codes' words; the
+    /// announced upper bound of a bandwidth is where validation refuses.
+    #[test]
+    fn the_slave_describes_itself() {
+        use crate::app::host_link::{describe, SettingPath};
+        use crate::codec::link::Description;
         type S = DeltaSlave<f32>;
-        let (code, _) = S::fault_code(&DeltaFault::ContourError);
-        assert!(fault_reason(code).contains("contour-error"));
-        let (code, axis) = S::fault_code(&DeltaFault::FollowingError { axis: 2 });
-        assert!(fault_reason(code).contains("following-error"));
-        assert_eq!((fault_detail(code), axis), (Some("carriage"), 2));
+        let mut items = Vec::new();
+        for index in 0.. {
+            let mut path = SettingPath::default();
+            match describe::<S>(index, &mut path) {
+                Some(Description::Setting { path, unit, range }) => {
+                    items.push(std::format!("setting {path} {unit} {range}"))
+                }
+                Some(item) => items.push(std::format!("{item:?}")),
+                None => break,
+            }
+        }
+        let settings: Vec<&String> = items.iter().filter(|i| i.starts_with("setting")).collect();
+        assert_eq!(settings.len(), 6, "{settings:?}");
+        assert!(items.contains(&"setting /slave/dob/bandwidth_hz Hz > 0 and ≤ 3183".into()));
+        assert!(items.contains(&"setting /slave/dob/compensate  true or false".into()));
         assert_eq!(
-            fault_detail(S::fault_code(&DeltaFault::ContourError).0),
-            None
+            items.len(),
+            CHANNELS.len() + 1 + 6 + FAULTS.len() + JOB_REFUSALS.len()
         );
-        let code = S::job_error_code(&DeltaJobError::OtherMachine);
-        assert!(job_refusal_reason(code).contains("another machine"));
+        assert!(items[0].contains("\"x\"") && items[CHANNELS.len()] == "JobKind(Efd)");
+        // The bound announced for the observers' bandwidths, at the Keops period.
+        let mut settings = SlaveSettings::of(&AxisConfig::LM1247_SLAVE);
+        for (path, ok) in [
+            ("/slave/dob/bandwidth_hz", true),
+            ("/slave/velocity/bandwidth_hz", true),
+        ] {
+            for (value, accepted) in [(&b"3183"[..], ok), (&b"3184"[..], false)] {
+                let mut candidate = settings;
+                json_core::set(&mut candidate, path, value).unwrap();
+                assert_eq!(
+                    S::coefficients(&candidate, 1e-4).is_ok(),
+                    accepted,
+                    "{path}"
+                );
+            }
+        }
+        settings.slave.pd.bandwidth_hz = 0.0;
+        assert!(S::coefficients(&settings, 1e-4).is_err());
+    }
+
+    /// A sample carries one value per channel, in the channels' order.
+    #[test]
+    fn a_sample_has_a_value_per_channel() {
+        let axis = |force_n| crate::app::axis::AxisOutput {
+            force_n,
+            position_m: 0.0,
+            velocity_m_s: 0.0,
+            disturbance_n: 0.0,
+            saturated: false,
+            status: crate::app::axis::AxisStatus::Running,
+        };
+        let still = crate::control::pd::Reference {
+            position: 0.0,
+            velocity: 0.0,
+            acceleration: 0.0,
+        };
+        let telemetry = DeltaTelemetry::<f32> {
+            joints: crate::app::joints::JointTelemetry {
+                reference: [still; 3],
+                axes: [axis(0.5), axis(-4.0), axis(2.0)],
+            },
+            effector_reference_m: Some([1.0, 2.0, 3.0]),
+            contour: None,
+            laser_power_w: 7.5,
+        };
+        let mut values = ChannelValues::new();
+        <DeltaSlave<f32> as LinkMachine>::sample(&telemetry, &mut values);
+        assert_eq!(values.len(), CHANNELS.len());
+        let at = |name: &str| values[CHANNELS.iter().position(|c| c.name == name).unwrap()];
+        assert_eq!((at("x_ref"), at("z_ref"), at("x")), (1.0, 3.0, 1.0));
+        assert_eq!((at("force2"), at("laser"), at("error")), (-4.0, 7.5, 0.0));
     }
 
     #[test]

@@ -101,6 +101,21 @@ impl LinkMachine for Toy {
     type Settings = ToySettings;
     type JobContext = ();
     const NAME: &'static str = "toy";
+    const CHANNELS: &'static [Channel] = &[Channel {
+        name: "left",
+        unit: "1",
+    }];
+    const JOB_KINDS: &'static [JobKind] = &[JobKind::Points];
+    const FAULTS: &'static [CodeWords] = &[CodeWords {
+        code: 1,
+        words: "the toy broke",
+        detail: "",
+    }];
+    const JOB_REFUSALS: &'static [CodeWords] = &[CodeWords {
+        code: 1,
+        words: "not a point job",
+        detail: "",
+    }];
     fn coefficients(s: &ToySettings, _period_s: f64) -> Result<f32, ConfigError> {
         positive("gain", f64::from(s.gain))?;
         positive("limits.speed_m_s", f64::from(s.limits.speed_m_s))?;
@@ -121,11 +136,9 @@ impl LinkMachine for Toy {
     fn fault_code(f: &u8) -> (u16, u16) {
         (u16::from(*f), 0)
     }
-    fn sample(t: &u32) -> TelemetrySample {
-        TelemetrySample {
-            error_m: *t as f32,
-            ..TelemetrySample::default()
-        }
+    fn sample(t: &u32, values: &mut ChannelValues) {
+        values.clear();
+        let _ = values.push(*t as f32);
     }
 }
 
@@ -281,7 +294,7 @@ fn hello_and_a_job_uploaded_in_chunks_runs_with_telemetry_and_events() {
             hello,
             [reply(
                 1,
-                "Hello { version: 2, machine: \"toy\", max_chunk: 192, period_ns: 1000000 }"
+                "Hello { version: 3, machine: \"toy\", max_chunk: 192, period_ns: 1000000 }"
             )]
         );
         let job = points_job(20); // 12 + 160 + 4 = 176 bytes: five chunks
@@ -685,5 +698,59 @@ fn bad_frames_and_unsent_messages_are_counted_once_each() {
                 unsent: 2
             }
         );
+    });
+}
+
+/// A host asks item after item: the machine's channel, job kind, settings (nested
+/// paths), fault and refusal words, then `None`.
+#[test]
+fn the_machine_describes_itself_item_by_item() {
+    with_rig(|rig| {
+        let mut items = Vec::new();
+        for index in 0..8u16 {
+            let got = rig.exchange(&frame(40 + index, Request::Describe { index }), 0);
+            assert_eq!(got.len(), 1, "{got:?}");
+            items.push(got[0].clone());
+        }
+        let expected = [
+            r#"Description { index: 0, item: Some(Channel { name: "left", unit: "1" }) }"#,
+            "Description { index: 1, item: Some(JobKind(Points)) }",
+            r#"Description { index: 2, item: Some(Setting { path: "/gain", unit: "", range: "" }) }"#,
+            r#"Description { index: 3, item: Some(Setting { path: "/limits/speed_m_s", unit: "", range: "" }) }"#,
+            r#"Description { index: 4, item: Some(Fault { code: 1, words: "the toy broke", detail: "" }) }"#,
+            r#"Description { index: 5, item: Some(JobRefusal { code: 1, words: "not a point job" }) }"#,
+            "Description { index: 6, item: None }",
+            "Description { index: 7, item: None }",
+        ];
+        for (i, (got, want)) in items.iter().zip(expected).enumerate() {
+            assert_eq!(*got, reply(40 + i as u16, want));
+        }
+    });
+}
+
+/// A frame of another link version is not read; the machine says which version it
+/// refused, in its own.
+#[test]
+fn a_frame_of_another_version_is_answered_with_both_versions() {
+    with_rig(|rig| {
+        let mut other = frame(1, Request::Status);
+        let n = other.len();
+        let mut raw = other[1..n - 1].to_vec();
+        let len = cobs::decode_in_place(&mut raw).unwrap();
+        raw.truncate(len);
+        raw[0] = VERSION - 1;
+        let crc = crc32(&raw[..len - 4]).to_le_bytes();
+        raw[len - 4..].copy_from_slice(&crc);
+        let mut encoded = std::vec![0u8; MAX_FRAME];
+        let m = cobs::encode(&raw, &mut encoded);
+        other = [&[0u8][..], &encoded[..m], &[0u8]].concat();
+        let got = rig.exchange(&other, 0);
+        assert_eq!(
+            got,
+            [Got::Event(Event::VersionRefused {
+                version: VERSION - 1
+            })]
+        );
+        assert_eq!(rig.link.counters().bad_frames, 1);
     });
 }

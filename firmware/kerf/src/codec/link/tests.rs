@@ -90,11 +90,8 @@ fn every_message_round_trips_and_frames_hold_no_zero_before_the_delimiter() {
         MachineMessage::Telemetry(TelemetrySample {
             period: u32::MAX,
             mode: ModeCode::Running,
-            position_m: [1e-3, -2e-3, 0.05],
-            reference_m: [1e-3, -2e-3, 0.05],
-            error_m: 3e-7,
-            force_n: [1.0, -2.5, 9.0],
-            laser_w: 12.5,
+            values: ChannelValues::from_slice(&[1e-3, -2e-3, 0.05, 3e-7, 1.0, -2.5, 9.0, 12.5])
+                .unwrap(),
         }),
         MachineMessage::Reply {
             seq: 10,
@@ -299,26 +296,15 @@ proptest::proptest! {
     }
 }
 
-/// A telemetry message with `value` in field `field` (0..11: position, reference,
-/// error, force, laser), framed as a sender that does not check would frame it.
+/// A telemetry message of [`MAX_CHANNELS`] values with `value` at `field`, framed as
+/// a sender that does not check would frame it.
 fn telemetry_frame(field: usize, value: f32) -> Vec<u8> {
     let mut sample = TelemetrySample {
         period: 9,
         mode: ModeCode::Running,
-        position_m: [1e-3, -2e-3, 0.05],
-        reference_m: [1e-3, -2e-3, 0.05],
-        error_m: 3e-7,
-        force_n: [1.0, -2.5, 9.0],
-        laser_w: 12.5,
+        values: (0..MAX_CHANNELS).map(|i| 1e-3 * i as f32 - 2e-3).collect(),
     };
-    let slot = match field {
-        0..=2 => &mut sample.position_m[field],
-        3..=5 => &mut sample.reference_m[field - 3],
-        6 => &mut sample.error_m,
-        7..=9 => &mut sample.force_n[field - 7],
-        _ => &mut sample.laser_w,
-    };
-    *slot = value;
+    sample.values[field] = value;
     framed_unchecked(&MachineMessage::Telemetry(sample))
 }
 
@@ -327,7 +313,7 @@ fn telemetry_frame(field: usize, value: f32) -> Vec<u8> {
 /// finite values pass both ways.
 #[test]
 fn non_finite_telemetry_is_refused_both_ways() {
-    for field in 0..11 {
+    for field in 0..MAX_CHANNELS {
         for value in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
             let mut frame = telemetry_frame(field, value);
             assert_eq!(
@@ -411,7 +397,7 @@ fn fields_outside_their_stated_range_are_refused_both_ways() {
         let message = hello(max_chunk, period_ns);
         let mut frame = framed_unchecked(&message);
         let expected = if ok {
-            Ok(message)
+            Ok(message.clone())
         } else {
             Err(FrameError::OutOfRange)
         };
