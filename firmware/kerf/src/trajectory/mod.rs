@@ -2,8 +2,9 @@
 //!
 //! Contour references follow T ch. 3 as restated in SPEC § trajectory:
 //! [`efd`] (closed contours as elliptic Fourier descriptors), [`open_path`] (open
-//! contours as a C² spline in chord length), [`tangential`] (constant tangential speed
-//! along either curve, with a jerk-limited start and stop),
+//! contours as a C² spline in chord length), [`curve`] (what both are to a follower:
+//! position and derivatives, arc length, curvature), [`tangential`] (constant
+//! tangential speed along either curve, with a jerk-limited start and stop),
 //! [`resample`] (open contours: quadratic densification and arc-length resampling),
 //! [`spline`] (joint references: IK of the samples and a C² cubic spline in time),
 //! [`constraint`] (circle/line motion constraints for manual machining), [`shapes`]
@@ -13,10 +14,12 @@
 
 mod arc;
 pub mod constraint;
+pub mod curve;
 pub mod efd;
 pub mod feed;
 pub mod gcode;
 pub mod open_path;
+mod quadrature;
 pub mod quintic;
 pub mod resample;
 pub mod shapes;
