@@ -51,7 +51,7 @@ use kerf::control::bilateral::BilateralConfig;
 use kerf::control::constraint::FixtureConfig;
 use kerf::control::dob::DobConfig;
 use kerf::control::dob::{Dob, DobState};
-use kerf::control::pd::{Pd, Reference};
+use kerf::control::pd::Pd;
 use kerf::control::preview::PreviewConfig;
 use kerf::control::redundant_pid::{RedundantPid, RedundantPidConfig};
 use kerf::kinematics::arrow::{
@@ -69,6 +69,7 @@ use kerf::trajectory::efd::Efd;
 use kerf::trajectory::resample::ArcResampler;
 use kerf::trajectory::spline::{JointSpline, KnotTiming};
 use kerf::trajectory::tangential::{ContourFollower, FollowerConfig, SpeedRamp, SpeedRampConfig};
+use kerf::trajectory::Reference;
 use kerf::{Real, Q31_32, Q6_25};
 
 #[entry]

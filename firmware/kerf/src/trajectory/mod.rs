@@ -32,6 +32,19 @@ use crate::error::ConfigError;
 pub use crate::scalar::Float;
 pub(crate) use crate::scalar::{lit, to_f64};
 
+/// One axis' reference sample for a period: what a trajectory produces (a [`quintic`]
+/// move, a machine's sample of its path) and a tracking law
+/// ([`control::pd`](crate::control::pd)) follows.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Reference<T> {
+    /// Position in m.
+    pub position: T,
+    /// Velocity in m/s.
+    pub velocity: T,
+    /// Acceleration in m/s².
+    pub acceleration: T,
+}
+
 /// Why a contour, a speed or a joint map was rejected.
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

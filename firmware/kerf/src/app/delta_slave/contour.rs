@@ -33,7 +33,6 @@ use crate::app::supervisor::{Machine, Step};
 use crate::control::contouring::ContouringError;
 use crate::control::contouring::{ContouringConfig, TaskReference};
 use crate::control::laser::{Laser, LaserMode};
-use crate::control::pd::Reference;
 use crate::control::preview::{PreviewConfig, PreviewWindow};
 use crate::error::{positive, ConfigError};
 use crate::kinematics::delta::DeltaGeometry;
@@ -45,6 +44,7 @@ use crate::trajectory::tangential::{
     ContourReference, CurveFollower, FollowerConfig, SpeedRamp, SpeedRampConfig,
 };
 use crate::trajectory::ContourError;
+use crate::trajectory::Reference;
 use core::f64::consts::PI;
 use nalgebra::Vector3;
 
