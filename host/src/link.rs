@@ -216,8 +216,9 @@ pub fn fault_reason(machine: &str, code: u16, detail: u16) -> String {
 /// Most attempts at one chunk before an upload gives up.
 const UPLOAD_ATTEMPTS: u32 = 4;
 
-/// A connected machine.
-pub struct Machine {
+/// The host's end of the link to one connected machine: its identity, the frames
+/// sent to it and the replies and telemetry heard from it.
+pub struct MachineLink {
     writer: Box<dyn Write + Send>,
     heard: Receiver<Option<Heard>>,
     bad_frames: Arc<AtomicU32>,
@@ -227,7 +228,7 @@ pub struct Machine {
     hello: Hello,
 }
 
-impl Machine {
+impl MachineLink {
     /// Connects over `reader`/`writer` (two handles of one port or socket) and asks
     /// who the machine is.
     ///
@@ -272,7 +273,7 @@ impl Machine {
             }
             let _ = tx.send(None);
         });
-        let mut machine = Machine {
+        let mut machine = MachineLink {
             writer,
             heard: rx,
             bad_frames,
@@ -346,7 +347,7 @@ impl Machine {
     }
 
     /// Sends `request` and waits for its reply; what else comes meanwhile is kept
-    /// for [`Machine::next`].
+    /// for [`MachineLink::next`].
     pub fn ask(&mut self, request: Request<'_>) -> Result<OwnedReply, LinkError> {
         let what = name(&request);
         let seq = self.send(request)?;

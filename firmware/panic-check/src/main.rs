@@ -55,7 +55,7 @@ use kerf::control::pd::Pd;
 use kerf::control::preview::PreviewConfig;
 use kerf::control::redundant_pid::{RedundantPid, RedundantPidConfig};
 use kerf::kinematics::arrow::{
-    ArrowConfig, ArrowDynamics, ArrowGeometry, ArrowMasses, Joints as Joints6,
+    ActuatorVector, ArrowConfig, ArrowDynamics, ArrowGeometry, ArrowMasses,
 };
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
@@ -184,7 +184,7 @@ fn arrow_machine() {
     // machine's per-period methods see a job the optimiser cannot see through.
     let job = opaque(ArrowJob::<f32, 16, 2>::default());
     let inputs = ArrowInputs {
-        joints_m: opaque(Joints6::zeros()),
+        joints_m: opaque(ActuatorVector::zeros()),
         table_rad: opaque([0.0; 2]),
     };
     periods(machine, inputs, job, ());
