@@ -19,7 +19,7 @@ use kerf::trajectory::gcode::GcodePoint;
 use kerf::{Float, Real};
 
 /// The pyramid of A fig. 26–27 as the G-code file the firmware image carries.
-pub const PYRAMID_GCODE: &str = include_str!("../../app/data/pyramid.gcode");
+pub const PYRAMID_GCODE: &str = include_str!("../../../data/pyramid.gcode");
 
 /// Points a move holds (the pyramid's contour run has 166).
 pub const JOB_POINTS: usize = 192;
