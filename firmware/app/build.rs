@@ -6,7 +6,7 @@ use std::env;
 fn main() {
     println!("cargo:rerun-if-changed=../../memory.x");
     println!("cargo:rerun-if-changed=build.rs");
-    println!("cargo:rerun-if-changed=data/remote_commands.krfr");
+    println!("cargo:rerun-if-changed=../../data/remote_commands.krfr");
     if env::var("TARGET").is_ok_and(|t| t.starts_with("thumb")) {
         if env::var_os("CARGO_FEATURE_QEMU").is_some() {
             println!("cargo:rustc-link-arg-bins=--defsym=_kerf_flash_origin=0");

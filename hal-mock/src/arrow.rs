@@ -13,7 +13,7 @@
 //! counted in quadrature (20,000 counts per turn).
 
 use kerf::kinematics::arrow::{
-    ArrowConfig, ArrowDynamics, ArrowError, ArrowGeometry, ArrowMasses, Joints, Pose,
+    ActuatorVector, ArrowConfig, ArrowDynamics, ArrowError, ArrowGeometry, ArrowMasses, Pose,
 };
 use kerf::{Float, Real};
 
@@ -62,7 +62,7 @@ impl ArrowPlantConfig {
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ArrowReading<T = f64> {
     /// Linear actuator positions, quantized, m.
-    pub joints_m: Joints<T>,
+    pub joints_m: ActuatorVector<T>,
     /// Turntable motor angles (q_T1 = θx, q_T2 = −θx, eq. 8), quantized, rad.
     pub turntable_rad: [T; 2],
 }
@@ -128,7 +128,7 @@ impl<T: Float> ArrowPlant<T> {
     /// the model (the plate driven out of reach).
     pub fn step(
         &mut self,
-        forces_n: &Joints<T>,
+        forces_n: &ActuatorVector<T>,
         torques_n_m: [T; 2],
     ) -> Result<ArrowReading<T>, ArrowError> {
         self.step_loaded(forces_n, torques_n_m, &Pose::zeros())
@@ -139,7 +139,7 @@ impl<T: Float> ArrowPlant<T> {
     /// actuators' joints as the minimum-norm forces (Jmᵀ)⁺ w it loads them with.
     pub fn step_loaded(
         &mut self,
-        forces_n: &Joints<T>,
+        forces_n: &ActuatorVector<T>,
         torques_n_m: [T; 2],
         load_n: &Pose<T>,
     ) -> Result<ArrowReading<T>, ArrowError> {
@@ -148,7 +148,7 @@ impl<T: Float> ArrowPlant<T> {
         // The minimum-norm joint forces of the load, solved only when there is one
         // (the dynamics below evaluate Jm again for the motion).
         let transmitted = if load_n.iter().all(|w| *w == T::zero()) {
-            Joints::zeros()
+            ActuatorVector::zeros()
         } else {
             let (_, jm) = self.geometry.jacobian(&self.pose)?;
             let normal = (jm.transpose() * jm)
@@ -233,7 +233,9 @@ mod tests {
         let mut plant =
             ArrowPlant::<f64>::new(&config, Pose::new(0.0, 0.5, 0.0, 0.0), 0.0).unwrap();
         for _ in 0..100 {
-            plant.step(&Joints::zeros(), [1.204, -1.204]).unwrap();
+            plant
+                .step(&ActuatorVector::zeros(), [1.204, -1.204])
+                .unwrap();
         }
         let (x, v) = plant.state();
         assert!(v.z < 0.0 && v.z > -9.8 * 0.02, "{v:?}");

@@ -9,7 +9,7 @@ use kerf::app::arrow::product::load_job;
 use kerf::app::arrow::{ArrowDesired, ArrowLaw, ArrowLoopState, ArrowPeriodError};
 use kerf::app::supervisor::Mode;
 use kerf::control::redundant_pid::{regularization, RedundantPidConfig};
-use kerf::kinematics::arrow::{ArrowError, ArrowGeometry, Joints, Pose};
+use kerf::kinematics::arrow::{ActuatorVector, ArrowError, ArrowGeometry, Pose};
 use kerf_sim::arrow::{ArrowPeriod, ArrowScenario, TrackingRms, TrackingSums};
 use nalgebra::SMatrix;
 
@@ -61,14 +61,14 @@ pub struct ArrowSample {
     /// The plate's true pose minus the desired one.
     pub pose_error: Pose<f64>,
     /// Measured minus desired joints, m.
-    pub joint_error_m: Joints<f64>,
+    pub joint_error_m: ActuatorVector<f64>,
     /// The commanded actuator forces, N.
-    pub forces_n: Joints<f64>,
+    pub forces_n: ActuatorVector<f64>,
     /// Their part outside Jm's column space (what the actuators push against each
     /// other with), N: |(I − Rm) Γ|.
     pub internal_force_n: f64,
     /// The integral state Γ_I, N.
-    pub integral_n: Joints<f64>,
+    pub integral_n: ActuatorVector<f64>,
     /// Whether a force was at its limit.
     pub saturated: bool,
     /// Table angle error, rad.

@@ -18,8 +18,8 @@
 //! `cargo test -p host-tests --test 'bad_input_*' -- --nocapture` prints a table per
 //! module and every failure; each test asserts that there are none.
 
-use kerf::control::pd::Reference;
 use kerf::sensing::hall::HallConfig;
+use kerf::trajectory::Reference;
 use kerf::{Float, Real};
 use nalgebra::{Vector2, Vector3};
 use std::cell::RefCell;

@@ -18,9 +18,9 @@ use kerf::app::delta_slave::{
 };
 use kerf::app::supervisor::{Machine, Mode};
 use kerf::control::laser::LaserMode;
+use kerf::trajectory::curve::Curve;
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::open_path::OpenPath;
-use kerf::trajectory::tangential::Curve;
 use kerf::Float;
 use kerf_sim::slave::{run_slave_job, SlaveError, SlaveScenario};
 

@@ -4,7 +4,8 @@
 use host_tests::bad_input::{finite, re, refused_or, sweep, Kind, Sweep};
 use kerf::app::axis::AxisConfig;
 use kerf::control::dob::{Dob, DobConfig, DobState};
-use kerf::control::pd::{Pd, PdConfig, Reference};
+use kerf::control::pd::{Pd, PdConfig};
+use kerf::trajectory::Reference;
 use kerf::Real;
 
 // ---------------------------------------------------------------------------------

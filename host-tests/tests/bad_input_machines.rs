@@ -7,9 +7,9 @@ use kerf::app::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig, SlaveOutput
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
 use kerf::app::supervisor::{Machine, Step};
 use kerf::app::PeriodClock;
-use kerf::control::pd::Reference;
 use kerf::kinematics::delta::DeltaGeometry;
 use kerf::sensing::hall::HallConfig;
+use kerf::trajectory::Reference;
 use kerf::{Float, Real};
 use nalgebra::Vector3;
 

@@ -29,8 +29,9 @@
 use host_tests::fixed_point::{axis_scenarios, joint_scenarios};
 use kerf::app::axis::AxisConfig;
 use kerf::control::dob::{Dob, DobState};
-use kerf::control::pd::{Pd, Reference};
+use kerf::control::pd::Pd;
 use kerf::sensing::velocity::{TrackingObserver, TrackingObserverState};
+use kerf::trajectory::Reference;
 use kerf::{Real, Q31_32, Q6_25};
 use kerf_sim::scenario::{profile, run_with, Motion, Outcome, Period, Scenario, START_M, TS_S};
 

@@ -9,7 +9,7 @@
 use hal_mock::hall_sensor::HallSensorParams;
 use host_tests::link::octagon_job_file;
 use kerf::codec::link::{JobKind, Refusal, Request};
-use kerf_host::link::{LinkError, Machine, OwnedReply};
+use kerf_host::link::{LinkError, MachineLink, OwnedReply};
 use kerf_sim::linked::with_linked_slave;
 use kerf_sim::slave::SlaveScenario;
 use std::io::{ErrorKind, Read, Write};
@@ -19,7 +19,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-/// The host's side of the line: frames (one `write` each, as `Machine::send` makes
+/// The host's side of the line: frames (one `write` each, as `MachineLink::send` makes
 /// them) numbered from 0; those in `drop` are lost, and `garbage` goes out before
 /// the frame numbered `garbage_before`.
 struct Line {
@@ -101,7 +101,7 @@ fn machine(
 }
 
 struct Rig {
-    machine: Machine,
+    machine: MachineLink,
     drop: Arc<Mutex<Vec<usize>>>,
     mute: Arc<AtomicBool>,
     stop: Arc<AtomicBool>,
@@ -129,7 +129,7 @@ fn rig(garbage_to_machine: Option<(usize, Vec<u8>)>, noise_to_host: Vec<u8>) -> 
         drop: Arc::clone(&drop),
         garbage_before: garbage_to_machine,
     };
-    let machine = Machine::connect(Box::new(host), Box::new(line), Duration::from_millis(300))
+    let machine = MachineLink::connect(Box::new(host), Box::new(line), Duration::from_millis(300))
         .expect("the simulated slave answers hello");
     Rig {
         machine,

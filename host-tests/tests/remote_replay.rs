@@ -23,7 +23,7 @@ fn recorded_case() -> RemoteCase {
 }
 
 fn recording_path() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware/app/data/remote_commands.krfr")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/remote_commands.krfr")
 }
 
 fn stored() -> Vec<u8> {

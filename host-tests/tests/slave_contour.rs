@@ -8,11 +8,11 @@ use hal_mock::delta_plant::{DeltaPlant, DeltaPlantParams};
 use hal_mock::hall_sensor::{HallSensor, HallSensorParams};
 use host_tests::contours::{cam_at_10_mm_s, CUT_Z_M};
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, AxisStatus, HallAxis};
-use kerf::control::pd::Reference;
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
 use kerf::sensing::hall::HallConfig;
 use kerf::trajectory::spline::{JointSpline, KnotTiming};
+use kerf::trajectory::Reference;
 use kerf_sim::scenario::{MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M};
 
 #[test]

@@ -198,8 +198,9 @@ fn name(request: &Request<'_>) -> &'static str {
 /// Most attempts at one chunk before an upload gives up.
 const UPLOAD_ATTEMPTS: u32 = 4;
 
-/// A connected machine.
-pub struct Machine {
+/// The host's end of the link to one connected machine: its identity, the frames
+/// sent to it and the replies and telemetry heard from it.
+pub struct MachineLink {
     writer: Box<dyn Write + Send>,
     heard: Receiver<Option<Heard>>,
     bad_frames: Arc<AtomicU32>,
@@ -210,7 +211,7 @@ pub struct Machine {
     description: MachineDescription,
 }
 
-impl Machine {
+impl MachineLink {
     /// Connects over `reader`/`writer` (two handles of one port or socket) and asks
     /// who the machine is.
     ///
@@ -256,7 +257,7 @@ impl Machine {
             }
             let _ = tx.send(None);
         });
-        let mut machine = Machine {
+        let mut machine = MachineLink {
             writer,
             heard: rx,
             bad_frames,
@@ -357,7 +358,7 @@ impl Machine {
     }
 
     /// Sends `request` and waits for its reply; what else comes meanwhile is kept
-    /// for [`Machine::next`].
+    /// for [`MachineLink::next`].
     pub fn ask(&mut self, request: Request<'_>) -> Result<OwnedReply, LinkError> {
         let what = name(&request);
         let seq = self.send(request)?;
@@ -403,7 +404,7 @@ impl Machine {
         self.not_ack_at(request, reply, None)
     }
 
-    /// As [`Machine::not_ack`], for a request about the setting at `path`.
+    /// As [`MachineLink::not_ack`], for a request about the setting at `path`.
     fn not_ack_at(
         &self,
         request: &'static str,
@@ -557,7 +558,8 @@ mod tests {
         };
         let stream = framed_as(VERSION + 1, &hello);
         let reader = Box::new(std::io::Cursor::new(stream));
-        let result = Machine::connect(reader, Box::new(std::io::sink()), Duration::from_secs(30));
+        let result =
+            MachineLink::connect(reader, Box::new(std::io::sink()), Duration::from_secs(30));
         let Err(e) = result else {
             panic!("connected to a machine of another version")
         };

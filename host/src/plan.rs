@@ -33,9 +33,9 @@ use crate::trace::{self, Mask, TraceError};
 use image::{DynamicImage, GrayImage};
 use imageproc::distance_transform::Norm;
 use kerf::app::delta_slave::{CONTOUR_HARMONICS, OPEN_PATH_POINTS};
+use kerf::trajectory::curve::Curve;
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::open_path::OpenPath;
-use kerf::trajectory::tangential::Curve;
 use kerf::trajectory::ContourError;
 use thiserror::Error;
 

@@ -3,7 +3,7 @@
 //! given machine times or typed by the operator, until the job ends, faults or the
 //! machine stops it.
 
-use crate::link::{Heard, LinkError, Machine};
+use crate::link::{Heard, LinkError, MachineLink};
 use crate::qemu::{self, Qemu, QemuError};
 use crate::telemetry::TelemetryLog;
 use kerf::codec::link::{Event, JobKind, ModeCode, Refusal, Request, JOB_NOT_AT_REST};
@@ -62,7 +62,7 @@ pub enum SessionError {
 /// An open session; the emulated machine ends with it.
 pub struct Session {
     /// The machine.
-    pub machine: Machine,
+    pub machine: MachineLink,
     _qemu: Option<Qemu>,
 }
 
@@ -77,7 +77,8 @@ impl Session {
             Target::Qemu { image } => {
                 let (q, stream) = qemu::start(image)?;
                 let reader = stream.try_clone().map_err(LinkError::Io)?;
-                let machine = Machine::connect(Box::new(reader), Box::new(stream), REPLY_TIMEOUT)?;
+                let machine =
+                    MachineLink::connect(Box::new(reader), Box::new(stream), REPLY_TIMEOUT)?;
                 Ok(Session {
                     machine,
                     _qemu: Some(q),
@@ -99,7 +100,8 @@ impl Session {
                     .open()
                     .map_err(port_error)?;
                 let reader = port.try_clone().map_err(port_error)?;
-                let machine = Machine::connect(Box::new(reader), Box::new(port), REPLY_TIMEOUT)?;
+                let machine =
+                    MachineLink::connect(Box::new(reader), Box::new(port), REPLY_TIMEOUT)?;
                 Ok(Session {
                     machine,
                     _qemu: None,
@@ -148,7 +150,10 @@ const START_REST_WAIT: Duration = Duration::from_secs(5);
 
 /// Starts the loaded job, again every 20 ms while the machine refuses because an axis
 /// still moves (its first move starts from rest), for at most [`START_REST_WAIT`].
-fn start_at_rest(m: &mut Machine, progress: &mut dyn FnMut(Progress<'_>)) -> Result<(), LinkError> {
+fn start_at_rest(
+    m: &mut MachineLink,
+    progress: &mut dyn FnMut(Progress<'_>),
+) -> Result<(), LinkError> {
     let since = Instant::now();
     let mut told = false;
     loop {
@@ -171,7 +176,7 @@ fn start_at_rest(m: &mut Machine, progress: &mut dyn FnMut(Progress<'_>)) -> Res
 /// An operator's line during a run: `set PATH VALUE`, `get PATH` or `stop`; whether
 /// the machine took a stop.
 fn console(
-    machine: &mut Machine,
+    machine: &mut MachineLink,
     line: &str,
     t: f64,
     log: &mut TelemetryLog,

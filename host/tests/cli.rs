@@ -19,7 +19,7 @@ fn tmp(name: &str) -> PathBuf {
 }
 
 fn pyramid() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware/app/data/pyramid.gcode")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/pyramid.gcode")
 }
 
 fn text(b: &[u8]) -> String {

@@ -89,9 +89,7 @@ fn inputs() -> Inputs {
     let s = |p: PathBuf| p.to_str().unwrap().to_owned();
     Inputs {
         png: s(png),
-        gcode: s(
-            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware/app/data/pyramid.gcode")
-        ),
+        gcode: s(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/pyramid.gcode")),
         job: s(job),
         text: s(text),
         folder: s(d),

@@ -2,8 +2,8 @@
 //! Cortex-M3 images so that both time the same periods.
 
 use core::f32::consts::PI;
-use kerf::control::pd::Reference;
 use kerf::sensing::hall::HallConfig;
+use kerf::trajectory::Reference;
 
 /// Number of distinct inputs cycled through (a power of two).
 pub const INPUTS: usize = 64;

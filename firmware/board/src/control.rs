@@ -20,7 +20,7 @@ use kerf::app::PeriodClock;
 use kerf::hal::{Monotonic, SampleInputs, WriteOutputs};
 
 /// The machine the board runs.
-pub type Machine = DeltaSlave<f32>;
+pub type BoardMachine = DeltaSlave<f32>;
 
 /// The board behind kerf's HAL traits: the DMA's samples in, DACs and TIM1 out, the
 /// cycle counter as the clock.
@@ -57,7 +57,7 @@ impl Monotonic for BoardHal {
 /// What the control interrupt owns.
 pub struct Control {
     /// The machine under its supervisor.
-    pub supervisor: Supervisor<'static, Machine>,
+    pub supervisor: Supervisor<'static, BoardMachine>,
     /// Late periods, on the cycle counter.
     pub clock: PeriodClock,
     /// The board.
@@ -66,7 +66,7 @@ pub struct Control {
 
 impl Control {
     /// The control state, the board's outputs disabled until the first period.
-    pub fn new(supervisor: Supervisor<'static, Machine>, clock: PeriodClock) -> Self {
+    pub fn new(supervisor: Supervisor<'static, BoardMachine>, clock: PeriodClock) -> Self {
         Self {
             supervisor,
             clock,

@@ -8,7 +8,7 @@
 //! millisecond); it never blocks the control interrupt, which preempts it.
 
 use crate::board;
-use crate::control::{Machine, FIT_RUNNING, LINK_ALIVE, LINK_TICK};
+use crate::control::{BoardMachine, FIT_RUNNING, LINK_ALIVE, LINK_TICK};
 use crate::fault::{Cause, ResetCause};
 use crate::timing::{CycleClock, KERF_STATUS};
 use core::sync::atomic::Ordering;
@@ -26,7 +26,7 @@ use kerf::hal::Monotonic;
 use kerf::sensing::hall::HallConfig;
 
 /// The board's link.
-pub type BoardLink = HostLink<Machine, LINK_JOB_BYTES>;
+pub type BoardLink = HostLink<BoardMachine, LINK_JOB_BYTES>;
 
 /// Bytes queued for the UART per wake-up: a telemetry sample, a few replies and
 /// events (a frame is at most 262 bytes); 11 ms of the line at 921 600 Bd.
@@ -37,9 +37,9 @@ pub struct LinkTask {
     /// The host link.
     pub link: BoardLink,
     /// Commands to the supervisor.
-    pub commands: Producer<'static, Command<Machine>>,
+    pub commands: Producer<'static, Command<BoardMachine>>,
     /// Reports from it.
-    pub reports: Consumer<'static, Report<Machine>>,
+    pub reports: Consumer<'static, Report<BoardMachine>>,
     /// Received bytes.
     pub rx: RingBufferedUartRx<'static>,
     /// The transmitter.
@@ -181,7 +181,7 @@ impl LinkTask {
         // Timed in control periods, which go on above the fit (the cycle counter
         // would wrap on a fit longer than 25 s).
         let start = KERF_STATUS.periods.load(Ordering::Relaxed);
-        let fitted = Machine::fit(self.hall, self.fit);
+        let fitted = BoardMachine::fit(self.hall, self.fit);
         let periods = KERF_STATUS
             .periods
             .load(Ordering::Relaxed)

@@ -58,12 +58,12 @@ bind_interrupts!(struct Irqs {
 /// Commands to the supervisor: two at a time (a queue of N holds N − 1; a command with
 /// a calibration is 5 KB). The supervisor takes them within a period; the link answers
 /// `Busy` to a third.
-static COMMANDS: ConstStaticCell<Queue<Command<control::Machine>, 3>> =
+static COMMANDS: ConstStaticCell<Queue<Command<control::BoardMachine>, 3>> =
     ConstStaticCell::new(Queue::new());
 /// Reports to the link task, drained every millisecond (ten periods): 23 hold the
 /// telemetry and calibration samples of twice the link task's longest wait on the
 /// transmitter (11 ms).
-static REPORTS: ConstStaticCell<Queue<Report<control::Machine>, 24>> =
+static REPORTS: ConstStaticCell<Queue<Report<control::BoardMachine>, 24>> =
     ConstStaticCell::new(Queue::new());
 static FIT: StaticCell<CalibrationFit<3>> = StaticCell::new();
 static RX_RING: ConstStaticCell<[u8; RX_RING_BYTES]> = ConstStaticCell::new([0; RX_RING_BYTES]);
@@ -119,13 +119,13 @@ fn leds_and_button(fault_led: bool) {
 #[inline(never)]
 fn start_machine(
     machine: &DeltaSlaveConfig,
-    from_sender: Consumer<'static, Command<control::Machine>>,
-    to_link: Producer<'static, Report<control::Machine>>,
+    from_sender: Consumer<'static, Command<control::BoardMachine>>,
+    to_link: Producer<'static, Report<control::BoardMachine>>,
 ) {
     let Ok(clock) = PeriodClock::new(machine.joints.period_s, u64::from(board::SYSCLK_HZ)) else {
         fault::fail(Cause::Startup, 8)
     };
-    let Ok(slave) = control::Machine::new(machine) else {
+    let Ok(slave) = control::BoardMachine::new(machine) else {
         fault::fail(Cause::Startup, 4)
     };
     let control = CONTROL.init_with(|| {
@@ -141,7 +141,7 @@ fn start_machine(
 #[inline(never)]
 fn store_nominal_calibration(
     machine: &DeltaSlaveConfig,
-    commands: &mut Producer<'static, Command<control::Machine>>,
+    commands: &mut Producer<'static, Command<control::BoardMachine>>,
 ) {
     let Ok(stored) = nominal_calibration::<f32>(machine) else {
         fault::fail(Cause::Startup, 5)
@@ -187,8 +187,8 @@ fn start_link(
 
 /// What the link task is given besides its own state.
 struct LinkParts {
-    commands: Producer<'static, Command<control::Machine>>,
-    reports: Consumer<'static, Report<control::Machine>>,
+    commands: Producer<'static, Command<control::BoardMachine>>,
+    reports: Consumer<'static, Report<control::BoardMachine>>,
     rx: usart::RingBufferedUartRx<'static>,
     tx: usart::UartTx<'static, embassy_stm32::mode::Async>,
 }

@@ -51,11 +51,11 @@ use kerf::control::bilateral::BilateralConfig;
 use kerf::control::constraint::FixtureConfig;
 use kerf::control::dob::DobConfig;
 use kerf::control::dob::{Dob, DobState};
-use kerf::control::pd::{Pd, Reference};
+use kerf::control::pd::Pd;
 use kerf::control::preview::PreviewConfig;
 use kerf::control::redundant_pid::{RedundantPid, RedundantPidConfig};
 use kerf::kinematics::arrow::{
-    ArrowConfig, ArrowDynamics, ArrowGeometry, ArrowMasses, Joints as Joints6,
+    ActuatorVector, ArrowConfig, ArrowDynamics, ArrowGeometry, ArrowMasses,
 };
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
@@ -69,6 +69,7 @@ use kerf::trajectory::efd::Efd;
 use kerf::trajectory::resample::ArcResampler;
 use kerf::trajectory::spline::{JointSpline, KnotTiming};
 use kerf::trajectory::tangential::{ContourFollower, FollowerConfig, SpeedRamp, SpeedRampConfig};
+use kerf::trajectory::Reference;
 use kerf::{Real, Q31_32, Q6_25};
 
 #[entry]
@@ -183,7 +184,7 @@ fn arrow_machine() {
     // machine's per-period methods see a job the optimiser cannot see through.
     let job = opaque(ArrowJob::<f32, 16, 2>::default());
     let inputs = ArrowInputs {
-        joints_m: opaque(Joints6::zeros()),
+        joints_m: opaque(ActuatorVector::zeros()),
         table_rad: opaque([0.0; 2]),
     };
     periods(machine, inputs, job, ());

@@ -12,12 +12,13 @@ use kerf::app::arrow::ArrowLaw;
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::control::redundant_pid::{RedundantPid, RedundantPidConfig};
 use kerf::kinematics::arrow::{
-    ArrowConfig, ArrowDynamics, ArrowError, ArrowGeometry, ArrowMasses, ForwardConfig, Joints, Pose,
+    ActuatorVector, ArrowConfig, ArrowDynamics, ArrowError, ArrowGeometry, ArrowMasses,
+    ForwardConfig, Pose,
 };
 use kerf::{Float, Real};
 
 /// The pyramid of A fig. 26–27 as the G-code file the firmware image carries.
-pub const PYRAMID_GCODE: &str = include_str!("../../app/data/pyramid.gcode");
+pub const PYRAMID_GCODE: &str = include_str!("../../../data/pyramid.gcode");
 
 /// The smoke run's bounds: A table 3's Cartesian figures (eq. 55, 56), which the
 /// host's f64 run of the same scenario meets with margin (README).
@@ -116,7 +117,7 @@ pub struct ArrowPeriod<T> {
     /// θx desired, rad.
     pub theta_x_rad: T,
     /// Encoders minus the joint references (eq. 57's q̃), m.
-    pub joint_error_m: Joints<T>,
+    pub joint_error_m: ActuatorVector<T>,
     /// Table motors minus their references (eq. 58's q̃), rad.
     pub table_error_rad: [T; 2],
     /// X̃ = Jm⁺ q̃ (eq. 13): the Cartesian error the encoders show, as the seed
@@ -124,7 +125,7 @@ pub struct ArrowPeriod<T> {
     pub cartesian_error: Pose<T>,
     /// Rm q̃ = Jm X̃ (eq. 38): the joints' error that moves the plate; the rest is
     /// the geometric error's inconsistency, which the regularized law leaves alone.
-    pub joint_error_consistent_m: Joints<T>,
+    pub joint_error_consistent_m: ActuatorVector<T>,
     /// θx error from the table motors, (q̃T1 − q̃T2)/2, rad.
     pub theta_x_error_rad: T,
     /// The plate's true pose minus the desired one.

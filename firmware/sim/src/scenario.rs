@@ -12,10 +12,10 @@ use kerf::app::delta_slave::DeltaSlaveConfig;
 use kerf::app::joints::{JointFault, JointJob, Joints, JointsConfig, Segment};
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::app::PeriodClock;
-use kerf::control::pd::Reference;
 use kerf::hal::{Monotonic, SampleInputs, WriteOutputs};
 use kerf::sensing::hall::SelfCalibration;
 use kerf::trajectory::quintic::Quintic;
+use kerf::trajectory::Reference;
 use kerf::{ConfigContext, ConfigError, Real};
 
 pub use crate::operator::{

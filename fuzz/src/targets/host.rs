@@ -1,5 +1,5 @@
 //! The host tool's readers of what comes from outside: the machine link's reader
-//! (`host_reader`, `kerf_host::link::Machine`), the telemetry log it fills
+//! (`host_reader`, `kerf_host::link::MachineLink`), the telemetry log it fills
 //! (`telemetry_log`) and the planner's image input (`plan_image`).
 
 use crate::input::{same_bits, Input, Seed};
@@ -12,7 +12,7 @@ use kerf::codec::link::{
 };
 use kerf_host::description::ChannelInfo;
 use kerf_host::job::Job;
-use kerf_host::link::{Heard, Machine};
+use kerf_host::link::{Heard, MachineLink};
 use kerf_host::plan::{plan_image as plan, Format, PlanConfig};
 use kerf_host::telemetry::TelemetryLog;
 use std::io::Cursor;
@@ -27,7 +27,7 @@ pub fn host_reader(data: &[u8]) -> usize {
     let delimiters = data.iter().filter(|&&b| b == 0).count() as u32;
     let reader = Box::new(Cursor::new(data.to_vec()));
     let Ok(mut machine) =
-        Machine::connect(reader, Box::new(std::io::sink()), Duration::from_secs(5))
+        MachineLink::connect(reader, Box::new(std::io::sink()), Duration::from_secs(5))
     else {
         return 0;
     };

@@ -13,7 +13,7 @@
 #![no_std]
 
 use kerf::scalar::sin_cos_f32;
-use kerf::trajectory::efd::EfdSample;
+use kerf::trajectory::curve::CurveSample;
 use microfft::Complex32;
 
 /// Orthonormal DCT-II of N = 32 or 64 samples through microfft's real FFT.
@@ -107,7 +107,7 @@ pub fn printer_inverse(towers: &[Tower; 3], p: [f32; 3], sqrt: impl Fn(f32) -> f
 }
 
 /// kerf's EFD sample in [`efd_direct`]'s layout (x, y; then d1, d2, d3), to compare.
-pub fn efd_sample_flat(s: &EfdSample<f32>) -> [f32; 8] {
+pub fn efd_sample_flat(s: &CurveSample<f32>) -> [f32; 8] {
     [
         s.position.x,
         s.position.y,

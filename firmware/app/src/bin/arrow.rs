@@ -1,4 +1,4 @@
-//! QEMU ARROW run: the pyramid of A §5 (`firmware/app/data/pyramid.gcode`, carried in
+//! QEMU ARROW run: the pyramid of A §5 (`data/pyramid.gcode`, carried in
 //! the image) parsed and checked on the MCU into a job, then machined by
 //! `ArrowMachine<f32>` through the supervisor at 5 kHz against the simulated ARROW
 //! (with its geometric error, one RK4 step per period: `kerf_sim::arrow`), the whole

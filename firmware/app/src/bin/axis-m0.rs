@@ -17,8 +17,8 @@
 use cortex_m_semihosting::hprintln;
 use hal_mock::axis::SimulatedAxis;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, AxisStatus, HallAxis};
-use kerf::control::pd::Reference;
 use kerf::hal::SampleInputs;
+use kerf::trajectory::Reference;
 use kerf::{Real, Q6_25};
 use kerf_app::exit;
 use kerf_app::stack::Painted;

@@ -48,7 +48,8 @@ use kerf_sim::scenario::{
     REPORT_CAPACITY, RMS_ERROR_BOUND_M, TS_S,
 };
 
-type Machine = Joints<f32, 1>;
+/// The machine the image runs: the single LM1247 axis.
+type AxisMachine = Joints<f32, 1>;
 
 /// SysTick reload in ticks of the 25 MHz model clock: 8 ms of guest time. Under
 /// `-icount shift=0` one instruction takes 1 ns, so a tick is 40 instructions and a
@@ -257,8 +258,8 @@ impl Console {
 #[embassy_executor::task]
 async fn operator_task(
     mut operator: AxisOperator<f32>,
-    mut send: Producer<'static, Command<Machine>>,
-    mut receive: Consumer<'static, Report<Machine>>,
+    mut send: Producer<'static, Command<AxisMachine>>,
+    mut receive: Consumer<'static, Report<AxisMachine>>,
 ) {
     let mut console = Console::open();
     let mut printed_fit = false;
@@ -320,8 +321,8 @@ fn main() -> ! {
         scenario.machine.axis.pd.kp_per_s2 *= 0.01;
     }
     let (Some(commands), Some(reports)) = (
-        cortex_m::singleton!(: Queue<Command<Machine>, COMMAND_CAPACITY> = Queue::new()),
-        cortex_m::singleton!(: Queue<Report<Machine>, REPORT_CAPACITY> = Queue::new()),
+        cortex_m::singleton!(: Queue<Command<AxisMachine>, COMMAND_CAPACITY> = Queue::new()),
+        cortex_m::singleton!(: Queue<Report<AxisMachine>, REPORT_CAPACITY> = Queue::new()),
     ) else {
         exit(false)
     };

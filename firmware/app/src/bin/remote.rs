@@ -1,6 +1,6 @@
 //! QEMU remote slave: the slave side of remote machining (`RemoteSlave<f32>` on the
 //! simulated Keops delta, `kerf_sim::remote`) fed the command frames a host run of the
-//! remote scenario recorded (`firmware/app/data/remote_commands.krfr`: 20 ± 10 ms,
+//! remote scenario recorded (`data/remote_commands.krfr`: 20 ± 10 ms,
 //! scale 0.5, 4 s of the master's job), each at the period it reached the slave there.
 //! The slave calibrates its Hall sensors, approaches its start, then follows. The run
 //! prints its tracking against the recorded scaled master in a fixed format and exits
@@ -16,7 +16,7 @@ use kerf_app::exit;
 use kerf_sim::remote::{replay, REPLAY_BOUNDS_M};
 
 /// The recorded frames (host-tests `remote_replay` regenerates and checks them).
-static RECORDING: &[u8] = include_bytes!("../../data/remote_commands.krfr");
+static RECORDING: &[u8] = include_bytes!("../../../../data/remote_commands.krfr");
 
 #[entry]
 fn main() -> ! {

@@ -8,7 +8,7 @@
 //!
 //! ```
 //! use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, AxisStatus, HallAxis};
-//! use kerf::control::pd::Reference;
+//! use kerf::trajectory::Reference;
 //! use kerf::sensing::hall::HallConfig;
 //!
 //! // The LM1247 law at 10 kHz, one sensor set, an axis homed at 4 mm.
@@ -29,11 +29,12 @@
 //! ```
 
 use crate::control::dob::{Dob, DobConfig, DobState};
-use crate::control::pd::{Pd, PdConfig, Reference};
+use crate::control::pd::{Pd, PdConfig};
 use crate::error::{factor, ConfigContext, ConfigError};
 use crate::scalar::Real;
 use crate::sensing::hall::{HallConfig, HallDecoder, HallFault, HallState};
 use crate::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
+use crate::trajectory::Reference;
 
 /// The control law of one axis, in SI units; [`AxisConfig::LM1247_SLAVE`] is the seed's
 /// slave motor. The control period is not here: the machine gives it once.

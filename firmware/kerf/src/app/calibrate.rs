@@ -27,12 +27,12 @@
 
 use crate::app::axis::HallAxis;
 use crate::app::supervisor::Machine;
-use crate::control::pd::Reference;
 use crate::error::{coefficient, factor, positive, ConfigError};
 use crate::scalar::Real;
 use crate::sensing::hall::{
     CalibrationError, HallCalibration, HallCalibrator, HallConfig, SelfCalibration,
 };
+use crate::trajectory::Reference;
 
 /// Raw samples kept per axis (two coasts of at most half of it each).
 pub const CALIBRATION_SAMPLES: usize = 512;

@@ -16,11 +16,11 @@ use crate::app::calibrate::{
     COAST_BOUND_M,
 };
 use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
-use crate::control::pd::Reference;
 use crate::error::{factor, in_range, positive, representable_each, ConfigContext, ConfigError};
 use crate::scalar::Real;
 use crate::sensing::hall::{HallConfig, SelfCalibration};
 use crate::trajectory::quintic::Quintic;
+use crate::trajectory::Reference;
 
 mod job;
 pub use job::{JointJob, Segment, MAX_SEGMENTS};

@@ -34,12 +34,13 @@ use crate::app::delta_slave::{DeltaFault, DeltaSlave, DeltaSlaveConfig, DeltaTel
 use crate::app::joints::{JobError, JointJob, Segment};
 use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
 use crate::control::laser::LaserMode;
-use crate::control::pd::{Pd, PdConfig, Reference};
+use crate::control::pd::{Pd, PdConfig};
 use crate::error::{positive, ConfigContext, ConfigError, ConfigErrorKind};
 use crate::hal::ForceAndLaser;
 use crate::kinematics::delta::KinematicsError;
 use crate::scalar::{lit, Float};
 use crate::sensing::hall::{HallConfig, SelfCalibration};
+use crate::trajectory::Reference;
 use nalgebra::Vector3;
 
 /// What the master sends for one link sample.

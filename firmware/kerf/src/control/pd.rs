@@ -3,6 +3,7 @@
 
 use crate::error::{factor, positive, ConfigError};
 use crate::scalar::Real;
+use crate::trajectory::Reference;
 
 /// PD gains, usually designed from a closed-loop bandwidth with [`PdConfig::critically_damped`].
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -21,17 +22,6 @@ impl PdConfig {
             kd_per_s: 2.0 * bandwidth_rad_s,
         }
     }
-}
-
-/// One axis' reference sample for a period.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub struct Reference<T> {
-    /// Position in m.
-    pub position: T,
-    /// Velocity in m/s.
-    pub velocity: T,
-    /// Acceleration in m/s².
-    pub acceleration: T,
 }
 
 /// PD law with gains in the scalar `T` (coefficients only: the law has no state).

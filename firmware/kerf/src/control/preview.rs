@@ -22,9 +22,9 @@
 //! settles KP2·Ts·q̈ref/KP1 ahead of the reference (at 40 Hz and 10 kHz, 0.8 µm per
 //! m/s²). Plain PD with the exact feedforward settles on it.
 
-use crate::control::pd::Reference;
 use crate::error::{coefficient, positive, ConfigError};
 use crate::scalar::Real;
+use crate::trajectory::Reference;
 
 /// The sliding-surface design of the law, per joint.
 #[derive(Copy, Clone, Debug, PartialEq)]

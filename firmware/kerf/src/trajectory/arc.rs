@@ -3,7 +3,7 @@
 //! the contour follower ([`super::tangential`]) and the constant-feed path
 //! ([`super::feed`]).
 
-use super::efd::gauss3;
+use super::quadrature::gauss3;
 use super::{lit, Float};
 
 /// Δθ such that the arc from θ to θ + Δθ is `ds`: the second-order Taylor inverse

@@ -14,24 +14,11 @@
 //! sin kθ come from the angle-addition recurrence (one `sin` and one `cos` per call
 //! instead of 2n), whose error grows only linearly in k.
 
-use super::tangential::Curve;
+use super::curve::{Curve, CurveSample};
 use super::{check_finite, lit, to_f64, ContourError, Float};
 use crate::error::{representable, ConfigError};
 use core::f64::consts::PI;
 use nalgebra::Vector2;
-
-/// Position and derivatives of an EFD curve at one θ, relative to its centre.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub struct EfdSample<T: Float> {
-    /// C(θ) − (a0, c0), m.
-    pub position: Vector2<T>,
-    /// dC/dθ, m/rad.
-    pub d1: Vector2<T>,
-    /// d²C/dθ², m/rad².
-    pub d2: Vector2<T>,
-    /// d³C/dθ³, m/rad³.
-    pub d3: Vector2<T>,
-}
 
 /// An n-harmonic EFD curve with capacity `N` harmonics. `Copy`, so that a job's curve
 /// is copied in place (a plain memory copy, no stack temporary).
@@ -319,7 +306,7 @@ impl<T: Float, const N: usize> Efd<T, N> {
     /// A NaN or ±∞ θ passes through to the sample (a pure kernel; the follower checks
     /// its own steps). Every finite θ gives a finite sample: the constructors refuse
     /// coefficients whose derivatives would overflow `T`.
-    pub fn evaluate(&self, theta: T) -> EfdSample<T> {
+    pub fn evaluate(&self, theta: T) -> CurveSample<T> {
         let (s1, c1) = theta.fsin_cos();
         let (mut ck, mut sk) = (c1, s1);
         let mut k = T::ZERO;
@@ -337,7 +324,7 @@ impl<T: Float, const N: usize> Efd<T, N> {
             d3 -= v * (k2 * k);
             (ck, sk) = (ck * c1 - sk * s1, sk * c1 + ck * s1);
         }
-        EfdSample {
+        CurveSample {
             position: p,
             d1,
             d2,
@@ -381,12 +368,22 @@ impl<T: Float, const N: usize> Efd<T, N> {
     }
 }
 
-/// ∫₀ʰ f(u) du by 3-point Gauss–Legendre (nodes h/2 ± (h/2)√(3/5), weights 5/18, 8/18).
-#[inline]
-pub(crate) fn gauss3<T: Float>(h: T, f: impl Fn(T) -> T) -> T {
-    let half = h * lit(0.5);
-    let off = half * lit(0.774_596_669_241_483_4);
-    (f(half - off) * lit(5.0) + f(half) * lit(8.0) + f(half + off) * lit(5.0)) * (half / lit(9.0))
+impl<T: Float, const N: usize> Curve<T> for Efd<T, N> {
+    fn evaluate(&self, theta: T) -> CurveSample<T> {
+        Efd::evaluate(self, theta)
+    }
+    fn tangent(&self, theta: T) -> Vector2<T> {
+        Efd::tangent(self, theta)
+    }
+    fn span(&self) -> T {
+        lit(2.0 * PI)
+    }
+    fn is_closed(&self) -> bool {
+        true
+    }
+    fn pieces(&self) -> usize {
+        self.harmonics()
+    }
 }
 
 #[cfg(test)]

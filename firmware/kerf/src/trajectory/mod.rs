@@ -2,8 +2,9 @@
 //!
 //! Contour references follow T ch. 3 as restated in docs/equations.md §10–16:
 //! [`efd`] (closed contours as elliptic Fourier descriptors), [`open_path`] (open
-//! contours as a C² spline in chord length), [`tangential`] (constant tangential speed
-//! along either curve, with a jerk-limited start and stop),
+//! contours as a C² spline in chord length), [`curve`] (what both are to a follower:
+//! position and derivatives, arc length, curvature), [`tangential`] (constant
+//! tangential speed along either curve, with a jerk-limited start and stop),
 //! [`resample`] (open contours: quadratic densification and arc-length resampling),
 //! [`spline`] (joint references: IK of the samples and a C² cubic spline in time),
 //! [`constraint`] (circle/line motion constraints for manual machining), [`shapes`]
@@ -13,10 +14,12 @@
 
 mod arc;
 pub mod constraint;
+pub mod curve;
 pub mod efd;
 pub mod feed;
 pub mod gcode;
 pub mod open_path;
+mod quadrature;
 pub mod quintic;
 pub mod resample;
 pub mod shapes;
@@ -28,6 +31,19 @@ use crate::error::ConfigError;
 
 pub use crate::scalar::Float;
 pub(crate) use crate::scalar::{lit, to_f64};
+
+/// One axis' reference sample for a period: what a trajectory produces (a [`quintic`]
+/// move, a machine's sample of its path) and a tracking law
+/// ([`control::pd`](crate::control::pd)) follows.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Reference<T> {
+    /// Position in m.
+    pub position: T,
+    /// Velocity in m/s.
+    pub velocity: T,
+    /// Acceleration in m/s².
+    pub acceleration: T,
+}
 
 /// Why a contour, a speed or a joint map was rejected.
 #[derive(Copy, Clone, Debug, PartialEq)]

@@ -15,8 +15,7 @@
 //! t = u − ui: x = xi + si t + Mi t²/2 + (Mi+1 − Mi) t³/(6hi), with the knot slope
 //! si = (xi+1 − xi)/hi − hi(2Mi + Mi+1)/6.
 
-use super::efd::EfdSample;
-use super::tangential::Curve;
+use super::curve::{Curve, CurveSample};
 use super::{lit, ContourError, Float};
 use crate::error::{representable, ConfigError};
 use nalgebra::{SVector, Vector2};
@@ -230,11 +229,11 @@ pub(crate) fn solve_natural<const D: usize, const N: usize>(
 impl<T: Float, const N: usize> Curve<T> for OpenPath<T, N> {
     /// Position (relative to the centroid) and derivatives in u; outside [0, end] the
     /// end segments' cubics continue.
-    fn evaluate(&self, u: T) -> EfdSample<T> {
+    fn evaluate(&self, u: T) -> CurveSample<T> {
         let i = self.segment(u);
         let (Some(a), Some(b)) = (self.knots().get(i), self.knots().get(i + 1)) else {
             let zero = Vector2::new(T::ZERO, T::ZERO);
-            return EfdSample {
+            return CurveSample {
                 position: zero,
                 d1: zero,
                 d2: zero,
@@ -247,7 +246,7 @@ impl<T: Float, const N: usize> Curve<T> for OpenPath<T, N> {
         let half = lit::<T>(0.5);
         let jerk = (b.m - a.m) / h;
         let slope = (b.p - a.p) / h - (a.m * lit::<T>(2.0) + b.m) * (h / six);
-        EfdSample {
+        CurveSample {
             position: a.p + slope * t + a.m * (half * t * t) + jerk * (t * t * t / six),
             d1: slope + a.m * t + jerk * (half * t * t),
             d2: a.m + jerk * t,

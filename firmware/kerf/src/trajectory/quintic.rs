@@ -2,7 +2,7 @@
 //! s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ (zero velocity and acceleration at both ends).
 //! Peak velocity 1.875 D/T, peak acceleration 5.7735 D/T².
 
-use crate::control::pd::Reference;
+use super::Reference;
 use crate::error::{coefficient, positive, representable, ConfigError};
 use crate::scalar::Real;
 

@@ -20,7 +20,8 @@
 //! V²·κmax does not exceed the acceleration limit ([`max_speed_m_s`]).
 
 use super::arc::{arc_step, parameter_rates};
-use super::efd::{gauss3, Efd, EfdSample};
+use super::curve::{Curve, CurveSample};
+use super::efd::Efd;
 use super::{lit, to_f64, ContourError, Float};
 use crate::error::{positive, representable, ConfigError};
 use crate::scalar::norm;
@@ -267,98 +268,6 @@ impl<T: Float> SpeedRamp<T> {
     }
 }
 
-/// A planar curve a [`CurveFollower`] can step along: position and derivatives at a
-/// parameter θ over a span — an EFD (closed, θ ∈ [0, 2π), wrapping) or an
-/// [`OpenPath`](super::open_path::OpenPath) (open, θ = chord length from 0 to its end).
-pub trait Curve<T: Float> {
-    /// Position (relative to the curve's centre) and its first three θ-derivatives.
-    fn evaluate(&self, theta: T) -> EfdSample<T>;
-    /// dC/dθ alone (cheaper where the curve allows; used for arc length).
-    fn tangent(&self, theta: T) -> Vector2<T>;
-    /// Where θ ends: 2π for a closed curve (θ wraps there), the end of an open one.
-    fn span(&self) -> T;
-    /// Whether θ wraps at [`Curve::span`] (closed) or stops there (open).
-    fn is_closed(&self) -> bool;
-    /// Pieces of the curve (harmonics, segments): sets how finely the whole-curve
-    /// checks sample it.
-    fn pieces(&self) -> usize;
-
-    /// Arc length from θ0 to θ1 (m): `intervals` panels of 3-point Gauss–Legendre.
-    fn arc_length(&self, theta0: T, theta1: T, intervals: usize) -> T {
-        let n = intervals.max(1);
-        let h = (theta1 - theta0) / lit(n as f64);
-        let mut sum = T::ZERO;
-        for i in 0..n {
-            let a = theta0 + h * lit(i as f64);
-            sum += gauss3(h, |u| self.tangent(a + u).norm());
-        }
-        sum
-    }
-
-    /// Signed curvature κ(θ) = (x′y″ − y′x″)/|C′|³ (1/m); zero where |C′| = 0.
-    fn curvature(&self, theta: T) -> T {
-        let s = self.evaluate(theta);
-        let speed = s.d1.norm();
-        if speed > T::ZERO {
-            s.d1.perp(&s.d2) / (speed * speed * speed)
-        } else {
-            T::ZERO
-        }
-    }
-
-    /// Largest |κ| over the span (1/m): `samples` equal θ steps, the best refined by
-    /// golden-section search over its two neighbouring steps (kept inside the span).
-    fn max_curvature(&self, samples: usize) -> T {
-        let curvature = |theta: T| self.curvature(theta).abs();
-        let n = samples.max(8);
-        let span = self.span();
-        let h = span / lit(n as f64);
-        let last = if self.is_closed() { n - 1 } else { n };
-        let mut best = (T::ZERO, T::ZERO);
-        for i in 0..=last {
-            let th = h * lit(i as f64);
-            let k = curvature(th);
-            if k > best.0 {
-                best = (k, th);
-            }
-        }
-        let (mut lo, mut hi) = (best.1 - h, best.1 + h);
-        if !self.is_closed() {
-            lo = lo.max(T::ZERO);
-            hi = hi.min(span);
-        }
-        let g = lit::<T>(0.618_033_988_749_894_8);
-        for _ in 0..40 {
-            let m1 = hi - (hi - lo) * g;
-            let m2 = lo + (hi - lo) * g;
-            if curvature(m1) > curvature(m2) {
-                hi = m2;
-            } else {
-                lo = m1;
-            }
-        }
-        best.0.max(curvature((lo + hi) * lit(0.5)))
-    }
-}
-
-impl<T: Float, const N: usize> Curve<T> for Efd<T, N> {
-    fn evaluate(&self, theta: T) -> EfdSample<T> {
-        Efd::evaluate(self, theta)
-    }
-    fn tangent(&self, theta: T) -> Vector2<T> {
-        Efd::tangent(self, theta)
-    }
-    fn span(&self) -> T {
-        lit(2.0 * PI)
-    }
-    fn is_closed(&self) -> bool {
-        true
-    }
-    fn pieces(&self) -> usize {
-        self.harmonics()
-    }
-}
-
 /// Highest constant tangential speed a curve allows under `accel_limit_m_s2`:
 /// √(A/κmax), with κmax from [`Curve::max_curvature`] over `64·pieces` samples (at
 /// least 1024; +∞ only for a curve without curvature).
@@ -474,7 +383,7 @@ pub struct CurveFollower<T: Float, C> {
     ramp: SpeedRamp<T>,
     theta: T,
     laps: u32,
-    sample: EfdSample<T>,
+    sample: CurveSample<T>,
     /// Arc length owed from rounding θ (added to the next step), m.
     carry: T,
     /// 2π − (2π rounded to T), rad: the wrap of θ moves the curve by this much.
@@ -537,7 +446,7 @@ impl<T: Float, C: Curve<T>> CurveFollower<T, C> {
             ramp: SpeedRamp::new(&config.ramp)?,
             theta: T::ZERO,
             laps: 0,
-            sample: EfdSample {
+            sample: CurveSample {
                 position: zero,
                 d1: zero,
                 d2: zero,

@@ -21,9 +21,9 @@
 //! p = pi + si t + Mi t²/2 + (Mi+1 − Mi) t³/(6hi), si = (pi+1 − pi)/hi − hi(2Mi + Mi+1)/6
 //! — A eq. 48 with a = pi, b = si, c = Mi/2, d = (Mi+1 − Mi)/(6hi).
 
-use super::efd::gauss3;
 use super::gcode::GcodePoint;
 use super::open_path::{solve_natural, Knot};
+use super::quadrature::gauss3;
 use super::{lit, Float};
 use crate::error::ConfigError;
 use nalgebra::SVector;

@@ -385,13 +385,14 @@ pub fn arrow_rows(counter: &mut Counter) {
             theta_x_accel_rad_s2: 0.5,
         }
     });
-    let joints64: [kerf::kinematics::arrow::Joints<f64>; INPUTS] = core::array::from_fn(|k| {
-        law64
-            .geometry
-            .inverse(&desired64[k].pose)
-            .unwrap_or_else(|_| exit(false))
-            .map(|q| q + 20e-6)
-    });
+    let joints64: [kerf::kinematics::arrow::ActuatorVector<f64>; INPUTS] =
+        core::array::from_fn(|k| {
+            law64
+                .geometry
+                .inverse(&desired64[k].pose)
+                .unwrap_or_else(|_| exit(false))
+                .map(|q| q + 20e-6)
+        });
     let desired32 = desired64.map(|d| ArrowDesired {
         pose: d.pose.map(|v| v as f32),
         rate: d.rate.map(|v| v as f32),

@@ -25,7 +25,7 @@
 //! the G-code line of the move that goes there.
 
 use crate::error::{positive, ConfigError};
-use crate::kinematics::arrow::{ArrowError, ArrowGeometry, Joints, Pose};
+use crate::kinematics::arrow::{ActuatorVector, ArrowError, ArrowGeometry, Pose};
 use crate::scalar::{lit, to_f64, Float};
 use crate::trajectory::feed::{FeedError, FeedLimits, FeedPlan};
 use crate::trajectory::gcode::{parse, GcodeErrorKind, GcodePoint, MoveKind};
@@ -174,7 +174,7 @@ pub struct ArrowJob<T: Float, const N: usize, const R: usize> {
     count: usize,
     start: Pose<T>,
     start_theta_x_rad: T,
-    start_joints_m: Joints<T>,
+    start_joints_m: ActuatorVector<T>,
     period_s: f64,
 }
 
@@ -185,7 +185,7 @@ impl<T: Float, const N: usize, const R: usize> Default for ArrowJob<T, N, R> {
             count: 0,
             start: Pose::zeros(),
             start_theta_x_rad: T::zero(),
-            start_joints_m: Joints::zeros(),
+            start_joints_m: ActuatorVector::zeros(),
             period_s: 0.0,
         }
     }
@@ -229,7 +229,7 @@ impl<T: Float, const N: usize, const R: usize> ArrowJob<T, N, R> {
     }
 
     /// The joints at the start on the nominal model, m.
-    pub fn start_joints_m(&self) -> &Joints<T> {
+    pub fn start_joints_m(&self) -> &ActuatorVector<T> {
         &self.start_joints_m
     }
 

@@ -26,7 +26,7 @@ use crate::app::supervisor::{
     first_non_finite_index, FiniteOutputs, Machine, NonFiniteOutput, Step,
 };
 use crate::error::{coefficient, positive, ConfigError};
-use crate::kinematics::arrow::{Joints, Pose};
+use crate::kinematics::arrow::{ActuatorVector, Pose};
 use crate::scalar::Float;
 use crate::trajectory::feed::FeedFollower;
 
@@ -34,7 +34,7 @@ use crate::trajectory::feed::FeedFollower;
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ArrowInputs<T> {
     /// Linear actuator positions q_1 … q_6, m.
-    pub joints_m: Joints<T>,
+    pub joints_m: ActuatorVector<T>,
     /// Turntable motor angles q_T1, q_T2, rad.
     pub table_rad: [T; 2],
 }
@@ -43,7 +43,7 @@ pub struct ArrowInputs<T> {
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ArrowOutputs<T> {
     /// Linear actuator forces, N.
-    pub forces_n: Joints<T>,
+    pub forces_n: ActuatorVector<T>,
     /// Turntable motor torques, N·m.
     pub torques_n_m: [T; 2],
 }
@@ -135,7 +135,7 @@ pub struct ArrowTelemetry<T> {
     /// θx desired, rad.
     pub theta_x_rad: T,
     /// Joint tracking errors (reference − measured), m.
-    pub joint_error_m: Joints<T>,
+    pub joint_error_m: ActuatorVector<T>,
     /// Table tracking error of motor 1, rad.
     pub table_error_rad: T,
     /// The commands of the period.
@@ -180,7 +180,7 @@ impl<T: Float, const N: usize, const R: usize> ArrowMachine<T, N, R> {
             ],
         };
         let zero = ArrowOutputs {
-            forces_n: Joints::zeros(),
+            forces_n: ActuatorVector::zeros(),
             torques_n_m: [T::zero(); 2],
         };
         Ok(Self {
@@ -195,7 +195,7 @@ impl<T: Float, const N: usize, const R: usize> ArrowMachine<T, N, R> {
                 move_index: 0,
                 desired: Pose::zeros(),
                 theta_x_rad: T::zero(),
-                joint_error_m: Joints::zeros(),
+                joint_error_m: ActuatorVector::zeros(),
                 table_error_rad: T::zero(),
                 outputs: zero,
                 saturated: false,
@@ -211,7 +211,7 @@ impl<T: Float, const N: usize, const R: usize> ArrowMachine<T, N, R> {
     /// The index of the first of the eight encoders (six actuators, two table motors)
     /// whose |value| exceeds its bound (`bounds[0]` for the actuators, `[1]` for the
     /// table).
-    fn first_beyond(joints: &Joints<T>, table: &[T; 2], bounds: [T; 2]) -> Option<u8> {
+    fn first_beyond(joints: &ActuatorVector<T>, table: &[T; 2], bounds: [T; 2]) -> Option<u8> {
         let [linear, angular] = bounds;
         let actuators = joints.iter().map(|v| (*v, linear));
         let motors = table.iter().map(|v| (*v, angular));
@@ -290,7 +290,7 @@ impl<T: Float, const N: usize, const R: usize> Machine for ArrowMachine<T, N, R>
 
     fn safe_outputs(&self) -> ArrowOutputs<T> {
         ArrowOutputs {
-            forces_n: Joints::zeros(),
+            forces_n: ActuatorVector::zeros(),
             torques_n_m: [T::zero(); 2],
         }
     }

@@ -12,7 +12,7 @@ pub mod machine;
 pub mod product;
 
 use crate::control::redundant_pid::{Factored, RedundantPid, RedundantPidError, RedundantPidState};
-use crate::kinematics::arrow::{ArrowDynamics, ArrowError, ArrowGeometry, Joints, Pose};
+use crate::kinematics::arrow::{ActuatorVector, ArrowDynamics, ArrowError, ArrowGeometry, Pose};
 use crate::scalar::{lit, Float};
 use nalgebra::{Matrix2, Vector2};
 
@@ -35,13 +35,13 @@ pub struct ArrowDesired<T> {
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ArrowCommand<T> {
     /// Linear actuator forces, N.
-    pub forces_n: Joints<T>,
+    pub forces_n: ActuatorVector<T>,
     /// Turntable motor torques, N·m.
     pub torques_n_m: [T; 2],
     /// Whether an output is at its limit.
     pub saturated: bool,
     /// The joint references of the desired pose on the nominal model (eq. 7), m.
-    pub joints_ref_m: Joints<T>,
+    pub joints_ref_m: ActuatorVector<T>,
 }
 
 /// Why a period has no command.
@@ -94,7 +94,7 @@ impl<T: Float> ArrowLaw<T> {
         &self,
         state: &mut ArrowLoopState<T>,
         desired: &ArrowDesired<T>,
-        joints_m: &Joints<T>,
+        joints_m: &ActuatorVector<T>,
         table_rad: [T; 2],
     ) -> Result<ArrowCommand<T>, ArrowPeriodError> {
         let model = ArrowPeriodError::Model;
@@ -122,7 +122,7 @@ impl<T: Float> ArrowLaw<T> {
                 .map_err(model)?
                 .forces_n
         } else {
-            Joints::zeros()
+            ActuatorVector::zeros()
         };
         let out = self
             .parallel

@@ -33,17 +33,18 @@ use crate::app::supervisor::{Machine, Step};
 use crate::control::contouring::ContouringError;
 use crate::control::contouring::{ContouringConfig, TaskReference};
 use crate::control::laser::{Laser, LaserMode};
-use crate::control::pd::Reference;
 use crate::control::preview::{PreviewConfig, PreviewWindow};
 use crate::error::{positive, ConfigError};
 use crate::kinematics::delta::DeltaGeometry;
 use crate::scalar::{lit, norm, Float};
-use crate::trajectory::efd::{Efd, EfdSample};
+use crate::trajectory::curve::{Curve, CurveSample};
+use crate::trajectory::efd::Efd;
 use crate::trajectory::open_path::OpenPath;
 use crate::trajectory::tangential::{
-    ContourReference, Curve, CurveFollower, FollowerConfig, SpeedRamp, SpeedRampConfig,
+    ContourReference, CurveFollower, FollowerConfig, SpeedRamp, SpeedRampConfig,
 };
 use crate::trajectory::ContourError;
+use crate::trajectory::Reference;
 use core::f64::consts::PI;
 use nalgebra::Vector3;
 
@@ -83,7 +84,7 @@ pub(super) enum PathCurve<T: Float> {
 }
 
 impl<T: Float> Curve<T> for PathCurve<T> {
-    fn evaluate(&self, theta: T) -> EfdSample<T> {
+    fn evaluate(&self, theta: T) -> CurveSample<T> {
         match self {
             Self::Closed(c) => Curve::evaluate(c, theta),
             Self::Open(c) => c.evaluate(theta),

@@ -1,10 +1,10 @@
 //! One straight effector move and the joint references it gives (T eq. 146).
 
-use crate::control::pd::Reference;
 use crate::error::ConfigError;
 use crate::kinematics::delta::{DeltaGeometry, KinematicsError};
 use crate::scalar::Float;
 use crate::trajectory::quintic::Quintic;
+use crate::trajectory::Reference;
 use nalgebra::Vector3;
 
 /// Joint references from the effector's position, velocity and acceleration

@@ -524,7 +524,7 @@ mod tests {
             saturated: false,
             status: crate::app::axis::AxisStatus::Running,
         };
-        let still = crate::control::pd::Reference {
+        let still = crate::trajectory::Reference {
             position: 0.0,
             velocity: 0.0,
             acceleration: 0.0,

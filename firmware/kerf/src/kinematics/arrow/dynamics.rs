@@ -19,7 +19,7 @@
 //! Γ_T2 = −Γ_T1; the springs balance gravity.
 
 use super::velocity::{ForwardJacobian, InverseJacobian};
-use super::{ArrowError, ArrowGeometry, Joints, Pose, ACTUATORS};
+use super::{ActuatorVector, ArrowError, ArrowGeometry, Pose, ACTUATORS};
 use crate::error::{positive, ConfigError};
 use crate::scalar::{lit, Float};
 use nalgebra::Matrix4;
@@ -94,7 +94,7 @@ type PlateTerms<T> = (Matrix4<T>, Pose<T>);
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Feedforward<T> {
     /// Minimum-norm actuator forces Γ, N.
-    pub forces_n: Joints<T>,
+    pub forces_n: ActuatorVector<T>,
     /// The first actuator (`0..6`) whose force exceeds the limit, if any: the
     /// trajectory asks more than the machine has, and the feedforward alone cannot
     /// be applied.
@@ -219,7 +219,7 @@ impl<T: Float> ArrowDynamics<T> {
         acceleration: &Pose<T>,
     ) -> Result<Pose<T>, ArrowError> {
         let q_accel = jm * acceleration + jm_dot * rate;
-        let ma_q_accel = q_accel.component_mul(&Joints::from(self.actuator_kg));
+        let ma_q_accel = q_accel.component_mul(&ActuatorVector::from(self.actuator_kg));
         let turn = ArrowGeometry::turn(pose)?;
         Ok(self.plate_matrix(turn) * acceleration
             + jm.tr_mul(&ma_q_accel)
@@ -233,7 +233,7 @@ impl<T: Float> ArrowDynamics<T> {
         geometry: &ArrowGeometry<T>,
         pose: &Pose<T>,
         rate: &Pose<T>,
-        forces_n: &Joints<T>,
+        forces_n: &ActuatorVector<T>,
     ) -> Result<Pose<T>, ArrowError> {
         let (_, jm, jm_dot) = geometry.differential(pose, Some(rate))?;
         let (mass, velocity) = self.terms(&jm, &jm_dot, pose, rate)?;
@@ -337,7 +337,9 @@ mod tests {
     #[test]
     fn free_motion_conserves_energy() {
         let (g, d) = model();
-        let f = |x: &Pose<f64>, v: &Pose<f64>| d.acceleration(&g, x, v, &Joints::zeros()).unwrap();
+        let f = |x: &Pose<f64>, v: &Pose<f64>| {
+            d.acceleration(&g, x, v, &ActuatorVector::zeros()).unwrap()
+        };
         let mut x = Pose::new(0.1, 0.5, 0.05, 0.2);
         let mut v = Pose::new(0.3, -0.2, 0.1, 1.5);
         let e0 = energy(&g, &d, &x, &v);
@@ -385,7 +387,7 @@ mod tests {
         assert!((printed - ff.forces_n).amax() < 1e-6 * ff.forces_n.amax());
         let svd = jm.svd(true, false);
         let u = svd.u.unwrap();
-        let mut inside = Joints::zeros();
+        let mut inside = ActuatorVector::zeros();
         for k in 0..4 {
             inside += u.column(k) * u.column(k).dot(&ff.forces_n);
         }

@@ -5,7 +5,7 @@
 //! q − IKM(X) is what no rigid pose explains, and a residual beyond the tolerance is
 //! reported ([`ArrowError::InconsistentJoints`]) instead of a pose.
 
-use super::{ArrowError, ArrowGeometry, Joints, Pose};
+use super::{ActuatorVector, ArrowError, ArrowGeometry, Pose};
 use crate::scalar::{lit, Float};
 
 /// How the forward solve stops.
@@ -35,7 +35,7 @@ impl<T: Float> ArrowGeometry<T> {
     /// The pose whose inverse kinematics best matches `q` (least squares), from `guess`.
     pub fn forward(
         &self,
-        q: &Joints<T>,
+        q: &ActuatorVector<T>,
         guess: &Pose<T>,
         config: &ForwardConfig,
     ) -> Result<Pose<T>, ArrowError> {
@@ -59,7 +59,7 @@ impl<T: Float> ArrowGeometry<T> {
 
     fn accept(
         &self,
-        q: &Joints<T>,
+        q: &ActuatorVector<T>,
         pose: Pose<T>,
         config: &ForwardConfig,
     ) -> Result<Pose<T>, ArrowError> {

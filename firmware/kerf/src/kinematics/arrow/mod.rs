@@ -57,8 +57,9 @@ use nalgebra::{SVector, Vector3, Vector4};
 /// Actuators of the parallel module.
 pub const ACTUATORS: usize = 6;
 
-/// Joint positions of the parallel module (q_1 … q_6), m.
-pub type Joints<T> = SVector<T, ACTUATORS>;
+/// One value per actuator of the parallel module, in actuator order: joint positions
+/// q_1 … q_6 (m), their errors, or the actuator forces (N).
+pub type ActuatorVector<T> = SVector<T, ACTUATORS>;
 
 /// The plate's pose X_PM = (x, y, z, θz): m, m, m, rad.
 pub type Pose<T> = Vector4<T>;
@@ -166,9 +167,9 @@ impl<T: Float> ArrowGeometry<T> {
     }
 
     /// Inverse kinematics of the parallel module (eq. 3–7).
-    pub fn inverse(&self, pose: &Pose<T>) -> Result<Joints<T>, ArrowError> {
+    pub fn inverse(&self, pose: &Pose<T>) -> Result<ActuatorVector<T>, ArrowError> {
         let turn = Self::turn(pose)?;
-        let mut q = Joints::zeros();
+        let mut q = ActuatorVector::zeros();
         // A bounded index range rather than `enumerate` (no counter overflow check).
         for (i, (arm, out)) in (0..self.arms.len()).zip(self.arms.iter().zip(q.iter_mut())) {
             *out = Self::closure(arm, pose, turn, i)?.q_m;

@@ -169,9 +169,9 @@ fn forward_solve_recovers_poses_and_refuses_inconsistent_joints() {
         let svd = jm.svd(true, false);
         let u = svd.u.unwrap();
         for joint in 0..6 {
-            let mut slip = Joints::zeros();
+            let mut slip = ActuatorVector::zeros();
             slip[joint] = 1e-3;
-            let mut inside = Joints::zeros();
+            let mut inside = ActuatorVector::zeros();
             for k in 0..4 {
                 inside += u.column(k) * u.column(k).dot(&slip);
             }

@@ -14,7 +14,7 @@
 //! Jm 6×4: the forward differential model is its pseudo-inverse Jm⁺ = (JmᵀJm)⁻¹Jmᵀ
 //! (eq. 14).
 
-use super::{Arm, ArmClosure, ArrowError, ArrowGeometry, Joints, Pose, ACTUATORS};
+use super::{ActuatorVector, Arm, ArmClosure, ArrowError, ArrowGeometry, Pose, ACTUATORS};
 use crate::scalar::{norm, Float};
 use nalgebra::{Matrix4, SMatrix, Vector3};
 
@@ -23,7 +23,7 @@ pub type InverseJacobian<T> = SMatrix<T, ACTUATORS, 4>;
 /// Jm⁺: 4 × 6.
 pub type ForwardJacobian<T> = SMatrix<T, 4, ACTUATORS>;
 /// Joint positions, Jm and J̇m at a pose ([`ArrowGeometry::differential`]).
-pub type Differential<T> = (Joints<T>, InverseJacobian<T>, InverseJacobian<T>);
+pub type Differential<T> = (ActuatorVector<T>, InverseJacobian<T>, InverseJacobian<T>);
 
 /// How far a pose is from each singularity of eq. 30–32, as sines of the angles whose
 /// zero is the singularity (1: as far as it gets; the maps fail below 1e-3).
@@ -85,7 +85,10 @@ impl<T: Float> ArrowGeometry<T> {
 
     /// Joint positions and Jm = Jq⁻¹ Jx at `pose` (eq. 7, 13). Errors on the
     /// singularities of eq. 30–32 (sines below 1e-3, see [`SingularityDistance`]).
-    pub fn jacobian(&self, pose: &Pose<T>) -> Result<(Joints<T>, InverseJacobian<T>), ArrowError> {
+    pub fn jacobian(
+        &self,
+        pose: &Pose<T>,
+    ) -> Result<(ActuatorVector<T>, InverseJacobian<T>), ArrowError> {
         let (q, jm, _) = self.differential(pose, None)?;
         Ok((q, jm))
     }
@@ -110,7 +113,7 @@ impl<T: Float> ArrowGeometry<T> {
         rate: Option<&Pose<T>>,
     ) -> Result<Differential<T>, ArrowError> {
         let turn = Self::turn(pose)?;
-        let mut q = Joints::zeros();
+        let mut q = ActuatorVector::zeros();
         let mut jm = InverseJacobian::zeros();
         let mut jm_dot = InverseJacobian::zeros();
         let mut d1 = Vector3::zeros();

@@ -388,7 +388,7 @@ fn hand_built_plans_beyond_a_u32_of_periods_are_refused() {
 }
 
 /// The pyramid of A §5 (fig. 26–27) as the G-code file the experiment runs.
-const PYRAMID: &str = include_str!("../../../../app/data/pyramid.gcode");
+const PYRAMID: &str = include_str!("../../../../../data/pyramid.gcode");
 
 #[test]
 fn the_pyramid_file_parses_inside_the_workspace_and_runs_at_constant_feed() {

@@ -482,10 +482,10 @@ struct Circle {
 }
 
 impl Curve<f32> for Circle {
-    fn evaluate(&self, theta: f32) -> EfdSample<f32> {
+    fn evaluate(&self, theta: f32) -> CurveSample<f32> {
         let (s, c) = theta.fsin_cos();
         let r = self.r;
-        EfdSample {
+        CurveSample {
             position: Vector2::new(r * c, r * s),
             d1: Vector2::new(-r * s, r * c),
             d2: Vector2::new(-r * c, -r * s),

@@ -11,7 +11,7 @@ use crate::app::joints::JointFault;
 use crate::app::remote_master::{MasterOutputs, RemoteMasterFault};
 use crate::app::remote_slave::RemoteSlaveFault;
 use crate::app::supervisor::{Command, Machine, Mode, Report, Step, Supervisor};
-use crate::kinematics::arrow::Joints;
+use crate::kinematics::arrow::ActuatorVector;
 use heapless::spsc::Queue;
 
 /// A machine whose running step returns the force it is given as input.
@@ -124,7 +124,7 @@ fn outputs_are_indexed_and_named_per_machine() {
     assert_eq!(master(command).first_not_finite(), Some(5));
     command.acceleration_m_s2 = [0.0; 3];
     assert_eq!(master(command).first_not_finite(), None);
-    let mut forces_n = Joints::<f64>::zeros();
+    let mut forces_n = ActuatorVector::<f64>::zeros();
     forces_n[4] = nan;
     let arrow = ArrowOutputs {
         forces_n,
