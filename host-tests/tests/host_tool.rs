@@ -14,7 +14,7 @@ use kerf_sim::linked::with_linked_slave;
 use kerf_sim::slave::SlaveScenario;
 use std::io::{ErrorKind, Read, Write};
 use std::os::unix::net::UnixStream;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -24,15 +24,14 @@ use std::time::Duration;
 /// the frame numbered `garbage_before`.
 struct Line {
     inner: UnixStream,
-    frames: usize,
+    frames: Arc<AtomicUsize>,
     drop: Arc<Mutex<Vec<usize>>>,
     garbage_before: Option<(usize, Vec<u8>)>,
 }
 
 impl Write for Line {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        let k = self.frames;
-        self.frames += 1;
+        let k = self.frames.fetch_add(1, Ordering::Relaxed);
         if let Some((at, bytes)) = &self.garbage_before {
             if *at == k {
                 self.inner.write_all(bytes)?;
@@ -102,6 +101,8 @@ fn machine(
 
 struct Rig {
     machine: MachineLink,
+    /// Frames the host has sent (its hello and the description's requests first).
+    sent: Arc<AtomicUsize>,
     drop: Arc<Mutex<Vec<usize>>>,
     mute: Arc<AtomicBool>,
     stop: Arc<AtomicBool>,
@@ -123,9 +124,10 @@ fn rig(garbage_to_machine: Option<(usize, Vec<u8>)>, noise_to_host: Vec<u8>) -> 
     let stop = Arc::new(AtomicBool::new(false));
     let thread = machine(far, Arc::clone(&mute), Arc::clone(&stop), noise_to_host);
     let drop = Arc::new(Mutex::new(Vec::new()));
+    let sent = Arc::new(AtomicUsize::new(0));
     let line = Line {
         inner: host.try_clone().unwrap(),
-        frames: 0,
+        frames: Arc::clone(&sent),
         drop: Arc::clone(&drop),
         garbage_before: garbage_to_machine,
     };
@@ -133,6 +135,7 @@ fn rig(garbage_to_machine: Option<(usize, Vec<u8>)>, noise_to_host: Vec<u8>) -> 
         .expect("the simulated slave answers hello");
     Rig {
         machine,
+        sent,
         drop,
         mute,
         stop,
@@ -145,13 +148,21 @@ fn a_lost_chunk_is_resumed_where_the_machine_says() {
     let mut rig = rig(None, Vec::new());
     assert_eq!(rig.machine.hello().machine, "keops-slave");
     let job = octagon_job_file();
-    // Frames: 0 hello, 1 begin, 2 chunk 0, 3 chunk 1 (lost), 4 status, 5 chunk 1 again…
-    rig.drop.lock().unwrap().push(3);
+    // Frames after the greeting: +0 begin, +1 chunk 0, +2 chunk 1 (lost), +3 status,
+    // +4 chunk 1 again…
+    let greeting = rig.sent.load(Ordering::Relaxed);
+    assert!(
+        greeting > 20,
+        "hello and the description: {greeting} frames"
+    );
+    rig.drop.lock().unwrap().push(greeting + 2);
     let mut seen = Vec::new();
     rig.machine
         .upload(JobKind::Efd, &job, &mut |n| seen.push(n))
         .expect("the upload resumes and commits");
     assert_eq!(seen, [192, 384, 504]);
+    // Begin, chunk 0, chunk 1 lost, status, chunk 1 again, chunk 2, commit.
+    assert_eq!(rig.sent.load(Ordering::Relaxed) - greeting, 7);
     let status = rig.machine.status().unwrap();
     assert_eq!(status.upload_received, None, "committed: {status:?}");
     assert_eq!(status.bad_frames, 0);

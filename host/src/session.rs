@@ -71,6 +71,15 @@ pub struct Session {
 const REPLY_TIMEOUT: Duration = Duration::from_secs(10);
 
 impl Session {
+    /// A session with a machine already connected over any byte stream (a test's
+    /// socket pair, a machine simulated in the same process).
+    pub fn over(machine: MachineLink) -> Self {
+        Session {
+            machine,
+            _qemu: None,
+        }
+    }
+
     /// Connects to `target` and greets the machine.
     pub fn open(target: &Target) -> Result<Self, SessionError> {
         match target {

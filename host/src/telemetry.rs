@@ -181,6 +181,11 @@ impl TelemetryLog {
             error_rms_m,
             force_peak_n,
             laser_mean_w,
+            has: Channels {
+                error: self.channels.iter().any(|c| c.name == "error"),
+                forces: !forces.is_empty(),
+                laser: self.channels.iter().any(|c| c.name == "laser"),
+            },
         }
     }
 
@@ -398,21 +403,47 @@ pub struct Summary {
     pub force_peak_n: f64,
     /// Mean laser power while cutting, W.
     pub laser_mean_w: f64,
+    /// Which of these the machine's channels carry (the others are 0).
+    pub has: Channels,
+}
+
+/// Which figures of a [`Summary`] the machine's channels carry.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct Channels {
+    /// A tracking (contour) error, `error`.
+    pub error: bool,
+    /// Forces (channels in N).
+    pub forces: bool,
+    /// A laser, `laser`.
+    pub laser: bool,
 }
 
 impl std::fmt::Display for Summary {
+    /// The figures the machine's channels carry, in the order error, force, laser.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{} samples ({} while cutting, {:.3} s): contour error max {:.3} µm, rms {:.3} µm; force peak {:.2} N; laser mean {:.2} W",
-            self.samples,
-            self.cutting_samples,
-            self.cut_s,
-            self.error_max_m * 1e6,
-            self.error_rms_m * 1e6,
-            self.force_peak_n,
-            self.laser_mean_w
-        )
+            "{} samples ({} while cutting, {:.3} s)",
+            self.samples, self.cutting_samples, self.cut_s,
+        )?;
+        let mut parts = Vec::new();
+        if self.has.error {
+            parts.push(format!(
+                "contour error max {:.3} µm, rms {:.3} µm",
+                self.error_max_m * 1e6,
+                self.error_rms_m * 1e6
+            ));
+        }
+        if self.has.forces {
+            parts.push(format!("force peak {:.2} N", self.force_peak_n));
+        }
+        if self.has.laser {
+            parts.push(format!("laser mean {:.2} W", self.laser_mean_w));
+        }
+        if !parts.is_empty() {
+            write!(f, ": {}", parts.join("; "))?;
+        }
+        Ok(())
     }
 }
 

@@ -7,14 +7,11 @@
 use hal_mock::arrow::{ArrowPlant, ArrowPlantConfig, ArrowReading};
 use heapless::spsc::Queue;
 use kerf::app::arrow::machine::{ArrowFault, ArrowInputs, ArrowLimits, ArrowOutputs};
-use kerf::app::arrow::product::{Arrow, Job, PERIOD_S};
+use kerf::app::arrow::product::{law, Arrow, Job, PERIOD_S};
 use kerf::app::arrow::ArrowLaw;
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
-use kerf::control::redundant_pid::{RedundantPid, RedundantPidConfig};
-use kerf::kinematics::arrow::{
-    ActuatorVector, ArrowConfig, ArrowDynamics, ArrowError, ArrowGeometry, ArrowMasses,
-    ForwardConfig, Pose,
-};
+use kerf::control::redundant_pid::RedundantPidConfig;
+use kerf::kinematics::arrow::{ActuatorVector, ArrowError, ArrowGeometry, ForwardConfig, Pose};
 use kerf::{Float, Real};
 
 /// The pyramid of A fig. 26–27 as the G-code file the firmware image carries.
@@ -87,23 +84,16 @@ impl ArrowScenario {
         s
     }
 
-    /// The law on the controller's nominal model (A table 1–2).
+    /// The law on the controller's nominal model (A table 1–2) with this scenario's
+    /// gains ([`kerf::app::arrow::product::law`]).
     pub fn law<T: Float>(&self) -> Result<ArrowLaw<T>, ArrowError> {
-        let model = ArrowConfig::ARROW;
-        let bad = |_| ArrowError::NotFinite;
-        let ts = self.plant.period_s;
-        Ok(ArrowLaw {
-            geometry: ArrowGeometry::<T>::new(&model).map_err(bad)?,
-            dynamics: ArrowDynamics::<T>::new(
-                &ArrowMasses::ARROW,
-                model.arms[0].length_m,
-                model.arms[2].length_m,
-            )
-            .map_err(bad)?,
-            parallel: RedundantPid::<T>::new(&self.parallel, ts).map_err(bad)?,
-            turntable: RedundantPid::<T>::new(&self.turntable, ts).map_err(bad)?,
-            feedforward: self.feedforward,
-        })
+        law(
+            &self.parallel,
+            &self.turntable,
+            self.feedforward,
+            self.plant.period_s,
+        )
+        .map_err(|_| ArrowError::NotFinite)
     }
 }
 

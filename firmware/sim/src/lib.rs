@@ -10,6 +10,7 @@ extern crate std;
 pub mod arrow;
 pub mod contour;
 pub mod linked;
+pub mod linked_arrow;
 pub mod operator;
 pub mod remote;
 pub mod scenario;

@@ -8,6 +8,7 @@
 //! to zero force.
 
 pub mod job;
+pub mod link;
 pub mod machine;
 pub mod product;
 

@@ -5,7 +5,10 @@
 
 use super::job::{ArrowJob, ArrowJobConfig, ArrowJobError, ArrowJobErrorKind};
 use super::machine::ArrowMachine;
-use crate::kinematics::arrow::{ArrowConfig, ArrowGeometry};
+use super::ArrowLaw;
+use crate::control::redundant_pid::{RedundantPid, RedundantPidConfig};
+use crate::error::{ConfigContext, ConfigError};
+use crate::kinematics::arrow::{ArrowConfig, ArrowDynamics, ArrowGeometry, ArrowMasses};
 use crate::scalar::Float;
 use crate::trajectory::gcode::GcodePoint;
 
@@ -21,11 +24,43 @@ pub const JOB_MOVES: usize = 4;
 /// Points the G-code buffer holds while a program is read.
 pub const PROGRAM_POINTS: usize = 256;
 
+/// Bytes of an uploaded job the machine holds: the pyramid's G-code file is 9.0 KB.
+pub const LINK_JOB_BYTES: usize = 12 * 1024;
+
+/// The supervisor reports telemetry every this many control periods (1 kHz at the
+/// 5 kHz period); the host link decimates further to the rate the host asks for.
+pub const TELEMETRY_DECIMATION: u32 = 5;
+
 /// A job of ARROW as flashed.
 pub type Job<T> = ArrowJob<T, JOB_POINTS, JOB_MOVES>;
 
 /// ARROW as flashed.
 pub type Arrow<T> = ArrowMachine<T, JOB_POINTS, JOB_MOVES>;
+
+/// The law on the controller's nominal model (A table 1–2: [`ArrowConfig::ARROW`],
+/// [`ArrowMasses::ARROW`]) with the gains of the parallel module and the turntable,
+/// feedforward on or off, at `period_s`.
+///
+/// Errors: a gain the scalar cannot carry, named by its part (`parallel.kd`).
+pub fn law<T: Float>(
+    parallel: &RedundantPidConfig,
+    turntable: &RedundantPidConfig,
+    feedforward: bool,
+    period_s: f64,
+) -> Result<ArrowLaw<T>, ConfigError> {
+    let model = ArrowConfig::ARROW;
+    let geometry = ArrowGeometry::<T>::new(&model).within("geometry")?;
+    let masses = ArrowMasses::ARROW;
+    let dynamics = ArrowDynamics::<T>::new(&masses, model.arms[0].length_m, model.arms[2].length_m)
+        .within("dynamics")?;
+    Ok(ArrowLaw {
+        geometry,
+        dynamics,
+        parallel: RedundantPid::<T>::new(parallel, period_s).within("parallel")?,
+        turntable: RedundantPid::<T>::new(turntable, period_s).within("turntable")?,
+        feedforward,
+    })
+}
 
 /// Reads a G-code program into a job checked on the nominal model
 /// ([`ArrowConfig::ARROW`], [`ArrowJobConfig::ARROW`]), in place, with `points` as the
