@@ -22,6 +22,9 @@ fn main() {
             // The ARROW image holds the pyramid job twice (the supervisor's copy and
             // the command slot's) beside the parse buffer: 1 MiB of SRAM.
             println!("cargo:rustc-link-arg-bin=arrow=--defsym=_kerf_ram_length=0x100000");
+            // ARROW behind the link: the job in the supervisor, in the command slot and
+            // being built at the commit, the parse buffer and the upload (12 KB).
+            println!("cargo:rustc-link-arg-bin=arrow-link=--defsym=_kerf_ram_length=0x100000");
             // The benchmark image links every kernel beside its peers: 1 MiB of the
             // model's 4 MiB code memory.
             println!("cargo:rustc-link-arg-bin=bench=--defsym=_kerf_flash_length=0x100000");

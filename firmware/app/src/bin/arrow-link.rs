@@ -1,0 +1,45 @@
+//! QEMU host-link image of ARROW (`Arrow<f32>` on its simulated plant with the
+//! geometric error), driven only by a host over the emulated UART0 with the link
+//! protocol (`kerf_sim::linked_arrow`, `kerf::app::arrow::link`): the host uploads a
+//! G-code job (the pyramid), starts it, changes gains, streams telemetry. Run it with
+//! QEMU's serial port on a socket (`kerf run --qemu --image …/arrow-link JOB`); the
+//! image runs until the host ends QEMU.
+#![no_std]
+#![no_main]
+
+use cortex_m_rt::entry;
+use cortex_m_semihosting::hprintln;
+use kerf_app::exit;
+use kerf_app::uart::{CmsdkUart, UART0_BASE};
+use kerf_sim::arrow::ArrowScenario;
+use kerf_sim::linked_arrow::with_linked_arrow;
+
+#[entry]
+fn main() -> ! {
+    // SAFETY: UART0 belongs to this image alone.
+    let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
+    // One RK4 step per period: what the emulated MCU pays for (`ArrowScenario::smoke`).
+    let scenario = ArrowScenario::smoke();
+    let ended = with_linked_arrow::<f32, _>(&scenario, |arrow| {
+        let mut rx = [0u8; 64];
+        loop {
+            let mut n = 0;
+            while let Some(slot) = rx.get_mut(n) {
+                match uart.read() {
+                    Some(b) => *slot = b,
+                    None => break,
+                }
+                n += 1;
+            }
+            let period = arrow.period(rx.get(..n).unwrap_or(&[]), &mut |frame| {
+                uart.write(frame);
+                true
+            });
+            if let Err(e) = period {
+                return e;
+            }
+        }
+    });
+    hprintln!("kerf qemu arrow-link: the simulation stopped: {:?}", ended);
+    exit(false)
+}
