@@ -222,22 +222,30 @@ impl TelemetryLog {
         self.draw_path(&top)?;
         let t = |e: &Entry| e.time_s;
         let span = self.entries.first().map_or(0.0, t)..self.entries.last().map_or(1.0, t);
-        let error: Vec<(f64, f64)> = self
-            .entries
-            .iter()
-            .filter_map(|e| Some((e.time_s, self.value(e, "error")? * 1e6)))
+        // The errors: every channel in m whose name ends in `error` (the Keops
+        // slave's contour error, ARROW's largest joint error).
+        let error_channels: Vec<usize> = (0..self.channels.len())
+            .filter(|&k| self.channels[k].unit == "m" && self.channels[k].name.ends_with("error"))
             .collect();
-        draw_series(
-            &mid,
-            span.clone(),
-            "contour error, µm",
-            &[Series {
-                label: "error",
-                points: &error,
+        let errors: Vec<Vec<(f64, f64)>> = error_channels
+            .iter()
+            .map(|&k| {
+                self.entries
+                    .iter()
+                    .filter_map(|e| Some((e.time_s, f64::from(*e.sample.values.get(k)?) * 1e6)))
+                    .collect()
+            })
+            .collect();
+        let error_series: Vec<Series<'_>> = error_channels
+            .iter()
+            .zip(&errors)
+            .map(|(&k, points)| Series {
+                label: &self.channels[k].name,
+                points,
                 color: RGBColor(213, 94, 0),
-            }],
-            marks,
-        )?;
+            })
+            .collect();
+        draw_series(&mid, span.clone(), "error, µm", &error_series, marks)?;
         let colors = [
             RGBColor(0, 114, 178),
             RGBColor(0, 158, 115),

@@ -245,23 +245,23 @@ const JOB_REFUSALS: [CodeWords; 13] = [
 /// The telemetry channels.
 const CHANNELS: [Channel; 16] = [
     Channel {
-        name: "x",
+        name: "x_ref",
         unit: "m",
     },
     Channel {
-        name: "y",
+        name: "y_ref",
         unit: "m",
     },
     Channel {
-        name: "z",
+        name: "z_ref",
         unit: "m",
     },
     Channel {
-        name: "theta_z",
+        name: "theta_z_ref",
         unit: "rad",
     },
     Channel {
-        name: "theta_x",
+        name: "theta_x_ref",
         unit: "rad",
     },
     Channel {
@@ -368,7 +368,7 @@ impl<T: Float> LinkMachine for Arrow<T> {
         }
     }
 
-    /// The desired pose, the largest joint error (reference − encoder, which holds
+    /// The desired pose (the reference: `x_ref` … `theta_x_ref`), the largest joint error (reference − encoder, which holds
     /// the geometric error's inconsistency that the regularized law leaves alone),
     /// the table's error, the commands and the move.
     fn sample(t: &ArrowTelemetry<T>, values: &mut ChannelValues) {

@@ -171,7 +171,10 @@ fn a_sample_has_a_value_per_channel() {
     A::sample(&t, &mut values);
     assert_eq!(values.len(), CHANNELS.len());
     let at = |name: &str| values[CHANNELS.iter().position(|c| c.name == name).unwrap()];
-    assert_eq!((at("y"), at("theta_z"), at("theta_x")), (0.5, 0.3, 0.25));
+    assert_eq!(
+        (at("y_ref"), at("theta_z_ref"), at("theta_x_ref")),
+        (0.5, 0.3, 0.25)
+    );
     assert_eq!(at("joint_error"), 4e-6);
     assert_eq!((at("force6"), at("torque2"), at("move")), (6.0, 8.0, 2.0));
 }
