@@ -252,7 +252,7 @@ fn sweep_samples(sensor: &mut HallSensor) -> CalibrationFit<1> {
     let mut fit = CalibrationFit::<1>::default();
     loop {
         let counts = sensor.sample(sweep.reference()[0].position);
-        if sweep.advance(&[counts], &mut |axis, c| fit.push(axis, c).unwrap()) {
+        if sweep.advance(&[counts], &mut |sample| fit.push(sample).unwrap()) {
             return fit;
         }
     }

@@ -145,10 +145,8 @@ impl LinkTask {
         while let Some(report) = self.reports.dequeue() {
             match &report {
                 Report::ModeChanged { mode, .. } => state.mode = *mode,
-                Report::CalibrationSample { axis, counts }
-                    if self.fit.push(*axis, *counts).is_err() =>
-                {
-                    defmt::warn!("calibration: sample of axis {} refused", axis);
+                Report::CalibrationSample(sample) if self.fit.push(*sample).is_err() => {
+                    defmt::warn!("calibration: sample of axis {} refused", sample.axis);
                 }
                 Report::SweepDone => state.fit_due = true,
                 _ => {}

@@ -24,7 +24,7 @@ use common::{opaque, sink, OpaqueLink};
 use cortex_m_rt::entry;
 use heapless::spsc::Queue;
 use kerf::app::arrow::job::{ArrowJob, ArrowJobConfig};
-use kerf::app::calibrate::{fit_sensors, CalibrationFit};
+use kerf::app::calibrate::{fit_sensors, CalibrationFit, HallSample};
 use kerf::app::delta_slave::link::{ContourDefaults, SlaveSettings};
 use kerf::app::delta_slave::{ContourLaw, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::grinding::devices::{DeviceDemand, DeviceLink, DeviceLinkConfig, DeviceLinkState};
@@ -67,7 +67,10 @@ fn bytes<const N: usize>() -> [u8; N] {
 /// The slower context's end of a calibration: streamed samples kept, then fitted.
 fn calibration() {
     let mut samples = opaque(CalibrationFit::<3>::default());
-    sink(samples.push(opaque(0), opaque([0u16; 3])));
+    sink(samples.push(opaque(HallSample {
+        axis: 0,
+        counts: [0; 3],
+    })));
     sink(fit_sensors::<f32, 3>(opaque(&HALL), &samples));
 }
 

@@ -107,7 +107,7 @@ where
     match opaque(0u8) {
         0 => sink(machine.monitor(&inputs)),
         1 => machine.begin_calibration(),
-        2 => sink(machine.calibrate(&inputs, &mut |axis, counts| sink((axis, counts)))),
+        2 => sink(machine.calibrate(&inputs, &mut |sample| sink(sample))),
         3 => machine.finish_calibration(&opaque(calibration.clone())),
         4 => sink(machine.check_job(&opaque(job.clone()))),
         5 => sink(machine.begin_job(&opaque(job.clone()))),

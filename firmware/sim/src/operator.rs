@@ -105,11 +105,9 @@ impl<M: HallMachine<N>, const N: usize> Operator<M, N> {
     ) -> OperatorState<M::Fault> {
         while let Some(report) = reports.dequeue() {
             match report {
-                Report::CalibrationSample { axis, counts }
-                    if self.samples.push(axis, counts).is_err() =>
-                {
+                Report::CalibrationSample(sample) if self.samples.push(sample).is_err() => {
                     self.fail(OperatorError::Calibration(CalibrationFailure::Fit {
-                        axis: usize::from(axis),
+                        axis: usize::from(sample.axis),
                         error: CalibrationError::TooFewSamples,
                     }));
                 }

@@ -10,7 +10,9 @@ use cortex_m_semihosting::hprintln;
 use hal_mock::hall_sensor::{calibration_coast_m, HallSensor, HallSensorParams, COAST_PITCHES};
 use heapless::spsc::Queue;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
-use kerf::app::calibrate::{CalibrationFit, HallMachine, SAMPLES_PER_COAST, SEGMENT_BREAK};
+use kerf::app::calibrate::{
+    CalibrationFit, HallMachine, HallSample, SAMPLES_PER_COAST, SEGMENT_BREAK,
+};
 use kerf::app::delta_slave::{ContourLaw, DeltaJob, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
 use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
@@ -392,9 +394,10 @@ fn fit_stack<M: HallMachine<N>, const N: usize>(name: &str) {
     let pitch_m = config.pitch_m;
     for axis in 0..N as u8 {
         for (start_m, direction) in [(0.0, 1.0), (COAST_PITCHES * pitch_m, -1.0)] {
-            let mut ok = samples.push(axis, SEGMENT_BREAK).is_ok();
+            let sample = |counts| HallSample { axis, counts };
+            let mut ok = samples.push(sample(SEGMENT_BREAK)).is_ok();
             for x in calibration_coast_m(start_m, direction, pitch_m, SAMPLES_PER_COAST) {
-                ok &= samples.push(axis, sensor.sample(x)).is_ok();
+                ok &= samples.push(sample(sensor.sample(x))).is_ok();
             }
             if !ok {
                 exit(false)

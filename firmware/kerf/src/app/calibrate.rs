@@ -240,11 +240,7 @@ impl<T: Real, const N: usize> CalibrationSweep<T, N> {
     /// Passes this period's raw counts of every axis to `record` when they are to be
     /// kept (every `decimation`-th period of a coast, after a [`SEGMENT_BREAK`] at its
     /// start), and advances; `true` once the sweep is over.
-    pub fn advance(
-        &mut self,
-        counts: &[[u16; 3]; N],
-        record: &mut dyn FnMut(u8, [u16; 3]),
-    ) -> bool {
+    pub fn advance(&mut self, counts: &[[u16; 3]; N], record: &mut dyn FnMut(HallSample)) -> bool {
         let (_, k) = self.way();
         // `decimation` is at least 1 (`new`); `checked_rem` says so without a panic path.
         let kept = k
@@ -253,10 +249,14 @@ impl<T: Real, const N: usize> CalibrationSweep<T, N> {
             == Some(0);
         if self.mode() == SweepMode::Coast && kept {
             for (axis, c) in counts.iter().enumerate() {
+                let axis = axis as u8;
                 if k == self.coast_from {
-                    record(axis as u8, SEGMENT_BREAK);
+                    record(HallSample {
+                        axis,
+                        counts: SEGMENT_BREAK,
+                    });
                 }
-                record(axis as u8, *c);
+                record(HallSample { axis, counts: *c });
             }
         }
         self.period += 1;
@@ -284,8 +284,9 @@ impl<const N: usize> Default for CalibrationFit<N> {
 }
 
 impl<const N: usize> CalibrationFit<N> {
-    /// Keeps one streamed sample of `axis` ([`SEGMENT_BREAK`] starts a new segment).
-    pub fn push(&mut self, axis: u8, counts: [u16; 3]) -> Result<(), CalibrationError> {
+    /// Keeps one streamed sample of its axis ([`SEGMENT_BREAK`] starts a new segment).
+    pub fn push(&mut self, sample: HallSample) -> Result<(), CalibrationError> {
+        let HallSample { axis, counts } = sample;
         match self.calibrators.get_mut(usize::from(axis)) {
             Some(c) if counts == SEGMENT_BREAK => c.new_segment(),
             Some(c) => c.push(counts),
@@ -352,9 +353,20 @@ pub fn fit_sensors<T: Real, const N: usize>(
     }
 }
 
-/// A machine whose calibration is one fitted Hall decoder per axis: the slower
-/// context's side of `FinishCalibration`.
-pub trait HallMachine<const N: usize>: Machine {
+/// One sample of a Hall calibration sweep: an axis' raw counts ([`SEGMENT_BREAK`]
+/// where a coast begins).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct HallSample {
+    /// Axis index.
+    pub axis: u8,
+    /// Raw Hall counts.
+    pub counts: [u16; 3],
+}
+
+/// A machine whose calibration is one fitted Hall decoder per axis, from the samples
+/// of its sweep: the slower context's side of `FinishCalibration`.
+pub trait HallMachine<const N: usize>: Machine<SweepSample = HallSample> {
     /// Fits the streamed samples into the machine's calibration; also returns the fits.
     fn fit(
         hall: &[HallConfig; N],
@@ -418,13 +430,13 @@ mod tests {
                 }
                 periods += 1;
                 // Any healthy-looking counts: only the bookkeeping is under test here.
-                let done = sweep.advance(&[[30000, 20000, 15000]; 2], &mut |axis, c| {
-                    if c == SEGMENT_BREAK {
+                let done = sweep.advance(&[[30000, 20000, 15000]; 2], &mut |sample| {
+                    if sample.counts == SEGMENT_BREAK {
                         breaks += 1;
                     } else {
-                        pushed[usize::from(axis)] += 1;
+                        pushed[usize::from(sample.axis)] += 1;
                     }
-                    fit.push(axis, c).unwrap();
+                    fit.push(sample).unwrap();
                 });
                 if done {
                     break;

@@ -24,7 +24,9 @@
 //! the effector leaves the line by well under a micrometre.
 
 use crate::app::axis::{AxisConfig, AxisLaw, HallAxis};
-use crate::app::calibrate::{fit_sensors, CalibrationFailure, CalibrationFit, HallMachine};
+use crate::app::calibrate::{
+    fit_sensors, CalibrationFailure, CalibrationFit, HallMachine, HallSample,
+};
 use crate::app::joints::{
     JobError, JointFault, JointJob, JointTelemetry, Joints, JointsConfig, Segment,
 };
@@ -614,6 +616,7 @@ impl<T: Float> Machine for DeltaSlave<T> {
     type Job = DeltaJob;
     type JobError = DeltaJobError;
     type Coefficients = AxisLaw<T>;
+    type SweepSample = HallSample;
     type Calibration = [HallAxis<T>; 3];
     type Fault = DeltaFault;
     type Telemetry = DeltaTelemetry<T>;
@@ -638,7 +641,7 @@ impl<T: Float> Machine for DeltaSlave<T> {
     fn calibrate(
         &mut self,
         inputs: &[[u16; 3]; 3],
-        record: &mut dyn FnMut(u8, [u16; 3]),
+        record: &mut dyn FnMut(HallSample),
     ) -> Result<Step<SlaveOutputs<T>>, DeltaFault> {
         self.laser_power_w = T::zero();
         let step = self

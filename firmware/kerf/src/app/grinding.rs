@@ -40,6 +40,7 @@
 //! Between periods of contact the watch starts a new window, so only readings at rest
 //! are ever averaged; a drift during a pass shows at the first rest after it.
 
+use crate::app::supervisor::NoSweep;
 use crate::app::supervisor::{
     first_non_finite_index, FiniteOutputs, Machine, NonFiniteOutput, Step,
 };
@@ -480,6 +481,7 @@ impl<T: Float + crate::control::adrc::FalPower> Machine for GrindingCell<T> {
     type Job = GrindingJob;
     type JobError = GrindingJobError;
     type Coefficients = GrindingLaws<T>;
+    type SweepSample = NoSweep;
     type Calibration = GrindingCalibration;
     type Fault = GrindingFault;
     type Telemetry = GrindingTelemetry<T>;
@@ -524,7 +526,7 @@ impl<T: Float + crate::control::adrc::FalPower> Machine for GrindingCell<T> {
     fn calibrate(
         &mut self,
         inputs: &GrindingInputs<T>,
-        _record: &mut dyn FnMut(u8, [u16; 3]),
+        _record: &mut dyn FnMut(NoSweep),
     ) -> Result<Step<GrindingOutputs<T>>, GrindingFault> {
         Self::devices(inputs)?;
         self.leave_rest();

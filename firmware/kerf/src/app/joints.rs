@@ -12,8 +12,8 @@
 
 use crate::app::axis::{AxisConfig, AxisFault, AxisLaw, AxisOutput, AxisState, HallAxis};
 use crate::app::calibrate::{
-    fit_sensors, CalibrationFailure, CalibrationFit, CalibrationSweep, HallMachine, SweepMode,
-    COAST_BOUND_M,
+    fit_sensors, CalibrationFailure, CalibrationFit, CalibrationSweep, HallMachine, HallSample,
+    SweepMode, COAST_BOUND_M,
 };
 use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
 use crate::error::{factor, in_range, positive, representable_each, ConfigContext, ConfigError};
@@ -503,6 +503,7 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
     type Job = JointJob<N>;
     type JobError = JobError;
     type Coefficients = AxisLaw<T>;
+    type SweepSample = HallSample;
     type Calibration = [HallAxis<T>; N];
     type Fault = JointFault;
     type Telemetry = JointTelemetry<T, N>;
@@ -534,7 +535,7 @@ impl<T: Real, const N: usize> Machine for Joints<T, N> {
     fn calibrate(
         &mut self,
         inputs: &[[u16; 3]; N],
-        record: &mut dyn FnMut(u8, [u16; 3]),
+        record: &mut dyn FnMut(HallSample),
     ) -> Result<Step<[T; N]>, JointFault> {
         let Some(sweep) = self.sweep.as_mut() else {
             return Ok(Step::Done(self.safe_outputs()));

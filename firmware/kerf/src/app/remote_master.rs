@@ -35,6 +35,7 @@
 //! micrometres on the scenarios' curves.
 
 use crate::app::remote_slave::RemoteCommand;
+use crate::app::supervisor::NoSweep;
 use crate::app::supervisor::{
     first_non_finite_index, FiniteOutputs, Machine, NonFiniteOutput, Step,
 };
@@ -568,6 +569,7 @@ impl<T: Float> Machine for RemoteMaster<T> {
     type Job = FixtureJob<T>;
     type JobError = FixtureJobError;
     type Coefficients = Fixture<T>;
+    type SweepSample = NoSweep;
     type Calibration = ();
     type Fault = RemoteMasterFault;
     type Telemetry = MasterTelemetry<T>;
@@ -597,7 +599,7 @@ impl<T: Float> Machine for RemoteMaster<T> {
     fn calibrate(
         &mut self,
         inputs: &RemoteMasterInputs,
-        _: &mut dyn FnMut(u8, [u16; 3]),
+        _: &mut dyn FnMut(NoSweep),
     ) -> Result<Step<MasterOutputs<T>>, RemoteMasterFault> {
         self.monitor(inputs)?;
         Ok(Step::Done(self.safe()))

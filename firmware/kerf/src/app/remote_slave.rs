@@ -29,7 +29,9 @@
 //! (the master may not have started), and only from there does it report its position.
 
 use crate::app::axis::{AxisConfig, AxisLaw, HallAxis};
-use crate::app::calibrate::{fit_sensors, CalibrationFailure, CalibrationFit, HallMachine};
+use crate::app::calibrate::{
+    fit_sensors, CalibrationFailure, CalibrationFit, HallMachine, HallSample,
+};
 use crate::app::delta_slave::{DeltaFault, DeltaSlave, DeltaSlaveConfig, DeltaTelemetry};
 use crate::app::joints::{JobError, JointJob, Segment};
 use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
@@ -370,6 +372,7 @@ impl<T: Float> Machine for RemoteSlave<T> {
     type Job = FollowJob;
     type JobError = FollowJobError;
     type Coefficients = AxisLaw<T>;
+    type SweepSample = HallSample;
     type Calibration = [HallAxis<T>; 3];
     type Fault = RemoteSlaveFault;
     type Telemetry = RemoteSlaveTelemetry<T>;
@@ -394,7 +397,7 @@ impl<T: Float> Machine for RemoteSlave<T> {
     fn calibrate(
         &mut self,
         inputs: &RemoteSlaveInputs,
-        record: &mut dyn FnMut(u8, [u16; 3]),
+        record: &mut dyn FnMut(HallSample),
     ) -> Result<Step<ForceAndLaser<T, 3>>, RemoteSlaveFault> {
         self.laser_power_w = T::zero();
         self.slave

@@ -55,11 +55,11 @@
 //! # }
 //! # impl Machine for Counter {
 //! #     type Inputs = bool; type Outputs = f32; type Job = u32; type JobError = ();
-//! #     type Coefficients = (); type Calibration = (); type Fault = Fault; type Telemetry = u32;
+//! #     type Coefficients = (); type SweepSample = NoSweep; type Calibration = (); type Fault = Fault; type Telemetry = u32;
 //! #     fn safe_outputs(&self) -> f32 { 0.0 }
 //! #     fn monitor(&mut self, ok: &bool) -> Result<(), Fault> { if *ok { Ok(()) } else { Err(Fault::Sensor) } }
 //! #     fn begin_calibration(&mut self) {}
-//! #     fn calibrate(&mut self, ok: &bool, _: &mut dyn FnMut(u8, [u16; 3])) -> Result<Step<f32>, Fault> { self.monitor(ok)?; Ok(Step::Done(0.0)) }
+//! #     fn calibrate(&mut self, ok: &bool, _: &mut dyn FnMut(NoSweep)) -> Result<Step<f32>, Fault> { self.monitor(ok)?; Ok(Step::Done(0.0)) }
 //! #     fn finish_calibration(&mut self, _: &()) {}
 //! #     fn check_job(&self, job: &u32) -> Result<(), ()> { if *job > 0 { Ok(()) } else { Err(()) } }
 //! #     fn begin_job(&mut self, job: &u32) -> Result<(), ()> { self.left = *job; Ok(()) }
@@ -142,6 +142,9 @@ pub trait Machine {
     type JobError: Copy + core::fmt::Debug + PartialEq;
     /// Validated coefficients that replace the running ones bumplessly.
     type Coefficients;
+    /// One sample the calibration sweep streams to the fit in the slower context
+    /// ([`NoSweep`] for a machine without a sweep: no value of it exists).
+    type SweepSample: Copy;
     /// The result of a calibration fit, computed in the slower context.
     type Calibration;
     /// Why the machine stopped; a non-finite output is one of the reasons.
@@ -155,12 +158,12 @@ pub trait Machine {
     fn monitor(&mut self, inputs: &Self::Inputs) -> Result<(), Self::Fault>;
     /// Prepares the calibration sweep from the present state.
     fn begin_calibration(&mut self);
-    /// One period of the sweep; `record(axis, counts)` streams the samples the fit
-    /// needs to the slower context.
+    /// One period of the sweep; `record` streams the samples the fit needs to the
+    /// slower context.
     fn calibrate(
         &mut self,
         inputs: &Self::Inputs,
-        record: &mut dyn FnMut(u8, [u16; 3]),
+        record: &mut dyn FnMut(Self::SweepSample),
     ) -> Result<Step<Self::Outputs>, Self::Fault>;
     /// Installs a finished calibration (copied from the command queue's slot).
     fn finish_calibration(&mut self, calibration: &Self::Calibration);
@@ -192,6 +195,12 @@ pub trait Machine {
     /// This period's telemetry.
     fn telemetry(&self) -> Self::Telemetry;
 }
+
+/// The sweep sample of a machine that has no calibration sweep: an empty type, so
+/// such a machine cannot record one, and its `calibrate` is done at once.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NoSweep {}
 
 /// Supervisor modes.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -295,12 +304,7 @@ pub enum Report<M: Machine> {
         error: CommandError<M::JobError>,
     },
     /// One sample of the calibration sweep for the fit.
-    CalibrationSample {
-        /// Axis index.
-        axis: u8,
-        /// Raw Hall counts.
-        counts: [u16; 3],
-    },
+    CalibrationSample(M::SweepSample),
     /// The calibration sweep is over: every sample has been sent, the fit can run.
     SweepDone,
     /// One period's telemetry.
@@ -434,8 +438,8 @@ impl<M: Machine> Core<'_, M> {
             Mode::Calibrating => {
                 let reports = &mut self.reports;
                 let dropped = &mut self.dropped_reports;
-                let mut record = |axis: u8, counts: [u16; 3]| {
-                    if !enqueue(reports, Report::CalibrationSample { axis, counts }) {
+                let mut record = |sample: M::SweepSample| {
+                    if !enqueue(reports, Report::CalibrationSample(sample)) {
                         *dropped = dropped.saturating_add(1);
                     }
                 };

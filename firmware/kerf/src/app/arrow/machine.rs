@@ -22,6 +22,7 @@
 
 use super::job::{split_pose, ArrowJob};
 use super::{ArrowDesired, ArrowLaw, ArrowLoopState, ArrowPeriodError};
+use crate::app::supervisor::NoSweep;
 use crate::app::supervisor::{
     first_non_finite_index, FiniteOutputs, Machine, NonFiniteOutput, Step,
 };
@@ -284,6 +285,7 @@ impl<T: Float, const N: usize, const R: usize> Machine for ArrowMachine<T, N, R>
     type Job = ArrowJob<T, N, R>;
     type JobError = ArrowJobRefusal;
     type Coefficients = ArrowLaw<T>;
+    type SweepSample = NoSweep;
     type Calibration = ();
     type Fault = ArrowFault;
     type Telemetry = ArrowTelemetry<T>;
@@ -321,7 +323,7 @@ impl<T: Float, const N: usize, const R: usize> Machine for ArrowMachine<T, N, R>
     fn calibrate(
         &mut self,
         inputs: &ArrowInputs<T>,
-        _record: &mut dyn FnMut(u8, [u16; 3]),
+        _record: &mut dyn FnMut(NoSweep),
     ) -> Result<Step<ArrowOutputs<T>>, ArrowFault> {
         self.monitor(inputs)?;
         Ok(Step::Done(self.safe_outputs()))

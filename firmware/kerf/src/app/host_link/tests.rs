@@ -44,6 +44,7 @@ impl Machine for Toy {
     type Job = u32;
     type JobError = u8;
     type Coefficients = f32;
+    type SweepSample = crate::app::supervisor::NoSweep;
     type Calibration = ();
     type Fault = u8;
     type Telemetry = u32;
@@ -58,7 +59,11 @@ impl Machine for Toy {
         }
     }
     fn begin_calibration(&mut self) {}
-    fn calibrate(&mut self, ok: &bool, _: &mut dyn FnMut(u8, [u16; 3])) -> Result<Step<u8>, u8> {
+    fn calibrate(
+        &mut self,
+        ok: &bool,
+        _: &mut dyn FnMut(crate::app::supervisor::NoSweep),
+    ) -> Result<Step<u8>, u8> {
         self.monitor(ok)?;
         Ok(Step::Done(0))
     }

@@ -10,6 +10,7 @@ use crate::app::grinding::{GrindingFault, GrindingOutputs};
 use crate::app::joints::JointFault;
 use crate::app::remote_master::{MasterOutputs, RemoteMasterFault};
 use crate::app::remote_slave::RemoteSlaveFault;
+use crate::app::supervisor::NoSweep;
 use crate::app::supervisor::{Command, Machine, Mode, Report, Step, Supervisor};
 use crate::kinematics::arrow::ActuatorVector;
 use heapless::spsc::Queue;
@@ -34,6 +35,7 @@ impl Machine for Passthrough {
     type Job = u8;
     type JobError = ();
     type Coefficients = ();
+    type SweepSample = NoSweep;
     type Calibration = ();
     type Fault = Fault;
     type Telemetry = ();
@@ -47,7 +49,7 @@ impl Machine for Passthrough {
     fn calibrate(
         &mut self,
         _: &[f32; 2],
-        _: &mut dyn FnMut(u8, [u16; 3]),
+        _: &mut dyn FnMut(NoSweep),
     ) -> Result<Step<[f32; 2]>, Fault> {
         Ok(Step::Done([0.0; 2]))
     }
