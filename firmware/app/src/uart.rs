@@ -59,3 +59,30 @@ impl CmsdkUart {
         }
     }
 }
+
+/// Runs a machine behind the host link on this UART, one control period per turn:
+/// the bytes received since the last period go to `period` with a sender of frames,
+/// until `period` fails; returns its error. What every QEMU link image does.
+pub fn serve_link<E>(
+    uart: &mut CmsdkUart,
+    mut period: impl FnMut(&[u8], &mut dyn FnMut(&[u8]) -> bool) -> Result<(), E>,
+) -> E {
+    let mut rx = [0u8; 64];
+    loop {
+        let mut n = 0;
+        while let Some(slot) = rx.get_mut(n) {
+            match uart.read() {
+                Some(b) => *slot = b,
+                None => break,
+            }
+            n += 1;
+        }
+        let mut send = |frame: &[u8]| {
+            uart.write(frame);
+            true
+        };
+        if let Err(e) = period(rx.get(..n).unwrap_or(&[]), &mut send) {
+            return e;
+        }
+    }
+}

@@ -10,7 +10,7 @@
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use kerf_app::exit;
-use kerf_app::uart::{CmsdkUart, UART0_BASE};
+use kerf_app::uart::{serve_link, CmsdkUart, UART0_BASE};
 use kerf_sim::arrow::ArrowScenario;
 use kerf_sim::linked_arrow::with_linked_arrow;
 
@@ -21,24 +21,9 @@ fn main() -> ! {
     // One RK4 step per period: what the emulated MCU pays for (`ArrowScenario::smoke`).
     let scenario = ArrowScenario::smoke();
     let ended = with_linked_arrow::<f32, _>(&scenario, |arrow| {
-        let mut rx = [0u8; 64];
-        loop {
-            let mut n = 0;
-            while let Some(slot) = rx.get_mut(n) {
-                match uart.read() {
-                    Some(b) => *slot = b,
-                    None => break,
-                }
-                n += 1;
-            }
-            let period = arrow.period(rx.get(..n).unwrap_or(&[]), &mut |frame| {
-                uart.write(frame);
-                true
-            });
-            if let Err(e) = period {
-                return e;
-            }
-        }
+        serve_link(&mut uart, |bytes, send| {
+            arrow.period(bytes, send).map(|_| ())
+        })
     });
     hprintln!("kerf qemu arrow-link: the simulation stopped: {:?}", ended);
     exit(false)

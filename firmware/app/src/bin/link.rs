@@ -12,7 +12,7 @@ use cortex_m_semihosting::hprintln;
 use hal_mock::hall_sensor::HallSensorParams;
 use kerf::app::delta_slave::product::JOB_LAPS;
 use kerf_app::exit;
-use kerf_app::uart::{CmsdkUart, UART0_BASE};
+use kerf_app::uart::{serve_link, CmsdkUart, UART0_BASE};
 use kerf_sim::linked::with_linked_slave;
 use kerf_sim::slave::SlaveScenario;
 
@@ -24,24 +24,9 @@ fn main() -> ! {
     scenario.sensors = [HallSensorParams::LM1247_16BIT; 3];
     scenario.substeps = 1;
     let ended = with_linked_slave::<f32, _>(&scenario, JOB_LAPS, |slave| {
-        let mut rx = [0u8; 64];
-        loop {
-            let mut n = 0;
-            while let Some(slot) = rx.get_mut(n) {
-                match uart.read() {
-                    Some(b) => *slot = b,
-                    None => break,
-                }
-                n += 1;
-            }
-            let period = slave.period(rx.get(..n).unwrap_or(&[]), &mut |frame| {
-                uart.write(frame);
-                true
-            });
-            if let Err(e) = period {
-                return e;
-            }
-        }
+        serve_link(&mut uart, |bytes, send| {
+            slave.period(bytes, send).map(|_| ())
+        })
     });
     hprintln!("kerf qemu link: the simulation stopped: {:?}", ended);
     exit(false)
