@@ -56,10 +56,7 @@ impl AxisConfig {
         velocity: TrackingObserverConfig {
             bandwidth_rad_s: 2.0 * core::f64::consts::PI * 600.0,
         },
-        pd: PdConfig {
-            kp_per_s2: 63_165.468_5,
-            kd_per_s: 502.654_8,
-        },
+        pd: PdConfig::critically_damped(2.0 * core::f64::consts::PI * 40.0),
         dob: DobConfig {
             nominal_mass_kg: 0.071,
             bandwidth_rad_s: 2.0 * core::f64::consts::PI * 150.0,

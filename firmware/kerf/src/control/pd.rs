@@ -16,7 +16,7 @@ pub struct PdConfig {
 
 impl PdConfig {
     /// Error dynamics ë + Kd ė + Kp e = 0 with a double pole at −ω: Kp = ω², Kd = 2ω.
-    pub fn critically_damped(bandwidth_rad_s: f64) -> Self {
+    pub const fn critically_damped(bandwidth_rad_s: f64) -> Self {
         Self {
             kp_per_s2: bandwidth_rad_s * bandwidth_rad_s,
             kd_per_s: 2.0 * bandwidth_rad_s,
