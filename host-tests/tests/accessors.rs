@@ -204,3 +204,80 @@ fn the_square_lasts_its_approach_and_four_sides() {
     };
     assert!((longer.job_s() - 5.5).abs() < 1e-15);
 }
+
+/// A run is called hung only past what it has to do: the calibration sweep (its own
+/// period count, from the machine's pitch and period) and the job's periods, for
+/// every preset, with and without calibration, and for a job of a single period too
+/// (where no multiple of the job's length alone leaves room for the sweep).
+#[test]
+fn the_period_limit_leaves_room_for_the_calibration_and_the_job() {
+    use kerf::app::calibrate::CalibrationSweep;
+    use kerf_sim::scenario::{Scenario, START_M};
+    for preset in [Scenario::TRACKING, Scenario::keops_joint()] {
+        let machine = &preset.machine;
+        let sweep =
+            CalibrationSweep::<f64, 1>::new([START_M], machine.hall[0].pitch_m, machine.period_s)
+                .unwrap();
+        for (calibrate, periods) in [(true, preset.periods), (false, preset.periods), (true, 1)] {
+            let s = Scenario {
+                calibrate,
+                periods,
+                ..preset
+            };
+            let needed = sweep.periods() + periods;
+            assert!(
+                s.period_limit() > needed,
+                "{} against {needed}",
+                s.period_limit()
+            );
+        }
+    }
+}
+
+/// The octagon job carries the law it was asked for and starts where the module docs
+/// put it: at the cutting height, on the ±6 mm octagon (within 0.1 mm of its first
+/// vertex, where the 30-harmonic fit's θ = 0 lies, Gibbs-rounded at the corner);
+/// more harmonics than a contour holds are a contour error, not a panic.
+#[test]
+fn the_octagon_job_is_the_octagon_under_the_law_asked() {
+    use kerf::app::delta_slave::product::CUT_HEIGHT_M;
+    use kerf::app::delta_slave::{ContourLaw, DeltaJobError, DeltaSlaveConfig, CONTOUR_HARMONICS};
+    use kerf::trajectory::shapes::octagon;
+    use kerf_sim::contour::octagon_job;
+    let machine = DeltaSlaveConfig::KEOPS;
+    let vertex = octagon()[0].map(|c| 0.6 * c);
+    for law in [ContourLaw::Contouring, ContourLaw::Preview] {
+        let job = octagon_job(&machine, 1.0, 30, law).unwrap();
+        assert_eq!(job.contour_law(), Some(law));
+        let start = job.start_m();
+        assert_eq!(start[2], CUT_HEIGHT_M);
+        let off = (start[0] - vertex[0]).hypot(start[1] - vertex[1]);
+        assert!(off < 1e-4, "{start:?} against {vertex:?}");
+    }
+    assert!(matches!(
+        octagon_job(&machine, 1.0, CONTOUR_HARMONICS + 1, ContourLaw::Contouring),
+        Err(DeltaJobError::Contour(_))
+    ));
+}
+
+/// Unpowered, every carriage of the slave slides down its rail onto its lower end
+/// stop (the plant's: [`END_STOP_INSET_M`] inside the travel's lower end) and stays;
+/// given a single period it is still moving: a timeout.
+#[test]
+fn unpowered_carriages_come_to_rest_on_their_lower_end_stops() {
+    use hal_mock::delta_plant::END_STOP_INSET_M;
+    use kerf_sim::slave::{rest_unpowered, SlaveError};
+    let scenario = SlaveScenario::square();
+    let rest = rest_unpowered(&scenario, 1.0).unwrap();
+    for (q, actuator) in rest.iter().zip(scenario.machine.delta.actuators) {
+        assert!(
+            (q - (actuator.travel_min_m + END_STOP_INSET_M)).abs() < 1e-12,
+            "{rest:?}"
+        );
+    }
+    let period = scenario.machine.joints.period_s;
+    assert!(matches!(
+        rest_unpowered(&scenario, period),
+        Err(SlaveError::Timeout)
+    ));
+}

@@ -140,7 +140,7 @@ fn axis(i: u8) -> &'static str {
 }
 
 /// The loader's refusal of a parsed program in words.
-pub fn describe_job(kind: ArrowJobErrorKind) -> String {
+fn describe_job(kind: ArrowJobErrorKind) -> String {
     match kind {
         ArrowJobErrorKind::Gcode { kind, .. } => describe_gcode(kind),
         ArrowJobErrorKind::Empty => "the program has no move".into(),

@@ -212,6 +212,59 @@ mod tests {
         fs::remove_dir_all(&d).unwrap();
     }
 
+    /// The kinds an operator meets are in words of their own (each different, none
+    /// the system's text); any other kind is the system's own text.
+    #[test]
+    fn io_errors_are_in_the_operators_words() {
+        let kinds = [
+            (ErrorKind::NotFound, "no such file or folder"),
+            (ErrorKind::PermissionDenied, "permission denied"),
+            (ErrorKind::StorageFull, "the disk is full"),
+            (ErrorKind::ReadOnlyFilesystem, "the disk is read-only"),
+            (ErrorKind::IsADirectory, "that is a folder, not a file"),
+            (
+                ErrorKind::NotADirectory,
+                "part of the path is a file, not a folder",
+            ),
+            (
+                ErrorKind::BrokenPipe,
+                "the reader went away (a closed pipe)",
+            ),
+        ];
+        for (kind, words) in kinds {
+            assert_eq!(io_words(&io::Error::from(kind)), words, "{kind:?}");
+        }
+        let other = io::Error::new(ErrorKind::TimedOut, "the link timed out");
+        assert_eq!(io_words(&other), "the link timed out");
+    }
+
+    /// Messages name the file as the operator did, also when it is a link: `shown`
+    /// is the link's name while the bytes go to the file it names.
+    #[cfg(unix)]
+    #[test]
+    fn a_file_is_shown_by_the_name_given_also_through_a_link() {
+        let d = dir("shown");
+        let real = d.join("real.kjob");
+        fs::write(&real, b"old").unwrap();
+        let link = d.join("link.kjob");
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        for (path, written) in [(&real, &real), (&link, &real)] {
+            let out = OutputFile::prepare(path, "job file").unwrap();
+            assert_eq!(out.shown(), path.display().to_string());
+            out.write_bytes(path.display().to_string().as_bytes())
+                .unwrap();
+            assert_eq!(
+                fs::read(written).unwrap(),
+                path.display().to_string().as_bytes()
+            );
+        }
+        assert!(fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        fs::remove_dir_all(&d).unwrap();
+    }
+
     #[test]
     fn unwritable_places_are_refused_before_any_work() {
         let d = dir("refused");

@@ -6,6 +6,7 @@
 //! the host's clock, so a run is the same however busy the host is, and the machine's
 //! heartbeat timeout counts control periods, not host seconds.
 
+use std::ffi::OsString;
 use std::io;
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
@@ -48,13 +49,18 @@ impl Drop for Qemu {
 /// The image to run: `image` if given, else `$KERF_LINK_ELF`, else the link image in
 /// `$CARGO_TARGET_DIR`, else [`DEFAULT_IMAGE`] (relative to the present directory).
 pub fn image_path(image: Option<&Path>) -> PathBuf {
+    image_from(image, &|name| std::env::var_os(name))
+}
+
+/// [`image_path`] with the environment read through `var` (a test's own).
+fn image_from(image: Option<&Path>, var: &dyn Fn(&str) -> Option<OsString>) -> PathBuf {
     if let Some(p) = image {
         return p.to_owned();
     }
-    if let Some(p) = std::env::var_os("KERF_LINK_ELF") {
+    if let Some(p) = var("KERF_LINK_ELF") {
         return PathBuf::from(p);
     }
-    match std::env::var_os("CARGO_TARGET_DIR") {
+    match var("CARGO_TARGET_DIR") {
         Some(dir) => PathBuf::from(dir).join("thumbv7em-none-eabihf/release/link"),
         None => PathBuf::from(DEFAULT_IMAGE),
     }
@@ -100,4 +106,40 @@ pub fn start(image: &Path) -> Result<(Qemu, TcpStream), QemuError> {
     stream.set_nonblocking(false)?;
     stream.set_nodelay(true)?;
     Ok((qemu, stream))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The order the docs give: the image named, else `$KERF_LINK_ELF`, else the link
+    /// image under `$CARGO_TARGET_DIR`, else [`DEFAULT_IMAGE`], which is the same image
+    /// under the default `target` (one place for the image in a target folder).
+    #[test]
+    fn the_image_is_the_one_named_then_the_environments() {
+        let named = Path::new("/images/link.elf");
+        assert_eq!(image_path(Some(named)), named);
+        fn env(
+            elf: Option<&'static str>,
+            dir: Option<&'static str>,
+        ) -> impl Fn(&str) -> Option<OsString> {
+            move |name| match name {
+                "KERF_LINK_ELF" => elf.map(OsString::from),
+                "CARGO_TARGET_DIR" => dir.map(OsString::from),
+                _ => None,
+            }
+        }
+        let both = env(Some("/a/link"), Some("/b"));
+        assert_eq!(image_from(Some(named), &both), named);
+        assert_eq!(image_from(None, &both), Path::new("/a/link"));
+        assert_eq!(
+            image_from(None, &env(None, Some("/b"))),
+            Path::new("/b/thumbv7em-none-eabihf/release/link")
+        );
+        assert_eq!(image_from(None, &env(None, None)), Path::new(DEFAULT_IMAGE));
+        assert_eq!(
+            image_from(None, &env(None, Some("target"))),
+            Path::new(DEFAULT_IMAGE)
+        );
+    }
 }

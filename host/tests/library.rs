@@ -182,3 +182,83 @@ fn marks_sit_at_the_latest_sample_and_are_drawn() {
         assert!(svg.contains(label), "{label}");
     }
 }
+
+/// Distance from `p` to the polyline `line` by brute force: the nearest of `line`
+/// densified to `step` (within `step`/2 of the exact distance: the nearest point of
+/// the line is at most half a step from a sample).
+fn sampled_distance(p: [f64; 2], line: &[[f64; 2]], step: f64) -> f64 {
+    let mut best = f64::INFINITY;
+    for w in line.windows(2) {
+        let d = (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]);
+        let n = (d / step).ceil().max(1.0) as usize;
+        for k in 0..=n {
+            let t = k as f64 / n as f64;
+            let q = [
+                w[0][0] + t * (w[1][0] - w[0][0]),
+                w[0][1] + t * (w[1][1] - w[0][1]),
+            ];
+            best = best.min((p[0] - q[0]).hypot(p[1] - q[1]));
+        }
+    }
+    best
+}
+
+/// `segment_distance` against the segment sampled every 1e-4 (of segments of a few
+/// units: within 5e-5), for points beside, beyond either end and on the segment, and
+/// for a segment of no length (the distance to its point).
+#[test]
+fn segment_distance_is_the_nearest_point_of_the_segment() {
+    use kerf_host::plan::segment_distance;
+    let step = 1e-4;
+    let segments = [
+        ([0.0, 0.0], [3.0, 0.0]),
+        ([1.0, -2.0], [-1.5, 2.5]),
+        ([2.0, 2.0], [2.0, 2.0]),
+    ];
+    let points = [
+        [1.0, 1.0],
+        [-2.0, 0.5],
+        [4.0, -1.0],
+        [0.2, 0.3],
+        [2.0, 2.0],
+        [-0.25, 0.25],
+    ];
+    for (a, b) in segments {
+        for p in points {
+            let want = sampled_distance(p, &[a, b], step);
+            let got = segment_distance(p, a, b);
+            assert!(
+                (got - want).abs() <= step / 2.0,
+                "{p:?} to {a:?}-{b:?}: {got} {want}"
+            );
+        }
+    }
+}
+
+/// `deviation` against the brute force above over a square's outline: a point
+/// beside the missing fourth side is far from the open polyline and near the closed
+/// one; the largest of the points' distances is taken; nothing to stray from is
+/// infinitely far.
+#[test]
+fn deviation_is_the_farthest_point_from_the_polyline() {
+    use kerf_host::plan::deviation;
+    let step = 1e-4;
+    let square = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+    let closed = [square.as_slice(), &square[..1]].concat();
+    let points = [[0.5, 0.1], [-0.2, 0.5], [0.5, 0.5], [1.3, 1.4]];
+    for (b_closed, line) in [(false, square.to_vec()), (true, closed)] {
+        let want = points
+            .iter()
+            .map(|&p| sampled_distance(p, &line, step))
+            .fold(0.0, f64::max);
+        let got = deviation(&points, &square, b_closed);
+        assert!(
+            (got - want).abs() <= step / 2.0,
+            "closed {b_closed}: {got} {want}"
+        );
+    }
+    // Beside the open side: 0.2 from the closing side, 0.54 from the open polyline's
+    // ends.
+    assert!(deviation(&[[-0.2, 0.5]], &square, true) < deviation(&[[-0.2, 0.5]], &square, false));
+    assert_eq!(deviation(&points, &[], false), f64::INFINITY);
+}

@@ -67,7 +67,7 @@ pub fn profile(t_s: f64) -> Reference<f64> {
 
 /// The 1 s tracking profile as a job: dwell 50 ms, 30 mm out in 0.4 s, dwell 50 ms,
 /// back in 0.4 s, dwell 0.1 s (the same reference as [`profile`]).
-pub fn profile_job() -> JointJob<1> {
+fn profile_job() -> JointJob<1> {
     let at = |target: f64, duration_s: f64| Segment {
         target_m: [target],
         duration_s,

@@ -463,6 +463,116 @@ mod tests {
         }
     }
 
+    /// `backwards` against the reference's own direction: wherever the reference
+    /// moves, it says back exactly when the velocity is negative (the sweep goes out
+    /// first); it changes three times (out, back, out, back) and the final rest counts
+    /// as the last way back.
+    #[test]
+    fn backwards_is_the_direction_of_the_reference() {
+        let mut sweep = CalibrationSweep::<f64, 1>::new([0.004], 0.018, 1e-4).unwrap();
+        let (mut changes, mut last, mut moving) = (0, false, 0);
+        loop {
+            let v = sweep.reference()[0].velocity;
+            if v != 0.0 {
+                moving += 1;
+                assert_eq!(sweep.backwards(), v < 0.0, "period {}: {v}", sweep.period);
+            }
+            if sweep.backwards() != last {
+                changes += 1;
+                last = sweep.backwards();
+            }
+            if sweep.advance(&[[30000, 20000, 15000]], &mut |_, _| {}) {
+                break;
+            }
+        }
+        assert!(last, "the final rest is part of the last way back");
+        assert_eq!(changes, 3);
+        assert!(moving > 1000, "{moving}");
+    }
+
+    /// Coasts of two axes with different sensors (axis 1 with a larger amplitude and
+    /// an offset a tenth of it higher): each fit recovers its own axis' amplitude and
+    /// offset, and each installed decoder's rail band is its own sensor's range (the
+    /// samples' extremes, plus the decoder's 5 % of A margin), so that no axis gets
+    /// another's calibration; an axis without samples is named in the error.
+    #[test]
+    fn fit_sensors_fits_each_axis_from_its_own_samples() {
+        use core::f64::consts::PI;
+        let hall = [HallConfig::LM1247_16BIT; 2];
+        let a = hall[0].amplitude_counts;
+        let o = f64::from(hall[0].calibration.offset_counts[0]);
+        let sensor = [(o, 0.95 * a), (o + 0.1 * a, 1.08 * a)];
+        let sample = |axis: usize, phi: f64| -> [u16; 3] {
+            let (offset, amplitude) = sensor[axis];
+            core::array::from_fn(|k| {
+                let p = phi + 2.0 * PI / 3.0 * k as f64;
+                libm::round(offset + amplitude * (libm::sin(p) + 0.02 * libm::sin(3.0 * p))) as u16
+            })
+        };
+        let mut samples = CalibrationFit::<2>::default();
+        let mut extremes = [[u16::MAX, 0]; 2];
+        // Two coasts per axis of 1.3 pitches each at a constant speed, out and back.
+        for (axis, extremes) in extremes.iter_mut().enumerate() {
+            for direction in [1.0, -1.0] {
+                samples.push(axis as u8, SEGMENT_BREAK).unwrap();
+                for k in 0..200 {
+                    let u = sample(
+                        axis,
+                        0.4 + direction * 2.0 * PI * 1.3 * f64::from(k) / 200.0,
+                    );
+                    for c in u {
+                        *extremes = [extremes[0].min(c), extremes[1].max(c)];
+                    }
+                    samples.push(axis as u8, u).unwrap();
+                }
+            }
+        }
+        let (sensors, fits) = fit_sensors::<f32, 2>(&hall, &samples).unwrap();
+        for axis in 0..2 {
+            let (offset, amplitude) = sensor[axis];
+            let model = fits[axis].model;
+            // Noise-free but for ADC rounding (0.5 LSB of 11000 counts): within 0.1 %.
+            assert!(
+                (model.mean_amplitude_counts() / amplitude - 1.0).abs() < 1e-3,
+                "axis {axis}: {model:?}"
+            );
+            assert!(
+                (model.channels[0].offset_counts - offset).abs() < 1e-3 * amplitude,
+                "axis {axis}: {model:?}"
+            );
+            // The band reaches 5 % of the configured A beyond the healthy range. The
+            // samples' extremes miss the model's by up to 1.2 A · (0.02 rad)²/2 =
+            // 2.4e-4 A (half their spacing, the curvature with the third harmonic);
+            // the fitted model is within 1e-3 A (above): 2e-3 A and a count of
+            // rounding leave room, a swapped axis is 0.1 A off.
+            let margin = crate::sensing::hall::RAIL_MARGIN * hall[axis].amplitude_counts;
+            let band = sensors[axis].decoder().rail_band_counts();
+            for [lo, hi] in band {
+                let [min, max] = extremes[axis].map(f64::from);
+                assert!(
+                    (f64::from(lo) - (min - margin)).abs() < 2.0 + 2e-3 * amplitude,
+                    "axis {axis}: {lo} against {min}"
+                );
+                assert!(
+                    (f64::from(hi) - (max + margin)).abs() < 2.0 + 2e-3 * amplitude,
+                    "axis {axis}: {hi} against {max}"
+                );
+            }
+        }
+        let mut one = CalibrationFit::<2>::default();
+        for k in 0..200 {
+            one.push(0, sample(0, 2.0 * PI * 1.3 * f64::from(k) / 200.0))
+                .unwrap();
+        }
+        assert_eq!(
+            fit_sensors::<f32, 2>(&hall, &one).err(),
+            Some(CalibrationFailure::Fit {
+                axis: 1,
+                error: CalibrationError::TooFewSamples
+            })
+        );
+    }
+
     #[test]
     fn rejects_bad_config() {
         assert_eq!(

@@ -411,6 +411,38 @@ mod tests {
         assert_eq!((slave.restarts(), slave.executing()), (1, Some(81)));
     }
 
+    /// The latency the slave reports is the one its playout keeps: every command plays
+    /// `latency_periods` after its master tick (measured here as play period − tick),
+    /// first anchored at the first arrival plus the margin (12 − 1 + 5 periods), then
+    /// re-anchored by a block that arrives late (150 − 81 + 5). `None` before any
+    /// command.
+    #[test]
+    fn the_latency_is_the_delay_each_command_plays_at() {
+        let mut link = Loopback::default();
+        let mut master = MasterLink::<8>::new(&SDCT, 7, 1e-3).unwrap();
+        let mut slave = SlaveLink::<8, 64>::new(&SDCT, 10, 5).unwrap();
+        assert_eq!(slave.latency_periods(), None);
+        let mut delays = Vec::new();
+        for (first, arrival) in [(1u32, 12u32), (81, 150)] {
+            for now in arrival - 12..arrival {
+                let _ = slave.receive(now, &mut link);
+            }
+            assert_eq!(slave.latency_periods().is_some(), first > 1);
+            block(&mut master, &mut link, first);
+            for now in arrival..arrival + 100 {
+                let (_, fresh) = slave.receive(now, &mut link);
+                let tick = slave.executing().unwrap_or(0);
+                if fresh && tick >= first {
+                    assert_eq!(slave.latency_periods(), Some(now - tick), "tick {tick}");
+                    delays.push(now - tick);
+                }
+            }
+        }
+        // Both anchors were met by played commands (8 of each block).
+        assert_eq!(delays.len(), 16, "{delays:?}");
+        assert_eq!((delays[0], delays[15]), (16, 74));
+    }
+
     #[test]
     fn reports_carry_the_echo_only_within_the_masters_session() {
         let mut link = Loopback::default();

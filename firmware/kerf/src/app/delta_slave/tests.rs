@@ -370,3 +370,49 @@ fn open_paths_plan_and_refuse_what_does_not_fit() {
         other => panic!("{other:?}"),
     }
 }
+
+/// The delta's stop ramp is its carriages' own (the joints' ramp, tested on its own in
+/// `app::joints`), period for period and force for force, with the beam off from the
+/// first period even when the stop comes while the laser is lit.
+#[test]
+fn the_stop_ramps_the_carriages_with_the_beam_off() {
+    let config = DeltaSlaveConfig::KEOPS;
+    let mut slave = DeltaSlave::<f64>::new(&config).unwrap();
+    let job = octagon_plan(&config, LaserMode::ConstantPower { power_w: 20.0 }).unwrap();
+    // Healthy counts of carriages that stand still (the forces need not move them).
+    let inputs = config.joints.hall.map(|h| {
+        let o = f64::from(h.calibration.offset_counts[0]);
+        core::array::from_fn(|k| {
+            let phase = 0.3 + 2.0 * core::f64::consts::PI / 3.0 * k as f64;
+            libm::round(o + h.amplitude_counts * libm::sin(phase)) as u16
+        })
+    });
+    slave.monitor(&inputs).unwrap();
+    slave.begin_job(&job).unwrap();
+    // Into the approach, so that the carriages move when the stop comes.
+    for _ in 0..200 {
+        assert!(matches!(slave.run(&job, &inputs), Ok(Step::Continue(_))));
+    }
+    slave.laser_power_w = 5.0;
+    slave.begin_stop();
+    let mut twin = slave.joints().clone();
+    let mut periods = 0;
+    loop {
+        periods += 1;
+        let own = twin.ramp_to_rest(&inputs).unwrap();
+        let step = slave.ramp_to_rest(&inputs).unwrap();
+        assert_eq!(slave.telemetry().laser_power_w, 0.0);
+        match (own, step) {
+            (Step::Continue(f), Step::Continue(o)) => {
+                assert_eq!((o.force_n, o.laser_duty), (f, 0.0))
+            }
+            (Step::Done(f), Step::Done(o)) => {
+                assert_eq!((o.force_n, o.laser_duty), (f, 0.0));
+                break;
+            }
+            (own, step) => panic!("period {periods}: {own:?} against {step:?}"),
+        }
+    }
+    // The carriages were moving: the ramp took more than the one period of a rest.
+    assert!(periods > 1, "{periods}");
+}

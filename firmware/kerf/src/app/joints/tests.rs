@@ -137,3 +137,70 @@ fn a_move_longer_than_the_scalar_holds_a_time_is_refused() {
     let split = job(&[(home + 0.015, 50.0), (home + 0.03, 50.0)]);
     assert_eq!(fixed.check_job(&split), Ok(()));
 }
+
+/// The stop ramp from a cruise, against the kinematics of a constant deceleration
+/// (not the ramp's own closed form): it takes the fewest whole periods n that keep
+/// |v0|/(n·Ts) within the acceleration limit, its velocity falls by the same step each
+/// period to exactly zero, the position advances by the trapezoid of the velocities
+/// (exact for a linear velocity) to v0·n·Ts/2 past the start, `Done` comes on the n-th
+/// period and not before, and the axis then rests where it stopped. Both directions.
+#[test]
+fn the_stop_ramp_decelerates_uniformly_to_rest_within_the_limit() {
+    let config = JointsConfig::LM1247;
+    let (ts, limit) = (config.period_s, config.accel_limit_m_s2);
+    let pitch = config.hall[0].pitch_m;
+    let start = 0.03;
+    for v0 in [0.3, -0.17] {
+        let mut machine = Joints::<f64, 1>::new(&config).unwrap();
+        // Counts that follow the reference (the first sample is the home), so that
+        // the decoder sees a smooth motion.
+        let at = |x: f64| counts(0.3 + 2.0 * PI * (x - start) / pitch);
+        machine.monitor(&at(start)).unwrap();
+        machine.reference = [Reference {
+            position: start,
+            velocity: v0,
+            acceleration: 0.0,
+        }];
+        machine.begin_stop();
+        let (mut previous, mut n) = (machine.reference()[0], 0u32);
+        let mut steps = std::vec::Vec::new();
+        loop {
+            n += 1;
+            let step = machine.ramp_to_rest(&at(previous.position)).unwrap();
+            let r = machine.reference()[0];
+            // Trapezoid of the velocities, to rounding of positions near 0.03 m.
+            let advance = 0.5 * ts * (r.velocity + previous.velocity);
+            assert!(
+                (r.position - previous.position - advance).abs() < 1e-14,
+                "{v0}: period {n}: {r:?} after {previous:?}"
+            );
+            steps.push(previous.velocity - r.velocity);
+            previous = r;
+            if let Step::Done(_) = step {
+                break;
+            }
+            assert!(n < 10_000, "{v0}: no end");
+        }
+        let t = f64::from(n) * ts;
+        // The fewest periods within the limit (1e-9 relative: the rounding of v0/a/Ts).
+        assert!(v0.abs() / t <= limit * (1.0 + 1e-9), "{v0}: {n}");
+        assert!(v0.abs() / (t - ts) > limit * (1.0 - 1e-9), "{v0}: {n}");
+        // Uniform steps of v0/n (the last also brings the velocity to exactly zero).
+        let step = v0 / f64::from(n);
+        assert!(steps.iter().all(|d| (d - step).abs() < 1e-12), "{steps:?}");
+        assert_eq!(previous.velocity, 0.0);
+        // The distance of a uniform stop, to the rounding of the sum above.
+        let stop_at = start + 0.5 * v0 * t;
+        assert!(
+            (previous.position - stop_at).abs() < 1e-12,
+            "{v0}: {previous:?}"
+        );
+        // At rest afterwards, where it stopped.
+        for _ in 0..3 {
+            let step = machine.ramp_to_rest(&at(stop_at)).unwrap();
+            assert!(matches!(step, Step::Done(_)));
+            assert_eq!(machine.reference()[0].position, previous.position);
+            assert_eq!(machine.reference()[0].velocity, 0.0);
+        }
+    }
+}

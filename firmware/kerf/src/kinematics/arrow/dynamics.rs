@@ -405,6 +405,51 @@ mod tests {
         assert_eq!(d.turntable_torques(2.0), [1.204, -1.204]);
     }
 
+    /// `feedforward_with` on the matrices the control period has (Jm, Jm⁺ and J̇m from
+    /// the geometry) against the direct model run on its forces: the plate accelerates
+    /// as asked (1e-9 m/s²: a few hundred N through a well-conditioned 4 × 4 solve in
+    /// f64), here and at a second pose and rate (a J̇m term taken with the wrong sign
+    /// or from the wrong rate shows as Jmᵀ M_a J̇m Ẋ, tens of m/s²). The flag names the
+    /// first actuator whose force is beyond `force_limit_n`, the preset's 2,500 N, by
+    /// a look at the forces themselves.
+    #[test]
+    fn feedforward_with_the_control_periods_matrices_inverts_the_direct_model() {
+        let (g, d) = model();
+        assert_eq!(d.force_limit_n(), ArrowMasses::ARROW.actuator_force_limit_n);
+        for (x, v, a) in [
+            (
+                Pose::new(-0.2, 0.45, 0.1, -0.3),
+                Pose::new(0.5, 0.1, -0.2, 0.7),
+                Pose::new(3.0, -2.0, 1.0, 5.0),
+            ),
+            (
+                Pose::new(0.15, 0.5, -0.05, 0.4),
+                Pose::new(-0.8, 0.3, 0.4, -2.0),
+                Pose::new(-30.0, 10.0, 20.0, 100.0),
+            ),
+        ] {
+            let (_, jm, jm_dot) = g.differential(&x, Some(&v)).unwrap();
+            let jm_pinv = ArrowGeometry::pseudo_inverse(&jm).unwrap();
+            for scale in [1.0, 100.0] {
+                let a = a * scale;
+                let ff = d
+                    .feedforward_with(&jm, &jm_pinv, &jm_dot, &x, &v, &a)
+                    .unwrap();
+                let back = d.acceleration(&g, &x, &v, &ff.forces_n).unwrap();
+                assert!((back - a).amax() < 1e-9 * scale, "{back:?} for {a:?}");
+                let first_over = ff
+                    .forces_n
+                    .iter()
+                    .position(|f| f.abs() > 2500.0)
+                    .map(|i| i as u8);
+                assert_eq!(ff.over_limit, first_over, "{:?}", ff.forces_n);
+                if scale > 1.0 {
+                    assert!(first_over.is_some(), "{:?}", ff.forces_n);
+                }
+            }
+        }
+    }
+
     /// The preset's Σ I_i: the six half-arm point masses at the B_i about P's z axis at
     /// the workspace centre.
     #[test]

@@ -785,3 +785,6 @@ fn derivative(phi: f64) -> [f64; BASIS] {
 fn dot<const M: usize>(a: &[f64; M], b: &[f64; M]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
+
+#[cfg(test)]
+mod tests;

@@ -226,3 +226,6 @@ pub(super) fn correction_slope(calibration: &HallCalibration) -> f64 {
             .fold(1.0, f64::max)
     })
 }
+
+#[cfg(test)]
+mod tests;

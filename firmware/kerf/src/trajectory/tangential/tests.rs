@@ -522,3 +522,92 @@ fn a_curve_whose_length_overflows_the_scalar_is_refused() {
         )))
     );
 }
+
+/// `for_checked_curve` takes the caller's word for the curve (a speed `new` refuses on
+/// its curvature, V²/r = 100 m/s² against 10, is accepted) but still checks what a
+/// control period can: the ramp against the limit, θ0 and the Newton count, by name.
+/// Where it starts is checked against the circle's closed form (r cos θ0, r sin θ0),
+/// θ0 three turns on wrapped back (f32: 1e-7 relative of each term, a few ulp of the
+/// 6π wrap, 2e-6 rad) and, on an open path, against its last point (less the points'
+/// centroid) at θ0 = its chord length (the spline interpolates its points); beyond
+/// either end θ0 is refused.
+#[test]
+fn for_checked_curve_checks_only_what_a_period_can_and_starts_on_the_curve() {
+    let r = 0.01;
+    let fast = config(1.0, 10.0);
+    assert!(matches!(
+        CurveFollower::new(Circle { r }, &fast, 0.0).err(),
+        Some(ContourError::SpeedAboveCurvatureLimit { .. })
+    ));
+    let f = CurveFollower::for_checked_curve(Circle { r }, &fast, 1.0 + 6.0 * PI).unwrap();
+    let p = f.at_rest().position;
+    let (x, y) = (r as f64 * 1f64.cos(), r as f64 * 1f64.sin());
+    assert!((f64::from(f.theta()) - 1.0).abs() < 2e-6, "{}", f.theta());
+    assert!(
+        (f64::from(p.x) - x).abs() < 3e-8 && (f64::from(p.y) - y).abs() < 3e-8,
+        "{p:?}"
+    );
+    let refused = |config: &FollowerConfig, theta0: f64| {
+        CurveFollower::for_checked_curve(Circle { r }, config, theta0).err()
+    };
+    assert_eq!(
+        refused(&config(0.01, 0.1), 0.0),
+        Some(ConfigError::out_of_range("accel_m_s2").into())
+    );
+    assert_eq!(
+        refused(&config(0.01, 10.0), f64::NAN),
+        Some(ConfigError::not_finite("theta0").into())
+    );
+    assert_eq!(
+        refused(&config_at(0.01, 10.0, TS, MAX_NEWTON_STEPS + 1), 0.0),
+        Some(ConfigError::out_of_range("newton_steps").into())
+    );
+    let points = [[0.0, 0.0], [0.01, 0.0], [0.02, 0.01]];
+    let path = || crate::trajectory::open_path::OpenPath::<f64, 8>::from_points(&points).unwrap();
+    let end = 0.01 + 0.01 * 2f64.sqrt();
+    let config = config(0.01, 10.0);
+    let f = CurveFollower::for_checked_curve(path(), &config, end).unwrap();
+    // The path is about the points' centroid (0.01, 0.01/3).
+    let p = f.at_rest().position;
+    assert!(
+        (p.x - 0.01).abs() < 1e-12 && (p.y - 0.02 / 3.0).abs() < 1e-12,
+        "{p:?}"
+    );
+    for theta0 in [-1e-3, end * 1.01] {
+        assert_eq!(
+            CurveFollower::for_checked_curve(path(), &config, theta0).err(),
+            Some(ConfigError::out_of_range("theta0").into()),
+            "{theta0}"
+        );
+    }
+}
+
+/// A curve replaced through `curve_mut` is not followed from the old θ: the follower
+/// refuses to step until restarted, then starts at the new circle's (r cos θ0,
+/// r sin θ0) and stays on it (|C| = r to f32 rounding, 1e-6 relative: the old circle
+/// is half the radius away).
+#[test]
+fn a_curve_replaced_in_place_is_followed_only_after_a_restart() {
+    let config = config(0.01, 10.0);
+    let mut f = CurveFollower::new(Circle { r: 0.01 }, &config, 0.0).unwrap();
+    f.start();
+    for _ in 0..50 {
+        f.step().unwrap();
+    }
+    f.curve_mut().r = 0.02;
+    assert!(f.is_lost());
+    assert_eq!(f.step().err(), Some(ContourError::LostContour));
+    f.restart(&config, 0.5).unwrap();
+    let p = f.at_rest().position;
+    let (x, y) = (0.02 * 0.5f64.cos(), 0.02 * 0.5f64.sin());
+    assert!(
+        (f64::from(p.x) - x).abs() < 5e-8 && (f64::from(p.y) - y).abs() < 5e-8,
+        "{p:?}"
+    );
+    f.start();
+    for _ in 0..200 {
+        let p = f.step().unwrap().position;
+        let radius = f64::from(p.x.hypot(p.y));
+        assert!((radius - 0.02).abs() < 2e-8, "{radius}");
+    }
+}
