@@ -481,7 +481,7 @@ mod tests {
                 changes += 1;
                 last = sweep.backwards();
             }
-            if sweep.advance(&[[30000, 20000, 15000]], &mut |_, _| {}) {
+            if sweep.advance(&[[30000, 20000, 15000]], &mut |_| {}) {
                 break;
             }
         }
@@ -514,7 +514,11 @@ mod tests {
         // Two coasts per axis of 1.3 pitches each at a constant speed, out and back.
         for (axis, extremes) in extremes.iter_mut().enumerate() {
             for direction in [1.0, -1.0] {
-                samples.push(axis as u8, SEGMENT_BREAK).unwrap();
+                let at = |counts| HallSample {
+                    axis: axis as u8,
+                    counts,
+                };
+                samples.push(at(SEGMENT_BREAK)).unwrap();
                 for k in 0..200 {
                     let u = sample(
                         axis,
@@ -523,7 +527,7 @@ mod tests {
                     for c in u {
                         *extremes = [extremes[0].min(c), extremes[1].max(c)];
                     }
-                    samples.push(axis as u8, u).unwrap();
+                    samples.push(at(u)).unwrap();
                 }
             }
         }
@@ -561,8 +565,8 @@ mod tests {
         }
         let mut one = CalibrationFit::<2>::default();
         for k in 0..200 {
-            one.push(0, sample(0, 2.0 * PI * 1.3 * f64::from(k) / 200.0))
-                .unwrap();
+            let counts = sample(0, 2.0 * PI * 1.3 * f64::from(k) / 200.0);
+            one.push(HallSample { axis: 0, counts }).unwrap();
         }
         assert_eq!(
             fit_sensors::<f32, 2>(&hall, &one).err(),
