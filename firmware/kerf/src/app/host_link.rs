@@ -34,7 +34,7 @@ use crate::codec::link::{
 use crate::error::{positive, ConfigError};
 use heapless::spsc::Producer;
 use heapless::Deque;
-use miniconf::{json_core, ConstPath, TreeDeserialize, TreeSchema, TreeSerialize};
+use miniconf::{json_core, ConstPath, NodeIter, TreeDeserialize, TreeSchema, TreeSerialize};
 
 /// Deepest setting path a machine describes (a leaf deeper is not announced; a test
 /// of each machine checks its tree).
@@ -106,14 +106,11 @@ pub fn describe<'a, M: LinkMachine>(
         return Some(Description::JobKind(*kind));
     }
     i -= M::JOB_KINDS.len();
-    let count = M::Settings::SCHEMA
-        .nodes::<SettingPath, SETTINGS_DEPTH>()
-        .len();
+    // The leaves walked without the schema's shape (its computation unwraps).
+    let leaves = || NodeIter::<SettingPath, SETTINGS_DEPTH>::new(M::Settings::SCHEMA);
+    let count = leaves().count();
     if i < count {
-        *path = M::Settings::SCHEMA
-            .nodes::<SettingPath, SETTINGS_DEPTH>()
-            .nth(i)?
-            .ok()?;
+        *path = leaves().nth(i)?.ok()?;
         let path: &'a SettingPath = path;
         let (edge, _) = M::Settings::SCHEMA.get_meta(path.as_ref()).ok()?;
         let meta = |key| edge.and_then(|m| m.get(key)).unwrap_or("");
