@@ -5,9 +5,8 @@
 use heapless::spsc::Queue;
 use host_tests::arrow::{scenario, ArrowRunConfig};
 use host_tests::remote::{master_config, RemoteCase, MASTER_HOME_M};
-use kerf::app::remote_master::{
-    FixtureJob, RemoteMaster, RemoteMasterFault, RemoteMasterInputs, SlaveReport,
-};
+use kerf::app::remote_link::SlaveReport;
+use kerf::app::remote_master::{FixtureJob, RemoteMaster, RemoteMasterFault, RemoteMasterInputs};
 use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
 use kerf::control::redundant_pid::RedundantPidConfig;
 use kerf::kinematics::Vector3;

@@ -35,12 +35,10 @@ use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
 use kerf::app::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::grinding::{GrindingCalibration, GrindingCell, GrindingConfig, GrindingInputs};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
-use kerf::app::remote_master::{
-    FixtureJob, RemoteMaster, RemoteMasterConfig, RemoteMasterInputs, SlaveReport,
-};
-use kerf::app::remote_slave::{
-    FollowJob, RemoteCommand, RemoteSlave, RemoteSlaveConfig, RemoteSlaveInputs,
-};
+use kerf::app::remote_link::RemoteCommand;
+use kerf::app::remote_link::SlaveReport;
+use kerf::app::remote_master::{FixtureJob, RemoteMaster, RemoteMasterConfig, RemoteMasterInputs};
+use kerf::app::remote_slave::{FollowJob, RemoteSlave, RemoteSlaveConfig, RemoteSlaveInputs};
 use kerf::app::stream::{SignalReceiver, SignalSender};
 use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
 use kerf::codec::dct::Dct;

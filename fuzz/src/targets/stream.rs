@@ -8,7 +8,7 @@
 
 use crate::input::{Input, Seed};
 use kerf::app::remote_link::MasterLink;
-use kerf::app::remote_slave::RemoteCommand;
+use kerf::app::remote_link::RemoteCommand;
 use kerf::app::stream::{StreamReceiver, StreamSender, MAX_FRAME_HEADER};
 use kerf::codec::packet::MAX_SAMPLE_ABS;
 use kerf::codec::sdct::{SdctConfig, Selection};

@@ -23,12 +23,31 @@
 //! and counted.
 
 use crate::app::playout::{Playing, Playout};
-use crate::app::remote_master::SlaveReport;
-use crate::app::remote_slave::RemoteCommand;
 use crate::app::stream::{StreamReceiver, StreamSender};
 use crate::codec::sdct::SdctConfig;
 use crate::error::{positive, ConfigError};
 use crate::hal::FrameLink;
+
+/// What the master sends for one link sample.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct RemoteCommand {
+    /// The slave's desired task acceleration ẍdes, m/s² (base frame).
+    pub acceleration_m_s2: [f32; 3],
+    /// The operator wants the beam on.
+    pub laser_on: bool,
+}
+
+/// What the slave reports.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct SlaveReport {
+    /// The master tick of the command it was executing when it measured (`None`: no
+    /// command of this master's session had played).
+    pub echo_tick: Option<u32>,
+    /// Its effector, m.
+    pub position_m: [f32; 3],
+    /// Its effector's velocity, m/s (for the comparison case without the observer).
+    pub velocity_m_s: [f32; 3],
+}
 
 /// Bytes of the master → slave header.
 const COMMAND_HEADER: usize = 8;

@@ -34,7 +34,7 @@
 //! poles this costs a tracking error of the slave's acceleration over λK, a few
 //! micrometres on the scenarios' curves.
 
-use crate::app::remote_slave::RemoteCommand;
+use crate::app::remote_link::{RemoteCommand, SlaveReport};
 use crate::app::supervisor::NoSweep;
 use crate::app::supervisor::{
     first_non_finite_index, FiniteOutputs, Machine, NonFiniteOutput, Step,
@@ -179,18 +179,6 @@ pub struct RemoteMasterInputs {
     pub encoder_counts: [u16; 3],
     /// The newest slave report that arrived this period.
     pub report: Option<SlaveReport>,
-}
-
-/// What the slave reports.
-#[derive(Copy, Clone, Debug, Default, PartialEq)]
-pub struct SlaveReport {
-    /// The master tick of the command it was executing when it measured (`None`: no
-    /// command of this master's session had played).
-    pub echo_tick: Option<u32>,
-    /// Its effector, m.
-    pub position_m: [f32; 3],
-    /// Its effector's velocity, m/s (for the comparison case without the observer).
-    pub velocity_m_s: [f32; 3],
 }
 
 /// One period's outputs.

@@ -34,6 +34,7 @@ use crate::app::calibrate::{
 };
 use crate::app::delta_slave::{DeltaFault, DeltaSlave, DeltaSlaveConfig, DeltaTelemetry};
 use crate::app::joints::{JobError, JointJob, Segment};
+use crate::app::remote_link::RemoteCommand;
 use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
 use crate::control::laser::LaserMode;
 use crate::control::pd::{Pd, PdConfig};
@@ -44,15 +45,6 @@ use crate::scalar::{lit, Float};
 use crate::sensing::hall::{HallConfig, SelfCalibration};
 use crate::trajectory::Reference;
 use nalgebra::Vector3;
-
-/// What the master sends for one link sample.
-#[derive(Copy, Clone, Debug, Default, PartialEq)]
-pub struct RemoteCommand {
-    /// The slave's desired task acceleration ẍdes, m/s² (base frame).
-    pub acceleration_m_s2: [f32; 3],
-    /// The operator wants the beam on.
-    pub laser_on: bool,
-}
 
 /// One period's inputs: the carriages' Hall counts and what the playout plays.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]

@@ -115,7 +115,7 @@ fn outputs_are_indexed_and_named_per_machine() {
         spindle_rpm: nan,
     };
     assert_eq!(grinding.first_not_finite(), Some(2));
-    let mut command = crate::app::remote_slave::RemoteCommand {
+    let mut command = crate::app::remote_link::RemoteCommand {
         acceleration_m_s2: [0.0, 0.0, f32::INFINITY],
         laser_on: false,
     };
