@@ -20,9 +20,6 @@ use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
 use kerf::kinematics::arrow::{ArrowError, Pose};
 use kerf::scalar::{Float, Real};
 
-/// The link's heartbeat timeout, s.
-pub const HEARTBEAT_TIMEOUT_S: f64 = 0.5;
-
 /// Where the plate stands at power-up: the pyramid's first point (pose in m and rad,
 /// the table's θx in rad).
 pub fn home() -> (Pose<f64>, f64) {
@@ -88,11 +85,14 @@ impl<T: Float> LinkedArrow<'_, T> {
 }
 
 /// Builds ARROW of `scenario` (its gains, its plant) behind the link, at [`home`],
-/// ready (ARROW has no calibration run), and hands it to `f`.
+/// ready (ARROW has no calibration run), and hands it to `f`. The link stops a job
+/// after `heartbeat_timeout_s` of machine time without a frame from the host: a
+/// simulation that runs faster than real time needs more than a board's.
 ///
 /// Errors: a scenario whose law or plant cannot be built.
 pub fn with_linked_arrow<T: Float, R>(
     scenario: &ArrowScenario,
+    heartbeat_timeout_s: f64,
     f: impl FnOnce(&mut LinkedArrow<'_, T>) -> R,
 ) -> Result<R, ArrowError> {
     let mut commands = Queue::<Command<Arrow<T>>, 2>::new();
@@ -113,7 +113,7 @@ pub fn with_linked_arrow<T: Float, R>(
     supervisor.set_telemetry_decimation(TELEMETRY_DECIMATION);
     let config = HostLinkConfig {
         period_s: scenario.plant.period_s,
-        heartbeat_timeout_s: HEARTBEAT_TIMEOUT_S,
+        heartbeat_timeout_s,
     };
     let settings = ArrowSettings::of(
         &scenario.parallel,

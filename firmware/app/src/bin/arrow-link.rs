@@ -14,13 +14,17 @@ use kerf_app::uart::{serve_link, CmsdkUart, UART0_BASE};
 use kerf_sim::arrow::ArrowScenario;
 use kerf_sim::linked_arrow::with_linked_arrow;
 
+/// The heartbeat timeout in machine time: the emulated ARROW runs at about twice
+/// real time, so 2 s of its time is at least a second of the host's.
+const HEARTBEAT_TIMEOUT_S: f64 = 2.0;
+
 #[entry]
 fn main() -> ! {
     // SAFETY: UART0 belongs to this image alone.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
     // One RK4 step per period: what the emulated MCU pays for (`ArrowScenario::smoke`).
     let scenario = ArrowScenario::smoke();
-    let ended = with_linked_arrow::<f32, _>(&scenario, |arrow| {
+    let ended = with_linked_arrow::<f32, _>(&scenario, HEARTBEAT_TIMEOUT_S, |arrow| {
         serve_link(&mut uart, |bytes, send| {
             arrow.period(bytes, send).map(|_| ())
         })
