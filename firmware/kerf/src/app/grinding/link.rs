@@ -194,7 +194,7 @@ const FAULTS: [CodeWords; 13] = [
     words(
         4,
         "the hexapod's controller reported a GCS error",
-        "the GCS error code (PI's numbering)",
+        "code",
     ),
     words(5, "the hexapod's reply did not parse", ""),
     words(6, "the hexapod's serial link failed", ""),
