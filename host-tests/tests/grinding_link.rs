@@ -86,6 +86,19 @@ fn machine(socket: UnixStream, stop: Arc<AtomicBool>, breaks: Arc<AtomicU8>) -> 
     })
 }
 
+/// The pass's job file as scripts/smoke uploads it to the QEMU image (`kerf gcode`
+/// checks programs with ARROW's loader, which a pass along X at the origin is not):
+/// the committed bytes are the job writer's from the G-code, rewritten with
+/// `KERF_WRITE_DATA=1`.
+#[test]
+fn the_committed_pass_job_is_its_gcode() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../data/grinding_pass.krfj");
+    if std::env::var_os("KERF_WRITE_DATA").is_some() {
+        std::fs::write(path, pass_job()).unwrap();
+    }
+    assert_eq!(std::fs::read(path).unwrap(), pass_job());
+}
+
 fn pass_job() -> Vec<u8> {
     let mut out = vec![0u8; PASS_GCODE.len() + 64];
     let n = write_gcode(PASS_GCODE.as_bytes(), &mut out).unwrap();
