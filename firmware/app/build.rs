@@ -25,6 +25,9 @@ fn main() {
             // ARROW behind the link: the job in the supervisor, in the command slot and
             // being built at the commit, the parse buffer and the upload (12 KB).
             println!("cargo:rustc-link-arg-bin=arrow-link=--defsym=_kerf_ram_length=0x100000");
+            // The grinding cell behind the link: the simulated workpiece (3000 samples,
+            // 24 KB) and the sensor's inverse calibration beside the cell and its queues.
+            println!("cargo:rustc-link-arg-bin=grinding-link=--defsym=_kerf_ram_length=0x100000");
             // The benchmark image links every kernel beside its peers: 1 MiB of the
             // model's 4 MiB code memory.
             println!("cargo:rustc-link-arg-bin=bench=--defsym=_kerf_flash_length=0x100000");

@@ -57,6 +57,8 @@ use crate::sensing::force::{
 };
 
 pub mod devices;
+pub mod link;
+pub mod product;
 pub use devices::{DeviceFault, HexapodFault, SpindleFault};
 
 #[cfg(test)]

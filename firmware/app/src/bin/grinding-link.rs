@@ -1,0 +1,41 @@
+//! QEMU host-link image of the grinding cell (`GrindingCell<f32>` on the simulated
+//! cell with its hexapod and spindle on their protocols), driven only by a host over
+//! the emulated UART0 with the link protocol (`kerf_sim::linked_grinding`,
+//! `kerf::app::grinding::link`): the host uploads a pass in G-code, starts it,
+//! changes the force law's gains, streams the forces. Run it with QEMU's serial port
+//! on a socket (`kerf run --qemu --image …/grinding-link JOB`); the image runs until
+//! the host ends QEMU.
+#![no_std]
+#![no_main]
+
+use cortex_m_rt::entry;
+use cortex_m_semihosting::hprintln;
+use kerf_app::exit;
+use kerf_app::uart::{CmsdkUart, UART0_BASE};
+use kerf_sim::linked_grinding::with_linked_grinding;
+
+#[entry]
+fn main() -> ! {
+    // SAFETY: UART0 belongs to this image alone.
+    let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
+    let built = with_linked_grinding::<f32, _>(|cell| -> ! {
+        let mut rx = [0u8; 64];
+        loop {
+            let mut n = 0;
+            while let Some(slot) = rx.get_mut(n) {
+                match uart.read() {
+                    Some(b) => *slot = b,
+                    None => break,
+                }
+                n += 1;
+            }
+            cell.period(rx.get(..n).unwrap_or(&[]), &mut |frame| {
+                uart.write(frame);
+                true
+            });
+        }
+    });
+    let Err(e) = built;
+    hprintln!("kerf qemu grinding-link: the cell did not start: {:?}", e);
+    exit(false)
+}
