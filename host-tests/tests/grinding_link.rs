@@ -25,11 +25,14 @@ const BREAK_NONE: u8 = 0;
 const BREAK_HEXAPOD: u8 = 1;
 const BREAK_SPINDLE: u8 = 2;
 
-/// Machine time per host second the simulated cell is held to. A real cell runs its
-/// periods in real time; unpaced, the simulation's cheap periods would let its
-/// heartbeat timeout (0.5 s of machine time) pass before a busy host's reply
-/// arrives. At twice real time the host has 0.25 s to answer.
+/// Machine time per host second the simulated cell is held to, at most: unpaced, the
+/// cell's cheap periods would end a 5 s pass before a busy host's mid-pass change
+/// arrives. Only a bound on speed: a slower machine changes nothing.
 const PACE: f64 = 2.0;
+
+/// The heartbeat timeout of the simulated cell, s of machine time: long, so that a
+/// busy host is not taken for a lost one (the heartbeat is tested with the link).
+const HEARTBEAT_TIMEOUT_S: f64 = 1e4;
 
 /// The simulated cell on the far end of `socket`, a period per turn at [`PACE`],
 /// until `stop` is set or the host hangs up; `breaks` names a device to break
@@ -48,7 +51,7 @@ fn machine(socket: UnixStream, stop: Arc<AtomicBool>, breaks: Arc<AtomicU8>) -> 
             }
         });
         let mut out = socket;
-        with_linked_grinding::<f64, _>(|cell| {
+        with_linked_grinding::<f64, _>(HEARTBEAT_TIMEOUT_S, |cell| {
             let start = Instant::now();
             let mut periods = 0u32;
             while !stop.load(Ordering::Relaxed) {

@@ -40,9 +40,6 @@ use nalgebra::{Matrix6, Vector6};
 /// as the host tests and scripts/smoke upload it.
 pub const PASS_GCODE: &str = include_str!("../../../data/grinding_pass.gcode");
 
-/// The link's heartbeat timeout, s.
-pub const HEARTBEAT_TIMEOUT_S: f64 = 0.5;
-
 /// Samples of the workpiece (5 µm apart over 15 mm: the tool's 4 mm and a pass of
 /// several mm).
 pub const SAMPLES: usize = 3000;
@@ -192,11 +189,14 @@ impl<T: Float + FalPower> LinkedGrinding<'_, T> {
 
 /// Builds the cell as flashed ([`CONFIG`], its settings, [`PASS`]) on the seed's
 /// simulated cell ([`CellConfig::SEED`]) behind the link, calibrated and Ready (module
-/// docs), and hands it to `f`.
+/// docs), and hands it to `f`. The link stops a job after `heartbeat_timeout_s` of
+/// machine time without a frame from the host: a simulation that runs faster than
+/// real time needs more than a board's.
 ///
 /// Errors: a configuration the cell or the link refuses; a calibration that does not
 /// end Ready.
 pub fn with_linked_grinding<T: Float + FalPower, R>(
+    heartbeat_timeout_s: f64,
     f: impl FnOnce(&mut LinkedGrinding<'_, T>) -> R,
 ) -> Result<R, ConfigError> {
     let mut commands = Queue::<Command<GrindingCell<T>>, 4>::new();
@@ -208,7 +208,7 @@ pub fn with_linked_grinding<T: Float + FalPower, R>(
     supervisor.set_telemetry_decimation(TELEMETRY_DECIMATION);
     let config = HostLinkConfig {
         period_s: PERIOD_S,
-        heartbeat_timeout_s: HEARTBEAT_TIMEOUT_S,
+        heartbeat_timeout_s,
     };
     let link = HostLink::new(&config, GrindingSettings::CELL, PASS)?;
     let calibration = Matrix6::from_fn(|r, c| CONFIG.sensor.calibration[r][c]);

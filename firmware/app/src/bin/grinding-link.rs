@@ -11,29 +11,22 @@
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use kerf_app::exit;
-use kerf_app::uart::{CmsdkUart, UART0_BASE};
+use kerf_app::uart::{serve_link, CmsdkUart, UART0_BASE};
 use kerf_sim::linked_grinding::with_linked_grinding;
+
+/// The heartbeat timeout in machine time, as the other link images allow (2 s of
+/// the emulated machine's time).
+const HEARTBEAT_TIMEOUT_S: f64 = 2.0;
 
 #[entry]
 fn main() -> ! {
     // SAFETY: UART0 belongs to this image alone.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
-    let built = with_linked_grinding::<f32, _>(|cell| -> ! {
-        let mut rx = [0u8; 64];
-        loop {
-            let mut n = 0;
-            while let Some(slot) = rx.get_mut(n) {
-                match uart.read() {
-                    Some(b) => *slot = b,
-                    None => break,
-                }
-                n += 1;
-            }
-            cell.period(rx.get(..n).unwrap_or(&[]), &mut |frame| {
-                uart.write(frame);
-                true
-            });
-        }
+    let built = with_linked_grinding::<f32, _>(HEARTBEAT_TIMEOUT_S, |cell| {
+        serve_link(&mut uart, |bytes, send| {
+            cell.period(bytes, send);
+            Ok::<(), core::convert::Infallible>(())
+        })
     });
     let Err(e) = built;
     hprintln!("kerf qemu grinding-link: the cell did not start: {:?}", e);
