@@ -45,7 +45,7 @@
 //! ```
 //! use heapless::spsc::Queue;
 //! use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
-//! # use kerf::app::supervisor::{Machine, Step};
+//! # use kerf::app::supervisor::{Machine, NoSweep, Step};
 //! # /// A machine that needs no calibration data and runs jobs of `n` periods.
 //! # struct Counter { left: u32 }
 //! # #[derive(Copy, Clone, Debug, PartialEq)]
