@@ -266,6 +266,15 @@ pub struct CodeWords {
     pub detail: &'static str,
 }
 
+/// A code and its words, as a machine's tables write them.
+pub const fn code_words(code: u16, words: &'static str, detail: &'static str) -> CodeWords {
+    CodeWords {
+        code,
+        words,
+        detail,
+    }
+}
+
 impl CodeWords {
     /// The entry of `code` in `table`.
     pub fn find(table: &[CodeWords], code: u16) -> Option<&CodeWords> {

@@ -20,6 +20,7 @@ use super::product::{law, load_job, Arrow, Job, PROGRAM_POINTS};
 use super::ArrowLaw;
 use crate::app::host_link::LinkMachine;
 use crate::codec::job::JobFile;
+use crate::codec::link::code_words as words;
 use crate::codec::link::{Channel, ChannelValues, CodeWords, JobKind};
 use crate::control::redundant_pid::RedundantPidConfig;
 use crate::error::ConfigError;
@@ -160,15 +161,6 @@ pub mod load_codes {
     pub const CONFIG: u16 = 0x308;
     /// Not a G-code job.
     pub const KIND: u16 = 0x309;
-}
-
-/// The words of one code.
-const fn words(code: u16, words: &'static str, detail: &'static str) -> CodeWords {
-    CodeWords {
-        code,
-        words,
-        detail,
-    }
 }
 
 /// What the encoder index of a fault's detail means.

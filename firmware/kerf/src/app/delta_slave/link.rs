@@ -24,6 +24,7 @@ use crate::app::axis::{AxisConfig, AxisLaw};
 use crate::app::host_link::LinkMachine;
 use crate::app::joints::JobError;
 use crate::codec::job::JobFile;
+use crate::codec::link::code_words as words;
 use crate::codec::link::{Channel, ChannelValues, CodeWords, JobKind, JOB_NOT_AT_REST};
 use crate::control::dob::DobConfig;
 use crate::control::pd::PdConfig;
@@ -157,15 +158,6 @@ pub mod load_codes {
     pub const BAD_CURVE: u16 = 0x202;
     /// A kind of job this machine does not cut (points, G-code).
     pub const KIND: u16 = 0x203;
-}
-
-/// The words of one code.
-const fn words(code: u16, words: &'static str, detail: &'static str) -> CodeWords {
-    CodeWords {
-        code,
-        words,
-        detail,
-    }
 }
 
 /// What the fault codes of [`LinkMachine::fault_code`] mean.

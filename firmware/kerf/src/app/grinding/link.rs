@@ -24,6 +24,7 @@ use super::{
 };
 use crate::app::host_link::LinkMachine;
 use crate::codec::job::JobFile;
+use crate::codec::link::code_words as words;
 use crate::codec::link::{Channel, ChannelValues, CodeWords, JobKind};
 use crate::control::adrc::{AdrcConfig, FalPower};
 use crate::control::pid::PidConfig;
@@ -163,15 +164,6 @@ pub mod load_codes {
     pub const SPINDLE_CHANGES: u16 = 0x307;
     /// Not a G-code job.
     pub const KIND: u16 = 0x308;
-}
-
-/// The words of one code.
-const fn words(code: u16, words: &'static str, detail: &'static str) -> CodeWords {
-    CodeWords {
-        code,
-        words,
-        detail,
-    }
 }
 
 /// The fault codes of [`LinkMachine::fault_code`].
