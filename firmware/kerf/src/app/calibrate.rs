@@ -27,7 +27,7 @@
 
 use crate::app::axis::HallAxis;
 use crate::app::supervisor::Machine;
-use crate::error::{coefficient, factor, positive, ConfigError};
+use crate::error::{build_each, coefficient, factor, positive, ConfigError};
 use crate::scalar::Real;
 use crate::sensing::hall::{
     CalibrationError, HallCalibration, HallCalibrator, HallConfig, SelfCalibration,
@@ -295,6 +295,10 @@ impl<const N: usize> CalibrationFit<N> {
     }
 
     /// Fits the sensor model of `axis`, starting from the nominal calibration `initial`.
+    // Out of line: a cold path. Inlined into its callers once per axis, its tables
+    // and matrices were scalarised into one frame of tens of KB and copied word by
+    // word (about 100 KB of flash per caller); see BENCHMARKS.md, Memory.
+    #[inline(never)]
     pub fn finish(
         &self,
         axis: usize,
@@ -330,27 +334,23 @@ pub fn fit_sensors<T: Real, const N: usize>(
     hall: &[HallConfig; N],
     samples: &CalibrationFit<N>,
 ) -> Result<([HallAxis<T>; N], [SelfCalibration; N]), CalibrationFailure> {
-    let mut sensors = heapless::Vec::<HallAxis<T>, N>::new();
-    let mut fits = heapless::Vec::<SelfCalibration, N>::new();
-    for (axis, hall) in hall.iter().enumerate() {
-        let mut fit = samples
-            .finish(axis, &hall.calibration)
-            .map_err(|error| CalibrationFailure::Fit { axis, error })?;
-        // A budget the sensors' noise cannot keep is raised to the one it can, and said.
-        let (config, raised) = hall.with_self_calibration_within_noise(&fit);
-        fit.fault_budget_raised = raised;
-        let sensor = HallAxis::new(&config)
-            .map_err(|e| CalibrationFailure::Config(e.at(axis).within("hall")))?;
-        let _ = sensors.push(sensor);
-        let _ = fits.push(fit);
-    }
-    match (sensors.into_array(), fits.into_array()) {
-        (Ok(sensors), Ok(fits)) => Ok((sensors, fits)),
-        _ => Err(CalibrationFailure::Fit {
-            axis: 0,
-            error: CalibrationError::TooFewSamples,
-        }),
-    }
+    let fitted = build_each(
+        "hall",
+        hall,
+        |axis, hall| {
+            let mut fit = samples
+                .finish(axis, &hall.calibration)
+                .map_err(|error| CalibrationFailure::Fit { axis, error })?;
+            // A budget the sensors' noise cannot keep is raised to the one it can, and said.
+            let (config, raised) = hall.with_self_calibration_within_noise(&fit);
+            fit.fault_budget_raised = raised;
+            let sensor = HallAxis::new(&config)
+                .map_err(|e| CalibrationFailure::Config(e.at(axis).within("hall")))?;
+            Ok((sensor, fit))
+        },
+        CalibrationFailure::Config,
+    )?;
+    Ok((fitted.map(|(sensor, _)| sensor), fitted.map(|(_, fit)| fit)))
 }
 
 /// One sample of a Hall calibration sweep: an axis' raw counts ([`SEGMENT_BREAK`]

@@ -16,7 +16,9 @@ use crate::app::calibrate::{
     SweepMode, COAST_BOUND_M,
 };
 use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
-use crate::error::{factor, in_range, positive, representable_each, ConfigContext, ConfigError};
+use crate::error::{
+    build_each, factor, in_range, positive, representable_each, ConfigContext, ConfigError,
+};
 use crate::scalar::Real;
 use crate::sensing::hall::{HallConfig, SelfCalibration};
 use crate::trajectory::quintic::Quintic;
@@ -209,14 +211,12 @@ impl<T: Real, const N: usize> Joints<T, N> {
     pub fn new(config: &JointsConfig<N>) -> Result<Self, ConfigError> {
         let period_s = positive("period_s", config.period_s)?;
         let law = AxisLaw::new(&config.axis, period_s).within("axis")?;
-        let mut sensors = heapless::Vec::<HallAxis<T>, N>::new();
-        for (k, hall) in config.hall.iter().enumerate() {
-            // Capacity N for N configs: the push cannot fail.
-            let _ = sensors.push(HallAxis::new(hall).at(k).within("hall")?);
-        }
-        let sensors = sensors
-            .into_array()
-            .map_err(|_| ConfigError::out_of_range("hall"))?;
+        let sensors = build_each(
+            "hall",
+            &config.hall,
+            |k, hall| HallAxis::new(hall).at(k).within("hall"),
+            |e| e,
+        )?;
         let pitch_m = config.hall.first().map_or(0.018, |h| h.pitch_m);
         for (k, (home, [lo, hi])) in config.home_m.iter().zip(config.travel_m.iter()).enumerate() {
             let element = |e: ConfigError| e.indexed(k);

@@ -204,6 +204,18 @@ fn config_errors_name_the_whole_path() {
     config.joints.home_m[2] = 0.05;
     let e = DeltaSlave::<f32>::new(&config).unwrap_err();
     assert_eq!(format!("{}", e.path), "joints.home_m[2]", "{e}");
+
+    // A bad sensor is named by its own index, whichever it is.
+    for k in 0..3 {
+        let mut config = DeltaSlaveConfig::KEOPS;
+        config.joints.hall[k].pitch_m = 0.0;
+        let e = DeltaSlave::<f32>::new(&config).unwrap_err();
+        assert_eq!(
+            format!("{}", e.path),
+            format!("joints.hall[{k}].pitch_m"),
+            "{e}"
+        );
+    }
 }
 
 /// The octagon (±6 mm) about the workspace centre, one lap at 8 mm/s, with `laser`.

@@ -155,6 +155,7 @@ impl HallConfig {
     /// [`FaultBudgetRaised`]. A machine calibrates whatever its sensors' noise (a 12-bit
     /// ADC's rounding alone shows about as much residual as a 20 µm fault, see
     /// [`residual`]); what it can promise is said, never loosened quietly.
+    #[inline(never)]
     pub fn with_self_calibration_within_noise(
         &self,
         fit: &SelfCalibration,
@@ -318,6 +319,10 @@ const RADIUS_F32: f32 = DEMODULATED_RADIUS as f32;
 
 impl HallDecoder {
     /// Validates `config`; the first good sample defines pitch count zero.
+    // Out of line: a cold path. Inlined into its callers once per axis, its tables
+    // and matrices were scalarised into one frame of tens of KB and copied word by
+    // word (about 100 KB of flash per caller); see BENCHMARKS.md, Memory.
+    #[inline(never)]
     pub fn new(config: &HallConfig) -> Result<Self, ConfigError> {
         positive("pitch_m", config.pitch_m)?;
         in_range("adc_bits", f64::from(config.adc_bits), 8.0, 16.0)?;
