@@ -330,11 +330,16 @@ pub enum CalibrationFailure {
 /// axis whose noise cannot keep its configured fault-error budget is installed with
 /// the smallest budget it can keep, reported in its fit's
 /// [`SelfCalibration::fault_budget_raised`].
+// Out of line: its per-axis decoders and fits are tens of KB of frame, which would
+// otherwise add to its caller's (the board's link task; see BENCHMARKS.md, Stack).
+#[inline(never)]
 pub fn fit_sensors<T: Real, const N: usize>(
     hall: &[HallConfig; N],
     samples: &CalibrationFit<N>,
 ) -> Result<([HallAxis<T>; N], [SelfCalibration; N]), CalibrationFailure> {
-    let fitted = build_each(
+    // Two passes, each array filled in place: a pass of (decoder, fit) pairs held
+    // both and their copies in one frame, tens of KB more stack in the link task.
+    let fits = build_each(
         "hall",
         hall,
         |axis, hall| {
@@ -342,15 +347,30 @@ pub fn fit_sensors<T: Real, const N: usize>(
                 .finish(axis, &hall.calibration)
                 .map_err(|error| CalibrationFailure::Fit { axis, error })?;
             // A budget the sensors' noise cannot keep is raised to the one it can, and said.
-            let (config, raised) = hall.with_self_calibration_within_noise(&fit);
-            fit.fault_budget_raised = raised;
-            let sensor = HallAxis::new(&config)
-                .map_err(|e| CalibrationFailure::Config(e.at(axis).within("hall")))?;
-            Ok((sensor, fit))
+            fit.fault_budget_raised = hall.with_self_calibration_within_noise(&fit).1;
+            Ok(fit)
         },
         CalibrationFailure::Config,
     )?;
-    Ok((fitted.map(|(sensor, _)| sensor), fitted.map(|(_, fit)| fit)))
+    let sensors = build_each(
+        "hall",
+        hall,
+        |axis, hall| installed_axis(hall, &fits[axis]).map_err(|e| e.at(axis).within("hall")),
+        |e| e,
+    )
+    .map_err(CalibrationFailure::Config)?;
+    Ok((sensors, fits))
+}
+
+/// The decoder of one axis with its fit installed. Out of line: its configuration and
+/// decoder are temporaries of a few KB that would otherwise sit in `fit_sensors`' frame
+/// beside the fit's deepest calls.
+#[inline(never)]
+fn installed_axis<T: Real>(
+    hall: &HallConfig,
+    fit: &SelfCalibration,
+) -> Result<HallAxis<T>, ConfigError> {
+    HallAxis::new(&hall.with_self_calibration_within_noise(fit).0)
 }
 
 /// One sample of a Hall calibration sweep: an axis' raw counts ([`SEGMENT_BREAK`]
