@@ -355,7 +355,11 @@ pub fn fit_sensors<T: Real, const N: usize>(
     let sensors = build_each(
         "hall",
         hall,
-        |axis, hall| installed_axis(hall, &fits[axis]).map_err(|e| e.at(axis).within("hall")),
+        |axis, hall| {
+            // `fits` has an element for every axis.
+            let fit = fits.get(axis).ok_or(ConfigError::out_of_range("hall"))?;
+            installed_axis(hall, fit).map_err(|e| e.at(axis).within("hall"))
+        },
         |e| e,
     )
     .map_err(CalibrationFailure::Config)?;
