@@ -1,5 +1,5 @@
-//! ARROW's PID with computed feedforward on the simulated machine (A 3.2–3.3,
-//! issue 15 item 3): the regularization against the geometric error, and the
+//! ARROW's PID with computed feedforward on the simulated machine (A 3.2–3.3):
+//! the regularization against the geometric error, and the
 //! anti-windup in saturation. Pictures in `<target>/<profile>/plots/`.
 
 use host_tests::arrow::{hold, quintic_move, run, ArrowRunConfig, ArrowSample};

@@ -1,5 +1,5 @@
-//! The pyramid of A §5 (fig. 26–27) machined by the simulated ARROW (issue 15 item
-//! 5): the G-code file the firmware image carries, read into a job on the machine,
+//! The pyramid of A §5 (fig. 26–27) machined by the simulated ARROW:
+//! the G-code file the firmware image carries, read into a job on the machine,
 //! run through the supervisor at 5 kHz against the plant with its geometric error,
 //! and the RMS tracking errors of eq. 55–58 beside A table 3, with and without the
 //! computed feedforward and the regularization. Pictures in `<target>/<profile>/plots/`.

@@ -1,4 +1,4 @@
-//! The seed's grinding experiments on the simulated cell (G ch. 7–8, issue 14 item 4):
+//! The seed's grinding experiments on the simulated cell (G ch. 7–8):
 //! PID and ADRC at 7.5 N and 10 N, then contour tracking at 1 N with the spindle
 //! stopped. Pictures in `<target>/<profile>/plots/grinding_*.svg`.
 
@@ -122,8 +122,8 @@ fn seed_experiments() {
     );
 }
 
-/// The same experiments with the gains tuned on the cell (`GrindingConfig::TUNED`,
-/// issue 14 item 5): figures beside the seed's, and whether PID beats ADRC.
+/// The same experiments with the gains tuned on the cell (`GrindingConfig::TUNED`):
+/// figures beside the seed's, and whether PID beats ADRC.
 #[test]
 fn tuned_experiments() {
     let cases = [

@@ -1,4 +1,4 @@
-//! The grinding cell with its devices on their protocols (issue 14 items 8 and 9):
+//! The grinding cell with its devices on their protocols:
 //! the cell's control period at 1 ms, the device link's tick every 10 periods
 //! speaking PI GCS to `hal-mock`'s hexapod and the converter's frames to its spindle,
 //! and the simulated cell's workpiece carried along by the hexapod's real motion.

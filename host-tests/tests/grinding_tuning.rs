@@ -1,4 +1,4 @@
-//! Tuning both force laws on the simulated cell (issue 14 item 5). The seed tuned its
+//! Tuning both force laws on the simulated cell. The seed tuned its
 //! PID with a genetic algorithm (G 5.3, MATLAB's Response Optimization). Here:
 //! Nelder–Mead from `argmin` (a maintained crate) on three gains in log space. Why:
 //! three or four parameters, a cost that is a deterministic function of them (the

@@ -1,4 +1,4 @@
-//! ARROW's jobs (A §4, issue 15): a G-code program read on the machine into
+//! ARROW's jobs (A §4): a G-code program read on the machine into
 //! rest-to-rest moves, each a natural spline through its points followed at constant
 //! feed with S-curve start and stop, and every move checked against the machine
 //! before the job may run.

@@ -1,4 +1,4 @@
-//! ARROW as a machine of the supervisor (issue 15): jobs from G-code
+//! ARROW as a machine of the supervisor: jobs from G-code
 //! ([`super::job`]), each period's reference from the constant-feed follower, the
 //! regularized PID with computed feedforward ([`super::ArrowLaw`]), and the checks
 //! that stop it.

@@ -1,4 +1,4 @@
-//! The grinding cell's device link (issue 14 item 8): the supervisor's slower task
+//! The grinding cell's device link: the supervisor's slower task
 //! turns the cell's outputs into the hexapod's PI GCS commands (docs/codec.md §31,
 //! G app. D, [`crate::codec::gcs`]) and the spindle converter's frames (G 3.1.3,
 //! app. B, [`crate::codec::spindle`]) once per tick, over the board's

@@ -1,4 +1,4 @@
-//! A bias that drifts (issue 14 item 9): out of contact the bias-compensated forces
+//! A bias that drifts: out of contact the bias-compensated forces
 //! are the sensor's noise around zero, so the mean of a window of them estimates how
 //! far the bias has moved since its capture.
 //!
