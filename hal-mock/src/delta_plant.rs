@@ -114,7 +114,7 @@ impl DeltaPlantParams {
     ///   slider runs in sleeve bearings, and these are the values of
     ///   `LinearMotorParams::LM1247_WITH_PAYLOAD` (≈2 % of the continuous force,
     ///   the order of a polymer sleeve bearing under the light side load of the arms).
-    ///   Assumptions: the seed gives no friction figures. The arms' ruby-ball joints
+    ///   Assumptions: T gives no friction figures. The arms' ruby-ball joints
     ///   (T 7.1.2, "very low friction between aluminum and ruby") turn under small
     ///   moment arms and are neglected.
     /// - vs = 0.1 mm/s: the width of the Coulomb law's transition, far below the
@@ -510,7 +510,7 @@ mod tests {
 
     #[test]
     fn a_held_carriage_force_balances_gravity_statically() {
-        // Horizontal master, z up, effector above the carriages (seed frame). Rails are
+        // Horizontal master, z up, effector above the carriages (T's frame). Rails are
         // horizontal, so the static forces holding the pose are F = −Jxᵀ me g: applying
         // them keeps the robot at rest (checks the gravity and Jacobian wiring).
         let c = DeltaConfig::MASTER_HORIZONTAL;

@@ -10,7 +10,7 @@
 //! do not; all have an integer number nk of cycles per pitch, so over one pitch the
 //! ripple averages out and the mean force is f.
 //!
-//! The seed's slave (T 7.1.2, 7.1.5) drives three Faulhaber LM1247 linear motors from
+//! T's slave (T 7.1.2, 7.1.5) drives three Faulhaber LM1247 linear motors from
 //! a dSPACE DS1103 through drive electronics built for the setup; the values of
 //! [`DriveParams::LM1247_DS1103`] and their sources are given there.
 
@@ -83,9 +83,9 @@ impl DriveParams {
     /// An LM1247 on drive electronics fed by a DS1103 D/A channel (the Keops slave,
     /// T 7.1.2 and 7.1.5).
     ///
-    /// - DAC 16 bit: the seed names the board and its 8 D/A channels but not their
+    /// - DAC 16 bit: T names the board and its 8 D/A channels but not their
     ///   resolution; the DS1103's D/A converters are 16-bit, ±10 V by dSPACE's
-    ///   documentation of the board (not stated in the seed; a 14-bit converter would
+    ///   documentation of the board (not stated in T; a 14-bit converter would
     ///   make the LSB 4× coarser, 0.44 mN, still far below friction). Full scale is taken as the 3.6 N continuous force (T 7.1.2; the drive
     ///   gain is an assumption — scaling ±10 V to the ≈3× peak force instead would
     ///   triple the LSB), so one LSB is 7.2 N / 65536 = 0.11 mN, three orders below
@@ -93,7 +93,7 @@ impl DriveParams {
     /// - Current loop 2 kHz (τ = 80 µs), an assumption of the right order: a PWM
     ///   current loop closes at up to about a tenth of its 20–40 kHz switching
     ///   frequency, the winding's own L/R of a coreless micro-motor is of order
-    ///   0.1 ms, and a current loop slower than the seed's 2.4 kHz position loop
+    ///   0.1 ms, and a current loop slower than T's 2.4 kHz position loop
     ///   (T 7.1.5) would have made that rate pointless.
     /// - Pitch 18 mm (LM1247, as the Hall sensors: `HallSensorParams::LM1247_16BIT`).
     /// - Ripple. The LM1247 is ironless (self-supporting coil, no slots), so there is no

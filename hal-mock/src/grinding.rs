@@ -5,7 +5,7 @@
 //! normal to the workpiece's mean surface, material below the surface height h(x).
 //! The tool is a disc of radius r whose centre moves along x with the feed and along
 //! −y with the piezo's extension p: centre (x_t, y_0 − p). The unknown surface is
-//! G fig. 30's sinusoid written in space, h(x) = A + B sin(C x + D): the seed moves it
+//! G fig. 30's sinusoid written in space, h(x) = A + B sin(C x + D): G moves it
 //! past the tool at the feed, which is the same thing.
 //!
 //! Local depth of cut (G 5.2, fig. 34): the height of the leading intersection of the
@@ -19,7 +19,7 @@
 //! width, F′n = K (v_w/v_s)^(2ε−1) a^ε d_s^(1−ε) (Werner, "Kinematik und Mechanik
 //! des Schleifprozesses", 1971; in the form of Tönshoff et al., "Modelling and
 //! simulation of grinding processes", CIRP Annals 41/2, 1992), with the tangential
-//! force Ft = μ Fn by the force ratio μ. The seed's own force model (its reference
+//! force Ft = μ Fn by the force ratio μ. G's own force model (its reference
 //! 11) is not printed; [`GrindingForces::ST37_CBN_4MM`] documents the constants
 //! chosen in its place. With the spindle stopped (the contour-tracking run, G 7.3)
 //! nothing is removed and the force is the elastic contact of the tool on the surface.
@@ -252,9 +252,9 @@ pub struct GrindingForces {
 impl GrindingForces {
     /// G 7.1's cut: a 4 mm CBN tool on a 4 mm ST37 plate. ε = 0.7 and μ = 0.35 are
     /// mid-range values for steel with CBN (Tönshoff et al. 1992 give ε between 0.5 and
-    /// 0.9 and force ratios of 0.2 to 0.5); K = 2,400 puts the seed's 7.5 N at a depth
+    /// 0.9 and force ratios of 0.2 to 0.5); K = 2,400 puts G's 7.5 N at a depth
     /// of cut of 10 µm at its feed (0.1 mm/s) and spindle speed (25,000 rpm: v_s =
-    /// 5.24 m/s), the light abrasive regime the seed grinds in. The contact stiffness
+    /// 5.24 m/s), the light abrasive regime G grinds in. The contact stiffness
     /// (1 N/µm) is that of a tool on a compliant robotic setup (G 1.5: about 30 times
     /// softer than a CNC grinder's).
     pub const ST37_CBN_4MM: Self = Self {

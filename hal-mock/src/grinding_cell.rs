@@ -58,7 +58,7 @@ impl CellConfig {
     /// The cell of G ch. 7 on the surface of G fig. 30: the identified piezo, a 4 mm
     /// CBN tool at 25,000 rpm on ST37, noise of 0.8 N², and a surface with 50 µm
     /// amplitude and 4 mm wavelength (the figure gives no values; this one asks the
-    /// piezo for up to 8 µm/s at the seed's 0.1 mm/s feed). The tool starts 20 µm
+    /// piezo for up to 8 µm/s at G's 0.1 mm/s feed). The tool starts 20 µm
     /// above the surface's crest. The sensor sits 3 mm and 2 mm off the spindle axis
     /// (of the order of a spindle clamp's offset; estimated by the firmware).
     pub const SEED: Self = Self {
@@ -203,7 +203,7 @@ impl<const N: usize> Cell<N> {
 mod tests {
     use super::*;
 
-    /// With the tool held at a fixed extension on the seed's surface, the wrench
+    /// With the tool held at a fixed extension on G's surface, the wrench
     /// decomposes back into the model's forces by G eq. 2 and 4 (computed here from
     /// the wrench alone, no noise): the sensor model and the firmware's formula agree.
     #[test]

@@ -92,7 +92,7 @@ impl HallSensorParams {
         }
     }
 
-    /// The worst LM1247 sensors the decoder's model covers (issue 10 item 7): the
+    /// The worst LM1247 sensors the decoder's model covers: the
     /// offsets, gains and mounting errors of [`HallSensorParams::lm1247_imperfect`],
     /// third harmonics of 1–3 % and fifth harmonics of 0.5–1 % per channel, each with
     /// its own phase up to ±10° away from the channel's mounting.

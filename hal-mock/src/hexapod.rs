@@ -1,6 +1,6 @@
 //! The simulated hexapod controller: a rate-limited 6-DOF positioner that speaks the
 //! PI GCS subset of `kerf::codec::gcs`, so the firmware drives it with the bytes it
-//! would send the seed's PI controller (G app. D).
+//! would send G's PI controller (G app. D).
 //!
 //! Model: the platform pose (X, Y, Z in mm; U, V, W in deg) moves in a straight line
 //! of the six coordinates toward its target at the system velocity set by VLS (the
@@ -294,7 +294,7 @@ mod tests {
             parse_referenced(h.send(Command::FrfQuery(AxisSet::EMPTY))).unwrap();
         assert_eq!((all, referenced), (AxisSet::ALL, AxisSet::EMPTY));
 
-        // The seed's sequence: FRF, then wait on #7 (IsControllerReady).
+        // G's sequence: FRF, then wait on #7 (IsControllerReady).
         h.send(Command::Frf(AxisSet::EMPTY.with(Axis::X)));
         let mut waited_s = 0.0;
         while !parse_ready(h.send(Command::ControllerReady)).unwrap() {
@@ -305,8 +305,8 @@ mod tests {
         assert!((waited_s - REFERENCE_TIME_S).abs() < 0.11, "{waited_s}");
         assert_eq!(h.error(), 0);
 
-        // VLS 0.5, MOV X 3 Y -4: 5 mm at 0.5 mm/s, POS? polled every 0.1 s as the
-        // seed's GUI does, each read on the line from the start at v·t.
+        // VLS 0.5, MOV X 3 Y -4: 5 mm at 0.5 mm/s, POS? polled every 0.1 s as
+        // G's GUI does, each read on the line from the start at v·t.
         h.send(Command::Vls(0.5));
         assert_eq!(parse_value(h.send(Command::VlsQuery)), Ok(0.5));
         h.send(moves(3.0, -4.0));
@@ -366,7 +366,7 @@ mod tests {
         assert_eq!(h.error(), code::INVALID_AXIS);
         h.hexapod.handle(b"MOV X abc\n", &mut [0u8; 8]);
         assert_eq!(h.error(), code::PARAM_SYNTAX);
-        // SPA as the seed sends it is taken.
+        // SPA as G sends it is taken.
         h.send(Command::Spa {
             item: SpaItem::Number(1),
             parameter: 0x1900_1900,

@@ -23,7 +23,7 @@ pub struct SimSpindle {
 }
 
 impl SimSpindle {
-    /// The seed's class of spindle (G app. A: a 4 kW high-speed spindle): 0.5 s to
+    /// G's class of spindle (G app. A: a 4 kW high-speed spindle): 0.5 s to
     /// reach speed, 1.5 N·m rated torque, 8 A per N·m over 0.8 A idle.
     pub fn new() -> Self {
         Self {
@@ -100,7 +100,7 @@ mod tests {
         r.decode(reply.as_ref().map(|b| &b[..]).unwrap_or(&[]))
     }
 
-    /// A conversation as the seed's controller has it: set 25,000 rpm, start, read the
+    /// A conversation as G's controller has it: set 25,000 rpm, start, read the
     /// speed as it comes up, the load and current under a cutting torque; a dead
     /// converter is a typed error.
     #[test]

@@ -34,7 +34,7 @@ pub struct ArrowRunConfig {
 }
 
 impl ArrowRunConfig {
-    /// The seed's gains (A table 2) with or without the computed feedforward and the
+    /// The published gains (A table 2) with or without the computed feedforward and the
     /// regularization, for `periods` periods, no wall.
     pub fn seed(feedforward: bool, regularize: bool, periods: usize) -> Self {
         Self {

@@ -224,7 +224,7 @@ mod tests {
 
     #[test]
     fn constant_speed_deposits_p_over_v_everywhere() {
-        // The seed's 20 W at 2 mm/s over 2 mm: e = P / v = 10 000 J/m in 20 bins.
+        // T's 20 W at 2 mm/s over 2 mm: e = P / v = 10 000 J/m in 20 bins.
         let v = vec![2e-3; 1000];
         let s = integrate(&v);
         let profile = deposit(&s, &vec![20.0; 1000], TS, BIN).unwrap();

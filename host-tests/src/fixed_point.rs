@@ -1,5 +1,5 @@
 //! The scenarios the fixed-point machines are compared with f64 and checked against
-//! their signal formats over (issue 18): the single axis' tracking profile, the same
+//! their signal formats over: the single axis' tracking profile, the same
 //! with a 1 N load step mid-move, a hold with a 1 N load step; one Keops slave
 //! carriage tracking and holding under its gravity load.
 

@@ -1,6 +1,6 @@
 //! The grinding cell in closed loop on the host (G ch. 7–8): the `GrindingCell`
 //! machine under its supervisor, the simulated cell of `hal-mock` (piezo, workpiece,
-//! Werner forces, the seed's noise), and the F/T sensor between them: the cell's
+//! Werner forces, G's noise), and the F/T sensor between them: the cell's
 //! wrench becomes six gauge voltages through the inverse of the sensor's calibration
 //! matrix, plus a bias the machine captures at rest.
 
@@ -128,7 +128,7 @@ pub fn run_pass(setup: &PassSetup, max_periods: usize) -> PassRun {
     }
 }
 
-/// The seed's figures of a pass.
+/// G's figures of a pass.
 #[derive(Copy, Clone, Debug)]
 pub struct PassFigures {
     /// RMS of the true normal force minus the reference while in contact, N.
@@ -186,7 +186,7 @@ pub fn figures(run: &PassRun, reference_n: f64, settle_s: f64, tool_radius_m: f6
     }
 }
 
-/// A pass of the seed's experiments: law, reference, the seed's feed and spindle, and
+/// A pass of G's experiments: law, reference, G's feed and spindle, and
 /// `length_m` along the surface.
 pub fn seed_pass(law: ForceLawKind, normal_force_n: f64, length_m: f64) -> PassSetup {
     let cell = CellConfig::SEED;

@@ -1,5 +1,5 @@
-//! ARROW's PID with computed feedforward on the simulated machine (A 3.2–3.3,
-//! issue 15 item 3): the regularization against the geometric error, and the
+//! ARROW's PID with computed feedforward on the simulated machine (A 3.2–3.3):
+//! the regularization against the geometric error, and the
 //! anti-windup in saturation. Pictures in `<target>/<profile>/plots/`.
 
 use host_tests::arrow::{hold, quintic_move, run, ArrowRunConfig, ArrowSample};
@@ -63,7 +63,7 @@ fn regularization_keeps_internal_forces_from_building() {
 /// into a wall 0.5 mm on (a tool stalled in hard material) that gives way at 0.4 s.
 /// Against the wall the actuators saturate for 0.3 s. Without anti-windup the
 /// integrators grow the whole time and, when the wall goes, throw the plate past its
-/// target; with back-calculation at the seed's K_AWP the integral holds still (it
+/// target; with back-calculation at A's K_AWP the integral holds still (it
 /// keeps the command at the limit) and the plate arrives without overshoot, from
 /// below: what the integral held back unwinds with its time constant K_P/K_I =
 /// 0.29 s.

@@ -1,4 +1,4 @@
-//! ARROW's bad input (issue 15 item 7): programs the machine must refuse at load,
+//! ARROW's bad input: programs the machine must refuse at load,
 //! naming the line, and encoder faults during a run that must end in `Fault` with zero
 //! force and torque in the same period.
 

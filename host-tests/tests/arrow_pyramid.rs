@@ -1,5 +1,5 @@
-//! The pyramid of A §5 (fig. 26–27) machined by the simulated ARROW (issue 15 item
-//! 5): the G-code file the firmware image carries, read into a job on the machine,
+//! The pyramid of A §5 (fig. 26–27) machined by the simulated ARROW:
+//! the G-code file the firmware image carries, read into a job on the machine,
 //! run through the supervisor at 5 kHz against the plant with its geometric error,
 //! and the RMS tracking errors of eq. 55–58 beside A table 3, with and without the
 //! computed feedforward and the regularization. Pictures in `<target>/<profile>/plots/`.
@@ -80,16 +80,16 @@ fn the_pyramid_is_tracked_within_the_seeds_figures_with_feedforward() {
     let full = rms[0];
     let no_ff = rms[1];
     let (no_reg, none) = (rms[2], rms[3]);
-    // With feedforward and regularization: within the seed's figures (a simulation
+    // With feedforward and regularization: within the published figures (a simulation
     // has no friction or cogging; its errors come from the encoder steps, the
     // model's geometric error and the control delay). Eq. 57 as printed also counts
     // the joints' inconsistency under the plant's uncalibrated geometric error
     // (0.1-0.3 mm, constant, `ArrowPlantConfig::with_geometric_error`), which no
-    // controller removes and the seed's calibrated machine did not have: its part
+    // controller removes and A's calibrated machine did not have: its part
     // that moves the plate, Rm q̃, is the figure to set beside table 3. It is the
-    // one figure above the seed's: 11.4 µm against 6.88 µm (the six joints' error
+    // one figure above A's: 11.4 µm against 6.88 µm (the six joints' error
     // summed in eq. 57 against the three Cartesian coordinates of eq. 55), bounded
-    // here at twice the seed's.
+    // here at twice A's.
     assert!(full.cartesian_m < SEED.cartesian_m, "{full:?}");
     assert!(full.joint_consistent_m < 2.0 * SEED.joint_m, "{full:?}");
     assert!(full.cartesian_deg < SEED.cartesian_deg && full.joint_deg < SEED.joint_deg);

@@ -1,6 +1,6 @@
 //! T 8.2.1 on the simulated Keops slave: gear, cam and octagon (about ±6 mm) at 8 mm/s,
 //! independent joint control against contouring control (and joint PD with preview),
-//! at the seed's 2.4 kHz and at 10 kHz.
+//! at T's 2.4 kHz and at 10 kHz.
 
 use host_tests::machining::{draw_runs, run, scaled, CaseCurve, ContourCase, ContourReport};
 use host_tests::plot::plots_dir;

@@ -1,7 +1,6 @@
 //! Errors of each scalar of the single-axis loop and of a Keops slave joint (the same
 //! law with the slave's configuration, `Scenario::keops_joint`) against f64, per
-//! scenario, side by side with the bound its quantization implies (issue 18 items 2
-//! and 4). Run with
+//! scenario, side by side with the bound its quantization implies. Run with
 //! `cargo test -p host-tests --test fixed_point_errors -- --nocapture` for the tables.
 //!
 //! Two comparisons per scenario:

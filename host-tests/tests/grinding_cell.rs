@@ -1,4 +1,4 @@
-//! The seed's grinding experiments on the simulated cell (G ch. 7–8, issue 14 item 4):
+//! G's grinding experiments on the simulated cell (G ch. 7–8):
 //! PID and ADRC at 7.5 N and 10 N, then contour tracking at 1 N with the spindle
 //! stopped. Pictures in `<target>/<profile>/plots/grinding_*.svg`.
 
@@ -26,7 +26,7 @@ fn plot_pass(name: &str, title: &str, run: &PassRun, reference_n: f64) {
         &format!("{title}: normal force"),
         "normal force (N)",
         &[
-            Series::new("measured (with the seed's 0.8 N² noise)", &measured, 5),
+            Series::new("measured (with G's 0.8 N² noise)", &measured, 5),
             Series::new("true", &truth, 1),
             Series::new("reference", &reference, 0),
         ],
@@ -58,7 +58,7 @@ fn plot_pass(name: &str, title: &str, run: &PassRun, reference_n: f64) {
 }
 
 /// One experiment: the pass of `config` with `law` at `force`, its figures printed
-/// beside the seed's surface MSE, and its pictures.
+/// beside G's surface MSE, and its pictures.
 fn experiment(
     config: GrindingConfig,
     law: ForceLawKind,
@@ -84,9 +84,9 @@ fn experiment(
     (run.mode, f)
 }
 
-/// The seed's three grinding experiments with its gains (G 8.1–8.3) at the unit where
+/// G's three grinding experiments with its gains (G 8.1–8.3) at the unit where
 /// they work (10 pm per unit, `seed_gain_unit_scan`), and whether PID beats ADRC on
-/// the surface form as the seed found (0.00174 against 0.0043 mm²).
+/// the surface form as G found (0.00174 against 0.0043 mm²).
 #[test]
 fn seed_experiments() {
     let cases = [
@@ -112,18 +112,18 @@ fn seed_experiments() {
         mse.push(f.form_mse_mm2);
         modes.push(mode);
     }
-    // The seed's PID gains complete both passes; its ADRC gains drive the tool into
+    // G's PID gains complete both passes; its ADRC gains drive the tool into
     // the workpiece past the crash limit on this cell (the fault stops it safely).
     assert_eq!(modes[..2], [Mode::Ready, Mode::Ready]);
     assert_eq!(modes[2], Mode::Fault(GrindingFault::ForceLimit));
     println!(
-        "surface form MSE at 7.5 N: PID {:.6} mm², ADRC {:?} (seed: PID 0.00174, ADRC 0.0043 mm²)",
+        "surface form MSE at 7.5 N: PID {:.6} mm², ADRC {:?} (G: PID 0.00174, ADRC 0.0043 mm²)",
         mse[0], modes[2]
     );
 }
 
-/// The same experiments with the gains tuned on the cell (`GrindingConfig::TUNED`,
-/// issue 14 item 5): figures beside the seed's, and whether PID beats ADRC.
+/// The same experiments with the gains tuned on the cell (`GrindingConfig::TUNED`):
+/// figures beside G's, and whether PID beats ADRC.
 #[test]
 fn tuned_experiments() {
     let cases = [
@@ -162,7 +162,7 @@ fn tuned_experiments() {
         results.push(f);
     }
     println!(
-        "tuned at 7.5 N: force RMS error PID {:.3} N, ADRC {:.3} N: PID beats ADRC, as the seed found (its surface MSE 0.00174 against 0.0043 mm²)",
+        "tuned at 7.5 N: force RMS error PID {:.3} N, ADRC {:.3} N: PID beats ADRC, as G found (its surface MSE 0.00174 against 0.0043 mm²)",
         results[0].force_rms_error_n,
         results[2].force_rms_error_n
     );
@@ -171,7 +171,7 @@ fn tuned_experiments() {
 
 /// Contour tracking (G 7.3, 8.4): the spindle stopped, 1 N, the tool rolls on the
 /// surface without cutting; the path of its lowest point measures the surface's form
-/// (seed: 0.000724 mm² against a laser scan).
+/// (G: 0.000724 mm² against a laser scan).
 #[test]
 fn contour_tracking_measures_the_form() {
     let mut setup = seed_pass(ForceLawKind::Pid, 1.0, LENGTH_M);
@@ -203,7 +203,7 @@ fn contour_tracking_measures_the_form() {
     let n = errors.len() as f64;
     let mean = errors.iter().sum::<f64>() / n;
     let mse = errors.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / n * 1e6;
-    println!("contour tracking at 1 N: {:.1} s, form MSE against the true surface {mse:.6} mm² (seed 0.000724 mm² against a laser scan); mean offset {:.2} µm", run.samples.len() as f64 * 1e-3, mean * 1e6);
+    println!("contour tracking at 1 N: {:.1} s, form MSE against the true surface {mse:.6} mm² (G 0.000724 mm² against a laser scan); mean offset {:.2} µm", run.samples.len() as f64 * 1e-3, mean * 1e6);
     let truth: Vec<(f64, f64)> = traced
         .iter()
         .map(|(x, _)| (*x, setup.cell.surface.height_m(x * 1e-3) * 1e3))
@@ -222,7 +222,7 @@ fn contour_tracking_measures_the_form() {
     assert!(mse < 0.000724, "{mse}");
 }
 
-/// The unit of the seed's law output (not printed): a PID pass of 4 mm with the seed's
+/// The unit of G's law output (not printed): a PID pass of 4 mm with G's
 /// gains for units from 1 µm down. At 10 nm and above the force noise alone, through
 /// K_P and K_D, asks for piezo steps beyond the rate limit: the piezo chatters, the
 /// chatter takes the whole feed (V_hex = 0) and the pass never ends; at 1 nm and

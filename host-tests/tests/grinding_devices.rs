@@ -1,4 +1,4 @@
-//! The grinding cell with its devices on their protocols (issue 14 items 8 and 9):
+//! The grinding cell with its devices on their protocols:
 //! the cell's control period at 1 ms, the device link's tick every 10 periods
 //! speaking PI GCS to `hal-mock`'s hexapod and the converter's frames to its spindle,
 //! and the simulated cell's workpiece carried along by the hexapod's real motion.
@@ -233,7 +233,7 @@ fn assert_safe_after(o: &Outcome, fault_period: usize) {
     }
 }
 
-/// The seed's pass with the tuned PID (`GrindingConfig::TUNED`: it reaches the force
+/// G's pass with the tuned PID (`GrindingConfig::TUNED`: it reaches the force
 /// within the first second).
 fn pass_setup(length_m: f64) -> PassSetup {
     PassSetup {
@@ -293,7 +293,7 @@ fn a_pass_moves_the_hexapod_as_commanded() {
         .fold(0.0, f64::max);
     println!("largest true normal force {peak:.2} N");
     assert!(peak > 5.0, "{peak}");
-    // The spindle got the seed's set speed and start, and was set to 0 at the end.
+    // The spindle got G's set speed and start, and was set to 0 at the end.
     let frames: Vec<&Vec<u8>> = o
         .spindle
         .log

@@ -164,7 +164,7 @@ fn plan(changes: &[(f64, &str, &str)]) -> RunPlan {
 /// The force follows the cell's 7.5 N: over the samples from the first contact plus
 /// 1 s, the mean measured normal force is within 1.5 N of it. The PID's command is the
 /// piezo's increment, so following the surface's slope leaves an error of the slope's
-/// rate over Kp per second: the seed's sinusoid (50 µm, 4 mm) rises at up to
+/// rate over Kp per second: G's sinusoid (50 µm, 4 mm) rises at up to
 /// 7.8 µm/s under a 0.1 mm/s feed, against 8.4 µm/s per N, about 0.9 N; the noise
 /// (σ 0.9 N) averages to 0.06 N over 200 samples. The cell fed the pass's 0.5 mm.
 #[test]

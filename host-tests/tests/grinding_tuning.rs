@@ -1,11 +1,11 @@
-//! Tuning both force laws on the simulated cell (issue 14 item 5). The seed tuned its
+//! Tuning both force laws on the simulated cell. G tuned its
 //! PID with a genetic algorithm (G 5.3, MATLAB's Response Optimization). Here:
 //! Nelder–Mead from `argmin` (a maintained crate) on three gains in log space. Why:
 //! three or four parameters, a cost that is a deterministic function of them (the
 //! cell's noise is seeded), no gradient; a simplex search converges in about a
 //! hundred passes where a genetic algorithm spends thousands on a problem this small.
 //! The cost is the RMS of the true normal force's error over an 80 s pass at 7.5 N on
-//! the seed's surface (from 2 s after the first contact), plus a penalty for a pass
+//! G's surface (from 2 s after the first contact), plus a penalty for a pass
 //! that faults or never touches.
 
 use argmin::core::{CostFunction, Error, Executor, State};
@@ -87,15 +87,15 @@ fn tune(law: ForceLawKind, start: Vec<f64>, step: f64) -> (Vec<f64>, f64, u64) {
 
 #[test]
 fn tune_both_laws_on_the_cell() {
-    // Starting points: the seed's gains scaled to the 1 nm unit (÷100 from the 10 pm
-    // at which they run on the cell), for the PID; the seed's ADRC gains for the ADRC.
+    // Starting points: G's gains scaled to the 1 nm unit (÷100 from the 10 pm
+    // at which they run on the cell), for the PID; G's ADRC gains for the ADRC.
     let pid_start = vec![
         (84.06f64 / 100.0).log10(),
         0.01f64.log10(),
         (14.1f64 / 100.0).log10(),
     ];
     let (pid, pid_cost, pid_evals) = tune(ForceLawKind::Pid, pid_start.clone(), 1.0);
-    // The seed's ADRC gains fault (crash) at every unit; a coarse scan over b0 and the
+    // G's ADRC gains fault (crash) at every unit; a coarse scan over b0 and the
     // feedback gains (decades, 0.1–10 and b0 1e3–1e6) found the whole pass completed
     // best at b0 = 1e6 with gains of 0.1 (6.3 N RMS; the law's model ÿ = f + b0 u has
     // to match an increment that moves the force by about 5e-4 N per nm): the search

@@ -167,7 +167,7 @@ fn velocity_estimate_noise_against_finite_difference() {
     assert!(rms_obs < 0.7 * rms_fd, "{rms_obs} vs {rms_fd}");
 }
 
-/// Issue 10 item 7: the worst sensors of the model (3rd harmonic 1–3 %, 5th 0.5–1 %,
+/// The worst sensors of the model (3rd harmonic 1–3 %, 5th 0.5–1 %,
 /// harmonic phases ±10° per channel, offsets, gains and mounting as imperfect) are
 /// calibrated to ≤ 3 µm peak at 16 bits with 4 LSB noise, and their fit does not warn.
 /// The noise-free figure is the calibration's systematic error alone.

@@ -1,5 +1,5 @@
 //! The operator's side against the simulated Keops slave over the host link
-//! (issue 16 items 1 and 6, in simulation): a host that speaks only frames uploads the
+//! (in simulation): a host that speaks only frames uploads the
 //! octagon as an EFD job file in chunks, starts it, streams telemetry, changes a
 //! setting during the cut, and hears the end; a sensor fault reaches it as an event;
 //! a host that goes silent gets its job stopped.

@@ -1,6 +1,6 @@
 //! The host tool's link code (`kerf_host::link`) against the simulated Keops slave
 //! behind its host link (`kerf_sim::linked`), over a socket pair with a line between
-//! them that loses frames and adds garbage (issue 16 item 6, the host's side):
+//! them that loses frames and adds garbage (the host's side):
 //! a lost chunk resumed at the offset the machine reports, a damaged upload refused
 //! at the commit with nothing loaded, garbage in both directions counted and
 //! survived, a bad setting refused with its reason and nothing changed, and a machine

@@ -1,5 +1,5 @@
 //! Depth, not just position (T ch. 4, 9.2): the octagon cut on the realistic Keops slave
-//! at 8 mm/s with the seed's constant laser power, and with the adaptive mode that
+//! at 8 mm/s with T's constant laser power, and with the adaptive mode that
 //! scales the power with the measured tangential speed (constant energy per length).
 //!
 //! The energy per length is measured on the plant's true motion: the true effector's

@@ -1,7 +1,7 @@
 //! Open contours (T 8.1): the handwritten letters 'e' and 's' (about ±6 mm) cut at
 //! 2 mm/s on the realistic Keops slave, joint PD with preview of the reference against
-//! plain joint PD, at 10 kHz and the seed's 2.4 kHz; and the depth along each letter
-//! with the seed's constant laser power and with the adaptive mode (constant energy
+//! plain joint PD, at 10 kHz and T's 2.4 kHz; and the depth along each letter
+//! with T's constant laser power and with the adaptive mode (constant energy
 //! per length).
 //!
 //! The tangential speed error is the true effector's velocity along the path against
@@ -16,7 +16,7 @@ use kerf::control::laser::LaserMode;
 use kerf::trajectory::shapes;
 
 const SPEED_M_S: f64 = 2e-3;
-/// The seed's 20 W source at 2 mm/s would be 10 kJ/m; half power keeps the adaptive
+/// T's 20 W source at 2 mm/s would be 10 kJ/m; half power keeps the adaptive
 /// mode's headroom for the speed to rise above nominal.
 const POWER_W: f64 = 10.0;
 const BIN_M: f64 = 1e-4;

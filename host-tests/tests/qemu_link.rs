@@ -1,4 +1,4 @@
-//! The host link end to end against the emulated MCU (issue 16 items 4 and 6): the
+//! The host link end to end against the emulated MCU: the
 //! QEMU image `link` (the Keops slave in f32 with its simulated delta,
 //! `kerf_sim::linked`) speaks the protocol on its UART, which QEMU connects to a TCP
 //! socket of this test. The host is the `kerf` tool's own session code

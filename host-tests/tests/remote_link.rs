@@ -1,4 +1,4 @@
-//! The seed's remote loop (T 5.3.2, 7.2.3) end to end over the simulated network: the
+//! T's remote loop (T 5.3.2, 7.2.3) end to end over the simulated network: the
 //! master side computes the slave's task-space command from the delay observer's
 //! estimate and sends it as SDCT frames (three channels, blocks of N samples at 1 kHz,
 //! the packet's first-sample index the master's clock); the slave side decodes them,

@@ -1,4 +1,4 @@
-//! The slave side of remote machining fed by recorded master frames (issue: the QEMU
+//! The slave side of remote machining fed by recorded master frames (the QEMU
 //! image replays them). The host's closed-loop scenario records what reached its slave
 //! (`kerf_sim::remote::Recording`); the recording is kept in the repository, because
 //! the QEMU image includes it, and must equal what the scenario records today. The

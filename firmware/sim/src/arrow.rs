@@ -64,7 +64,7 @@ pub struct ArrowScenario {
 }
 
 impl ArrowScenario {
-    /// The seed's PID with feedforward and regularization on the machine with its
+    /// A's PID with feedforward and regularization on the machine with its
     /// geometric error, the plant integrated with 4 RK4 steps per period.
     pub fn seed() -> Self {
         Self {
@@ -75,7 +75,7 @@ impl ArrowScenario {
         }
     }
 
-    /// The seed's, with one RK4 step per period: what the emulated MCU pays for (the
+    /// A's, with one RK4 step per period: what the emulated MCU pays for (the
     /// closed loop's fastest mode, √(K_P/m) ≈ 540 rad/s, is 0.11 rad per period, well
     /// inside RK4's stable step).
     pub fn smoke() -> Self {
@@ -110,7 +110,7 @@ pub struct ArrowPeriod<T> {
     pub joint_error_m: ActuatorVector<T>,
     /// Table motors minus their references (eq. 58's q̃), rad.
     pub table_error_rad: [T; 2],
-    /// X̃ = Jm⁺ q̃ (eq. 13): the Cartesian error the encoders show, as the seed
+    /// X̃ = Jm⁺ q̃ (eq. 13): the Cartesian error the encoders show, as A
     /// monitors it (A §5).
     pub cartesian_error: Pose<T>,
     /// Rm q̃ = Jm X̃ (eq. 38): the joints' error that moves the plate; the rest is

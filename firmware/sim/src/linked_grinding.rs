@@ -1,5 +1,5 @@
 //! The grinding cell behind the host link: the simulated cell of `hal-mock` (piezo,
-//! workpiece, grinding forces, the seed's noise) with its F/T sensor, its hexapod on
+//! workpiece, grinding forces, G's noise) with its F/T sensor, its hexapod on
 //! PI GCS and its spindle on the converter's frames, the cell's supervisor and the
 //! device link's slower task, with commands coming from [`HostLink`] only, so a host
 //! (a test's, or the host tool over the QEMU image's serial port) uploads a pass,
@@ -187,7 +187,7 @@ impl<T: Float + FalPower> LinkedGrinding<'_, T> {
     }
 }
 
-/// Builds the cell as flashed ([`CONFIG`], its settings, [`PASS`]) on the seed's
+/// Builds the cell as flashed ([`CONFIG`], its settings, [`PASS`]) on G's
 /// simulated cell ([`CellConfig::SEED`]) behind the link, calibrated and Ready (module
 /// docs), and hands it to `f`. The link stops a job after `heartbeat_timeout_s` of
 /// machine time without a frame from the host: a simulation that runs faster than

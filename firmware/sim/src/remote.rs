@@ -614,8 +614,8 @@ impl FrameLink for ReportSink {
 }
 
 /// Tracking bounds of the replay (max, RMS), m: the closed loop's figures on the
-/// nominal case (22–32 µm max, 9–11 µm RMS over the delays and scales, issue 13's
-/// scenario) with room for another noise draw.
+/// nominal case of the `remote_machining` host test (22–32 µm max, 9–11 µm RMS over
+/// the delays and scales) with room for another noise draw.
 pub const REPLAY_BOUNDS_M: (f64, f64) = (40e-6, 15e-6);
 
 /// How far the f32 slave's replay figures may lie from the f64 slave's, m. Replayed

@@ -40,14 +40,14 @@ impl Transact for Scripted<'_, '_> {
     }
 }
 
-/// `grinding_devices`: the device link of the seed's cell, ticks of a demand (feed
+/// `grinding_devices`: the device link of G's cell, ticks of a demand (feed
 /// f32 m/s, spindle f32 rpm, halt byte) each followed by the devices' replies as the
 /// link asks for them (hexapod first, then the spindle). A healthy tick reports a
 /// finite position and path; a fault latches (every later tick returns it, and the
 /// state holds it); a following error is finite; every GCS command the link writes
 /// is one the controller's parser reads. Returns the healthy ticks.
 pub fn grinding_devices(data: &[u8]) -> usize {
-    let link = DeviceLink::new(&DeviceLinkConfig::SEED).expect("the seed's cell");
+    let link = DeviceLink::new(&DeviceLinkConfig::SEED).expect("G's cell");
     let mut state = DeviceLinkState::new();
     let input = RefCell::new(Input::new(data));
     let (mut latched, mut healthy) = (None::<DeviceFault>, 0);
@@ -136,7 +136,7 @@ impl Transact for Recorded<'_, SimSpindle> {
     }
 }
 
-/// Seeds of [`grinding_devices`]: the seed's pass (0.1 mm/s, 18 000 rpm) for 30 ticks
+/// Seeds of [`grinding_devices`]: G's pass (0.1 mm/s, 18 000 rpm) for 30 ticks
 /// on the simulated devices, then a halt; and the same with the spindle silenced.
 pub fn grinding_devices_seeds() -> Vec<Vec<u8>> {
     let run = |answering: bool| {

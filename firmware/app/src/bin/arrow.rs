@@ -3,7 +3,7 @@
 //! `ArrowMachine<f32>` through the supervisor at 5 kHz against the simulated ARROW
 //! (with its geometric error, one RK4 step per period: `kerf_sim::arrow`), the whole
 //! job. The run prints the RMS tracking errors of A eq. 55–58 in a fixed format and
-//! exits non-zero when it misses the seed's figures (A table 3) or the machine
+//! exits non-zero when it misses the published figures (A table 3) or the machine
 //! faulted; `scripts/smoke` compares the figures with the host's f64 run of the same
 //! scenario within `kerf_sim::arrow::ARROW_F32_TOLERANCE`.
 #![no_std]

@@ -9,7 +9,7 @@
 //! `f32` (software floating point here) and in `f64` (the reference), and prints one
 //! summary line per scalar. It exits non-zero when the fixed-point run faults or
 //! misses the scenario's bounds, or when its RMS tracking error is more than 10 % away
-//! from the f64 run's (issue 18's goal; the host's `fixed_point_errors` test reports
+//! from the f64 run's (the host's `fixed_point_errors` test reports
 //! the same comparison per scenario). The `break-gain` feature detunes the position
 //! gain to 1 %, which must fail (scripts/smoke checks that it does).
 #![no_std]

@@ -67,7 +67,7 @@ mod tests;
 /// Everything the cell needs, in SI units.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct GrindingConfig {
-    /// Control period, s (the seed's 1 ms).
+    /// Control period, s (G's 1 ms).
     pub period_s: f64,
     /// The F/T sensor.
     pub sensor: FtSensorConfig,
@@ -91,13 +91,13 @@ pub struct GrindingConfig {
 }
 
 impl GrindingConfig {
-    /// The seed's cell (G 3, 7): 1 ms, the ATI Gamma with its printed calibration, the
+    /// G's cell (G 3, 7): 1 ms, the ATI Gamma with its printed calibration, the
     /// 4 mm CBN tool (no eccentricity until one is measured), a 500-sample bias capture
-    /// (0.5 s; at rest the spread is the sensor's noise: 500 samples of the seed's
+    /// (0.5 s; at rest the spread is the sensor's noise: 500 samples of G's
     /// 0.8 N² span about 6σ ≈ 5.4 N, so 8 N and 0.05 N·m are allowed), the drift watch
     /// of [`BiasDriftConfig::SEED`] (a bound of 0.294 N on 1 s means), the P-602 stage
-    /// and 0.1 mm/s feed, the seed's PID and ADRC gains. A normal force above 40 N (four times the seed's largest reference)
-    /// is a crash; a job may ask up to 20 N.
+    /// and 0.1 mm/s feed, G's PID and ADRC gains. A normal force above 40 N (four times
+    /// G's largest reference) is a crash; a job may ask up to 20 N.
     pub const SEED: Self = Self {
         period_s: 1e-3,
         sensor: FtSensorConfig::ATI_GAMMA_IP60,
@@ -107,7 +107,7 @@ impl GrindingConfig {
                 dx_m: 0.0,
                 dy_m: 0.0,
             },
-            // The seed's measured force noise, 0.8 N² (G 5.2).
+            // The measured force noise, 0.8 N² (G 5.2).
             noise_n: 0.894,
         },
         bias: BiasCaptureConfig {
@@ -128,9 +128,9 @@ impl GrindingConfig {
     /// [`GrindingConfig::SEED`] with both laws tuned on the simulated cell (host test
     /// `grinding_tuning`: Nelder–Mead on the RMS of the normal force's error over the
     /// experiments' 80 s pass at 7.5 N), in 1 nm per unit of law output: PID Kp 8.42,
-    /// Ki 0.100/s, Kd 0.00140 s (0.65 N RMS on the cell, against 5.6 N for the seed's
+    /// Ki 0.100/s, Kd 0.00140 s (0.65 N RMS on the cell, against 5.6 N for G's
     /// gains); ADRC Kp 0.111, Kd 0.122, b0 1.42·10⁶, observer bandwidth 183 rad/s
-    /// (6.0 N RMS: the best the search found; the seed's ADRC gains crash the tool).
+    /// (6.0 N RMS: the best the search found; G's ADRC gains crash the tool).
     pub const TUNED: Self = Self {
         hybrid: HybridForceConfig {
             increment_unit_m: 1e-9,

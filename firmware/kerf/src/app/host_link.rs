@@ -1,4 +1,4 @@
-//! The machine's side of the host link (issue 16): the slower task that reads the
+//! The machine's side of the host link: the slower task that reads the
 //! host's frames ([`crate::codec::link`]), turns them into supervisor commands,
 //! answers, and forwards telemetry and events. It never touches the control period:
 //! it talks to the supervisor only through its command and report queues, and does

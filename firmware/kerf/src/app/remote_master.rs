@@ -14,7 +14,7 @@
 //!    subspace, Jxᵀ P Jx⁻ᵀ d̂. Along the curve nothing resists or cancels the
 //!    operator's push: the fixture is force-transparent there and stiff across it and
 //!    in z.
-//! 3. Haptics (beyond the seed, T 9.2): with the slave's beam at constant power the
+//! 3. Haptics (T 9.2's future work): with the slave's beam at constant power the
 //!    cut's depth goes as 1/speed; when the operator's speed along the curve leaves
 //!    the band that keeps the energy per length inside its limits, a light force
 //!    along the curve (gain × the speed's excursion, capped) pushes back towards the

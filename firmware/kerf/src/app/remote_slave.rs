@@ -97,7 +97,7 @@ pub struct FollowJob {
     pub start_m: [f64; 3],
     /// The joint-space approach from where the carriages are to `start_m`, s.
     pub approach_s: f64,
-    /// The beam's mode when the master asks for it: constant power (the seed's manual
+    /// The beam's mode when the master asks for it: constant power (T's manual
     /// depth control: depth ∝ 1/speed) or constant energy per length (`None`: the
     /// empty default job, refused).
     pub laser: Option<LaserMode<f64>>,

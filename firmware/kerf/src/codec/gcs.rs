@@ -27,7 +27,7 @@
 //! code, which ERR? reads (then [`check_error`] turns a non-zero code into
 //! [`GcsError::Controller`]). Axes are the hexapod's X, Y, Z (mm) and U, V, W (deg,
 //! PI's rotations, [`crate::kinematics::tool`]); names are written upper case and
-//! read in either case (the seed's scripts send 'x').
+//! read in either case (G's scripts send 'x').
 //!
 //! # Replies
 //!
@@ -249,7 +249,7 @@ impl AxisValues {
     }
 }
 
-/// SPA's item: an axis or a number (the seed's scripts use "1").
+/// SPA's item: an axis or a number (G's scripts use "1").
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SpaItem {

@@ -1,5 +1,5 @@
 //! The job file: what the host tool plans (`kerf plan`, `kerf gcode`) and uploads, and
-//! what a machine loads (issue 16). One format on both sides, written and read here.
+//! what a machine loads. One format on both sides, written and read here.
 //!
 //! Version 1, all numbers little-endian:
 //!

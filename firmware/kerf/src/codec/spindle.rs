@@ -1,7 +1,7 @@
 //! The grinding spindle's converter protocol (docs/codec.md §31, G app. B): binary
 //! frames over RS-232 at 115200 8N1, every request answered by three bytes.
 //!
-//! Requests (as the seed's controller sends them):
+//! Requests (as G's controller sends them):
 //!
 //! | request | bytes | reply value (b3 · 256 + b2) |
 //! |---|---|---|
@@ -13,8 +13,8 @@
 //! | load | 0x0C 0xA4 0x08 | × 0.1 % |
 //! | current | 0x0C 0xB6 0x0B | × 0.01 A |
 //!
-//! The value sits in the reply's second and third bytes, low byte first (the seed
-//! reads `strcat(hex(b3), hex(b2))`); the first byte is not used by the seed and is
+//! The value sits in the reply's second and third bytes, low byte first (G
+//! reads `strcat(hex(b3), hex(b2))`); the first byte is not used by G and is
 //! not checked here. A converter that does not answer leaves the caller with fewer
 //! than three bytes when its timeout expires: [`SpindleError::ShortReply`].
 
@@ -135,7 +135,7 @@ impl SpindleRequest {
 mod tests {
     use super::*;
 
-    /// The seed's set-speed frame for 25,000 rpm, built the seed's way (hex digits of
+    /// G's set-speed frame for 25,000 rpm, built G's way (hex digits of
     /// speed/10 = 0x9C4: low byte "C4", high byte "09").
     #[test]
     fn frames_match_the_seeds() {
@@ -165,7 +165,7 @@ mod tests {
         );
     }
 
-    /// Replies decode with the seed's scales; short, missing and long replies are
+    /// Replies decode with G's scales; short, missing and long replies are
     /// typed errors; every 3-byte reply decodes (exhaustively over the value bytes).
     #[test]
     fn replies_decode_and_bad_ones_are_refused() {

@@ -1,6 +1,6 @@
 //! Active disturbance rejection control (docs/control.md §27, G 4.2 eq. 13–29).
 //!
-//! Three parts, stepped once per period h (the seed's 1 ms):
+//! Three parts, stepped once per period h (G's 1 ms):
 //!
 //! 1. Tracking differentiator (G eq. 14–16): v1 follows the reference v with the
 //!    time-optimal acceleration limit r0, v2 is its derivative:
@@ -13,11 +13,11 @@
 //!    the reference 54 of G 4.2): e1 = v1 − z1, e2 = v2 − z2,
 //!    u0 = Kp fal(e1, α, δ) + Kd fal(e2, α, δ), u = (u0 − z3)/b0.
 //!
-//! What the seed's Kp, Kd, α, b0 mean: the seed tunes four numbers "Kp, Kd, alpha,
+//! What G's Kp, Kd, α, b0 mean: G tunes four numbers "Kp, Kd, alpha,
 //! b0" (G 7.2) for the topology of fig. 29, whose only gains outside the observer are
 //! those of the state-error feedback. Kp and Kd are therefore the weights of fal(e1)
-//! and fal(e2) (Han's β1, β2), α their common exponent (Han allows one per term; the
-//! seed tuned one), and b0 the input gain of the observer and of u = (u0 − z3)/b0.
+//! and fal(e2) (Han's β1, β2), α their common exponent (Han allows one per term;
+//! G tuned one), and b0 the input gain of the observer and of u = (u0 − z3)/b0.
 //! The print gives no δ, observer gains or tracking-differentiator parameters; see
 //! [`AdrcConfig::GRINDING_SEED`] for the values chosen.
 //!
@@ -35,7 +35,7 @@
 //!   by up to 10.5 % for |e| < 1 because its `ln` does (0.118 absolute), the
 //!   reciprocal form keeps the relative error below 2.5e-3 over |e| ∈ [1e-6, 1e6].
 //!   That is accurate enough for this law: it scales a gain by at most 0.25 %, far
-//!   inside any gain margin and below the 4 significant digits the seed gives its
+//!   inside any gain margin and below the 4 significant digits G gives its
 //!   gains; fal stays odd and monotonic, and the equilibria (e = 0) are exact.
 //!   `libm::powf` would be exact (7e-8) but runs in double precision, which a
 //!   Cortex-M4F has only in software.
@@ -196,7 +196,7 @@ pub struct AdrcConfig {
     /// Observer bandwidth ωo, rad/s (ωo·h ≤ 1). The gains of eq. 27–29 follow from it
     /// so that in fal's linear zone the observer's error has a triple pole at −ωo
     /// (the bandwidth parametrization of linear ESOs): with the per-period gains of
-    /// the seed's form, β01 = 3ωo h, β02 = 3ωo² h δo^0.5, β03 = ωo³ h δo^0.75 (the δo
+    /// G's form, β01 = 3ωo h, β02 = 3ωo² h δo^0.5, β03 = ωo³ h δo^0.75 (the δo
     /// powers undo fal's linear-zone slopes δo^(α−1)).
     pub eso_bandwidth_rad_s: f64,
     /// Observer's fal linear zone δo, y.
@@ -214,7 +214,7 @@ pub struct AdrcConfig {
 }
 
 impl AdrcConfig {
-    /// The seed's grinding force law (G 7.2, genetic algorithm): Kp 61.17, Kd 78.64,
+    /// G's grinding force law (G 7.2, genetic algorithm): Kp 61.17, Kd 78.64,
     /// α 0.9448, b0 0.543 (the hexapod GUI's initialization, G app. D, sets a
     /// provisional b0 = 0.5; the tuned value is the one of 7.2).
     ///

@@ -1,7 +1,7 @@
 //! The master's estimate of the slave over a delayed link (docs/control.md §22,
 //! T 5.3.2): a Smith predictor whose delay is read off the packets, never configured.
 //!
-//! In the seed's arrangement (T eq. 93–96) the master side computes the slave's
+//! In T's arrangement (T eq. 93–96) the master side computes the slave's
 //! command — the tracking law of `control::bilateral` on the master's present state
 //! and the slave's state — sends it, and the slave applies it under its disturbance
 //! observer, which makes the slave the nominal double integrator ẍs = u. The slave's
@@ -23,7 +23,7 @@
 //!   x̂s(now) = model(now) + d̂ + ḋ̂ · (now − echo),   x̂̇s = model velocity + ḋ̂,
 //!
 //! where d̂, ḋ̂ track the model's error d = ys(echo) − model(echo) and its rate (the
-//! "convergence term" that the seed's reference 115 adds to the network observer;
+//! "convergence term" that T's reference 115 adds to the network observer;
 //! here an α-β tracker), and the law uses x̂s, x̂̇s in place of the slave's state. Because the
 //! correction is inside the loop, a constant push on the slave is cancelled, not just
 //! estimated. The round trip is whatever the echo says, packet by packet, so a

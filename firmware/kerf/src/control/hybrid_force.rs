@@ -77,17 +77,17 @@ pub struct HybridForceConfig {
 }
 
 impl HybridForceConfig {
-    /// The seed's cell (G 3.1.1, 7.1): P-602 travel 0–1 mm; set feed 0.1 mm/s; the rate
+    /// G's cell (G 3.1.1, 7.1): P-602 travel 0–1 mm; set feed 0.1 mm/s; the rate
     /// limiter at the set feed ("to prevent the piezo actuator to exceed the set
-    /// feedrate", G ch. 7). The seed does not print the unit of its laws' output.
+    /// feedrate", G ch. 7). G does not print the unit of its laws' output.
     /// On the simulated cell (Werner's force model, about 0.5 N per µm of depth at
-    /// the seed's operating point, and the seed's 0.8 N² force noise) the seed's PID
+    /// G's operating point, and its 0.8 N² force noise) G's PID
     /// gains engage and hold the force only at 3·10⁻¹¹ m per unit or less: at larger
     /// units the proportional and derivative terms alone turn the force noise into
     /// piezo steps beyond the rate limit (0.1 µm per period), and the piezo chatters
     /// in place without reaching the surface (the scan is the scenario test
-    /// `grinding_cell::seed_gain_unit_scan`). 1·10⁻¹¹ m (10 pm) per unit is used: the
-    /// seed's gains then give a loop gain of 4·10⁻⁴ per period on 0.5 N/µm (a force
+    /// `grinding_cell::seed_gain_unit_scan`). 1·10⁻¹¹ m (10 pm) per unit is used:
+    /// G's gains then give a loop gain of 4·10⁻⁴ per period on 0.5 N/µm (a force
     /// time constant of about 2.4 s). A different
     /// force model would move this scale by its stiffness; the gains tuned on the cell
     /// are in `control::pid` and `control::adrc` presets with their own units.

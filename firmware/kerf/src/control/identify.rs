@@ -9,7 +9,7 @@
 //!   K = P φ / (λ + φᵀ P φ),   θ ← θ + K (y − φᵀ θ),   P ← (P − K φᵀ P) / λ.
 //!
 //! With λ = 1 and P₀ = p₀ I this is the batch least-squares solution regularized by
-//! I/p₀, the seed's offline ARX estimate (MATLAB's `arx`) computed one sample at a
+//! I/p₀, G's offline ARX estimate (MATLAB's `arx`) computed one sample at a
 //! time. λ < 1 forgets with time constant 1/(1 − λ) samples, for a plant that drifts
 //! (a piezo warming up, a load that changes).
 //!
@@ -190,7 +190,7 @@ mod tests {
     use super::*;
     use std::vec::Vec;
 
-    /// The seed's plant G(z) = 0.001333 z / (z² − 1.949 z + 0.9503), in µm.
+    /// The piezo as G identifies it: G(z) = 0.001333 z / (z² − 1.949 z + 0.9503), in µm.
     const A1: f64 = -1.949;
     const A2: f64 = 0.9503;
     const B1: f64 = 0.001333;
@@ -224,8 +224,8 @@ mod tests {
     }
 
     /// RLS (λ = 1) against the batch least-squares solve of the same regression by
-    /// its normal equations (summed, then one LU solve: an independent route) on the
-    /// seed's experiment: 10 µm steps, a 0.3 µm load, the strain gauge's 7 nm
+    /// its normal equations (summed, then one LU solve: an independent route) on
+    /// G's experiment: 10 µm steps, a 0.3 µm load, the strain gauge's 7 nm
     /// (G 3.1.1). ARX takes measurement noise as equation error: the residual is
     /// e = n[k] + a1 n[k−1] + a2 n[k−2], of standard deviation √(1 + a1² + a2²) σ =
     /// 2.39 σ, which the fit must show; and the noise in the regressors biases a1 and

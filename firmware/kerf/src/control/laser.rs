@@ -7,11 +7,11 @@
 //!
 //!   e = P / v   (J/m).
 //!
-//! The seed keeps P constant and relies on the controller to hold v, so the depth
+//! T keeps P constant and relies on the controller to hold v, so the depth
 //! errs wherever v dips (corners); T 9.2 proposes adapting to the velocity instead.
 //! [`LaserMode::ConstantEnergy`] does that: P = e_nom · |v_measured|, clamped to
 //! [0, P_max], and the beam is off below a minimum speed (a dwell would burn
-//! through). [`LaserMode::ConstantPower`] is the seed's mode: the beam stays on at
+//! through). [`LaserMode::ConstantPower`] is T's mode: the beam stays on at
 //! the set power while the job cuts, slow or not.
 //!
 //! The law has coefficients only ([`Laser`], from a machine-side [`LaserConfig`]) and
@@ -36,11 +36,11 @@ pub struct LaserConfig {
 }
 
 impl LaserConfig {
-    /// The seed's source (T 7.1.3): an SPI redENERGY G3 HS pulsed fibre laser,
+    /// T's source (T 7.1.3): an SPI redENERGY G3 HS pulsed fibre laser,
     /// nanosecond pulses at up to 500 kHz, 1065 nm, maximum operating power 20 W.
     ///
-    /// The seed gives no minimum speed. Assumed: 0.2 mm/s, a tenth of the 2 mm/s the
-    /// seed cuts its letters at (T 8.1), so the constant-energy mode follows the
+    /// T gives no minimum speed. Assumed: 0.2 mm/s, a tenth of the 2 mm/s
+    /// T cuts its letters at (T 8.1), so the constant-energy mode follows the
     /// corners' slow-down down to a tenth of the nominal speed and only a near-stop
     /// turns the beam off.
     pub const SPI_REDENERGY_G3_20W: Self = Self {
@@ -55,7 +55,7 @@ impl LaserConfig {
 pub enum LaserMode<T = f64> {
     /// Beam off.
     Off,
-    /// The seed's mode: constant power whatever the speed (the depth varies as 1/v).
+    /// T's mode: constant power whatever the speed (the depth varies as 1/v).
     ConstantPower {
         /// Power in W, in [0, max_power_w].
         power_w: T,
@@ -148,7 +148,7 @@ impl<T: Real> Laser<T> {
     ///
     /// - [`LaserMode::Off`] gives 0.
     /// - [`LaserMode::ConstantPower`] gives the set power at any speed, standstill included
-    ///   (the seed's mode; only the constant-energy mode knows about dwells).
+    ///   (T's mode; only the constant-energy mode knows about dwells).
     /// - [`LaserMode::ConstantEnergy`] gives 0 if |v| < min_speed_m_s (on at exactly the
     ///   minimum), else e·|v| clamped to max_power_w.
     ///
@@ -222,7 +222,7 @@ mod tests {
     use crate::scalar::Q31_32;
 
     const SEED: LaserConfig = LaserConfig::SPI_REDENERGY_G3_20W;
-    /// The depth the seed's 20 W cuts at its 2 mm/s: e = 20 / 0.002 = 10 000 J/m.
+    /// The depth T's 20 W cuts at its 2 mm/s: e = 20 / 0.002 = 10 000 J/m.
     const E_SEED: f64 = 10_000.0;
 
     fn laser<T: Real>() -> Laser<T> {
@@ -254,7 +254,7 @@ mod tests {
     fn constant_energy_matches_hand_computation() {
         let l = laser::<f64>();
         let m = energy(&l, E_SEED);
-        // 10 000 J/m · 1 mm/s = 10 W; 2 mm/s = 20 W (the seed's operating point).
+        // 10 000 J/m · 1 mm/s = 10 W; 2 mm/s = 20 W (T's operating point).
         assert!((l.power_w(&m, 1e-3) - 10.0).abs() < 1e-12);
         assert!((l.power_w(&m, 2e-3) - 20.0).abs() < 1e-12);
         // Backwards along the path: |v|.

@@ -15,7 +15,7 @@
 //!
 //! The integrator is forward Euler (I_k holds the errors up to k − 1), the discrete
 //! form of eq. 12's K/(T_I s) that Simulink's PID block uses by default, which is
-//! where the seed's gains were tuned (G 5.3). Back-calculation: while the command is
+//! where G's gains were tuned (G 5.3). Back-calculation: while the command is
 //! limited, c − u has the sign that pulls the integrator back toward the limit
 //! (**CORRECTION** of the print, whose sign pushes it further), at the rate Kaw.
 //!
@@ -65,11 +65,11 @@ pub struct PidConfig {
 }
 
 impl PidConfig {
-    /// The seed's grinding force law, tuned by genetic algorithm (G 7.1): Kp 84.06,
+    /// G's grinding force law, tuned by genetic algorithm (G 7.1): Kp 84.06,
     /// Kd 14.1, Ki −0.01766, error in N, command the piezo position increment per
     /// period (G ch. 7: "Control Input is the amount of change in the piezo position").
     ///
-    /// The seed prints neither the command's unit nor the derivative filter, nor an
+    /// G prints neither the command's unit nor the derivative filter, nor an
     /// anti-windup gain; it prints Ki negative. What the print supports:
     /// - The error sign is stated (reference − actual) and Kp, Kd are positive, so a
     ///   flipped error convention does not explain the sign: Ki is kept as printed.
@@ -78,14 +78,14 @@ impl PidConfig {
     ///   (contact stiffness k) and x' = u/Ts, the closed loop's characteristic
     ///   polynomial is (Ts + k Kd) s² + k Kp s + k Ki: Ki < 0 gives one real unstable
     ///   root s ≈ −Ki/Kp = 2.1e-4 s⁻¹ (time constant ≈ 79 min, whatever k), against a
-    ///   pass of a few minutes at the seed's 0.1 mm/s. The negative gain is therefore a
+    ///   pass of a few minutes at G's 0.1 mm/s. The negative gain is therefore a
     ///   harmless artefact of an unconstrained search — provided Ki multiplies Ts in
     ///   the integrator as here (Simulink's convention). Without the Ts factor the
-    ///   same root would be 0.21 s⁻¹ and the seed's experiments would have drifted
+    ///   same root would be 0.21 s⁻¹ and G's experiments would have drifted
     ///   visibly within seconds.
     /// - Derivative filter: Simulink's PID block default N = 100 s⁻¹, τ = 1/N = 10 ms.
     /// - Anti-windup: Kaw = 100 s⁻¹ (the integrator follows a limit within 10 ms);
-    ///   with the seed's |Ki| it is never the limiting factor.
+    ///   with G's |Ki| it is never the limiting factor.
     /// - Limits: none here; the hybrid force loop limits the piezo position and rate
     ///   (G ch. 7, fig. 42), not the increment.
     pub const GRINDING_SEED: Self = Self {

@@ -5,7 +5,7 @@
 //! angle ψ, the frame's axes are the unit tangent t = (cos ψ, sin ψ) and the unit
 //! normal n = (−sin ψ, cos ψ); a task-space vector e has frame coordinates
 //! e_O = J_O e with J_O = R(ψ)ᵀ = (1/v)[[ẋ, ẏ], [−ẏ, ẋ]]. The 3-D frame is
-//! blockdiag(J_O, 1): z keeps its own axis (the seed's future work "3D contouring
+//! blockdiag(J_O, 1): z keeps its own axis (T's future work "3D contouring
 //! control", T 9.2), so one law regulates the tangential, normal and vertical errors.
 //!
 //! The frame turns at ψ̇ = (ẋÿ − ẏẍ)/v² and accelerates its turn at

@@ -31,7 +31,7 @@ pub struct ToolBeamConfig {
 }
 
 impl ToolBeamConfig {
-    /// G 7.1's tool: 4 mm CBN, 23.5 mm long. The seed does not print E; an
+    /// G 7.1's tool: 4 mm CBN, 23.5 mm long. G does not print E; an
     /// electroplated CBN tool's body is steel, 210 GPa. Then E I = 264 N·m², and 10 N
     /// bends the tip by 16 µm and turns it by 1.0 mrad.
     pub const CBN_4MM: Self = Self {
@@ -160,7 +160,7 @@ pub struct HexapodPose {
 
 /// Convention used for U, V, W: R = R_x(U) R_y(V) R_z(W), the rotations about the
 /// platform's moving axes in the order U, V, W (check it against the controller's
-/// manual before driving a hexapod with it; the seed's scripts pass the angles to PI's
+/// manual before driving a hexapod with it; G's scripts pass the angles to PI's
 /// MOV command without stating the order).
 pub fn hexapod_rotation(uvw_rad: [f64; 3]) -> Matrix3<f64> {
     let [u, v, w] = uvw_rad;

@@ -8,12 +8,12 @@
 //! - Local forces (G eq. 2 and 4): with the tool radius r and the sensor's eccentricity
 //!   (Δx, Δy) from the spindle axis,
 //!   Ft = (Mz − Fx Δy − Fy Δx)/r and Fn = √(Fx² + Fy² − Ft²) ([`ToolGeometry`]).
-//!   (Δx, Δy) are taken with the seed's signs (fig. 27); under the right-hand rule
+//!   (Δx, Δy) are taken with G's signs (fig. 27); under the right-hand rule
 //!   M = x Fy − y Fx, the spindle axis sits at (Δx, −Δy) in the sensor's frame.
 //!   Whatever the convention, the fit below estimates them in the same formula.
 //! - Eccentricity (G ch. 4: "simple least squares parameter estimation", after its
 //!   ref. 23): from samples with a known moment about the spindle axis M_s
-//!   (zero when the spindle turns freely, as in the seed's contour tracking, G 7.3; or
+//!   (zero when the spindle turns freely, as in G's contour tracking, G 7.3; or
 //!   Ft·r for a known tangential load), eq. 2 gives the linear model
 //!   Mz − M_s = Fy Δx + Fx Δy, fitted by least squares ([`EccentricityFit`]).
 //! - Bias drift: window means of the compensated forces out of contact against a
@@ -68,7 +68,7 @@ pub struct FtSensorConfig {
 }
 
 impl FtSensorConfig {
-    /// The seed's sensor: an ATI Gamma (IP60) read through an NI PCI-6052E (G 3.1.4,
+    /// G's sensor: an ATI Gamma (IP60) read through an NI PCI-6052E (G 3.1.4,
     /// table 6), with the calibration matrix of the hexapod GUI's initialization
     /// callback (G app. D, `CAL = [...]`, shown as fig. 67 in app. C), copied as
     /// printed. Its magnitudes (14–25 N/V on the force rows, 0.3–0.8 N·m/V on the
@@ -275,7 +275,7 @@ impl<T: Float> BiasCapture<T> {
     }
 }
 
-/// Sensor eccentricity from the spindle axis, in the seed's signs (module docs), m.
+/// Sensor eccentricity from the spindle axis, in G's signs (module docs), m.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Eccentricity {
     /// Δx, m.
@@ -287,7 +287,7 @@ pub struct Eccentricity {
 /// Tool and mounting in SI units.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ToolConfig {
-    /// Tool radius r, m (the seed's CBN tool: 4 mm diameter, G 7.1).
+    /// Tool radius r, m (G's CBN tool: 4 mm diameter, G 7.1).
     pub tool_radius_m: f64,
     /// Sensor eccentricity, m (measure it with [`EccentricityFit`]).
     pub eccentricity: Eccentricity,

@@ -3,7 +3,7 @@
 //!
 //! # Resampling (A 4.2)
 //!
-//! The seed steps the spline parameter by small δt until the chord from the last sample
+//! A steps the spline parameter by small δt until the chord from the last sample
 //! exceeds F·Ts. Here each period solves for the parameter whose arc length from the
 //! last sample is the period's step Δs (F·Ts while cruising): Newton's method on the
 //! arc-length integral from a second-order Taylor guess, the integral by 3-point

@@ -38,7 +38,7 @@
 //! Before the first absolute move the position is the origin (all axes 0): an
 //! incremental move there is relative to it.
 //!
-//! For ARROW (issue 15, A §2) the post-processor names the turntable's θx `A` and the
+//! For ARROW (A §2) the post-processor names the turntable's θx `A` and the
 //! platform's θz `B`; the parser itself gives both as angles and assigns no machine
 //! meaning.
 

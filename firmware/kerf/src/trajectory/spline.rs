@@ -53,7 +53,7 @@ pub struct JointReference<T: Float> {
 ///
 /// Time is counted in control periods (an integer), never accumulated in the scalar:
 /// an `f32` time in seconds loses a whole 10 kHz period after about 1 s of running
-/// and stops advancing near 2,048 s (week-long runs, issue 10 item 8).
+/// and stops advancing near 2,048 s (week-long runs).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct KnotTiming {
     /// Control period Ts, s.

@@ -4,8 +4,8 @@
 //! derivative at both ends.
 //!
 //! The parameter (A's "spline abscissa", eq. 49) advances from point to point by the
-//! chord raised to a power: ½ for centripetal knots, what MATLAB's `cscvn` (used by the
-//! seed) takes, or 1 for chord-length knots. Centripetal knots keep the curve from
+//! chord raised to a power: ½ for centripetal knots, what MATLAB's `cscvn` (used by
+//! A) takes, or 1 for chord-length knots. Centripetal knots keep the curve from
 //! overshooting or looping where short and long chords meet (at the corners of a
 //! pocket path), at the price of a parameter that is not arc length.
 //!

@@ -1,4 +1,4 @@
-//! ARROW's jobs (A §4, issue 15): a G-code program read on the machine into
+//! ARROW's jobs (A §4): a G-code program read on the machine into
 //! rest-to-rest moves, each a natural spline through its points followed at constant
 //! feed with S-curve start and stop, and every move checked against the machine
 //! before the job may run.
@@ -10,7 +10,7 @@
 //! maximal run of consecutive points of one kind — feed moves at one feed, or rapid
 //! moves — is one move from the point before the run to the run's last point, from
 //! rest to rest: a feed run at its `F`, a rapid run at the machine's rapid speed. A
-//! change of feed or of kind is a stop, as at the seed's path ends (A 4.3).
+//! change of feed or of kind is a stop, as at A's path ends (A 4.3).
 //!
 //! # Checks at load
 //!
@@ -36,7 +36,7 @@ use crate::trajectory::task_spline::{
 /// How programs become moves on this machine.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ArrowJobConfig {
-    /// Knots and metric of the splines (the seed's: centripetal, tool point alone).
+    /// Knots and metric of the splines (A's: centripetal, tool point alone).
     pub spline: TaskSplineConfig,
     /// Largest tangential acceleration, m/s².
     pub accel_m_s2: f64,
@@ -53,7 +53,7 @@ pub struct ArrowJobConfig {
 }
 
 impl ArrowJobConfig {
-    /// ARROW at 5 kHz (A 5.1). The seed prints no ramp limits: 2 m/s² and 100 m/s³
+    /// ARROW at 5 kHz (A 5.1). A prints no ramp limits: 2 m/s² and 100 m/s³
     /// give the 25 mm/s pyramid feed a 22 ms S-curve ramp, a small share of 94 s of
     /// cutting; rapids at 0.1 m/s, four times the cutting feed. Checks every 1 mm with
     /// a 0.05 singularity margin (module docs).

@@ -1,4 +1,4 @@
-//! ARROW as a machine of the supervisor (issue 15): jobs from G-code
+//! ARROW as a machine of the supervisor: jobs from G-code
 //! ([`super::job`]), each period's reference from the constant-feed follower, the
 //! regularized PID with computed feedforward ([`super::ArrowLaw`]), and the checks
 //! that stop it.
@@ -16,7 +16,7 @@
 //!
 //! # Calibration
 //!
-//! ARROW's scales are read as absolute positions here (the seed describes no homing),
+//! ARROW's scales are read as absolute positions here (A describes no homing),
 //! so the calibration sweep is empty: `Calibrate` finishes at once and
 //! `FinishCalibration(())` makes the machine ready.
 
@@ -103,8 +103,8 @@ pub struct ArrowLimits {
 impl ArrowLimits {
     /// ARROW at 5 kHz: a jump of 1 mm per period is 5 m/s, beyond what its linear
     /// motors reach; 0.05 rad per period is 250 rad/s at the table. A tracking error
-    /// of 2 mm (0.05 rad) is some 300 times the seed's RMS (A table 3) and far above
-    /// a start transient under the seed's gains. A job starts within 0.5 mm
+    /// of 2 mm (0.05 rad) is some 300 times the published RMS (A table 3) and far above
+    /// a start transient under A's gains. A job starts within 0.5 mm
     /// (0.01 rad) of its first point's joints on the model: at rest the joints keep
     /// the geometric error's inconsistency (A 3.2.1), which the regularized law
     /// leaves alone, 0.1–0.3 mm on an assembled machine.

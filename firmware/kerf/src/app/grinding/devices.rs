@@ -1,4 +1,4 @@
-//! The grinding cell's device link (issue 14 item 8): the supervisor's slower task
+//! The grinding cell's device link: the supervisor's slower task
 //! turns the cell's outputs into the hexapod's PI GCS commands (docs/codec.md §31,
 //! G app. D, [`crate::codec::gcs`]) and the spindle converter's frames (G 3.1.3,
 //! app. B, [`crate::codec::spindle`]) once per tick, over the board's
@@ -24,7 +24,7 @@
 //!
 //! Spindle (binary frames, every request answered by three bytes, G app. B):
 //! 1. A new speed (rounded to the protocol's 10 rpm) is sent as set speed, and a
-//!    non-zero one is followed by start (the seed's sequence, app. B). The protocol has
+//!    non-zero one is followed by start (G's sequence, app. B). The protocol has
 //!    no stop request: the spindle stops on a set speed of 0.
 //! 2. The spindle's measured rpm (0x43) is read every tick. A tick whose exchanges do
 //!    not all answer in full counts as silent; `spindle_silent_ticks` silent ticks in a
@@ -84,14 +84,14 @@ pub struct DeviceLinkConfig {
 }
 
 impl DeviceLinkConfig {
-    /// The seed's cell: a 10 ms tick (ten control periods of 1 ms, G 7: fast enough
-    /// for the seed's 0.1 mm/s feed, 1 µm of path a tick); the H-824 hexapod (G app.
+    /// G's cell: a 10 ms tick (ten control periods of 1 ms, G 7: fast enough
+    /// for G's 0.1 mm/s feed, 1 µm of path a tick); the H-824 hexapod (G app.
     /// A: 1 mm/s at most) fed along X; a following tolerance of 20 µm (two ticks at the
     /// controller's largest velocity: a POS? may land anywhere in the tick's move, and
-    /// the seed's 0.1 mm/s feed takes 0.2 s to leave it behind); a spindle fault after
+    /// G's 0.1 mm/s feed takes 0.2 s to leave it behind); a spindle fault after
     /// 5 silent ticks (50 ms: five chances for the 115200-baud converter, whose
     /// 3-byte reply takes 0.26 ms, to answer); and the speed checked 2 s after a
-    /// change (the seed gives no spin-up time; 2 s is four time constants of the
+    /// change (G gives no spin-up time; 2 s is four time constants of the
     /// 0.5 s of `hal-mock`'s spindle, 98 % of a step) to 10 % of the command or
     /// 500 rpm, whichever is larger, for 10 ticks in a row.
     pub const SEED: Self = Self {

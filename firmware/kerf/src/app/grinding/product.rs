@@ -1,4 +1,4 @@
-//! The grinding cell as it is flashed: its configuration (the seed's cell with both
+//! The grinding cell as it is flashed: its configuration (G's cell with both
 //! laws tuned, [`GrindingConfig::TUNED`]), its device link, the pass a job file is
 //! ground with, the link's job buffer and telemetry decimation, and how a G-code
 //! program becomes a pass. The QEMU image and the simulator take these from here.
@@ -25,7 +25,7 @@ use super::devices::DeviceLinkConfig;
 use super::{ForceLawKind, GrindingCell, GrindingConfig, GrindingJob};
 use crate::trajectory::gcode::{GcodeError, MoveKind, Parser};
 
-/// The cell's configuration: the seed's 1 ms period, sensor, tool and bias capture,
+/// The cell's configuration: G's 1 ms period, sensor, tool and bias capture,
 /// with both laws tuned on the simulated cell (their gains in 1 nm of piezo travel per
 /// unit of law output).
 pub const CONFIG: GrindingConfig = GrindingConfig::TUNED;
@@ -33,7 +33,7 @@ pub const CONFIG: GrindingConfig = GrindingConfig::TUNED;
 /// The control period, s (1 kHz).
 pub const PERIOD_S: f64 = CONFIG.period_s;
 
-/// The device link (hexapod and spindle): the seed's, a 10 ms tick.
+/// The device link (hexapod and spindle): G's, a 10 ms tick.
 pub const DEVICES: DeviceLinkConfig = DeviceLinkConfig::SEED;
 
 /// Control periods per device tick: the tick over the period, rounded (10).
@@ -58,7 +58,7 @@ pub struct GrindingPass {
     pub normal_force_n: f64,
 }
 
-/// The cell's pass: the tuned PID at 7.5 N, the seed's experiments' force (G 7).
+/// The cell's pass: the tuned PID at 7.5 N, G's experiments' force (G 7).
 pub const PASS: GrindingPass = GrindingPass {
     law: ForceLawKind::Pid,
     normal_force_n: 7.5,

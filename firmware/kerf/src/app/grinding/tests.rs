@@ -114,7 +114,7 @@ fn a_pass_runs_and_a_stop_retracts() {
             let v_hex = (1e-8 - v_pzo * v_pzo).sqrt();
             assert!((out.hexapod_feed_m_s - v_hex).abs() < 1e-12, "{out:?}");
             let mut periods = 1;
-            // A stiff contact 2 µm away: 5 N/µm beyond it (the seed's gains act in
+            // A stiff contact 2 µm away: 5 N/µm beyond it (G's gains act in
             // 10 pm per unit: a force time constant of 0.24 s here).
             let mut piezo_m = out.piezo_m;
             while s.mode() == Mode::Running && periods < 20_000 {
@@ -123,7 +123,7 @@ fn a_pass_runs_and_a_stop_retracts() {
                 periods += 1;
             }
             // The PID holds the reference and the pass ends after 0.5 mm at 0.1 mm/s:
-            // five seconds and what the piezo took of the feed. The seed's ADRC gains
+            // five seconds and what the piezo took of the feed. G's ADRC gains
             // (b0 0.543 against this contact's 5 N/µm in 10 pm units) keep the piezo
             // moving near its rate limit, which takes the whole feed (V_hex → 0): the
             // force stays bounded, the pass is stopped below.
@@ -256,7 +256,7 @@ fn a_disturbed_bias_capture_faults() {
 }
 
 /// At rest after calibration the drift watch sees the compensated force: 0.29 N on
-/// Fy (inside the seed's 0.294 N bound) for 3 s raises nothing; 0.30 N faults
+/// Fy (inside G's 0.294 N bound) for 3 s raises nothing; 0.30 N faults
 /// `BiasDrift` on Fy at the end of the first window, in the 1500th period at rest
 /// (500 settling, 1000 averaged); a device fault at rest faults too.
 #[test]

@@ -1,4 +1,4 @@
-//! GCS codec tests: the bytes of the seed's commands, every malformed reply's error,
+//! GCS codec tests: the bytes of G's commands, every malformed reply's error,
 //! and round trips.
 
 use super::reply::*;

@@ -246,7 +246,7 @@ fn settle_keeps_the_observer_consistent_under_saturation() {
 
 #[test]
 fn f32_follows_the_f64_reference() {
-    // Same run in both scalars with the seed's gains: the f32 law (micromath power,
+    // Same run in both scalars with G's gains: the f32 law (micromath power,
     // single-precision state) stays within 1e-3 N of f64 on a 0 → 7.5 N step of a
     // plant with b = b0 and a constant disturbance.
     let config = AdrcConfig::GRINDING_SEED;

@@ -23,7 +23,7 @@ fn law() -> Contouring<f64> {
     .unwrap()
 }
 
-/// A 6 mm circle at 8 mm/s (the seed's contour size and speed) about `centre`, with a
+/// A 6 mm circle at 8 mm/s (T's contour size and speed) about `centre`, with a
 /// 0.5 mm vertical wobble at three times the turn rate.
 fn circle(centre: Vector3<f64>, t: f64) -> TaskReference<f64> {
     let (r, h) = (0.006, 0.0005);

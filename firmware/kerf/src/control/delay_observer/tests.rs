@@ -52,7 +52,7 @@ struct Run {
     observer: DelayObserver<f64, 256>,
 }
 
-/// Runs 2 s of the seed's loop (module docs): the master computes the slave's command
+/// Runs 2 s of T's loop (module docs): the master computes the slave's command
 /// at 1 kHz from the estimate (`with_observer`) or from the newest measurement that
 /// came back, holds it for the packet period and sends it; the slave executes the
 /// newest command that has arrived, with a push its model lacks, and reports its

@@ -7,7 +7,7 @@ use crate::control::pid::PidConfig;
 
 const TS: f64 = 1e-3;
 
-/// Faster rate than the seed's so that a test reaches contact force in a second.
+/// Faster rate than G's so that a test reaches contact force in a second.
 fn cell() -> HybridForceConfig {
     HybridForceConfig {
         piezo_min_m: 0.0,

@@ -41,7 +41,7 @@ pub struct ArrowWorkspace {
 /// The whole parallel module.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ArrowConfig {
-    /// Actuators 1 … 6 in the seed's numbering.
+    /// Actuators 1 … 6 in A's numbering.
     pub arms: [ArmConfig; 6],
     /// Eq. 25.
     pub workspace: ArrowWorkspace,

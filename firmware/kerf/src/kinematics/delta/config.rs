@@ -76,7 +76,7 @@ const fn symmetric(
 impl DeltaConfig {
     /// Horizontal master (T 7.1.1: α = 0°, θ = 90°/210°/330°, LM2070 motors, 0.5 µm
     /// encoders). Dimensions are not printed; chosen for the LM2070 force scale:
-    /// arms 150 mm, rb = 200 mm, re = 40 mm, travel 30–110 mm (80 mm stroke), seed
+    /// arms 150 mm, rb = 200 mm, re = 40 mm, travel 30–110 mm (80 mm stroke), T's
     /// frame (effector on +z, FK `Plus`, IK `Minus`).
     ///
     /// Workspace sampled on a 16³ grid of the travel box (cell centres, FK; test
@@ -95,7 +95,7 @@ impl DeltaConfig {
 
     /// Keops slave (T 7.1.2: α = 30°, LM1247 motors, Hall position). Dimensions chosen
     /// for a miniature robot: arms 70 mm, rb = 86 mm, re = 20 mm, travel 0–40 mm,
-    /// seed frame (FK `Plus`, IK `Minus`).
+    /// T's frame (FK `Plus`, IK `Minus`).
     ///
     /// Workspace (same sampling): x −29.4…+29.4 mm, y −33.7…+31.5 mm, z 26.8…81.4 mm,
     /// 100 % of the grid assembles. f32 vs f64: FK ≤ 0.015 µm, IK ≤ 0.016 µm.

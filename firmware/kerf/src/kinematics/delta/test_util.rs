@@ -9,7 +9,7 @@ use std::vec::Vec;
 
 pub(super) type V = Vector3<f64>;
 
-/// Seed frame, θ = 90°/190°/350° (T fig. 6.2 A) on the Keops dimensions.
+/// T's frame, θ = 90°/190°/350° (T fig. 6.2 A) on the Keops dimensions.
 pub(super) fn asymmetric_keops() -> DeltaConfig {
     let mut c = DeltaConfig::SLAVE_KEOPS;
     for (a, t) in c.actuators.iter_mut().zip([90.0, 190.0, 350.0]) {

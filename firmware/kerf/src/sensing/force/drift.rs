@@ -1,4 +1,4 @@
-//! A bias that drifts (issue 14 item 9): out of contact the bias-compensated forces
+//! A bias that drifts: out of contact the bias-compensated forces
 //! are the sensor's noise around zero, so the mean of a window of them estimates how
 //! far the bias has moved since its capture.
 //!
@@ -6,7 +6,7 @@
 //! 0.8 N², σ = 0.894 N) the mean of a window of n independent samples has the
 //! standard deviation σ/√n, and the captured bias, itself the mean of m samples, is
 //! off by σ/√m; the difference of the two has σ_d = σ·√(1/n + 1/m). A component whose
-//! window mean exceeds k·σ_d is a drift. The seed's cell (n = 1000, 1 s at 1 kHz;
+//! window mean exceeds k·σ_d is a drift. G's cell (n = 1000, 1 s at 1 kHz;
 //! m = 500; k = 6) gives σ_d = 0.049 N and a bound of 0.294 N: noise alone crosses
 //! 6σ in 2.0·10⁻⁹ of windows, over three components once in about five years of
 //! one-second windows at rest, while a drift is found before it adds 0.3 N plus the
@@ -37,7 +37,7 @@ pub struct BiasDriftConfig {
 }
 
 impl BiasDriftConfig {
-    /// The seed's cell: windows of 1 s at 1 kHz, 6σ, watching after 0.5 s at rest
+    /// G's cell: windows of 1 s at 1 kHz, 6σ, watching after 0.5 s at rest
     /// (three settling times of the stage).
     pub const SEED: Self = Self {
         window_samples: 1000,
@@ -145,7 +145,7 @@ mod tests {
         }
     }
 
-    /// The seed's bound is 6 · 0.894 · √(1/1000 + 1/500) = 0.294 N; a window whose
+    /// G's bound is 6 · 0.894 · √(1/1000 + 1/500) = 0.294 N; a window whose
     /// mean is just inside passes, just outside faults at its last sample with the
     /// component and mean; NaN faults; a zero window is no watch.
     #[test]

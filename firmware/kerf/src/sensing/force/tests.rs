@@ -369,7 +369,7 @@ fn rejects_bad_config() {
     );
 }
 
-/// Out of contact the readings are noise alone: with the seed's 0.8 N² (σ = 0.89 N on
+/// Out of contact the readings are noise alone: with G's 0.8 N² (σ = 0.89 N on
 /// Fx, Fy and on Ft), a radicand within (7σ)² below zero clamps to Fn = 0 — over
 /// 10,000 noise samples none faults — while the same readings with σ = 0 declared
 /// fault on the first Ft² > Fx² + Fy²; and a reading 10 N² further below still faults.

@@ -8,7 +8,7 @@
 //!   a_k = φ + p_k,
 //!
 //! with each channel's offset o_k, gain A_k, phase p_k (0, ±2π/3 plus mounting error),
-//! and third and fifth harmonics of its own amplitude and phase (issue 10 item 7: real
+//! and third and fifth harmonics of its own amplitude and phase (real
 //! linear-motor Hall sensors differ from channel to channel in both). Given φ the model
 //! is linear: u_k = θ_k · (1, sin φ, cos φ, sin 3φ, cos 3φ, sin 5φ, cos 5φ).
 //!

@@ -1,5 +1,5 @@
 //! The healthy residual of a calibrated sensor and the fault threshold that follows
-//! from a position-error budget (issue 10 item 6).
+//! from a position-error budget.
 //!
 //! # Why a table
 //!

@@ -420,7 +420,7 @@ fn the_pyramid_file_parses_inside_the_workspace_and_runs_at_constant_feed() {
         let half = b * (y - apex_y) / h;
         assert!((x.abs().max(z.abs()) - half).abs() < 2e-6, "{p:?}");
     }
-    // The seed's spline is in the tool point (A eq. 48): ρ = 0.
+    // A's spline is in the tool point (A eq. 48): ρ = 0.
     let mut deviations = Vec::new();
     for knots in [KnotSpacing::Centripetal, KnotSpacing::ChordLength] {
         let config = TaskSplineConfig {

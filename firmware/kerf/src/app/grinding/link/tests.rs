@@ -95,7 +95,7 @@ fn the_announced_bounds_are_the_validations() {
             "{path} = {past}"
         );
     }
-    // The PID's gains take any finite sign (the seed's Ki is negative).
+    // The PID's gains take any finite sign (G's Ki is negative).
     for path in ["/pid/kp", "/pid/ki", "/pid/kd"] {
         assert!(set(path, "-3.5").is_ok(), "{path}");
     }
