@@ -61,7 +61,7 @@ impl CellConfig {
     /// piezo for up to 8 µm/s at G's 0.1 mm/s feed). The tool starts 20 µm
     /// above the surface's crest. The sensor sits 3 mm and 2 mm off the spindle axis
     /// (of the order of a spindle clamp's offset; estimated by the firmware).
-    pub const SEED: Self = Self {
+    pub const PUBLISHED: Self = Self {
         piezo: PiezoModel::IDENTIFIED,
         forces: GrindingForces::ST37_CBN_4MM,
         surface: SinusoidalSurface {
@@ -210,7 +210,7 @@ mod tests {
     fn wrench_decomposes_by_the_seeds_formulas() {
         let config = CellConfig {
             force_noise_n2: 0.0,
-            ..CellConfig::SEED
+            ..CellConfig::PUBLISHED
         };
         let mut cell = Cell::<3000>::new(&config, 0.0, 5e-6);
         let mut last = None;
@@ -231,7 +231,7 @@ mod tests {
     /// command stops it instead of moving it anywhere.
     #[test]
     fn feed_is_rate_limited_and_safe_on_nan() {
-        let mut cell = Cell::<10>::new(&CellConfig::SEED, 0.0, 1e-3);
+        let mut cell = Cell::<10>::new(&CellConfig::PUBLISHED, 0.0, 1e-3);
         let r = cell.step(0.0, 1e-4);
         assert!((r.feed_m_s - 1e-5).abs() < 1e-15);
         for _ in 0..20 {

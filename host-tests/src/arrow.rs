@@ -36,7 +36,7 @@ pub struct ArrowRunConfig {
 impl ArrowRunConfig {
     /// The published gains (A table 2) with or without the computed feedforward and the
     /// regularization, for `periods` periods, no wall.
-    pub fn seed(feedforward: bool, regularize: bool, periods: usize) -> Self {
+    pub fn published(feedforward: bool, regularize: bool, periods: usize) -> Self {
         Self {
             parallel: RedundantPidConfig {
                 regularize,
@@ -194,7 +194,7 @@ pub fn scenario(config: &ArrowRunConfig) -> ArrowScenario {
         parallel: config.parallel,
         turntable: config.turntable,
         feedforward: config.feedforward,
-        ..ArrowScenario::seed()
+        ..ArrowScenario::published()
     }
 }
 

@@ -189,9 +189,9 @@ pub fn figures(run: &PassRun, reference_n: f64, settle_s: f64, tool_radius_m: f6
 /// A pass of G's experiments: law, reference, G's feed and spindle, and
 /// `length_m` along the surface.
 pub fn seed_pass(law: ForceLawKind, normal_force_n: f64, length_m: f64) -> PassSetup {
-    let cell = CellConfig::SEED;
+    let cell = CellConfig::PUBLISHED;
     PassSetup {
-        config: GrindingConfig::SEED,
+        config: GrindingConfig::PUBLISHED,
         cell,
         job: GrindingJob {
             law,

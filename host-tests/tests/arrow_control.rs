@@ -7,7 +7,7 @@ use host_tests::plot::{plots_dir, time_series, Series};
 use kerf::kinematics::arrow::Pose;
 
 fn config(regularize: bool) -> ArrowRunConfig {
-    ArrowRunConfig::seed(true, regularize, 10_000)
+    ArrowRunConfig::published(true, regularize, 10_000)
 }
 
 fn series(samples: &[ArrowSample], f: impl Fn(&ArrowSample) -> f64) -> Vec<(f64, f64)> {

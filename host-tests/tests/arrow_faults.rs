@@ -104,7 +104,7 @@ fn a_path_into_a_singularity_is_refused_naming_its_line() {
 }
 
 fn config() -> ArrowRunConfig {
-    ArrowRunConfig::seed(true, true, 0)
+    ArrowRunConfig::published(true, true, 0)
 }
 
 /// Runs the pyramid for up to 1 s with `disturb` on the encoders.

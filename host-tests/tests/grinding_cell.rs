@@ -65,14 +65,14 @@ fn experiment(
     force: f64,
     name: &str,
     title: &str,
-    seed_mse: f64,
+    published_mse: f64,
 ) -> (Mode<GrindingFault>, PassFigures) {
     let mut setup = seed_pass(law, force, LENGTH_M);
     setup.config = config;
     let run = run_pass(&setup, MAX_PERIODS);
     let f = figures(&run, force, 5.0, setup.cell.tool_radius_m);
     println!(
-        "{title}: {:?} after {:.1} s; force RMS error {:.3} N true, {:.3} N measured; mean depth {:.1} µm; surface form MSE {:.6} mm² (seed {seed_mse} mm²)",
+        "{title}: {:?} after {:.1} s; force RMS error {:.3} N true, {:.3} N measured; mean depth {:.1} µm; surface form MSE {:.6} mm² (G {published_mse} mm²)",
         run.mode,
         run.samples.len() as f64 * 1e-3,
         f.force_rms_error_n,
@@ -85,10 +85,10 @@ fn experiment(
 }
 
 /// G's three grinding experiments with its gains (G 8.1–8.3) at the unit where
-/// they work (10 pm per unit, `seed_gain_unit_scan`), and whether PID beats ADRC on
+/// they work (10 pm per unit, `published_gain_unit_scan`), and whether PID beats ADRC on
 /// the surface form as G found (0.00174 against 0.0043 mm²).
 #[test]
-fn seed_experiments() {
+fn published_experiments() {
     let cases = [
         (
             ForceLawKind::Pid,
@@ -107,8 +107,15 @@ fn seed_experiments() {
         ),
     ];
     let (mut mse, mut modes): (Vec<f64>, Vec<Mode<GrindingFault>>) = (Vec::new(), Vec::new());
-    for (law, force, name, title, seed_mse) in cases {
-        let (mode, f) = experiment(GrindingConfig::SEED, law, force, name, title, seed_mse);
+    for (law, force, name, title, published_mse) in cases {
+        let (mode, f) = experiment(
+            GrindingConfig::PUBLISHED,
+            law,
+            force,
+            name,
+            title,
+            published_mse,
+        );
         mse.push(f.form_mse_mm2);
         modes.push(mode);
     }
@@ -150,8 +157,15 @@ fn tuned_experiments() {
         ),
     ];
     let mut results = Vec::new();
-    for (law, force, name, title, seed_mse) in cases {
-        let (mode, f) = experiment(GrindingConfig::TUNED, law, force, name, title, seed_mse);
+    for (law, force, name, title, published_mse) in cases {
+        let (mode, f) = experiment(
+            GrindingConfig::TUNED,
+            law,
+            force,
+            name,
+            title,
+            published_mse,
+        );
         assert_eq!(mode, Mode::Ready, "{title}");
         // The tuned ADRC completes the pass but touches only in places (its force
         // error is the best the search found, 6 N RMS); the PID grinds all along.
@@ -229,7 +243,7 @@ fn contour_tracking_measures_the_form() {
 /// 0.1 nm the loop engages but overshoots into the workpiece past the 40 N crash
 /// limit; at 30 pm and 10 pm it completes the pass.
 #[test]
-fn seed_gain_unit_scan() {
+fn published_gain_unit_scan() {
     let mut engaged = Vec::new();
     for unit in [1e-6, 1e-8, 1e-9, 1e-10, 3e-11, 1e-11] {
         let mut setup = seed_pass(ForceLawKind::Pid, 7.5, 4e-3);

@@ -123,7 +123,7 @@ fn run(s: &Scenario) -> Outcome {
     let mut sup = Supervisor::new(machine, from, report_to);
     sup.set_telemetry_decimation(0);
     let mut cell = Cell::<SAMPLES>::new(&setup.cell, 0.0, DX_M);
-    let link = DeviceLink::new(&DeviceLinkConfig::SEED).unwrap();
+    let link = DeviceLink::new(&DeviceLinkConfig::PUBLISHED).unwrap();
     let mut state = DeviceLinkState::new();
     let mut hexapod = HexapodPort {
         sim: referenced_hexapod(s.start_x_mm),

@@ -18,7 +18,7 @@ use kerf::kinematics::Vector3;
 #[test]
 fn arrow_gains_beyond_f32_are_refused_for_the_f32_machine() {
     for (kd, ki) in [(4e38, 2e7), (1e300, 2e7), (8070.0, 1e300)] {
-        let mut config = ArrowRunConfig::seed(true, true, 0);
+        let mut config = ArrowRunConfig::published(true, true, 0);
         config.parallel = RedundantPidConfig {
             kd,
             ki,

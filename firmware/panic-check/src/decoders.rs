@@ -158,7 +158,7 @@ impl Transact for OpaqueDevice {
 /// The grinding devices' tick (hexapod GCS and spindle replies), and the GCS and
 /// spindle reply parsers on their own.
 fn devices() {
-    if let Ok(link) = DeviceLink::new(&opaque(DeviceLinkConfig::SEED)) {
+    if let Ok(link) = DeviceLink::new(&opaque(DeviceLinkConfig::PUBLISHED)) {
         let mut state = opaque(DeviceLinkState::new());
         let demand = opaque(DeviceDemand {
             feed_m_s: 0.0,

@@ -262,7 +262,7 @@ fn remote_slave() {
 
 /// The grinding cell's force laws on its force/torque sensor.
 fn grinding_cell() {
-    let Ok(machine) = GrindingCell::<f32>::new(&opaque(GrindingConfig::SEED)) else {
+    let Ok(machine) = GrindingCell::<f32>::new(&opaque(GrindingConfig::PUBLISHED)) else {
         return;
     };
     let inputs = GrindingInputs {

@@ -66,7 +66,7 @@ pub struct ArrowScenario {
 impl ArrowScenario {
     /// A's PID with feedforward and regularization on the machine with its
     /// geometric error, the plant integrated with 4 RK4 steps per period.
-    pub fn seed() -> Self {
+    pub fn published() -> Self {
         Self {
             parallel: RedundantPidConfig::ARROW_PARALLEL,
             turntable: RedundantPidConfig::ARROW_TURNTABLE,
@@ -79,7 +79,7 @@ impl ArrowScenario {
     /// closed loop's fastest mode, √(K_P/m) ≈ 540 rad/s, is 0.11 rad per period, well
     /// inside RK4's stable step).
     pub fn smoke() -> Self {
-        let mut s = Self::seed();
+        let mut s = Self::published();
         s.plant.substeps = 1;
         s
     }

@@ -188,7 +188,7 @@ impl<T: Float + FalPower> LinkedGrinding<'_, T> {
 }
 
 /// Builds the cell as flashed ([`CONFIG`], its settings, [`PASS`]) on G's
-/// simulated cell ([`CellConfig::SEED`]) behind the link, calibrated and Ready (module
+/// simulated cell ([`CellConfig::PUBLISHED`]) behind the link, calibrated and Ready (module
 /// docs), and hands it to `f`. The link stops a job after `heartbeat_timeout_s` of
 /// machine time without a frame from the host: a simulation that runs faster than
 /// real time needs more than a board's.
@@ -215,7 +215,7 @@ pub fn with_linked_grinding<T: Float + FalPower, R>(
     let volts_per_wrench = calibration
         .try_inverse()
         .ok_or(ConfigError::out_of_range("sensor.calibration"))?;
-    let cell_config = CellConfig::SEED;
+    let cell_config = CellConfig::PUBLISHED;
     let mut cell = Cell::<SAMPLES>::new(&cell_config, 0.0, DX_M);
     let reading = cell.step(0.0, 0.0);
     // Referenced at power-up: FRF, and the reference move's time.

@@ -47,7 +47,7 @@ impl Transact for Scripted<'_, '_> {
 /// state holds it); a following error is finite; every GCS command the link writes
 /// is one the controller's parser reads. Returns the healthy ticks.
 pub fn grinding_devices(data: &[u8]) -> usize {
-    let link = DeviceLink::new(&DeviceLinkConfig::SEED).expect("G's cell");
+    let link = DeviceLink::new(&DeviceLinkConfig::PUBLISHED).expect("G's cell");
     let mut state = DeviceLinkState::new();
     let input = RefCell::new(Input::new(data));
     let (mut latched, mut healthy) = (None::<DeviceFault>, 0);
@@ -140,7 +140,7 @@ impl Transact for Recorded<'_, SimSpindle> {
 /// on the simulated devices, then a halt; and the same with the spindle silenced.
 pub fn grinding_devices_seeds() -> Vec<Vec<u8>> {
     let run = |answering: bool| {
-        let link = DeviceLink::new(&DeviceLinkConfig::SEED).unwrap();
+        let link = DeviceLink::new(&DeviceLinkConfig::PUBLISHED).unwrap();
         let mut state = DeviceLinkState::new();
         let seed = RefCell::new(Seed::new());
         let mut hexapod = Recorded {

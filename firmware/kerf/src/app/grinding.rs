@@ -95,10 +95,10 @@ impl GrindingConfig {
     /// 4 mm CBN tool (no eccentricity until one is measured), a 500-sample bias capture
     /// (0.5 s; at rest the spread is the sensor's noise: 500 samples of G's
     /// 0.8 N² span about 6σ ≈ 5.4 N, so 8 N and 0.05 N·m are allowed), the drift watch
-    /// of [`BiasDriftConfig::SEED`] (a bound of 0.294 N on 1 s means), the P-602 stage
+    /// of [`BiasDriftConfig::PUBLISHED`] (a bound of 0.294 N on 1 s means), the P-602 stage
     /// and 0.1 mm/s feed, G's PID and ADRC gains. A normal force above 40 N (four times
     /// G's largest reference) is a crash; a job may ask up to 20 N.
-    pub const SEED: Self = Self {
+    pub const PUBLISHED: Self = Self {
         period_s: 1e-3,
         sensor: FtSensorConfig::ATI_GAMMA_IP60,
         tool: ToolConfig {
@@ -115,7 +115,7 @@ impl GrindingConfig {
             max_force_spread_n: 8.0,
             max_torque_spread_n_m: 0.05,
         },
-        bias_drift: BiasDriftConfig::SEED,
+        bias_drift: BiasDriftConfig::PUBLISHED,
         hybrid: HybridForceConfig::GRINDING_SEED,
         pid: PidConfig::GRINDING_SEED,
         adrc: AdrcConfig::GRINDING_SEED,
@@ -125,7 +125,7 @@ impl GrindingConfig {
 }
 
 impl GrindingConfig {
-    /// [`GrindingConfig::SEED`] with both laws tuned on the simulated cell (host test
+    /// [`GrindingConfig::PUBLISHED`] with both laws tuned on the simulated cell (host test
     /// `grinding_tuning`: Nelder–Mead on the RMS of the normal force's error over the
     /// experiments' 80 s pass at 7.5 N), in 1 nm per unit of law output: PID Kp 8.42,
     /// Ki 0.100/s, Kd 0.00140 s (0.65 N RMS on the cell, against 5.6 N for G's
@@ -149,7 +149,7 @@ impl GrindingConfig {
             eso_bandwidth_rad_s: 183.0,
             ..AdrcConfig::GRINDING_SEED
         },
-        ..Self::SEED
+        ..Self::PUBLISHED
     };
 }
 

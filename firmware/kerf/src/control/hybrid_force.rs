@@ -86,7 +86,7 @@ impl HybridForceConfig {
     /// units the proportional and derivative terms alone turn the force noise into
     /// piezo steps beyond the rate limit (0.1 µm per period), and the piezo chatters
     /// in place without reaching the surface (the scan is the scenario test
-    /// `grinding_cell::seed_gain_unit_scan`). 1·10⁻¹¹ m (10 pm) per unit is used:
+    /// `grinding_cell::published_gain_unit_scan`). 1·10⁻¹¹ m (10 pm) per unit is used:
     /// G's gains then give a loop gain of 4·10⁻⁴ per period on 0.5 N/µm (a force
     /// time constant of about 2.4 s). A different
     /// force model would move this scale by its stiffness; the gains tuned on the cell

@@ -221,12 +221,12 @@ mod tests {
     use super::*;
     use crate::scalar::Q31_32;
 
-    const SEED: LaserConfig = LaserConfig::SPI_REDENERGY_G3_20W;
+    const PUBLISHED: LaserConfig = LaserConfig::SPI_REDENERGY_G3_20W;
     /// The depth T's 20 W cuts at its 2 mm/s: e = 20 / 0.002 = 10 000 J/m.
     const E_SEED: f64 = 10_000.0;
 
     fn laser<T: Real>() -> Laser<T> {
-        Laser::new(&SEED).unwrap()
+        Laser::new(&PUBLISHED).unwrap()
     }
 
     fn energy<T: Real>(l: &Laser<T>, e: f64) -> LaserMode<T> {
@@ -238,7 +238,7 @@ mod tests {
 
     #[test]
     fn preset_is_the_seeds_20_w_laser() {
-        assert_eq!(SEED.max_power_w, 20.0);
+        assert_eq!(PUBLISHED.max_power_w, 20.0);
         assert_eq!(
             LaserMode::constant_energy_of(20.0, 2e-3),
             LaserMode::ConstantEnergy {

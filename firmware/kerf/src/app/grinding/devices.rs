@@ -94,7 +94,7 @@ impl DeviceLinkConfig {
     /// change (G gives no spin-up time; 2 s is four time constants of the
     /// 0.5 s of `hal-mock`'s spindle, 98 % of a step) to 10 % of the command or
     /// 500 rpm, whichever is larger, for 10 ticks in a row.
-    pub const SEED: Self = Self {
+    pub const PUBLISHED: Self = Self {
         tick_s: 0.01,
         feed_axis: Axis::X,
         max_velocity_mm_s: 1.0,

@@ -34,7 +34,7 @@ pub const CONFIG: GrindingConfig = GrindingConfig::TUNED;
 pub const PERIOD_S: f64 = CONFIG.period_s;
 
 /// The device link (hexapod and spindle): G's, a 10 ms tick.
-pub const DEVICES: DeviceLinkConfig = DeviceLinkConfig::SEED;
+pub const DEVICES: DeviceLinkConfig = DeviceLinkConfig::PUBLISHED;
 
 /// Control periods per device tick: the tick over the period, rounded (10).
 pub fn device_tick_periods() -> u32 {

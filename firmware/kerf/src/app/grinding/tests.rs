@@ -47,13 +47,13 @@ fn with_ready_cell(
     let mut reports = Queue::<Report<GrindingCell<f64>>, 64>::new();
     let (mut to, from) = commands.split();
     let (report_to, mut report_from) = reports.split();
-    let cell = GrindingCell::<f64>::new(&GrindingConfig::SEED).unwrap();
+    let cell = GrindingCell::<f64>::new(&GrindingConfig::PUBLISHED).unwrap();
     let mut s = Supervisor::new(cell, from, report_to);
     s.set_telemetry_decimation(0);
     let mut send = |c| assert!(to.enqueue(c).is_ok());
     let mut drain = || core::iter::from_fn(|| report_from.dequeue()).collect::<Vec<_>>();
     send(Command::Calibrate);
-    for _ in 0..GrindingConfig::SEED.bias.samples {
+    for _ in 0..GrindingConfig::PUBLISHED.bias.samples {
         s.step(&pressing(0.0));
     }
     send(Command::FinishCalibration(GrindingCalibration {
@@ -75,7 +75,7 @@ fn with_ready_cell(
 /// A job before the bias is captured is refused with its reason; bad fields are named.
 #[test]
 fn jobs_are_checked() {
-    let cell = GrindingCell::<f64>::new(&GrindingConfig::SEED).unwrap();
+    let cell = GrindingCell::<f64>::new(&GrindingConfig::PUBLISHED).unwrap();
     let mut c = cell.clone();
     assert_eq!(
         c.begin_job(&job(ForceLawKind::Pid)),
@@ -242,11 +242,11 @@ fn a_disturbed_bias_capture_faults() {
     let mut reports = Queue::<Report<GrindingCell<f64>>, 64>::new();
     let (mut to, from) = commands.split();
     let (report_to, _report_from) = reports.split();
-    let cell = GrindingCell::<f64>::new(&GrindingConfig::SEED).unwrap();
+    let cell = GrindingCell::<f64>::new(&GrindingConfig::PUBLISHED).unwrap();
     let mut s = Supervisor::new(cell, from, report_to);
     s.set_telemetry_decimation(0);
     assert!(to.enqueue(Command::Calibrate).is_ok());
-    for k in 0..GrindingConfig::SEED.bias.samples {
+    for k in 0..GrindingConfig::PUBLISHED.bias.samples {
         s.step(&pressing(if k > 200 { 10.0 } else { 0.0 }));
     }
     assert!(matches!(

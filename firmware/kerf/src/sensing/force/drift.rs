@@ -39,7 +39,7 @@ pub struct BiasDriftConfig {
 impl BiasDriftConfig {
     /// G's cell: windows of 1 s at 1 kHz, 6σ, watching after 0.5 s at rest
     /// (three settling times of the stage).
-    pub const SEED: Self = Self {
+    pub const PUBLISHED: Self = Self {
         window_samples: 1000,
         sigmas: 6.0,
         settle_s: 0.5,
@@ -150,7 +150,7 @@ mod tests {
     /// component and mean; NaN faults; a zero window is no watch.
     #[test]
     fn window_means_against_the_noise_bound() {
-        let mut w = BiasDriftWatch::new(&BiasDriftConfig::SEED, 0.894, 500)
+        let mut w = BiasDriftWatch::new(&BiasDriftConfig::PUBLISHED, 0.894, 500)
             .unwrap()
             .unwrap();
         assert!((w.bound_n() - 0.29380).abs() < 1e-4, "{}", w.bound_n());
@@ -173,9 +173,9 @@ mod tests {
         assert_eq!(w.push(&force([0.0; 3])).unwrap_err().component, 2);
         let off = BiasDriftConfig {
             window_samples: 0,
-            ..BiasDriftConfig::SEED
+            ..BiasDriftConfig::PUBLISHED
         };
         assert_eq!(BiasDriftWatch::new(&off, 0.0, 500), Ok(None));
-        assert!(BiasDriftWatch::new(&BiasDriftConfig::SEED, 0.0, 500).is_err());
+        assert!(BiasDriftWatch::new(&BiasDriftConfig::PUBLISHED, 0.0, 500).is_err());
     }
 }

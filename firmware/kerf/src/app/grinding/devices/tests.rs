@@ -69,7 +69,7 @@ impl Transact for FakeSpindle {
 }
 
 fn link() -> DeviceLink {
-    DeviceLink::new(&DeviceLinkConfig::SEED).unwrap()
+    DeviceLink::new(&DeviceLinkConfig::PUBLISHED).unwrap()
 }
 
 fn feed(feed_m_s: f64, spindle_rpm: f64) -> DeviceDemand {
