@@ -16,7 +16,7 @@
 //! "T" is the thesis the planner comes from (pre-processing and motion control for
 //! non-contact machining of complex contours), "A" the ARROW paper (Saied et al., "A
 //! Redundant Parallel Robotic Machining Tool: Design, Control and Real-Time
-//! Experiments", 2019), as the repository's README names them.
+//! Experiments", 2019), as the repository's docs/equations.md names them.
 
 pub mod description;
 pub mod gcode;

@@ -18,7 +18,7 @@ use kerf::{Float, Real};
 pub const PYRAMID_GCODE: &str = include_str!("../../../data/pyramid.gcode");
 
 /// The smoke run's bounds: A table 3's Cartesian figures (eq. 55, 56), which the
-/// host's f64 run of the same scenario meets with margin (README).
+/// host's f64 run of the same scenario meets with margin (docs/modules.md).
 pub const ARROW_SMOKE_BOUNDS: TrackingBounds = TrackingBounds {
     cartesian_m: 7.06e-6,
     cartesian_deg: 0.0170,

@@ -41,7 +41,7 @@
 //! [`HallConfig::smallest_fault_error_budget_m`](super::HallConfig::smallest_fault_error_budget_m),
 //! is the one whose T_budget is 2H: twice the error at which a fault's residual equals
 //! the healthy band. At 12 bits with 1 LSB of noise that is about 30 to 35 µm at an
-//! 18 mm pitch, at 16 bits with 4 LSB about 12 µm (README).
+//! 18 mm pitch, at 16 bits with 4 LSB about 12 µm (docs/modules.md).
 //!
 //! A channel that fails while the axis stands still causes no error until the axis
 //! moves (a frozen channel holds the right value): it is caught within the detection
