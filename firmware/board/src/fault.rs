@@ -14,90 +14,11 @@ use crate::outputs;
 use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, Ordering};
 use embassy_stm32::pac;
-use kerf::codec::link::{board_fault, BOARD_FAULT};
-
-/// What ended the last run.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, defmt::Format)]
-#[repr(u8)]
-pub enum Cause {
-    /// Power-on or brown-out: nothing went wrong.
-    PowerOn = 0,
-    /// The reset pin (the probe, the NUCLEO's reset button).
-    Pin = 1,
-    /// A software reset without a fault record (the probe's reset request).
-    Software = 2,
-    /// A HardFault; detail: the stacked program counter's low 16 bits.
-    HardFault = board_fault::HARD_FAULT as u8,
-    /// A panic; detail: the source line.
-    Panic = board_fault::PANIC as u8,
-    /// A control period did not finish within its period; detail: its cycles / 16.
-    MissedDeadline = board_fault::MISSED_DEADLINE as u8,
-    /// The independent watchdog expired (the control interrupt or the link task
-    /// stopped running).
-    Watchdog = board_fault::WATCHDOG as u8,
-    /// The three ADC sequences of a period did not arrive together, or a DMA
-    /// transfer error.
-    Sampling = board_fault::SAMPLING as u8,
-    /// The break input (driver fault, E-stop) switched the outputs off; no reset.
-    Break = board_fault::BREAK as u8,
-    /// Start-up failed (a peripheral did not come ready); detail: which.
-    Startup = board_fault::STARTUP as u8,
-}
-
-impl Cause {
-    /// Whether this cause is a fault the host should hear about.
-    pub fn is_fault(self) -> bool {
-        !matches!(self, Cause::PowerOn | Cause::Pin | Cause::Software)
-    }
-
-    /// The causes a fault record can hold (the watchdog's is read from the reset
-    /// flags, and a break does not reset).
-    fn from_u32(value: u32) -> Option<Self> {
-        [
-            Cause::HardFault,
-            Cause::Panic,
-            Cause::MissedDeadline,
-            Cause::Sampling,
-            Cause::Startup,
-        ]
-        .into_iter()
-        .find(|c| *c as u32 == value)
-    }
-}
-
-/// What is kept across the reset.
-#[derive(Copy, Clone)]
-#[repr(C)]
-struct Record {
-    magic: u32,
-    cause: u32,
-    detail: u32,
-    /// `!(magic ^ cause ^ detail)`: catches a half-written record.
-    check: u32,
-}
-
-const MAGIC: u32 = 0x6B65_7266;
+use kerf_board_support::fault_record::{reset_cause, FaultRecord, ResetFlags};
+pub use kerf_board_support::fault_record::{Cause, ResetCause};
 
 #[link_section = ".uninit.kerf_fault_record"]
-static mut RECORD: MaybeUninit<Record> = MaybeUninit::uninit();
-
-/// The cause of the last reset and its detail.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, defmt::Format)]
-pub struct ResetCause {
-    /// What ended the last run.
-    pub cause: Cause,
-    /// Its detail (see [`Cause`]).
-    pub detail: u32,
-}
-
-impl ResetCause {
-    /// The host's fault event code and detail, for a fault.
-    pub fn event(&self) -> Option<(u16, u16)> {
-        self.cause
-            .is_fault()
-            .then_some((BOARD_FAULT | self.cause as u16, self.detail as u16))
-    }
-}
+static mut RECORD: MaybeUninit<FaultRecord> = MaybeUninit::uninit();
 
 /// Reads and clears the fault record and the reset flags (RCC_CSR, RM0440 "Control/
 /// status register"): call once at start-up.
@@ -105,36 +26,25 @@ pub fn take_reset_cause() -> ResetCause {
     let csr = pac::RCC.csr().read();
     // SAFETY: start-up, before any interrupt: nothing else touches the record; it is
     // read as plain words, and a power-on's garbage is rejected by magic and check.
-    let record = unsafe { core::ptr::addr_of!(RECORD).cast::<Record>().read_volatile() };
+    let record = unsafe {
+        core::ptr::addr_of!(RECORD)
+            .cast::<FaultRecord>()
+            .read_volatile()
+    };
     // SAFETY: as above; cleared so that the next reset without a fault shows as one.
     unsafe {
         core::ptr::addr_of_mut!(RECORD)
-            .cast::<Record>()
-            .write_volatile(Record {
-                magic: 0,
-                cause: 0,
-                detail: 0,
-                check: 0,
-            })
+            .cast::<FaultRecord>()
+            .write_volatile(FaultRecord::CLEARED)
     };
     pac::RCC.csr().modify(|w| w.set_rmvf(true));
-    let valid =
-        record.magic == MAGIC && record.check == !(record.magic ^ record.cause ^ record.detail);
-    let (cause, detail) = if csr.iwdgrstf() {
-        (Cause::Watchdog, 0)
-    } else if csr.sftrstf() {
-        match Cause::from_u32(record.cause).filter(|_| valid) {
-            Some(cause) => (cause, record.detail),
-            None => (Cause::Software, 0),
-        }
-    } else if csr.borrstf() {
-        (Cause::PowerOn, 0)
-    } else if csr.pinrstf() {
-        (Cause::Pin, 0)
-    } else {
-        (Cause::PowerOn, 0)
+    let flags = ResetFlags {
+        watchdog: csr.iwdgrstf(),
+        software: csr.sftrstf(),
+        brown_out: csr.borrstf(),
+        pin: csr.pinrstf(),
     };
-    ResetCause { cause, detail }
+    reset_cause(flags, &record)
 }
 
 /// The fault path: outputs safe (hardware break, then software), the cause recorded,
@@ -142,17 +52,12 @@ pub fn take_reset_cause() -> ResetCause {
 pub fn fail(cause: Cause, detail: u32) -> ! {
     outputs::force_safe();
     cortex_m::interrupt::disable();
-    let record = Record {
-        magic: MAGIC,
-        cause: cause as u32,
-        detail,
-        check: !(MAGIC ^ cause as u32 ^ detail),
-    };
+    let record = FaultRecord::new(cause, detail);
     // SAFETY: interrupts are off and this path never returns: nothing else writes the
     // record until the next start-up reads it.
     unsafe {
         core::ptr::addr_of_mut!(RECORD)
-            .cast::<Record>()
+            .cast::<FaultRecord>()
             .write_volatile(record)
     };
     cortex_m::asm::dsb();

@@ -16,6 +16,7 @@
 use crate::board;
 use embassy_stm32::pac;
 use kerf::hal::{ForceAndLaser, WriteOutputs};
+use kerf_board_support::output_codes::{pwm_compare, ForceDac};
 use pac::gpio::vals::{Moder, Pupdr};
 use pac::timer::vals::{Bkp, Mms, Ocm, Ossi, Ossr};
 
@@ -34,29 +35,22 @@ pub enum OutputError {
     BreakActive,
 }
 
-/// The DAC code for `force_n`: mid-scale plus force / kF / (A/V) / (V/code),
-/// saturated to 12 bits; not-a-number gives zero force.
+/// The drive chain from a force command to a DAC code (`board`'s driver, motor and DAC).
+const FORCE_DAC: ForceDac = ForceDac::new(
+    board::DAC_ZERO,
+    board::FORCE_CONSTANT_N_PER_A,
+    board::DRIVER_AMPS_PER_VOLT,
+    board::DAC_VOLTS_PER_CODE,
+);
+
+/// The DAC code for `force_n` ([`ForceDac::code`]: saturated, NaN is zero force).
 pub fn dac_code(force_n: f32) -> u16 {
-    let per_newton = 1.0
-        / (board::FORCE_CONSTANT_N_PER_A * board::DRIVER_AMPS_PER_VOLT * board::DAC_VOLTS_PER_CODE);
-    let code = f32::from(board::DAC_ZERO) + force_n * per_newton;
-    if code.is_nan() {
-        board::DAC_ZERO
-    } else {
-        // `as` saturates: below 0 gives 0, beyond gives u16::MAX, then the clamp.
-        (code as u16).min(4095)
-    }
+    FORCE_DAC.code(force_n)
 }
 
-/// The CCR1 value for a laser duty in [0, 1] (saturated; not-a-number is off).
+/// The CCR1 value for a laser duty in [0, 1] ([`pwm_compare`]: saturated, NaN is off).
 pub fn laser_compare(duty: f32) -> u16 {
-    let full = board::PERIOD_CYCLES as f32;
-    let value = duty * full;
-    if value.is_nan() {
-        0
-    } else {
-        (value as u16).min(board::PERIOD_CYCLES as u16)
-    }
+    pwm_compare(duty, board::PERIOD_CYCLES as u16)
 }
 
 /// Sets up the pins, the DACs at zero force and TIM1 (laser off, drivers disabled),
