@@ -203,7 +203,7 @@ const CHANNELS: [Channel; 6] = [
         unit: "m",
     },
     Channel {
-        name: "error",
+        name: "tracking_error",
         unit: "m",
     },
     Channel {

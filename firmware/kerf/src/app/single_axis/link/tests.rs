@@ -193,7 +193,7 @@ fn a_sample_has_a_value_per_channel() {
     let at = |name: &str| values[CHANNELS.iter().position(|c| c.name == name).unwrap()];
     assert_eq!((at("position"), at("reference")), (0.0120, 0.0125));
     assert_eq!(
-        (at("error"), at("velocity")),
+        (at("tracking_error"), at("velocity")),
         ((0.0125f64 - 0.0120) as f32, 0.09)
     );
     assert_eq!((at("force"), at("disturbance")), (1.5, -0.25));
