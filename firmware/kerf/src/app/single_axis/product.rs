@@ -19,13 +19,15 @@
 //!   `G0` to the program's start);
 //! - a move to where the carriage already is takes no time and is left out.
 //!
-//! Refused, with the line: what the parser refuses (`F0` and a `G1` before any `F`
-//! among it), a move of Y, Z, A or B, a target
-//! outside the travel, more moves than a job holds ([`JOB_MOVES`]), no move at all.
-//! The machine's own check (speed, acceleration, length) follows at the load.
+//! Refused, with the line: what the parser refuses (among it `F0`, and a `G1` before
+//! any `F`), a move of Y, Z, A or B, a target outside the travel, more moves than a job
+//! holds ([`JOB_MOVES`]), no move at all. The machine's own check (speed,
+//! acceleration, length) follows at the load.
 
 use crate::app::axis::HallAxis;
-use crate::app::joints::{JointJob, Joints, JointsConfig, Segment, MAX_SEGMENTS};
+use crate::app::joints::{
+    JointJob, Joints, JointsConfig, Segment, MAX_SEGMENTS, PEAK_ACCEL_RATIO, PEAK_SPEED_RATIO,
+};
 use crate::error::{ConfigContext, ConfigError};
 use crate::scalar::Real;
 use crate::trajectory::gcode::{GcodeError, MoveKind, Parser};
@@ -49,11 +51,6 @@ pub const TELEMETRY_DECIMATION: u32 = 10;
 
 /// The single axis as flashed.
 pub type Axis<T> = Joints<T, 1>;
-
-/// Peak speed of a minimum-jerk move over its mean speed, and peak acceleration
-/// times T²/D ([`crate::trajectory::quintic`]; the machine checks a job with these).
-const PEAK_SPEED: f64 = 1.875;
-const PEAK_ACCEL: f64 = 5.7735;
 
 /// A rapid's time is stretched by this much over the limits' exact bound, so that
 /// the machine's check, which computes the same products the other way round, never
@@ -101,10 +98,10 @@ pub struct MovesError {
 /// rapid (`None`) the shortest within `config`'s limits.
 fn move_time(config: &JointsConfig<1>, distance_m: f64, feed_m_s: Option<f64>) -> f64 {
     match feed_m_s {
-        Some(feed) => PEAK_SPEED * distance_m / feed,
+        Some(feed) => PEAK_SPEED_RATIO * distance_m / feed,
         None => {
-            let by_speed = PEAK_SPEED * distance_m / config.speed_limit_m_s;
-            let by_accel = libm::sqrt(PEAK_ACCEL * distance_m / config.accel_limit_m_s2);
+            let by_speed = PEAK_SPEED_RATIO * distance_m / config.speed_limit_m_s;
+            let by_accel = libm::sqrt(PEAK_ACCEL_RATIO * distance_m / config.accel_limit_m_s2);
             RAPID_MARGIN * by_speed.max(by_accel)
         }
     }
