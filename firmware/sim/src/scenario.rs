@@ -296,6 +296,11 @@ impl<'q, T: Real> Rig<'q, T> {
         &self.supervisor
     }
 
+    /// Reports telemetry every `every` control periods (0: never, as built).
+    pub fn set_telemetry_decimation(&mut self, every: u32) {
+        self.supervisor.set_telemetry_decimation(every);
+    }
+
     /// One control period: inputs sampled, supervisor stepped, outputs written (the
     /// plant advances one period), as the control interrupt does it.
     pub fn step(&mut self) -> Period {

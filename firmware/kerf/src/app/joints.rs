@@ -172,12 +172,20 @@ pub struct Joints<T: Real, const N: usize> {
     last: [AxisOutput<T>; N],
 }
 
+/// Peak speed of a minimum-jerk move of D in T, times T/D: 1.875
+/// ([`crate::trajectory::quintic`]).
+pub const PEAK_SPEED_RATIO: f64 = 1.875;
+
+/// Peak acceleration of a minimum-jerk move of D in T, times T²/D: 10/√3 = 5.7735
+/// ([`crate::trajectory::quintic`]).
+pub const PEAK_ACCEL_RATIO: f64 = 5.7735;
+
 /// Whether a minimum-jerk move of `distance_m` in `duration_s` exceeds the limits:
-/// peak speed 1.875 D/T, peak acceleration 5.7735 D/T² (trajectory::quintic).
+/// peak speed [`PEAK_SPEED_RATIO`]·D/T, peak acceleration [`PEAK_ACCEL_RATIO`]·D/T².
 fn too_fast(speed_limit_m_s: f64, accel_limit_m_s2: f64, distance_m: f64, duration_s: f64) -> bool {
     let d = libm::fabs(distance_m);
-    1.875 * d > speed_limit_m_s * duration_s
-        || 5.7735 * d > accel_limit_m_s2 * duration_s * duration_s
+    PEAK_SPEED_RATIO * d > speed_limit_m_s * duration_s
+        || PEAK_ACCEL_RATIO * d > accel_limit_m_s2 * duration_s * duration_s
 }
 
 /// Runs `each(k, sensor, state, counts)` on every axis in order; the first fault

@@ -18,6 +18,7 @@ pub mod playout;
 pub mod remote_link;
 pub mod remote_master;
 pub mod remote_slave;
+pub mod single_axis;
 pub mod stream;
 pub mod supervisor;
 
