@@ -109,8 +109,8 @@ pub mod load_codes {
     pub const CONTOUR: u16 = 0x306;
 }
 
-/// What a carriage index of a fault's detail means.
-const CARRIAGE: &str = "carriage (0-2)";
+/// What a fault's detail holds: the carriage, 0 to 2.
+const CARRIAGE: &str = "carriage";
 
 /// The fault codes of [`LinkMachine::fault_code`].
 const FAULTS: [CodeWords; 6] = [

@@ -201,3 +201,18 @@ pub fn load_fixture<T: Float>(
     FixtureJob::new(points, &session.constraint, session.z_m, session.laser_on)
         .map_err(FixtureLoadError::Contour)
 }
+
+/// Semi-axes of the product's sample contour, m (the remote scenarios' ellipse).
+pub const SAMPLE_SEMI_AXES_M: [f64; 2] = [0.015, 0.011];
+
+/// The product's sample contour, the points of `data/remote_master_fixture.krfj`:
+/// the ellipse of [`SAMPLE_SEMI_AXES_M`] in [`FIXTURE_POINTS`] points,
+/// counter-clockwise from the [`rest_point`] (its rightmost point).
+///
+/// Errors: those of [`rest_point`].
+pub fn sample_contour() -> Result<[[f64; 2]; FIXTURE_POINTS], ConfigError> {
+    let [x0, y0, _] = rest_point()?;
+    let [a, b] = SAMPLE_SEMI_AXES_M;
+    let shape: [[f64; 2]; FIXTURE_POINTS] = crate::trajectory::shapes::ellipse(a, b);
+    Ok(shape.map(|[x, y]| [x - a + x0, y + y0]))
+}

@@ -1,4 +1,4 @@
-use super::super::product::{config, rest_point, session, LINK_JOB_BYTES};
+use super::super::product::{config, sample_contour, session, LINK_JOB_BYTES};
 use super::super::RemoteMaster;
 use super::*;
 use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingPath};
@@ -8,7 +8,6 @@ use crate::codec::link::{
     decode, encode, Description, HostFrame, MachineMessage, Refusal, Reply, Request,
     LINK_JOB_REFUSALS, MAX_FRAME,
 };
-use crate::trajectory::shapes::ellipse;
 use heapless::spsc::Queue;
 use std::format;
 use std::string::String;
@@ -16,13 +15,9 @@ use std::vec::Vec;
 
 type M = Master<f64>;
 
-/// The product's contour: an ellipse of 15 × 11 mm through the rest point (its
-/// first point), counter-clockwise.
+/// The product's sample contour.
 fn contour() -> Vec<[f64; 2]> {
-    let [x0, y0, _] = rest_point().unwrap();
-    let (a, b) = (0.015, 0.011);
-    let shape: [[f64; 2]; 128] = ellipse(a, b);
-    shape.iter().map(|p| [p[0] - a + x0, p[1] + y0]).collect()
+    sample_contour().unwrap().to_vec()
 }
 
 fn points_file(points: &[[f64; 2]]) -> Vec<u8> {
@@ -204,7 +199,7 @@ fn every_fault_is_told_in_words() {
         (told.words, told.detail, detail),
         (
             "an encoder count jumped farther than the carriage can move in a period",
-            "carriage (0-2)",
+            "carriage",
             2
         )
     );
