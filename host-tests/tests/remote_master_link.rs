@@ -320,6 +320,9 @@ fn the_host_runs_a_fixture_session_and_softens_the_fixture() {
         true_slave.1 * 1e6,
     );
     assert!(running.len() > 500, "{}", running.len());
+    // The hand carried the handle until the start, so the master began on the
+    // contour: no carriage force reached the disturbance observer's 10 N limit.
+    assert!(summary.force_peak_n < 9.0, "{summary}");
     assert!(!beam.is_empty() && beam.iter().all(|b| *b == 1.0));
     // The hand's steady push across is the disturbance observer's to cancel; what
     // moves the master across the contour is the tremor, 0.3 N at 8.7 and 11.3 Hz,

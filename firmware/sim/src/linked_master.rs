@@ -13,7 +13,8 @@
 //! of [`HAND_N_S_PER_M`] to the mean ± 50 % twice per lap, ramped in over half a
 //! second), with a steady 0.5 N outwards across it, 0.3 N of tremor at 8.7 and
 //! 11.3 Hz in the plane and 0.5 N down, as in the host's remote scenarios. While the
-//! master does not run a job the hand holds still. After [`SESSION_LAPS`] of the
+//! master does not run a job the hand holds the handle where it stands, carrying the
+//! effector's weight (the master then puts out no force). After [`SESSION_LAPS`] of the
 //! contour the operator presses the handle's stop button, which the image's own task
 //! queues as the supervisor's `Stop` (the host hears the mode change; the session
 //! ran to its end). A host's `Stop` ends it earlier.
@@ -71,6 +72,13 @@ pub const SESSION_LAPS: f64 = 1.0;
 
 /// SDCT coefficients kept of each block of [`LINK_BLOCK`] samples, both ways.
 pub const SDCT_M: usize = 6;
+
+/// Segments either side of the last one the hand's search looks at.
+const SEARCH_SEGMENTS: usize = 4;
+
+/// The hand's grip on the handle while the fixture holds nothing: its stiffness, N/m,
+/// and damping, N·s/m (a relaxed hand's).
+const GRIP: (f64, f64) = (2000.0, 50.0);
 
 /// Commands the slave's playout holds: 256 ms of 1 kHz samples, past the delay.
 const PLAYOUT: usize = 256;
@@ -140,10 +148,19 @@ impl Drawing {
     }
 
     /// The nearest point of the drawing to `x`: (arc length, unit tangent, outward
-    /// normal, signed distance outwards).
-    fn frame(&self, x: [f64; 2]) -> (f64, [f64; 2], [f64; 2], f64) {
+    /// normal, signed distance outwards, segment). With a `hint` (the segment found
+    /// a period before) only the segments within [`SEARCH_SEGMENTS`] of it are
+    /// searched: the hand moves far less than a segment in a period.
+    fn frame(&self, x: [f64; 2], hint: Option<usize>) -> (f64, [f64; 2], [f64; 2], f64, usize) {
+        let n = self.points.len();
+        let (first, count) = match hint {
+            Some(h) if n > 2 * SEARCH_SEGMENTS + 1 => {
+                (h + n - SEARCH_SEGMENTS, 2 * SEARCH_SEGMENTS + 1)
+            }
+            _ => (0, n),
+        };
         let mut best = (f64::MAX, 0, 0.0);
-        for i in 0..self.points.len() {
+        for i in (first..first + count).map(|i| i % n.max(1)) {
             let (a, b) = (
                 segment_start(&self.points, i),
                 segment_start(&self.points, i + 1),
@@ -169,7 +186,7 @@ impl Drawing {
         let normal = [t[1], -t[0]];
         let across = (x[0] - a[0]) * normal[0] + (x[1] - a[1]) * normal[1];
         let s = self.arc_m.get(i).copied().unwrap_or(0.0) + u * len;
-        (s, t, normal, across)
+        (s, t, normal, across, i)
     }
 }
 
@@ -217,32 +234,45 @@ pub struct LinkedMaster<'q, T: Float> {
     hand_from: Option<u64>,
     /// Arc length the hand has gone along the drawing in this session, m.
     went_m: f64,
+    /// The drawing's segment the hand was nearest a period before.
+    segment: Option<usize>,
+    /// Where the hand holds the handle while no job runs, m.
+    hold_m: Option<Vector3<f64>>,
     /// The operator pressed the stop button in this session.
     pressed_stop: bool,
     glitch: Option<(usize, u16)>,
 }
 
 impl<T: Float> LinkedMaster<'_, T> {
-    /// The hand's force on the effector for this period, N.
+    /// The hand's force on the effector for this period, N: while no job runs it
+    /// holds the handle where it stands, carrying the effector's weight (the master's
+    /// safe outputs are no force); while one runs it moves along the drawing (module
+    /// docs).
     fn hand(&mut self) -> Vector3<f64> {
         let running = self.supervisor.mode() == Mode::Running;
-        let from = match (running, self.hand_from) {
-            (false, _) => {
-                self.hand_from = None;
-                return Vector3::zeros();
-            }
-            (true, None) => {
-                (self.went_m, self.pressed_stop) = (0.0, false);
-                *self.hand_from.insert(self.period)
-            }
-            (true, Some(from)) => from,
-        };
         let plant = &self.plant.plant;
         let (Ok(x), Ok(v)) = (plant.effector_m(), plant.effector_velocity_m_s()) else {
             return Vector3::zeros();
         };
+        let from = match (running, self.hand_from) {
+            (false, _) => {
+                self.hand_from = None;
+                let hold = *self.hold_m.get_or_insert(x);
+                let params = DeltaPlantParams::MASTER;
+                let weight =
+                    Vector3::new(0.0, 0.0, -params.effector_mass_kg * params.gravity_z_m_s2);
+                return (hold - x) * GRIP.0 - v * GRIP.1 + weight;
+            }
+            (true, None) => {
+                (self.went_m, self.pressed_stop, self.segment, self.hold_m) =
+                    (0.0, false, None, None);
+                *self.hand_from.insert(self.period)
+            }
+            (true, Some(from)) => from,
+        };
         let t = (self.period - from) as f64 * PERIOD_S;
-        let (s, tangent, normal, _) = self.drawing.frame([x.x, x.y]);
+        let (s, tangent, normal, _, segment) = self.drawing.frame([x.x, x.y], self.segment);
+        self.segment = Some(segment);
         let along = v.x * tangent[0] + v.y * tangent[1];
         self.went_m += along * PERIOD_S;
         if self.went_m >= SESSION_LAPS * self.drawing.length_m() && !self.pressed_stop {
@@ -333,7 +363,7 @@ impl<T: Float> LinkedMaster<'_, T> {
     /// plant left where it assembles).
     pub fn across_m(&self) -> Option<f64> {
         let x = self.plant.plant.effector_m().ok()?;
-        Some(self.drawing.frame([x.x, x.y]).3)
+        Some(self.drawing.frame([x.x, x.y], None).3)
     }
 
     /// The slave's true distance from the scaled master at the tick it executes, m
@@ -449,6 +479,8 @@ pub fn with_linked_master<T: Float, R>(
         period: 0,
         hand_from: None,
         went_m: 0.0,
+        segment: None,
+        hold_m: None,
         pressed_stop: false,
         glitch: None,
     };
