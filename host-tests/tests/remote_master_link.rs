@@ -4,13 +4,14 @@
 //! the host tool's own session code (`kerf_host::session`) on a socket pair. The host
 //! knows nothing of the master but what it describes: it uploads the fixture's
 //! contour as a points job file, starts it, streams the master and the slave it
-//! commands, softens the fixture mid-session and hears the session's end; then an
-//! encoder glitch mid-session is heard as a fault in the master's words.
+//! commands, softens the fixture mid-session and hears the session's end; a host's
+//! stop lets go of the hand and puts the beam off; an encoder glitch mid-session is
+//! heard as a fault in the master's words.
 
 use kerf::app::remote_master::product::sample_contour;
 use kerf::codec::job::{write_gcode, write_points};
 use kerf::codec::link::{JobKind, ModeCode};
-use kerf_host::link::{LinkError, MachineLink};
+use kerf_host::link::{Heard, LinkError, MachineLink};
 use kerf_host::session::{Progress, RunPlan, Session, SessionError, TimedChange};
 use kerf_host::telemetry::TelemetryLog;
 use kerf_sim::linked_master::{with_linked_master, SAMPLE_JOB};
@@ -402,4 +403,64 @@ fn an_encoder_glitch_is_heard_in_the_masters_words() {
         (status.mode, status.last_fault),
         (ModeCode::Fault, Some((1, 1)))
     );
+}
+
+/// The host's stop 1 s into a session: the master lets go at once and is Ready; the
+/// session reports it stopped, not ended; the beam's channel goes off with the
+/// commands.
+#[test]
+fn the_host_stops_a_session() {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let mut rig = rig();
+    let channels = rig.session.machine.description().channels.clone();
+    let mut log = TelemetryLog::new(TS, &channels);
+    let (console, lines) = channel::<String>();
+    let mut asked = false;
+    let ended = rig.session.run_job(
+        JobKind::Points,
+        SAMPLE_JOB,
+        &plan(&[]),
+        &mut log,
+        Some(&lines),
+        &mut |p| {
+            if let Progress::Sample(t) = p {
+                if t > 1.0 && !asked {
+                    console.send("stop".into()).unwrap();
+                    asked = true;
+                }
+            }
+        },
+    );
+    assert!(matches!(ended, Err(SessionError::Stopped)), "{ended:?}");
+    let status = rig.session.machine.status().unwrap();
+    assert_eq!((status.mode, status.last_fault), (ModeCode::Ready, None));
+    // After the stop, as the telemetry goes on: no force, no beam.
+    let at = |name: &str| channels.iter().position(|c| c.name == name).unwrap();
+    let mut after = Vec::new();
+    let since = Instant::now();
+    while after.len() < 5 && since.elapsed() < Duration::from_secs(10) {
+        if let Some(Heard::Telemetry(t)) =
+            rig.session.machine.next(Duration::from_millis(50)).unwrap()
+        {
+            after.push(t);
+        }
+    }
+    let running = log
+        .entries()
+        .iter()
+        .filter(|e| e.sample.mode == ModeCode::Running)
+        .count();
+    println!(
+        "remote master link: stopped after {running} samples running; {} after",
+        after.len()
+    );
+    assert!(running > 50, "{running}");
+    assert_eq!(after.len(), 5);
+    for t in &after {
+        assert_eq!(t.mode, ModeCode::Ready);
+        assert_eq!(t.values[at("beam")], 0.0, "{t:?}");
+        for force in ["force1", "force2", "force3"] {
+            assert_eq!(t.values[at(force)], 0.0, "{t:?}");
+        }
+    }
 }
