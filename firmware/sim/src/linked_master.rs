@@ -86,8 +86,9 @@ const PLAYOUT: usize = 256;
 /// Frames in flight on each way of the network (a frame every 16 ms, at most 30 ms).
 const IN_FLIGHT: usize = 8;
 
-/// The scaled master of each command tick kept for the slave's tracking: 1024
-/// samples, past the round trip.
+/// Slots of the scaled master kept per command tick for the slave's tracking, by
+/// tick modulo this: ticks count control periods, so 102.4 ms of them, past the
+/// one-way delay and the playout's margin (45.5 ms at most).
 const REFERENCES: usize = 1024;
 
 /// Why the linked master could not be built.
