@@ -28,6 +28,12 @@ fn main() {
             // The grinding cell behind the link: the simulated workpiece (3000 samples,
             // 24 KB) and the sensor's inverse calibration beside the cell and its queues.
             println!("cargo:rustc-link-arg-bin=grinding-link=--defsym=_kerf_ram_length=0x100000");
+            // The remote master behind the link: the master delta's plant, the fixture's
+            // contour twice (the supervisor's job and the command slot's) and both ends
+            // of the remote link with their frames in flight.
+            println!(
+                "cargo:rustc-link-arg-bin=remote-master-link=--defsym=_kerf_ram_length=0x100000"
+            );
             // The benchmark image links every kernel beside its peers: 1 MiB of the
             // model's 4 MiB code memory.
             println!("cargo:rustc-link-arg-bin=bench=--defsym=_kerf_flash_length=0x100000");

@@ -13,6 +13,7 @@ pub mod linked;
 pub mod linked_arrow;
 pub mod linked_axis;
 pub mod linked_grinding;
+pub mod linked_master;
 pub mod operator;
 pub mod remote;
 pub mod scenario;

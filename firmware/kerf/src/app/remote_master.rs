@@ -52,6 +52,9 @@ use crate::trajectory::constraint::{ConstraintConfig, MotionConstraint};
 use crate::trajectory::ContourError;
 use nalgebra::{Matrix3, Vector3};
 
+pub mod link;
+pub mod product;
+
 /// Contour points a fixture job can carry.
 pub const FIXTURE_POINTS: usize = 128;
 
@@ -199,10 +202,17 @@ pub struct MasterTelemetry<T> {
     pub velocity_m_s: [T; 3],
     /// φ: the distance across the curve (signed) and below the height, m.
     pub constraint_m: [T; 2],
+    /// The carriage forces of the period, N (zero while the fixture holds nothing).
+    pub force_n: [T; 3],
     /// The haptic force along the curve, N.
     pub haptic_n: T,
     /// The observer's estimate of the slave, m (or the newest report without it).
     pub slave_estimate_m: Option<[T; 3]>,
+    /// The tracking law's error at the newest command: the scaled master less the
+    /// slave as [`MasterTelemetry::slave_estimate_m`] has it, m.
+    pub tracking_error_m: [T; 3],
+    /// The beam of the newest command sent.
+    pub laser_on: bool,
     /// The round trip the newest echo showed, periods.
     pub round_trip_periods: u32,
     /// Reports the observer refused so far.
@@ -317,8 +327,11 @@ impl<T: Float> RemoteMaster<T> {
                 effector_m: [T::zero(); 3],
                 velocity_m_s: [T::zero(); 3],
                 constraint_m: [T::zero(); 2],
+                force_n: [T::zero(); 3],
                 haptic_n: T::zero(),
                 slave_estimate_m: None,
+                tracking_error_m: [T::zero(); 3],
+                laser_on: false,
                 round_trip_periods: 0,
                 rejected_reports: 0,
             },
@@ -510,12 +523,13 @@ impl<T: Float> RemoteMaster<T> {
                 self.measured_slave
             };
             if let Some((x, v)) = slave {
-                let command = self.tracking.task_acceleration(master, &x, &v).0;
+                let (command, error) = self.tracking.task_acceleration(master, &x, &v);
                 if !command.iter().all(|a| (a.to_f64() as f32).is_finite()) {
                     return Err(RemoteMasterFault::NotFinite);
                 }
                 self.command = command;
                 self.telemetry.slave_estimate_m = Some([x.x, x.y, x.z]);
+                self.telemetry.tracking_error_m = [error.x, error.y, error.z];
             }
         }
         // The next phase without a remainder (`samples_per_command` ≥ 1, checked in
@@ -533,6 +547,7 @@ impl<T: Float> RemoteMaster<T> {
         self.observer.sent();
         self.telemetry.round_trip_periods = self.observer.round_trip_periods();
         self.telemetry.rejected_reports = self.observer.rejected();
+        self.telemetry.laser_on = laser_on;
         let c = self.command.map(|a| a.to_f64() as f32);
         Ok(Some((
             tick,
@@ -572,6 +587,8 @@ impl<T: Float> Machine for RemoteMaster<T> {
         for c in &mut self.carriages {
             c.applied_acceleration = T::zero();
         }
+        // The period's outputs are the safe ones: no force.
+        self.telemetry.force_n = [T::zero(); 3];
         let (x, v) = self
             .geometry
             .task_state(&q, &q_dot)
@@ -613,6 +630,7 @@ impl<T: Float> Machine for RemoteMaster<T> {
         self.measured_slave = None;
         self.command = Vector3::zeros();
         self.phase_in_sample = 0;
+        self.telemetry.laser_on = false;
         Ok(())
     }
 
@@ -625,11 +643,15 @@ impl<T: Float> Machine for RemoteMaster<T> {
         self.take_report(&inputs.report);
         let (acceleration, master) = self.fixture_forces(job, &q, &q_dot)?;
         let force_n = self.actuate(&acceleration, &q_dot)?;
+        self.telemetry.force_n = force_n;
         let command = self.slave_command(&master, job.laser_on)?;
         Ok(Step::Continue(MasterOutputs { force_n, command }))
     }
 
-    fn begin_stop(&mut self) {}
+    /// No command goes out from here on: the beam's telemetry says so.
+    fn begin_stop(&mut self) {
+        self.telemetry.laser_on = false;
+    }
 
     /// The fixture lets go at once (the operator holds the handle).
     fn stop(
