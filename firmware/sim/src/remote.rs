@@ -33,7 +33,7 @@ use kerf::ConfigError;
 
 pub use kerf::app::remote_slave::product::{SlaveEnd as SiteLink, BLOCK, PLAYOUT_CAPACITY};
 pub use kerf::app::remote_slave::recording::{
-    Recording, RecordingError, RecordingHeader, ReplayLink, RECORDING_HEADER_LEN,
+    header_bytes, Recording, RecordingError, RecordingHeader, ReplayLink, RECORDING_HEADER_LEN,
     RECORDING_MAGIC, RECORDING_VERSION, REFERENCE_LEN,
 };
 
@@ -214,23 +214,7 @@ impl RecordingWriter {
 
     /// The recording's bytes.
     pub fn finish(&self) -> std::vec::Vec<u8> {
-        let h = &self.header;
-        let mut out = std::vec::Vec::new();
-        out.extend_from_slice(&RECORDING_MAGIC);
-        out.extend_from_slice(&RECORDING_VERSION.to_le_bytes());
-        out.push(h.m);
-        out.push(BLOCK as u8);
-        out.extend_from_slice(&h.samples_per_command.to_le_bytes());
-        out.extend_from_slice(&h.margin_periods.to_le_bytes());
-        for c in h.start_m {
-            out.extend_from_slice(&c.to_le_bytes());
-        }
-        for v in [h.laser_power_w, h.approach_s] {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
-        for v in [h.periods, h.measure_from, self.ticks, self.frame_count] {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
+        let mut out = header_bytes(&self.header, self.ticks, self.frame_count).to_vec();
         out.extend_from_slice(&self.references);
         out.extend_from_slice(&self.frames);
         out

@@ -20,8 +20,8 @@ use super::{
     ContourCurve, ContourLaw, DeltaFault, DeltaJob, DeltaJobError, DeltaSlave, DeltaSlaveConfig,
     DeltaTelemetry, CONTOUR_HARMONICS,
 };
-use crate::app::axis::{AxisConfig, AxisLaw};
 pub use crate::app::axis::settings::{AxisSettings, DobSettings, PdSettings, VelocitySettings};
+use crate::app::axis::{AxisConfig, AxisLaw};
 use crate::app::host_link::LinkMachine;
 use crate::app::joints::JobError;
 use crate::codec::job::JobFile;

@@ -102,6 +102,38 @@ pub fn frame_at(frames: &[u8], at: usize) -> Option<(u32, &[u8], usize)> {
     Some((arrival, frame, end))
 }
 
+/// The header's bytes for `header` with `ticks` references and `frames` frames.
+pub fn header_bytes(
+    header: &RecordingHeader,
+    ticks: u32,
+    frames: u32,
+) -> [u8; RECORDING_HEADER_LEN] {
+    let mut out = [0u8; RECORDING_HEADER_LEN];
+    let h = header;
+    let mut fields = out.iter_mut();
+    let mut put = |bytes: &[u8]| {
+        // The bytes first: zip stops on them without taking a field.
+        for (from, to) in bytes.iter().zip(fields.by_ref()) {
+            *to = *from;
+        }
+    };
+    put(&RECORDING_MAGIC);
+    put(&RECORDING_VERSION.to_le_bytes());
+    put(&[h.m, BLOCK as u8]);
+    put(&h.samples_per_command.to_le_bytes());
+    put(&h.margin_periods.to_le_bytes());
+    for c in h.start_m {
+        put(&c.to_le_bytes());
+    }
+    for v in [h.laser_power_w, h.approach_s] {
+        put(&v.to_le_bytes());
+    }
+    for v in [h.periods, h.measure_from, ticks, frames] {
+        put(&v.to_le_bytes());
+    }
+    out
+}
+
 /// A validated recording, read in place.
 #[derive(Copy, Clone, Debug)]
 pub struct Recording<'a> {
@@ -207,6 +239,29 @@ impl<'a> Recording<'a> {
     pub fn frames(&self) -> &'a [u8] {
         self.frames
     }
+
+    /// Writes the session of this recording's first `periods` into `out`: the header
+    /// (its periods and `measure_from` cut to `periods`), no master references (a
+    /// slave plays a session without them), the frames that arrived before `periods`.
+    /// Returns its length; `None` when `out` is too small.
+    pub fn write_session(&self, periods: u32, out: &mut [u8]) -> Option<usize> {
+        let mut header = self.header;
+        header.periods = header.periods.min(periods);
+        header.measure_from = header.measure_from.min(header.periods);
+        let (mut end, mut count) = (0, 0u32);
+        while let Some((arrival, _, next)) = frame_at(self.frames, end) {
+            if arrival >= header.periods {
+                break;
+            }
+            (end, count) = (next, count + 1);
+        }
+        let frames = self.frames.get(..end)?;
+        let len = RECORDING_HEADER_LEN + frames.len();
+        let (head, body) = out.get_mut(..len)?.split_at_mut(RECORDING_HEADER_LEN);
+        head.copy_from_slice(&header_bytes(&header, 0, count));
+        body.copy_from_slice(frames);
+        Some(len)
+    }
 }
 
 /// Where a playback of a frame section is: the next frame's offset and how many were
@@ -255,7 +310,11 @@ impl<'a> ReplayLink<'a> {
 
     /// The link over `frames` at `cursor`, in period `now`.
     pub fn resume(frames: &'a [u8], cursor: FrameCursor, now: u32) -> Self {
-        Self { frames, cursor, now }
+        Self {
+            frames,
+            cursor,
+            now,
+        }
     }
 
     /// Where the playback is.
