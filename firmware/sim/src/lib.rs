@@ -12,6 +12,7 @@ pub mod contour;
 pub mod linked;
 pub mod linked_arrow;
 pub mod linked_grinding;
+pub mod linked_remote_slave;
 pub mod operator;
 pub mod remote;
 pub mod scenario;

@@ -47,7 +47,7 @@ pub struct TimeoutSettings {
     #[tree(meta(unit = "s", range = "> 0"))]
     pub hold_after_s: f64,
     /// Silence after which the slave faults, s.
-    #[tree(meta(unit = "s", range = "more whole periods than hold_after_s"))]
+    #[tree(meta(unit = "s", range = "> hold_after_s, in whole periods"))]
     pub give_up_after_s: f64,
 }
 
@@ -173,7 +173,12 @@ const JOB_REFUSALS: [CodeWords; 11] = [
     ),
 ];
 
-/// The telemetry channels.
+/// The telemetry channels: the effector (m); `tracking_error`, its distance from the
+/// nominal model while following (0 otherwise); the carriage forces; the beam;
+/// `phase` (0 outside a session, 1 approach, 2 waiting, 3 following, 4 holding);
+/// `silent`, control periods since the last fresh command; `master_tick`, the master
+/// period of the command playing (−1 before the first); `late`, commands that
+/// arrived after their play time.
 const CHANNELS: [Channel; 12] = [
     Channel {
         name: "x",
@@ -209,19 +214,19 @@ const CHANNELS: [Channel; 12] = [
     },
     Channel {
         name: "phase",
-        unit: "0 none, 1 approach, 2 waiting, 3 following, 4 holding",
+        unit: "1",
     },
     Channel {
         name: "silent",
-        unit: "periods",
+        unit: "1",
     },
     Channel {
         name: "master_tick",
-        unit: "master periods (-1 before the first command)",
+        unit: "1",
     },
     Channel {
         name: "late",
-        unit: "commands",
+        unit: "1",
     },
 ];
 const _: () = assert!(CHANNELS.len() <= crate::codec::link::MAX_CHANNELS);

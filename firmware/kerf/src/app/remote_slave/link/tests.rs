@@ -110,7 +110,7 @@ fn the_slave_describes_itself() {
         "setting /slave/dob/bandwidth_hz [Hz] > 0 and ≤ 3183",
         "setting /model_following/bandwidth_hz [Hz] > 0",
         "setting /link/hold_after_s [s] > 0",
-        "setting /link/give_up_after_s [s] more whole periods than hold_after_s",
+        "setting /link/give_up_after_s [s] > hold_after_s, in whole periods",
     ] {
         assert!(items.contains(&expected.into()), "{expected}: {settings:?}");
     }
