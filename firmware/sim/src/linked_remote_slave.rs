@@ -6,8 +6,10 @@
 //! starts it, retunes the slave and follows it with frames alone.
 //!
 //! At power-up the slave calibrates its Hall sensors, as the replay's does (the sweep,
-//! and the fit in this slower context), and is Ready. A session's approach takes the
-//! carriages to its start; from there the recorded frames play as they arrived.
+//! 0.8 s, and the fit in this slower context), serving the link meanwhile, and is then
+//! Ready (a fit that fails stops the calibration: the slave stays Idle). A session's
+//! approach takes the carriages to its start; from there the recorded frames play as
+//! they arrived.
 
 use crate::remote::{keops_site, RemoteSimError};
 use crate::slave::simulated_delta;
@@ -20,7 +22,7 @@ use kerf::app::remote_slave::link::RemoteSlaveSettings;
 use kerf::app::remote_slave::product::{CONFIG, LINK_JOB_BYTES, PERIOD_S, TELEMETRY_DECIMATION};
 use kerf::app::remote_slave::recording::Recording;
 use kerf::app::remote_slave::session::SessionSlave;
-use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
+use kerf::app::supervisor::{Command, Report, Supervisor};
 use kerf::hal::{ForceAndLaser, SampleInputs, WriteOutputs};
 use kerf::kinematics::delta::KinematicsError;
 use kerf::scalar::Float;
@@ -31,9 +33,6 @@ pub const RECORDING: &[u8] = include_bytes!("../../../data/remote_commands.krfr"
 /// Master periods of the recording a session job carries: the first 2 s, what the
 /// slave's session buffer holds (`product::SESSION_FRAME_BYTES`).
 pub const SESSION_PERIODS: u32 = 20_000;
-
-/// Longest the calibration at power-up may take, control periods (5 s).
-const CALIBRATION_PERIODS: u32 = 50_000;
 
 /// The session of [`RECORDING`]'s first [`SESSION_PERIODS`] into `out` (the
 /// recording's own bytes, no master references); its length, `None` when `out` is too
@@ -51,6 +50,8 @@ pub struct LinkedRemoteSlave<'q, T: Float> {
     link: HostLink<SessionSlave<T>, LINK_JOB_BYTES>,
     commands: Producer<'q, Command<SessionSlave<T>>>,
     reports: Consumer<'q, Report<SessionSlave<T>>>,
+    /// The calibration sweep's samples, for the fit.
+    samples: CalibrationFit<3>,
     now_s: f64,
 }
 
@@ -71,6 +72,7 @@ impl<T: Float> LinkedRemoteSlave<'_, T> {
         }
         let outputs = self.step()?;
         while let Some(report) = self.reports.dequeue() {
+            self.calibration(&report);
             self.link.report(&report, &mut *to_host);
         }
         self.now_s += PERIOD_S;
@@ -101,13 +103,13 @@ impl<T: Float> LinkedRemoteSlave<'_, T> {
 }
 
 /// Builds the slave as flashed ([`CONFIG`], its settings) on the remote scenarios'
-/// simulated delta behind the link, calibrated and Ready (module docs), and hands it
+/// simulated delta behind the link, its calibration begun (module docs), and hands it
 /// to `f`. The link stops a job after `heartbeat_timeout_s` of machine time without a
 /// frame from the host: a simulation that runs faster than real time needs more than
 /// a board's.
 ///
 /// Errors: a configuration the slave or the link refuses; a plant that does not
-/// assemble; a calibration that fails or does not end Ready in 5 s.
+/// assemble.
 pub fn with_linked_remote_slave<T: Float, R>(
     heartbeat_timeout_s: f64,
     f: impl FnOnce(&mut LinkedRemoteSlave<'_, T>) -> R,
@@ -140,61 +142,44 @@ pub fn with_linked_remote_slave<T: Float, R>(
     };
     let link =
         HostLink::new(&link_config, RemoteSlaveSettings::of_product(), ()).map_err(config)?;
+    let mut commands = to_machine;
+    commands
+        .enqueue(Command::Calibrate)
+        .map_err(|_| RemoteSimError::Timeout)?;
     let mut slave = LinkedRemoteSlave {
         supervisor,
         plant,
         link,
-        commands: to_machine,
+        commands,
         reports: from_machine,
+        samples: CalibrationFit::default(),
         now_s: 0.0,
     };
-    slave.calibrate()?;
     Ok(f(&mut slave))
 }
 
 impl<T: Float> LinkedRemoteSlave<'_, T> {
-    /// The calibration at power-up: the sweep, the fit here, the decoders installed;
-    /// the link told of every mode.
-    fn calibrate(&mut self) -> Result<(), RemoteSimError> {
-        let failed = RemoteSimError::Timeout;
-        self.commands
-            .enqueue(Command::Calibrate)
-            .map_err(|_| failed)?;
-        let mut samples = CalibrationFit::<3>::default();
-        let hall = CONFIG.slave.joints.hall;
-        for _ in 0..CALIBRATION_PERIODS {
-            self.step().map_err(RemoteSimError::Plant)?;
-            while let Some(report) = self.reports.dequeue() {
-                match &report {
-                    Report::CalibrationSample(sample) => {
-                        samples.push(*sample).map_err(|_| failed)?;
-                    }
-                    Report::SweepDone => {
-                        let (sensors, _) =
-                            SessionSlave::<T>::fit(&hall, &samples).map_err(|e| {
-                                RemoteSimError::Operator(
-                                    crate::operator::OperatorError::Calibration(e),
-                                )
-                            })?;
-                        self.commands
-                            .enqueue(Command::FinishCalibration(sensors))
-                            .map_err(|_| failed)?;
-                    }
-                    _ => {}
+    /// The slower context's part of the calibration at power-up: the sweep's samples
+    /// kept, fitted when the sweep is done and the decoders installed (or, should the
+    /// fit fail, the calibration stopped).
+    fn calibration(&mut self, report: &Report<SessionSlave<T>>) {
+        match report {
+            Report::CalibrationSample(sample) => {
+                if self.samples.push(*sample).is_err() {
+                    // Too many samples: the fit refuses what it holds.
+                    self.samples = CalibrationFit::default();
                 }
-                self.link.report(&report, &mut |_| true);
             }
-            self.now_s += PERIOD_S;
-            match self.supervisor.mode() {
-                Mode::Ready => return Ok(()),
-                Mode::Fault(f) => {
-                    return Err(RemoteSimError::Operator(
-                        crate::operator::OperatorError::Fault(f),
-                    ))
-                }
-                _ => {}
+            Report::SweepDone => {
+                let command = match SessionSlave::<T>::fit(&CONFIG.slave.joints.hall, &self.samples)
+                {
+                    Ok((sensors, _)) => Command::FinishCalibration(sensors),
+                    Err(_) => Command::Stop,
+                };
+                // The queue is empty at power-up: nothing else is sent before Ready.
+                let _ = self.commands.enqueue(command);
             }
+            _ => {}
         }
-        Err(failed)
     }
 }
