@@ -163,7 +163,9 @@ const START_REST_WAIT: Duration = Duration::from_secs(5);
 const CALIBRATION_WAIT: Duration = Duration::from_secs(300);
 
 /// Waits while the machine calibrates (the board's own task runs its calibration at
-/// power-up), for at most [`CALIBRATION_WAIT`]; the mode it ends in.
+/// power-up), for at most [`CALIBRATION_WAIT`]; the mode it ends in. The task that
+/// fits the calibration also answers the link, so a status may go unanswered while it
+/// fits: asked again, until the wait is over.
 fn wait_calibrated(
     m: &mut MachineLink,
     mut mode: ModeCode,
@@ -175,7 +177,11 @@ fn wait_calibrated(
     }
     while mode == ModeCode::Calibrating && since.elapsed() < CALIBRATION_WAIT {
         m.next(Duration::from_millis(200))?;
-        mode = m.status()?.mode;
+        match m.status() {
+            Ok(status) => mode = status.mode,
+            Err(LinkError::Timeout { .. }) if since.elapsed() < CALIBRATION_WAIT => {}
+            Err(e) => return Err(e),
+        }
     }
     Ok(mode)
 }

@@ -164,11 +164,9 @@ impl<T: Float> LinkedRemoteSlave<'_, T> {
     /// fit fail, the calibration stopped).
     fn calibration(&mut self, report: &Report<SessionSlave<T>>) {
         match report {
-            Report::CalibrationSample(sample) => {
-                if self.samples.push(*sample).is_err() {
-                    // Too many samples: the fit refuses what it holds.
-                    self.samples = CalibrationFit::default();
-                }
+            // Too many samples: none kept, so that the fit refuses.
+            Report::CalibrationSample(sample) if self.samples.push(*sample).is_err() => {
+                self.samples = CalibrationFit::default();
             }
             Report::SweepDone => {
                 let command = match SessionSlave::<T>::fit(&CONFIG.slave.joints.hall, &self.samples)

@@ -323,8 +323,11 @@ impl<T: Float> LinkMachine for SessionSlave<T> {
         let [x, y, z] = s.effector_m.map_or([0.0; 3], |p| p.map(f));
         let tracking = match (s.model_m, s.effector_m) {
             (Some(model), Some(p)) => {
-                let d = [0, 1, 2].map(|k| to_f64(model[k]) - to_f64(p[k]));
-                libm::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) as f32
+                let squares = model.iter().zip(&p).map(|(m, p)| {
+                    let d = to_f64(*m) - to_f64(*p);
+                    d * d
+                });
+                libm::sqrt(squares.sum()) as f32
             }
             _ => 0.0,
         };
