@@ -27,6 +27,10 @@
 //! joint-space approach to its start (the master's start mapped into the slave's
 //! workspace); there the slave holds, without a time limit, until the first command
 //! (the master may not have started), and only from there does it report its position.
+//!
+//! As a product on the host link the slave plays a recorded master session
+//! ([`session`], [`recording`]) through its own end of the link; [`link`] describes it
+//! to the host, [`product`] holds what is flashed.
 
 use crate::app::axis::{AxisConfig, AxisLaw, HallAxis};
 use crate::app::calibrate::{
