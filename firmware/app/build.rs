@@ -34,6 +34,16 @@ fn main() {
             println!(
                 "cargo:rustc-link-arg-bin=remote-master-link=--defsym=_kerf_ram_length=0x100000"
             );
+            // The remote slave behind the link: the session in the upload buffer, the
+            // supervisor's copy and the command slots (12 KB each), the playout and the
+            // simulated delta; its code with the plant and the calibration fit (530 KB)
+            // passes the board's 512 KiB of flash.
+            println!(
+                "cargo:rustc-link-arg-bin=remote-slave-link=--defsym=_kerf_ram_length=0x100000"
+            );
+            println!(
+                "cargo:rustc-link-arg-bin=remote-slave-link=--defsym=_kerf_flash_length=0x100000"
+            );
             // The benchmark image links every kernel beside its peers: 1 MiB of the
             // model's 4 MiB code memory.
             println!("cargo:rustc-link-arg-bin=bench=--defsym=_kerf_flash_length=0x100000");

@@ -10,8 +10,10 @@
 //!   `kerf::trajectory::open_path::OpenPath::from_points`; m ≤ 32 (`OPEN_PATH_POINTS`).
 //! - G-code (A §4): the program's text as read, for
 //!   `kerf::app::arrow::job::ArrowJob::from_gcode`.
+//! - Recording (T ch. 5): a recorded master session (`KRFR`) as it is, for
+//!   `kerf::app::remote_slave::recording::Recording::parse`.
 
-use kerf::codec::job::{write_efd, write_gcode, write_points, JobFile};
+use kerf::codec::job::{write_efd, write_gcode, write_points, write_recording, JobFile};
 pub use kerf::codec::job::{JobFileError, HEADER_BYTES, JOB_FORMAT_VERSION};
 pub use kerf::codec::link::JobKind;
 
@@ -35,6 +37,11 @@ pub enum Job {
         /// The bytes of the file.
         text: Vec<u8>,
     },
+    /// A recorded master session (`KRFR`) for a remote slave to play.
+    Recording {
+        /// The recording's bytes.
+        bytes: Vec<u8>,
+    },
 }
 
 impl Job {
@@ -44,6 +51,7 @@ impl Job {
             Job::Efd { .. } => JobKind::Efd,
             Job::Path { .. } => JobKind::Points,
             Job::Gcode { .. } => JobKind::Gcode,
+            Job::Recording { .. } => JobKind::Recording,
         }
     }
 
@@ -54,6 +62,7 @@ impl Job {
             Job::Efd { coefficients, .. } => 8 + 16 * coefficients.len(),
             Job::Path { points_m } => 8 * points_m.len(),
             Job::Gcode { text } => text.len(),
+            Job::Recording { bytes } => bytes.len(),
         };
         let mut out = vec![0u8; HEADER_BYTES + body + 4];
         let n = match self {
@@ -69,6 +78,7 @@ impl Job {
                 write_points(&wide, &mut out)?
             }
             Job::Gcode { text } => write_gcode(text, &mut out)?,
+            Job::Recording { bytes } => write_recording(bytes, &mut out)?,
         };
         out.truncate(n);
         Ok(out)
@@ -88,6 +98,9 @@ impl Job {
             },
             JobFile::Gcode { text } => Job::Gcode {
                 text: text.to_vec(),
+            },
+            JobFile::Recording { bytes } => Job::Recording {
+                bytes: bytes.to_vec(),
             },
         })
     }

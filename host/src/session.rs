@@ -157,6 +157,35 @@ pub enum Progress<'a> {
 /// to their end stops after power-up take about 0.1 s).
 const START_REST_WAIT: Duration = Duration::from_secs(5);
 
+/// Longest a run waits for a machine that calibrates at power-up (the remote slave's
+/// 0.8 s sweep takes about 40 s on the emulated MCU, which runs its 10 kHz period and
+/// simulated delta well below real time).
+const CALIBRATION_WAIT: Duration = Duration::from_secs(300);
+
+/// Waits while the machine calibrates (the board's own task runs its calibration at
+/// power-up), for at most [`CALIBRATION_WAIT`]; the mode it ends in. The task that
+/// fits the calibration also answers the link, so a status may go unanswered while it
+/// fits: asked again, until the wait is over.
+fn wait_calibrated(
+    m: &mut MachineLink,
+    mut mode: ModeCode,
+    progress: &mut dyn FnMut(Progress<'_>),
+) -> Result<ModeCode, LinkError> {
+    let since = Instant::now();
+    if mode == ModeCode::Calibrating {
+        progress(Progress::Line(0.0, "waiting for the machine's calibration"));
+    }
+    while mode == ModeCode::Calibrating && since.elapsed() < CALIBRATION_WAIT {
+        m.next(Duration::from_millis(200))?;
+        match m.status() {
+            Ok(status) => mode = status.mode,
+            Err(LinkError::Timeout { .. }) if since.elapsed() < CALIBRATION_WAIT => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(mode)
+}
+
 /// Starts the loaded job, again every 20 ms while the machine refuses because an axis
 /// still moves (its first move starts from rest), for at most [`START_REST_WAIT`].
 fn start_at_rest(
@@ -231,7 +260,8 @@ impl Session {
     ) -> Result<(), SessionError> {
         let m = &mut self.machine;
         let status = m.status()?;
-        if status.mode == ModeCode::Fault {
+        let mode = wait_calibrated(m, status.mode, progress)?;
+        if mode == ModeCode::Fault {
             m.command(Request::ResetFault)?;
             progress(Progress::Line(0.0, "fault reset before the job"));
         }

@@ -14,6 +14,7 @@ pub mod linked_arrow;
 pub mod linked_axis;
 pub mod linked_grinding;
 pub mod linked_master;
+pub mod linked_remote_slave;
 pub mod operator;
 pub mod remote;
 pub mod scenario;

@@ -4,22 +4,14 @@
 //! through a master image; the emulated MCU, which has room for one machine, replays
 //! the command frames a host run recorded ([`replay`]).
 //!
-//! A recording ([`Recording`]) holds what reached the slave: each command frame as it
-//! arrived (after the network's delay and loss) with its arrival period counted from
-//! the master's start, and, for the tracking summary, the scaled master position of
-//! every command tick. Replayed open loop — the reports go nowhere — the slave still
-//! tracks as it did in the closed loop: the commands fix the nominal model it follows
-//! (`app::remote_slave`), so only its own local loop differs between the two runs.
-//!
-//! Format, version 1, little-endian:
-//!
-//! ```text
-//! "KRFR" version:u16 m:u8 block:u8 samples_per_command:u16 margin_periods:u32
-//! start_m:[f32;3] laser_power_w:f32 approach_s:f32 periods:u32 measure_from:u32
-//! ticks:u32 frames:u32
-//! ticks × (tick:u32 [f32;3])           scaled master position per command tick, ticks rising, m
-//! frames × (arrival:u32 len:u16 bytes) in arrival order
-//! ```
+//! A recording ([`Recording`], its format and reader in
+//! `kerf::app::remote_slave::recording`) holds what reached the slave: each command
+//! frame as it arrived (after the network's delay and loss) with its arrival period
+//! counted from the master's start, and, for the tracking summary, the scaled master
+//! position of every command tick. Replayed open loop — the reports go nowhere — the
+//! slave still tracks as it did in the closed loop: the commands fix the nominal model
+//! it follows (`app::remote_slave`), so only its own local loop differs between the two
+//! runs.
 
 use crate::operator::{Operator, OperatorError, OperatorState};
 use crate::slave::{simulated_delta, SlaveScenario, SLAVE_COMMAND_CAPACITY, SLAVE_REPORT_CAPACITY};
@@ -27,11 +19,9 @@ use hal_mock::delta::SimulatedDelta;
 use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::hall_sensor::HallSensorParams;
 use heapless::spsc::{Consumer, Producer, Queue};
-use kerf::app::remote_link::SlaveLink;
 use kerf::app::remote_slave::{
     FollowJob, FollowPhase, RemoteSlave, RemoteSlaveConfig, RemoteSlaveFault, RemoteSlaveInputs,
 };
-use kerf::app::stream::MAX_FRAME_LEN;
 use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
 use kerf::codec::sdct::{SdctConfig, Selection};
 use kerf::control::laser::LaserMode;
@@ -41,15 +31,11 @@ use kerf::kinematics::Vector3;
 use kerf::scalar::Float;
 use kerf::ConfigError;
 
-/// Link samples per SDCT block of the command and report streams.
-pub const BLOCK: usize = 16;
-
-/// Commands the slave's playout holds: 256 ms of 1 kHz samples, past any delay the
-/// scenarios use.
-pub const PLAYOUT_CAPACITY: usize = 256;
-
-/// The slave's end of the link.
-pub type SiteLink = SlaveLink<BLOCK, PLAYOUT_CAPACITY>;
+pub use kerf::app::remote_slave::product::{SlaveEnd as SiteLink, BLOCK, PLAYOUT_CAPACITY};
+pub use kerf::app::remote_slave::recording::{
+    header_bytes, Recording, RecordingError, RecordingHeader, ReplayLink, RECORDING_HEADER_LEN,
+    RECORDING_MAGIC, RECORDING_VERSION, REFERENCE_LEN,
+};
 
 /// The slave site: machine, plant, sensors and link settings.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -175,229 +161,6 @@ impl<'q, T: Float> SlaveSite<'q, T> {
     }
 }
 
-/// Magic of a recording.
-pub const RECORDING_MAGIC: [u8; 4] = *b"KRFR";
-/// The format version this module writes and reads.
-pub const RECORDING_VERSION: u16 = 1;
-/// Bytes of a recording's header.
-pub const RECORDING_HEADER_LEN: usize = 50;
-/// Bytes of one reference: the tick and the position.
-const REFERENCE_LEN: usize = 16;
-
-/// Why a recording was not read.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum RecordingError {
-    /// It does not start with [`RECORDING_MAGIC`].
-    Magic,
-    /// Another format version.
-    Version(u16),
-    /// A block length other than [`BLOCK`].
-    Block(u8),
-    /// It ends inside the header, the references or frame `.0`.
-    Truncated(u32),
-    /// Frame `.0` is longer than a stream frame can be.
-    FrameTooLong(u32),
-    /// Frame `.0` arrived before the one before it.
-    OutOfOrder(u32),
-    /// Bytes follow the last frame.
-    TrailingBytes,
-    /// A reference's tick is not above the one before it.
-    TicksNotRising,
-}
-
-/// What a recording's header says.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub struct RecordingHeader {
-    /// SDCT coefficients kept per block (the report stream's coding).
-    pub m: u8,
-    /// Control periods per link sample.
-    pub samples_per_command: u16,
-    /// The playout's margin, periods.
-    pub margin_periods: u32,
-    /// Where the slave waits for the master (the master's start, scaled), m.
-    pub start_m: [f32; 3],
-    /// The beam's constant power, W.
-    pub laser_power_w: f32,
-    /// The slave's approach to `start_m`, s.
-    pub approach_s: f32,
-    /// Control periods recorded from the master's start.
-    pub periods: u32,
-    /// The period from which the tracking summary counts.
-    pub measure_from: u32,
-}
-
-fn u16_at(bytes: &[u8], at: usize) -> Option<u16> {
-    Some(u16::from_le_bytes(bytes.get(at..at + 2)?.try_into().ok()?))
-}
-
-fn u32_at(bytes: &[u8], at: usize) -> Option<u32> {
-    Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?))
-}
-
-fn f32_at(bytes: &[u8], at: usize) -> Option<f32> {
-    u32_at(bytes, at).map(f32::from_bits)
-}
-
-fn vector_at(bytes: &[u8], at: usize) -> Option<[f32; 3]> {
-    Some([
-        f32_at(bytes, at)?,
-        f32_at(bytes, at + 4)?,
-        f32_at(bytes, at + 8)?,
-    ])
-}
-
-/// A validated recording, read in place.
-#[derive(Copy, Clone, Debug)]
-pub struct Recording<'a> {
-    /// The header.
-    pub header: RecordingHeader,
-    references: &'a [u8],
-    frames: &'a [u8],
-    frame_count: u32,
-}
-
-impl<'a> Recording<'a> {
-    /// Checks the header and walks every frame once.
-    pub fn parse(bytes: &'a [u8]) -> Result<Self, RecordingError> {
-        let truncated = RecordingError::Truncated(0);
-        if bytes.get(..4) != Some(&RECORDING_MAGIC[..]) {
-            return Err(RecordingError::Magic);
-        }
-        let version = u16_at(bytes, 4).ok_or(truncated)?;
-        if version != RECORDING_VERSION {
-            return Err(RecordingError::Version(version));
-        }
-        let field = |at| u32_at(bytes, at).ok_or(truncated);
-        let block = *bytes.get(7).ok_or(truncated)?;
-        if usize::from(block) != BLOCK {
-            return Err(RecordingError::Block(block));
-        }
-        let header = RecordingHeader {
-            m: *bytes.get(6).ok_or(truncated)?,
-            samples_per_command: u16_at(bytes, 8).ok_or(truncated)?,
-            margin_periods: field(10)?,
-            start_m: vector_at(bytes, 14).ok_or(truncated)?,
-            laser_power_w: f32_at(bytes, 26).ok_or(truncated)?,
-            approach_s: f32_at(bytes, 30).ok_or(truncated)?,
-            periods: field(34)?,
-            measure_from: field(38)?,
-        };
-        let (ticks, frame_count) = (field(42)?, field(46)?);
-        let body = bytes.get(RECORDING_HEADER_LEN..).ok_or(truncated)?;
-        let references_len = (ticks as usize)
-            .checked_mul(REFERENCE_LEN)
-            .ok_or(truncated)?;
-        let (references, frames) = body.split_at_checked(references_len).ok_or(truncated)?;
-        let recording = Self {
-            header,
-            references,
-            frames,
-            frame_count,
-        };
-        // The ticks rise (the lookup is a binary search).
-        let mut previous = None;
-        for tick in references
-            .chunks_exact(REFERENCE_LEN)
-            .filter_map(|r| u32_at(r, 0))
-        {
-            if previous.is_some_and(|p| tick <= p) {
-                return Err(RecordingError::TicksNotRising);
-            }
-            previous = Some(tick);
-        }
-        // Every frame complete, in arrival order, nothing after the last.
-        let mut cursor = 0;
-        let mut last_arrival = 0;
-        for i in 0..frame_count {
-            let (arrival, frame, next) = recording
-                .frame_at(cursor)
-                .ok_or(RecordingError::Truncated(i))?;
-            if frame.len() > MAX_FRAME_LEN {
-                return Err(RecordingError::FrameTooLong(i));
-            }
-            if arrival < last_arrival {
-                return Err(RecordingError::OutOfOrder(i));
-            }
-            last_arrival = arrival;
-            cursor = next;
-        }
-        if cursor != frames.len() {
-            return Err(RecordingError::TrailingBytes);
-        }
-        Ok(recording)
-    }
-
-    /// The frame at byte `at` of the frame section: (arrival, bytes, next offset).
-    fn frame_at(&self, at: usize) -> Option<(u32, &'a [u8], usize)> {
-        let arrival = u32_at(self.frames, at)?;
-        let len = usize::from(u16_at(self.frames, at + 4)?);
-        let frame = self.frames.get(at + 6..at + 6 + len)?;
-        Some((arrival, frame, at + 6 + len))
-    }
-
-    /// The scaled master position of master tick `tick`, m (a binary search: the
-    /// ticks rise).
-    pub fn reference_m(&self, tick: u32) -> Option<[f32; 3]> {
-        let (mut low, mut high) = (0, self.references.len() / REFERENCE_LEN);
-        while low < high {
-            let middle = low + (high - low) / 2;
-            let at = middle * REFERENCE_LEN;
-            match u32_at(self.references, at)?.cmp(&tick) {
-                core::cmp::Ordering::Less => low = middle + 1,
-                core::cmp::Ordering::Greater => high = middle,
-                core::cmp::Ordering::Equal => return vector_at(self.references, at + 4),
-            }
-        }
-        None
-    }
-
-    /// Command frames recorded.
-    pub fn frame_count(&self) -> u32 {
-        self.frame_count
-    }
-}
-
-/// The recorded command stream as the slave's link: each frame arrives at its
-/// recorded period; nothing can be sent back.
-pub struct ReplayLink<'a> {
-    recording: Recording<'a>,
-    cursor: usize,
-    /// Control periods since the master's start.
-    pub now: u32,
-    /// Frames delivered.
-    pub delivered: u32,
-}
-
-impl<'a> ReplayLink<'a> {
-    /// The link at the master's start.
-    pub fn new(recording: Recording<'a>) -> Self {
-        Self {
-            recording,
-            cursor: 0,
-            now: 0,
-            delivered: 0,
-        }
-    }
-}
-
-impl FrameLink for ReplayLink<'_> {
-    fn send(&mut self, _frame: &[u8]) -> Result<(), LinkBusy> {
-        Err(LinkBusy)
-    }
-
-    fn receive(&mut self, buf: &mut [u8]) -> Option<usize> {
-        let (arrival, frame, next) = self.recording.frame_at(self.cursor)?;
-        if arrival > self.now {
-            return None;
-        }
-        self.cursor = next;
-        self.delivered += 1;
-        let into = buf.get_mut(..frame.len())?;
-        into.copy_from_slice(frame);
-        Some(frame.len())
-    }
-}
-
 /// Builds a recording (host side).
 #[cfg(feature = "std")]
 #[derive(Clone, Debug)]
@@ -451,23 +214,7 @@ impl RecordingWriter {
 
     /// The recording's bytes.
     pub fn finish(&self) -> std::vec::Vec<u8> {
-        let h = &self.header;
-        let mut out = std::vec::Vec::new();
-        out.extend_from_slice(&RECORDING_MAGIC);
-        out.extend_from_slice(&RECORDING_VERSION.to_le_bytes());
-        out.push(h.m);
-        out.push(BLOCK as u8);
-        out.extend_from_slice(&h.samples_per_command.to_le_bytes());
-        out.extend_from_slice(&h.margin_periods.to_le_bytes());
-        for c in h.start_m {
-            out.extend_from_slice(&c.to_le_bytes());
-        }
-        for v in [h.laser_power_w, h.approach_s] {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
-        for v in [h.periods, h.measure_from, self.ticks, self.frame_count] {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
+        let mut out = header_bytes(&self.header, self.ticks, self.frame_count).to_vec();
         out.extend_from_slice(&self.references);
         out.extend_from_slice(&self.frames);
         out
@@ -593,7 +340,7 @@ pub fn replay<T: Float>(recording: &[u8]) -> Result<ReplaySummary, RemoteSimErro
         periods: count,
         max_m,
         rms_m: libm::sqrt(sum_sq_m2 / f64::from(count.max(1))),
-        frames: link.delivered,
+        frames: link.delivered(),
         refused: site.link().refused(),
         late: site.link().late(),
         fault,

@@ -6,7 +6,9 @@ use crate::input::same_bits;
 use crate::targets::link::octagon_job;
 use kerf::app::arrow::job::ArrowJobConfig;
 use kerf::app::arrow::product::{Job as ArrowJob, PROGRAM_POINTS};
-use kerf::codec::job::{write_efd, write_gcode, write_points, JobFile, HEADER_BYTES};
+use kerf::codec::job::{
+    write_efd, write_gcode, write_points, write_recording, JobFile, HEADER_BYTES,
+};
 use kerf::codec::link::crc32;
 use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry};
 use kerf::trajectory::gcode::GcodePoint;
@@ -62,6 +64,7 @@ pub fn job_file(data: &[u8]) -> usize {
             (8 * n, write_points(&wide, &mut out))
         }
         JobFile::Gcode { text } => (text.len(), write_gcode(text, &mut out)),
+        JobFile::Recording { bytes } => (bytes.len(), write_recording(bytes, &mut out)),
     };
     assert_eq!(bytes.len(), HEADER_BYTES + body + 4);
     assert_eq!(written, Ok(bytes.len()));
@@ -100,6 +103,7 @@ pub fn host_job(data: &[u8]) -> usize {
             assert!(same_bits(a.as_flattened(), b.as_flattened()));
         }
         (HostJob::Gcode { text: a }, HostJob::Gcode { text: b }) => assert_eq!(a, b),
+        (HostJob::Recording { bytes: a }, HostJob::Recording { bytes: b }) => assert_eq!(a, b),
         _ => unreachable!("the kinds agree"),
     }
     1
@@ -114,6 +118,8 @@ pub fn job_file_seeds() -> Vec<Vec<u8>> {
     let n = write_points(&points, &mut out).unwrap();
     files.push(out[..n].to_vec());
     let n = write_gcode(super::codec::GCODE_SEEDS[1].as_bytes(), &mut out).unwrap();
+    files.push(out[..n].to_vec());
+    let n = write_recording(b"KRFR\x01\x00", &mut out).unwrap();
     files.push(out[..n].to_vec());
     files
         .iter()

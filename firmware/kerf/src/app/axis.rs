@@ -36,6 +36,8 @@ use crate::sensing::hall::{HallConfig, HallDecoder, HallFault, HallState};
 use crate::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};
 use crate::trajectory::Reference;
 
+pub mod settings;
+
 /// The control law of one axis, in SI units; [`AxisConfig::LM1247_SLAVE`] is T's
 /// slave motor. The control period is not here: the machine gives it once.
 #[derive(Copy, Clone, Debug, PartialEq)]

@@ -27,6 +27,10 @@
 //! joint-space approach to its start (the master's start mapped into the slave's
 //! workspace); there the slave holds, without a time limit, until the first command
 //! (the master may not have started), and only from there does it report its position.
+//!
+//! As a product on the host link the slave plays a recorded master session
+//! ([`session`], [`recording`]) through its own end of the link; [`link`] describes it
+//! to the host, [`product`] holds what is flashed.
 
 use crate::app::axis::{AxisConfig, AxisLaw, HallAxis};
 use crate::app::calibrate::{
@@ -45,6 +49,11 @@ use crate::scalar::{lit, Float};
 use crate::sensing::hall::{HallConfig, SelfCalibration};
 use crate::trajectory::Reference;
 use nalgebra::Vector3;
+
+pub mod link;
+pub mod product;
+pub mod recording;
+pub mod session;
 
 /// One period's inputs: the carriages' Hall counts and what the playout plays.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
@@ -154,16 +163,57 @@ pub struct RemoteSlaveTelemetry<T> {
     pub silent_periods: u32,
     /// Commands refused as not finite so far.
     pub bad_commands: u32,
+    /// While following: the nominal model the local loop holds the slave on (the
+    /// commands integrated as the master's observer integrates them), m.
+    pub model_m: Option<[T; 3]>,
+}
+
+/// The following's own law, validated: the local loop and the link's timeouts in
+/// periods. What a configuration sets at [`RemoteSlave::new`] and a change of
+/// settings replaces ([`RemoteSlave::set_follow_law`]).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct FollowLaw<T: Float> {
+    model_following: Pd<T>,
+    hold_periods: u32,
+    give_up_periods: u32,
+}
+
+impl<T: Float> FollowLaw<T> {
+    /// Validates the timeouts (finite, positive, whole periods below 2^32, the
+    /// give-up more periods than the hold) and the local loop at `period_s`.
+    pub fn new(
+        hold_after_s: f64,
+        give_up_after_s: f64,
+        model_following: &PdConfig,
+        period_s: f64,
+    ) -> Result<Self, ConfigError> {
+        let period = positive("period_s", period_s)?;
+        let periods = |name, s: f64| -> Result<u32, ConfigError> {
+            let n = libm::ceil(positive(name, s)? / period);
+            if n >= f64::from(u32::MAX) {
+                return Err(ConfigError::out_of_range(name));
+            }
+            Ok(n as u32)
+        };
+        let hold_periods = periods("hold_after_s", hold_after_s)?;
+        let give_up_periods = periods("give_up_after_s", give_up_after_s)?;
+        if give_up_periods <= hold_periods {
+            return Err(ConfigError::out_of_range("give_up_after_s"));
+        }
+        Ok(Self {
+            model_following: Pd::new(model_following).within("model_following")?,
+            hold_periods,
+            give_up_periods,
+        })
+    }
 }
 
 /// The remote slave as a [`Machine`].
 #[derive(Clone, Debug)]
 pub struct RemoteSlave<T: Float> {
     slave: DeltaSlave<T>,
-    hold_periods: u32,
-    give_up_periods: u32,
+    law: FollowLaw<T>,
     max_acceleration: T,
-    model_following: Pd<T>,
     /// The nominal model's position and velocity, m and m/s (`None` until following).
     model: Option<(Vector3<T>, Vector3<T>)>,
     ts: T,
@@ -182,25 +232,17 @@ impl<T: Float> RemoteSlave<T> {
     pub fn new(config: &RemoteSlaveConfig) -> Result<Self, ConfigError> {
         let slave = DeltaSlave::new(&config.slave).within("slave")?;
         let period = config.slave.joints.period_s;
-        let periods = |name, s: f64| -> Result<u32, ConfigError> {
-            let n = libm::ceil(positive(name, s)? / period);
-            if n >= f64::from(u32::MAX) {
-                return Err(ConfigError::out_of_range(name));
-            }
-            Ok(n as u32)
-        };
-        let hold_periods = periods("hold_after_s", config.hold_after_s)?;
-        let give_up_periods = periods("give_up_after_s", config.give_up_after_s)?;
-        if give_up_periods <= hold_periods {
-            return Err(ConfigError::out_of_range("give_up_after_s"));
-        }
+        let law = FollowLaw::new(
+            config.hold_after_s,
+            config.give_up_after_s,
+            &config.model_following,
+            period,
+        )?;
         let max = positive("max_acceleration_m_s2", config.max_acceleration_m_s2)?;
         Ok(Self {
             slave,
-            hold_periods,
-            give_up_periods,
+            law,
             max_acceleration: crate::error::representable("max_acceleration_m_s2", max)?,
-            model_following: Pd::new(&config.model_following).within("model_following")?,
             model: None,
             ts: crate::error::coefficient("period_s", period).within("slave.joints")?,
             laser_mode: LaserMode::Off,
@@ -216,6 +258,12 @@ impl<T: Float> RemoteSlave<T> {
     /// The delta slave inside.
     pub fn slave(&self) -> &DeltaSlave<T> {
         &self.slave
+    }
+
+    /// Replaces the following's law (the local loop, the timeouts), keeping every
+    /// state: the silence counted so far is measured against the new timeouts.
+    pub fn set_follow_law(&mut self, law: &FollowLaw<T>) {
+        self.law = *law;
     }
 
     /// The effector as last measured (FK of the carriages), m.
@@ -296,7 +344,7 @@ impl<T: Float> RemoteSlave<T> {
         model_v += acceleration * self.ts;
         model_p += model_v * self.ts;
         self.model = Some((model_p, model_v));
-        let pd = &self.model_following;
+        let pd = &self.law.model_following;
         let mut demand = Vector3::zeros();
         for (d, (((mp, mv), a), (pi, vi))) in demand.iter_mut().zip(
             model_p
@@ -471,7 +519,7 @@ impl<T: Float> Machine for RemoteSlave<T> {
             };
             return Ok(Step::Continue(self.with_beam(forces)));
         }
-        let silent = self.silent_periods > self.hold_periods;
+        let silent = self.silent_periods > self.law.hold_periods;
         let forces = match (command, silent) {
             (Some((acceleration, laser_on)), false) => {
                 if phase != FollowPhase::Following {
@@ -493,7 +541,7 @@ impl<T: Float> Machine for RemoteSlave<T> {
                     self.slave.joints_mut().begin_stop();
                     self.phase = Some(FollowPhase::Holding);
                 }
-                if phase != FollowPhase::Waiting && self.silent_periods > self.give_up_periods {
+                if phase != FollowPhase::Waiting && self.silent_periods > self.law.give_up_periods {
                     return Err(RemoteSlaveFault::LinkLost);
                 }
                 self.hold(&inputs.hall).map_err(RemoteSlaveFault::Slave)?
@@ -541,6 +589,10 @@ impl<T: Float> Machine for RemoteSlave<T> {
             phase: self.phase,
             silent_periods: self.silent_periods,
             bad_commands: self.bad_commands,
+            model_m: match self.phase {
+                Some(FollowPhase::Following) => self.model.map(|(p, _)| [p.x, p.y, p.z]),
+                _ => None,
+            },
         }
     }
 }

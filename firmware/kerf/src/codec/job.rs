@@ -7,9 +7,9 @@
 //! |---|---|---|
 //! | 0 | 4 | magic `KRFJ` |
 //! | 4 | 1 | format version (= [`JOB_FORMAT_VERSION`]) |
-//! | 5 | 1 | kind: 0 EFD, 1 points, 2 G-code ([`JobKind`]) |
+//! | 5 | 1 | kind: 0 EFD, 1 points, 2 G-code, 3 recording ([`JobKind`]) |
 //! | 6 | 2 | reserved, 0 |
-//! | 8 | 4 | count: harmonics (EFD), points (points), text bytes (G-code) |
+//! | 8 | 4 | count: harmonics (EFD), points (points), body bytes (G-code, recording) |
 //! | 12 | … | body |
 //! | end − 4 | 4 | CRC-32 (ISO-HDLC) of every byte before it |
 //!
@@ -18,7 +18,9 @@
 //! new layout gets a new version, and readers refuse versions they do not know.
 //!
 //! Bodies: EFD, the centre (x, y) then (a_k, b_k, c_k, d_k) per harmonic, f32, m;
-//! points, (x, y) per point, f32, m; G-code, the text (ASCII).
+//! points, (x, y) per point, f32, m; G-code, the text (ASCII); recording, a recorded
+//! master session as its own format writes it (`KRFR`,
+//! `app::remote_slave::recording`, which checks it when a machine loads it).
 
 pub use super::link::JobKind;
 
@@ -96,6 +98,11 @@ pub enum JobFile<'a> {
         /// The text.
         text: &'a [u8],
     },
+    /// A recorded master session (`KRFR`), read by the machine that plays it.
+    Recording {
+        /// The recording's bytes.
+        bytes: &'a [u8],
+    },
 }
 
 /// Row `row` of `N` little-endian f32s; `None` past the end (an index so large that
@@ -117,15 +124,17 @@ impl<'a> JobFile<'a> {
             Self::Efd { .. } => JobKind::Efd,
             Self::Points { .. } => JobKind::Points,
             Self::Gcode { .. } => JobKind::Gcode,
+            Self::Recording { .. } => JobKind::Recording,
         }
     }
 
-    /// Harmonics (EFD), points (points) or text bytes (G-code).
+    /// Harmonics (EFD), points (points), text bytes (G-code) or recording bytes.
     pub fn count(&self) -> usize {
         match self {
             Self::Efd { coefficients, .. } => coefficients.len() / 16,
             Self::Points { points } => points.len() / 8,
             Self::Gcode { text } => text.len(),
+            Self::Recording { bytes } => bytes.len(),
         }
     }
 
@@ -172,7 +181,7 @@ impl<'a> JobFile<'a> {
         let expected = match kind {
             0 => 8 + 16 * count,
             1 => 8 * count,
-            2 => count,
+            2 | 3 => count,
             k => return Err(JobFileError::Kind(k)),
         };
         let body_len = body.len() as u64;
@@ -212,7 +221,8 @@ impl<'a> JobFile<'a> {
                 }
                 Ok(Self::Points { points: body })
             }
-            _ => Ok(Self::Gcode { text: body }),
+            2 => Ok(Self::Gcode { text: body }),
+            _ => Ok(Self::Recording { bytes: body }),
         }
     }
 }
@@ -306,6 +316,14 @@ pub fn write_gcode(text: &[u8], out: &mut [u8]) -> Result<usize, JobFileError> {
     })
 }
 
+/// Writes a recording job (a recorded master session's bytes, as they are: the
+/// recording's own reader checks them).
+pub fn write_recording(bytes: &[u8], out: &mut [u8]) -> Result<usize, JobFileError> {
+    write(3, bytes.len(), bytes.len(), out, |body| {
+        body.copy_from_slice(bytes)
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -349,6 +367,19 @@ mod tests {
                 text: b"G1 X1 F100\n"
             }
         );
+        let n = write_recording(b"KRFR\x01\x00", &mut buf).unwrap();
+        let file = JobFile::read(&buf[..n]).unwrap();
+        assert_eq!((file.kind(), file.count()), (JobKind::Recording, 6));
+        assert_eq!(
+            file,
+            JobFile::Recording {
+                bytes: b"KRFR\x01\x00"
+            }
+        );
+        // A kind past the last is still refused by number.
+        let mut bad = buf;
+        bad[5] = 4;
+        assert_eq!(JobFile::read(&bad[..n]), Err(JobFileError::Kind(4)));
         assert_eq!(
             write_points(&[[f64::NAN, 0.0]], &mut buf),
             Err(JobFileError::NotFinite)

@@ -87,6 +87,9 @@ pub enum JobKind {
     Points,
     /// G-code text.
     Gcode,
+    /// A recorded master session: the command frames that reached a remote slave,
+    /// each with its arrival period (`app::remote_slave::recording`).
+    Recording,
 }
 
 /// A request of the host.

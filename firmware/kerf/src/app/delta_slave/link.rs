@@ -20,64 +20,17 @@ use super::{
     ContourCurve, ContourLaw, DeltaFault, DeltaJob, DeltaJobError, DeltaSlave, DeltaSlaveConfig,
     DeltaTelemetry, CONTOUR_HARMONICS,
 };
+pub use crate::app::axis::settings::{AxisSettings, DobSettings, PdSettings, VelocitySettings};
 use crate::app::axis::{AxisConfig, AxisLaw};
 use crate::app::host_link::LinkMachine;
 use crate::app::joints::JobError;
 use crate::codec::job::JobFile;
 use crate::codec::link::code_words as words;
 use crate::codec::link::{Channel, ChannelValues, CodeWords, JobKind, JOB_NOT_AT_REST};
-use crate::control::dob::DobConfig;
-use crate::control::pd::PdConfig;
 use crate::error::ConfigError;
 use crate::scalar::{to_f64, Float};
-use crate::sensing::velocity::TrackingObserverConfig;
 use crate::trajectory::efd::Efd;
-use core::f64::consts::TAU;
 use miniconf::Tree;
-
-/// The PD's settings.
-#[derive(Tree, Copy, Clone, Debug, PartialEq)]
-pub struct PdSettings {
-    /// Bandwidth of the critically damped error dynamics, Hz.
-    #[tree(meta(unit = "Hz", range = "> 0"))]
-    pub bandwidth_hz: f64,
-}
-
-/// The disturbance observer's settings.
-#[derive(Tree, Copy, Clone, Debug, PartialEq)]
-pub struct DobSettings {
-    /// Observer bandwidth, Hz (ω·Ts ≤ 2: 3183 Hz at the 10 kHz period).
-    #[tree(meta(unit = "Hz", range = "> 0 and ≤ 3183"))]
-    pub bandwidth_hz: f64,
-    /// Nominal moving mass An, kg.
-    #[tree(meta(unit = "kg", range = "> 0"))]
-    pub nominal_mass_kg: f64,
-    /// Force saturation, N.
-    #[tree(meta(unit = "N", range = "> 0"))]
-    pub force_limit_n: f64,
-    /// Add the estimate to the command.
-    #[tree(meta(range = "true or false"))]
-    pub compensate: bool,
-}
-
-/// The velocity observer's settings.
-#[derive(Tree, Copy, Clone, Debug, PartialEq)]
-pub struct VelocitySettings {
-    /// Observer bandwidth, Hz (ω·Ts ≤ 2: 3183 Hz at the 10 kHz period).
-    #[tree(meta(unit = "Hz", range = "> 0 and ≤ 3183"))]
-    pub bandwidth_hz: f64,
-}
-
-/// One carriage law's settings.
-#[derive(Tree, Copy, Clone, Debug, PartialEq)]
-pub struct AxisSettings {
-    /// PD.
-    pub pd: PdSettings,
-    /// Disturbance observer.
-    pub dob: DobSettings,
-    /// Velocity observer.
-    pub velocity: VelocitySettings,
-}
 
 /// The slave's settings tree.
 #[derive(Tree, Copy, Clone, Debug, PartialEq)]
@@ -91,38 +44,13 @@ impl SlaveSettings {
     /// √Kp: the presets are).
     pub fn of(config: &AxisConfig) -> Self {
         Self {
-            slave: AxisSettings {
-                pd: PdSettings {
-                    bandwidth_hz: libm::sqrt(config.pd.kp_per_s2) / TAU,
-                },
-                dob: DobSettings {
-                    bandwidth_hz: config.dob.bandwidth_rad_s / TAU,
-                    nominal_mass_kg: config.dob.nominal_mass_kg,
-                    force_limit_n: config.dob.force_limit_n,
-                    compensate: config.dob.compensate,
-                },
-                velocity: VelocitySettings {
-                    bandwidth_hz: config.velocity.bandwidth_rad_s / TAU,
-                },
-            },
+            slave: AxisSettings::of(config),
         }
     }
 
     /// The configuration these settings describe (validated by [`AxisLaw::new`]).
     pub fn config(&self) -> AxisConfig {
-        let s = &self.slave;
-        AxisConfig {
-            velocity: TrackingObserverConfig {
-                bandwidth_rad_s: TAU * s.velocity.bandwidth_hz,
-            },
-            pd: PdConfig::critically_damped(TAU * s.pd.bandwidth_hz),
-            dob: DobConfig {
-                nominal_mass_kg: s.dob.nominal_mass_kg,
-                bandwidth_rad_s: TAU * s.dob.bandwidth_hz,
-                force_limit_n: s.dob.force_limit_n,
-                compensate: s.dob.compensate,
-            },
-        }
+        self.slave.config()
     }
 }
 
