@@ -3,13 +3,13 @@
 //! references and the feedforward computed from the controller's nominal model.
 
 use hal_mock::arrow::{ArrowPlant, ArrowPlantConfig, ArrowReading};
-use kerf::app::arrow::job::ArrowJobError;
-use kerf::app::arrow::machine::{ArrowFault, ArrowOutputs};
-use kerf::app::arrow::product::load_job;
-use kerf::app::arrow::{ArrowDesired, ArrowLaw, ArrowLoopState, ArrowPeriodError};
 use kerf::app::supervisor::Mode;
 use kerf::control::redundant_pid::{regularization, RedundantPidConfig};
 use kerf::kinematics::arrow::{ActuatorVector, ArrowError, ArrowGeometry, Pose};
+use kerf::machines::arrow::job::ArrowJobError;
+use kerf::machines::arrow::machine::{ArrowFault, ArrowOutputs};
+use kerf::machines::arrow::product::load_job;
+use kerf::machines::arrow::{ArrowDesired, ArrowLaw, ArrowLoopState, ArrowPeriodError};
 use kerf_sim::arrow::{ArrowPeriod, ArrowScenario, TrackingRms, TrackingSums};
 use nalgebra::SMatrix;
 
@@ -80,9 +80,10 @@ pub fn law(config: &ArrowRunConfig) -> Result<ArrowLaw<f64>, ArrowError> {
     scenario(config).law()
 }
 
-/// Runs the plant from rest at the reference's start, with `kerf::app::arrow`'s period.
+/// Runs the plant from rest at the reference's start, with `kerf::machines::arrow`'s period.
 pub fn run(config: &ArrowRunConfig, reference: &Reference) -> Result<Vec<ArrowSample>, ArrowError> {
-    let plant_config = ArrowPlantConfig::with_geometric_error(kerf::app::arrow::product::PERIOD_S);
+    let plant_config =
+        ArrowPlantConfig::with_geometric_error(kerf::machines::arrow::product::PERIOD_S);
     let ts = plant_config.period_s;
     let law = law(config)?;
     let (x0, _, _, tx0, _) = reference(0.0);
@@ -177,7 +178,7 @@ pub fn quintic_move(
 }
 
 /// A job on the host (the scenario's capacities).
-pub type Job = kerf::app::arrow::product::Job<f64>;
+pub type Job = kerf::machines::arrow::product::Job<f64>;
 
 /// A checked job from G-code on the nominal model.
 #[allow(clippy::result_large_err)]

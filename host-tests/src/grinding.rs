@@ -6,10 +6,10 @@
 
 use hal_mock::grinding_cell::{Cell, CellConfig, CellReading};
 use heapless::spsc::Queue;
-use kerf::app::grinding::{
+use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
+use kerf::machines::grinding::{
     ForceLawKind, GrindingCalibration, GrindingCell, GrindingConfig, GrindingInputs, GrindingJob,
 };
-use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::sensing::force::Eccentricity;
 use nalgebra::{Matrix6, Vector6};
 
@@ -55,7 +55,7 @@ pub struct PassRun {
     /// x of the samples, m.
     pub x_m: Vec<f64>,
     /// The mode at the end.
-    pub mode: Mode<kerf::app::grinding::GrindingFault>,
+    pub mode: Mode<kerf::machines::grinding::GrindingFault>,
 }
 
 /// Gauge voltages for a wrench over the bias (the calibration inverted in f64).

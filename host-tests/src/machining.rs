@@ -11,13 +11,13 @@
 
 use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::hall_sensor::HallSensorParams;
-use kerf::app::delta_slave::product::{APPROACH_S, CUT_HEIGHT_M, CUT_MOTION};
-use kerf::app::delta_slave::{
+use kerf::app::supervisor::{Machine, Mode};
+use kerf::control::laser::LaserMode;
+use kerf::machines::delta_slave::product::{APPROACH_S, CUT_HEIGHT_M, CUT_MOTION};
+use kerf::machines::delta_slave::{
     ContourConfig, ContourCurve, ContourLaw, ContourPlan, DeltaFault, DeltaJob, DeltaJobError,
     DeltaSlaveConfig, CONTOUR_HARMONICS, OPEN_PATH_POINTS,
 };
-use kerf::app::supervisor::{Machine, Mode};
-use kerf::control::laser::LaserMode;
 use kerf::trajectory::curve::Curve;
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::open_path::OpenPath;

@@ -3,10 +3,10 @@
 //! figures; each against what its documentation says, computed here another way.
 
 use host_tests::arrow::job_from_gcode;
-use kerf::app::arrow::job::{split_pose, ArrowJobConfig};
 use kerf::codec::gcs::{parse_number, Axis, GcsError, MAX_NUMBER_LEN};
 use kerf::codec::{is_supported_n, SUPPORTED_N};
 use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry, Pose};
+use kerf::machines::arrow::job::{split_pose, ArrowJobConfig};
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::open_path::OpenPath;
 use kerf::trajectory::task_spline::{KnotSpacing, TaskSpline, TaskSplineConfig};
@@ -240,8 +240,10 @@ fn the_period_limit_leaves_room_for_the_calibration_and_the_job() {
 /// more harmonics than a contour holds are a contour error, not a panic.
 #[test]
 fn the_octagon_job_is_the_octagon_under_the_law_asked() {
-    use kerf::app::delta_slave::product::CUT_HEIGHT_M;
-    use kerf::app::delta_slave::{ContourLaw, DeltaJobError, DeltaSlaveConfig, CONTOUR_HARMONICS};
+    use kerf::machines::delta_slave::product::CUT_HEIGHT_M;
+    use kerf::machines::delta_slave::{
+        ContourLaw, DeltaJobError, DeltaSlaveConfig, CONTOUR_HARMONICS,
+    };
     use kerf::trajectory::shapes::octagon;
     use kerf_sim::contour::octagon_job;
     let machine = DeltaSlaveConfig::KEOPS;

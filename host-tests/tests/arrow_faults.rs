@@ -3,10 +3,10 @@
 //! force and torque in the same period.
 
 use host_tests::arrow::{job_from_gcode, run_job, ArrowRunConfig, Job, JobRun};
-use kerf::app::arrow::job::{ArrowJobConfig, ArrowJobErrorKind};
-use kerf::app::arrow::machine::ArrowFault;
 use kerf::app::supervisor::Mode;
 use kerf::kinematics::arrow::{ArrowConfig, ArrowError, ArrowGeometry};
+use kerf::machines::arrow::job::{ArrowJobConfig, ArrowJobErrorKind};
+use kerf::machines::arrow::machine::ArrowFault;
 use kerf::trajectory::gcode::{GcodeErrorKind, GcodePoint};
 use kerf_sim::arrow::PYRAMID_GCODE;
 

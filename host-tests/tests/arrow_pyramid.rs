@@ -207,8 +207,9 @@ fn the_pyramid_is_tracked_within_the_seeds_figures_with_feedforward() {
 #[test]
 fn the_smoke_pyramid_in_f64() {
     let mut points = Box::new(heapless::Vec::new());
-    let mut job = Box::<kerf::app::arrow::product::Job<f64>>::default();
-    kerf::app::arrow::product::load_job(PYRAMID_GCODE.as_bytes(), &mut points, &mut job).unwrap();
+    let mut job = Box::<kerf::machines::arrow::product::Job<f64>>::default();
+    kerf::machines::arrow::product::load_job(PYRAMID_GCODE.as_bytes(), &mut points, &mut job)
+        .unwrap();
     let mut sums = kerf_sim::arrow::TrackingSums::default();
     let end = kerf_sim::arrow::run_job::<f64>(
         &kerf_sim::arrow::ArrowScenario::smoke(),

@@ -3,11 +3,11 @@
 
 use host_tests::bad_input::{bad_counts, counts, finite, re, refused_or, sweep, Kind, Out, Sweep};
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, AxisStatus, HallAxis};
-use kerf::app::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig, SlaveOutputs};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
 use kerf::app::supervisor::{Machine, Step};
 use kerf::app::PeriodClock;
 use kerf::kinematics::delta::DeltaGeometry;
+use kerf::machines::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig, SlaveOutputs};
 use kerf::sensing::hall::HallConfig;
 use kerf::trajectory::Reference;
 use kerf::{Float, Real};

@@ -4,8 +4,8 @@
 
 use host_tests::machining::{draw_runs, run, scaled, CaseCurve, ContourCase, ContourReport};
 use host_tests::plot::plots_dir;
-use kerf::app::delta_slave::{ContourLaw, DeltaFault};
 use kerf::control::laser::LaserMode;
+use kerf::machines::delta_slave::{ContourLaw, DeltaFault};
 use kerf::trajectory::shapes;
 
 fn shapes() -> [(&'static str, Vec<[f64; 2]>); 3] {
@@ -204,16 +204,20 @@ fn a_blocked_carriage_faults_the_contour_with_zero_force() {
 /// path order) that is out of reach; every sample before it is reachable.
 #[test]
 fn a_contour_beyond_the_workspace_names_its_first_unreachable_point() {
-    use kerf::app::delta_slave::{ContourCurve, ContourPlan, DeltaJob};
-    use kerf::app::delta_slave::{DeltaJobError, CONTOUR_HARMONICS, PLAN_SAMPLES_PER_LAP};
     use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
     use kerf::kinematics::Vector3;
+    use kerf::machines::delta_slave::{ContourCurve, ContourPlan, DeltaJob};
+    use kerf::machines::delta_slave::{DeltaJobError, CONTOUR_HARMONICS, PLAN_SAMPLES_PER_LAP};
     use kerf::trajectory::efd::Efd;
     // A ±20 mm octagon centred 10 mm off the axis: it starts inside (θ = 0, the
     // vertex nearest the axis side) and its far side leaves the Keops workspace.
     let big = scaled(&shapes::octagon(), 2.0);
     let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&big, 30).unwrap();
-    let centre = [-0.010, 0.0, kerf::app::delta_slave::product::CUT_HEIGHT_M];
+    let centre = [
+        -0.010,
+        0.0,
+        kerf::machines::delta_slave::product::CUT_HEIGHT_M,
+    ];
     let err = DeltaJob::plan_contour(
         &host_tests::machining::machine(1e-4),
         &ContourPlan {

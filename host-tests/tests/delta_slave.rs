@@ -5,8 +5,8 @@
 
 use hal_mock::hall_sensor::ChannelFault;
 use kerf::app::axis::AxisFault;
-use kerf::app::delta_slave::DeltaFault;
 use kerf::app::joints::JointFault;
+use kerf::machines::delta_slave::DeltaFault;
 use kerf::sensing::hall::HallFault;
 use kerf_sim::scenario::{MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M};
 use kerf_sim::slave::{run_slave, SlaveOutcome, SlaveScenario};

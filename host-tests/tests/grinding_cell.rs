@@ -5,8 +5,8 @@
 use hal_mock::grinding_cell::CellConfig;
 use host_tests::grinding::{figures, run_pass, seed_pass, PassFigures, PassRun};
 use host_tests::plot::{line_plot, plots_dir, time_series, Series};
-use kerf::app::grinding::{ForceLawKind, GrindingConfig, GrindingFault};
 use kerf::app::supervisor::Mode;
+use kerf::machines::grinding::{ForceLawKind, GrindingConfig, GrindingFault};
 
 /// 8 mm at 0.1 mm/s: 80 s, two periods of the test surface.
 const LENGTH_M: f64 = 8e-3;

@@ -9,18 +9,18 @@ use hal_mock::hexapod::{HexapodLimits, SimHexapod, REFERENCE_TIME_S};
 use hal_mock::spindle::SimSpindle;
 use heapless::spsc::Queue;
 use host_tests::grinding::{raw_for, seed_pass, PassSetup, DX_M, SAMPLES};
-use kerf::app::grinding::devices::{
-    DeviceDemand, DeviceFault, DeviceLink, DeviceLinkConfig, DeviceLinkState, HexapodFault,
-    SpindleFault,
-};
-use kerf::app::grinding::{
-    ForceLawKind, GrindingCalibration, GrindingCell, GrindingConfig, GrindingFault, GrindingInputs,
-    GrindingOutputs,
-};
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::codec::gcs::{self, Axis, AxisValues};
 use kerf::codec::spindle::{SpindleReading, SpindleRequest};
 use kerf::hal::{LinkError, Transact};
+use kerf::machines::grinding::devices::{
+    DeviceDemand, DeviceFault, DeviceLink, DeviceLinkConfig, DeviceLinkState, HexapodFault,
+    SpindleFault,
+};
+use kerf::machines::grinding::{
+    ForceLawKind, GrindingCalibration, GrindingCell, GrindingConfig, GrindingFault, GrindingInputs,
+    GrindingOutputs,
+};
 
 /// Control periods per device tick (1 ms and 10 ms).
 const TICK: usize = 10;

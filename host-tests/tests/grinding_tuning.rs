@@ -11,10 +11,10 @@
 use argmin::core::{CostFunction, Error, Executor, State};
 use argmin::solver::neldermead::NelderMead;
 use host_tests::grinding::{figures, run_pass, seed_pass};
-use kerf::app::grinding::{ForceLawKind, GrindingConfig};
 use kerf::app::supervisor::Mode;
 use kerf::control::adrc::AdrcConfig;
 use kerf::control::pid::PidConfig;
+use kerf::machines::grinding::{ForceLawKind, GrindingConfig};
 
 /// Length of a tuning pass: the experiments' whole pass (80 s at 0.1 mm/s, two
 /// periods of the surface; a shorter pass tunes for the part of the surface it sees).
@@ -44,7 +44,7 @@ fn score(law: ForceLawKind, gains: &[f64]) -> f64 {
             }
         }
     }
-    if kerf::app::grinding::GrindingCell::<f64>::new(&setup.config).is_err() {
+    if kerf::machines::grinding::GrindingCell::<f64>::new(&setup.config).is_err() {
         return 1e3;
     }
     let run = run_pass(&setup, 120_000);

@@ -109,7 +109,7 @@ impl Host {
 /// the channels.
 fn channel(sample: &TelemetrySample, name: &str) -> f32 {
     use kerf::app::host_link::LinkMachine;
-    let channels = <kerf::app::delta_slave::DeltaSlave<f64> as LinkMachine>::CHANNELS;
+    let channels = <kerf::machines::delta_slave::DeltaSlave<f64> as LinkMachine>::CHANNELS;
     let k = channels
         .iter()
         .position(|c| c.name == name)

@@ -5,11 +5,13 @@
 use heapless::spsc::Queue;
 use host_tests::arrow::{scenario, ArrowRunConfig};
 use host_tests::remote::{master_config, RemoteCase, MASTER_HOME_M};
-use kerf::app::remote_link::SlaveReport;
-use kerf::app::remote_master::{FixtureJob, RemoteMaster, RemoteMasterFault, RemoteMasterInputs};
 use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
 use kerf::control::redundant_pid::RedundantPidConfig;
 use kerf::kinematics::Vector3;
+use kerf::machines::remote_link::SlaveReport;
+use kerf::machines::remote_master::{
+    FixtureJob, RemoteMaster, RemoteMasterFault, RemoteMasterInputs,
+};
 
 /// ARROW's parallel module with K_D (or K_I) beyond what `f32` holds once divided
 /// (multiplied) by the 0.2 ms period: the law is refused for the `f32` machine (its
@@ -41,7 +43,7 @@ fn master_run(
     periods: usize,
 ) -> (
     Mode<RemoteMasterFault>,
-    Vec<kerf::app::remote_master::MasterOutputs<f64>>,
+    Vec<kerf::machines::remote_master::MasterOutputs<f64>>,
 ) {
     let mut config = master_config(&RemoteCase::nominal(), [0.0; 3], [0.0, 0.0, -0.2]);
     config.tracking.surface_slope_per_s = bandwidth_rad_s;

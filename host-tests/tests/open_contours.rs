@@ -11,8 +11,8 @@
 use host_tests::depth::deposit;
 use host_tests::machining::{draw_runs, run, CaseCurve, ContourCase, ContourReport};
 use host_tests::plot::{along_path, plots_dir, Series};
-use kerf::app::delta_slave::ContourLaw;
 use kerf::control::laser::LaserMode;
+use kerf::machines::delta_slave::ContourLaw;
 use kerf::trajectory::shapes;
 
 const SPEED_M_S: f64 = 2e-3;

@@ -6,10 +6,10 @@ use host_tests::plot::{self, Series, ZoomBox};
 use host_tests::remote::{
     run, Faults, Network, RemoteCase, RemoteRun, D, LASER_POWER_W, N, OPERATOR_SPEED_M_S, TS,
 };
-use kerf::app::remote_slave::RemoteSlaveFault;
 use kerf::app::stream::FRAME_CRC_LEN;
 use kerf::app::supervisor::Mode;
 use kerf::control::laser::LaserMode;
+use kerf::machines::remote_slave::RemoteSlaveFault;
 
 /// Tracking is measured from here on (the first seconds include the start from rest).
 const FROM_S: f64 = 2.0;

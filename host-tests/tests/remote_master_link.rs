@@ -8,9 +8,9 @@
 //! stop lets go of the hand and puts the beam off; an encoder glitch mid-session is
 //! heard as a fault in the master's words.
 
-use kerf::app::remote_master::product::sample_contour;
 use kerf::codec::job::{write_gcode, write_points};
 use kerf::codec::link::{JobKind, ModeCode};
+use kerf::machines::remote_master::product::sample_contour;
 use kerf_host::link::{Heard, LinkError, MachineLink};
 use kerf_host::session::{Progress, RunPlan, Session, SessionError, TimedChange};
 use kerf_host::telemetry::TelemetryLog;

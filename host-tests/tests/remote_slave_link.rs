@@ -8,9 +8,9 @@
 //! session, reads the status, and hears a link loss (timeouts set below the command
 //! interval) in the slave's words.
 
-use kerf::app::remote_slave::recording::Recording;
 use kerf::codec::job::write_recording;
 use kerf::codec::link::{JobKind, ModeCode};
+use kerf::machines::remote_slave::recording::Recording;
 use kerf_host::link::{LinkError, MachineLink};
 use kerf_host::session::{Progress, RunPlan, Session, SessionError, TimedChange};
 use kerf_host::telemetry::TelemetryLog;

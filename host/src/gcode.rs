@@ -1,15 +1,15 @@
 //! `kerf gcode`: a G-code program checked as ARROW will check it at load (A §4), with
-//! the firmware's own parser and job loader ([`kerf::app::arrow::product::load_job`])
+//! the firmware's own parser and job loader ([`kerf::machines::arrow::product::load_job`])
 //! and the capacities of the machine as flashed ([`JOB_MOVES`] moves of
 //! [`JOB_POINTS`] points, [`PROGRAM_POINTS`] points read).
 
-use kerf::app::arrow::job::ArrowJobErrorKind;
-use kerf::app::arrow::product::{load_job, JOB_MOVES, JOB_POINTS, PROGRAM_POINTS};
 use kerf::kinematics::arrow::ArrowError;
+use kerf::machines::arrow::job::ArrowJobErrorKind;
+use kerf::machines::arrow::product::{load_job, JOB_MOVES, JOB_POINTS, PROGRAM_POINTS};
 use kerf::trajectory::gcode::{GcodeErrorKind, GcodePoint, MoveKind, MAX_LINE_BYTES};
 
 /// The job as the machine holds it.
-pub type Job = kerf::app::arrow::product::Job<f64>;
+pub type Job = kerf::machines::arrow::product::Job<f64>;
 
 /// One rest-to-rest move of a checked program.
 #[derive(Copy, Clone, Debug, PartialEq)]

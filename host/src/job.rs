@@ -9,9 +9,9 @@
 //! - Path (T 3.1.5): m points (x, y) in cutting order, for
 //!   `kerf::trajectory::open_path::OpenPath::from_points`; m ≤ 32 (`OPEN_PATH_POINTS`).
 //! - G-code (A §4): the program's text as read, for
-//!   `kerf::app::arrow::job::ArrowJob::from_gcode`.
+//!   `kerf::machines::arrow::job::ArrowJob::from_gcode`.
 //! - Recording (T ch. 5): a recorded master session (`KRFR`) as it is, for
-//!   `kerf::app::remote_slave::recording::Recording::parse`.
+//!   `kerf::machines::remote_slave::recording::Recording::parse`.
 
 use kerf::codec::job::{write_efd, write_gcode, write_points, write_recording, JobFile};
 pub use kerf::codec::job::{JobFileError, HEADER_BYTES, JOB_FORMAT_VERSION};

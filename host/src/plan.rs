@@ -23,7 +23,7 @@
 //! O_W/I_W and y by O_H/I_H, which stretches a non-square image): the larger side of
 //! the chain's bounding box becomes [`PlanConfig::width_mm`]. The default, 12 mm, is
 //! the ±6 mm octagon the contouring slave's tests and benchmarks cut
-//! (`kerf::app::delta_slave`). The image's y axis points down
+//! (`kerf::machines::delta_slave`). The image's y axis points down
 //! and the workspace's up, so y changes sign (without it the cut would be mirrored).
 //! The offset puts the chain's centroid (its mean over arc length, which is the EFD's
 //! (a0, c0)) at the origin: the firmware places the curve's centre at the job's centre.
@@ -32,7 +32,7 @@ use crate::job::Job;
 use crate::trace::{self, Mask, TraceError};
 use image::{DynamicImage, GrayImage};
 use imageproc::distance_transform::Norm;
-use kerf::app::delta_slave::{CONTOUR_HARMONICS, OPEN_PATH_POINTS};
+use kerf::machines::delta_slave::{CONTOUR_HARMONICS, OPEN_PATH_POINTS};
 use kerf::trajectory::curve::Curve;
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::open_path::OpenPath;

@@ -115,7 +115,7 @@ fn keops_slave() -> MachineDescription {
     let mut d = MachineDescription::default();
     for index in 0.. {
         let mut path = SettingPath::default();
-        match describe::<kerf::app::delta_slave::DeltaSlave<f32>>(index, &mut path) {
+        match describe::<kerf::machines::delta_slave::DeltaSlave<f32>>(index, &mut path) {
             Some(item) => d.add(&Item::of(&item)),
             None => return d,
         }

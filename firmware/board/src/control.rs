@@ -14,10 +14,10 @@ use embassy_stm32::pac;
 use embassy_stm32::pac::interrupt;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::signal::Signal;
-use kerf::app::delta_slave::{DeltaSlave, SlaveOutputs};
 use kerf::app::supervisor::{Mode, Supervisor};
 use kerf::app::PeriodClock;
 use kerf::hal::{Monotonic, SampleInputs, WriteOutputs};
+use kerf::machines::delta_slave::{DeltaSlave, SlaveOutputs};
 
 /// The machine the board runs.
 pub type BoardMachine = DeltaSlave<f32>;

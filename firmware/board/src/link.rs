@@ -18,11 +18,11 @@ use embassy_stm32::pac;
 use embassy_stm32::usart::{RingBufferedUartRx, UartTx};
 use heapless::spsc::{Consumer, Producer};
 use kerf::app::calibrate::{CalibrationFit, HallMachine};
-use kerf::app::delta_slave::product::LINK_JOB_BYTES;
 use kerf::app::host_link::HostLink;
 use kerf::app::supervisor::{Command, Mode, Report};
 use kerf::codec::link::BOARD_FAULT;
 use kerf::hal::Monotonic;
+use kerf::machines::delta_slave::product::LINK_JOB_BYTES;
 use kerf::sensing::hall::HallConfig;
 
 /// The board's link.
@@ -55,7 +55,7 @@ pub struct LinkTask {
 
 /// Where the task is.
 struct State {
-    mode: Mode<kerf::app::delta_slave::DeltaFault>,
+    mode: Mode<kerf::machines::delta_slave::DeltaFault>,
     /// The held board fault went to the link.
     held_told: bool,
     calibrating: bool,

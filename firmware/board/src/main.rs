@@ -39,14 +39,14 @@ use embassy_stm32::{bind_interrupts, dma, pac, peripherals, usart};
 use fault::Cause;
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::calibrate::CalibrationFit;
-use kerf::app::delta_slave::link::SlaveSettings;
-use kerf::app::delta_slave::product::{
-    contour_defaults, nominal_calibration, JOB_LAPS, TELEMETRY_DECIMATION,
-};
-use kerf::app::delta_slave::DeltaSlaveConfig;
 use kerf::app::host_link::{HostLink, HostLinkConfig};
 use kerf::app::supervisor::{Command, Report, Supervisor};
 use kerf::app::PeriodClock;
+use kerf::machines::delta_slave::link::SlaveSettings;
+use kerf::machines::delta_slave::product::{
+    contour_defaults, nominal_calibration, JOB_LAPS, TELEMETRY_DECIMATION,
+};
+use kerf::machines::delta_slave::DeltaSlaveConfig;
 use static_cell::{ConstStaticCell, StaticCell};
 
 bind_interrupts!(struct Irqs {

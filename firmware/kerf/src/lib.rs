@@ -30,6 +30,7 @@ pub mod control;
 pub mod error;
 pub mod hal;
 pub mod kinematics;
+pub mod machines;
 pub mod scalar;
 pub mod sensing;
 pub mod trajectory;

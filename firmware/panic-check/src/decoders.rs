@@ -23,13 +23,8 @@ mod common;
 use common::{opaque, sink, OpaqueLink};
 use cortex_m_rt::entry;
 use heapless::spsc::Queue;
-use kerf::app::arrow::job::{ArrowJob, ArrowJobConfig};
 use kerf::app::calibrate::{fit_sensors, CalibrationFit, HallSample};
-use kerf::app::delta_slave::link::{ContourDefaults, SlaveSettings};
-use kerf::app::delta_slave::{ContourLaw, DeltaSlave, DeltaSlaveConfig};
-use kerf::app::grinding::devices::{DeviceDemand, DeviceLink, DeviceLinkConfig, DeviceLinkState};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
-use kerf::app::remote_link::{MasterLink, SlaveLink};
 use kerf::app::supervisor::{Command, Report};
 use kerf::codec::gcs;
 use kerf::codec::job::JobFile;
@@ -38,6 +33,13 @@ use kerf::codec::sdct::{SdctConfig, Selection};
 use kerf::codec::spindle::SpindleRequest;
 use kerf::hal::{LinkError, Transact};
 use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry};
+use kerf::machines::arrow::job::{ArrowJob, ArrowJobConfig};
+use kerf::machines::delta_slave::link::{ContourDefaults, SlaveSettings};
+use kerf::machines::delta_slave::{ContourLaw, DeltaSlave, DeltaSlaveConfig};
+use kerf::machines::grinding::devices::{
+    DeviceDemand, DeviceLink, DeviceLinkConfig, DeviceLinkState,
+};
+use kerf::machines::remote_link::{MasterLink, SlaveLink};
 use kerf::sensing::hall::HallConfig;
 use kerf::trajectory::gcode::{self, GcodePoint};
 

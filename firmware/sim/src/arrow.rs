@@ -6,12 +6,12 @@
 
 use hal_mock::arrow::{ArrowPlant, ArrowPlantConfig, ArrowReading};
 use heapless::spsc::Queue;
-use kerf::app::arrow::machine::{ArrowFault, ArrowInputs, ArrowLimits, ArrowOutputs};
-use kerf::app::arrow::product::{law, Arrow, Job, PERIOD_S};
-use kerf::app::arrow::ArrowLaw;
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::control::redundant_pid::RedundantPidConfig;
 use kerf::kinematics::arrow::{ActuatorVector, ArrowError, ArrowGeometry, ForwardConfig, Pose};
+use kerf::machines::arrow::machine::{ArrowFault, ArrowInputs, ArrowLimits, ArrowOutputs};
+use kerf::machines::arrow::product::{law, Arrow, Job, PERIOD_S};
+use kerf::machines::arrow::ArrowLaw;
 use kerf::{Float, Real};
 
 /// The pyramid of A fig. 26–27 as the G-code file the firmware image carries.
@@ -85,7 +85,7 @@ impl ArrowScenario {
     }
 
     /// The law on the controller's nominal model (A table 1–2) with this scenario's
-    /// gains ([`kerf::app::arrow::product::law`]).
+    /// gains ([`kerf::machines::arrow::product::law`]).
     pub fn law<T: Float>(&self) -> Result<ArrowLaw<T>, ArrowError> {
         law(
             &self.parallel,

@@ -12,12 +12,12 @@ use crate::slave::{run_slave_job, SlaveError, SlaveScenario};
 use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::hall_sensor::HallSensorParams;
 use heapless::Deque;
-use kerf::app::delta_slave::product::{contour_defaults, APPROACH_S, CUT_MOTION};
-use kerf::app::delta_slave::{
+use kerf::app::supervisor::{Machine, Mode};
+use kerf::machines::delta_slave::product::{contour_defaults, APPROACH_S, CUT_MOTION};
+use kerf::machines::delta_slave::{
     ContourCurve, ContourLaw, DeltaFault, DeltaJob, DeltaJobError, DeltaSlaveConfig,
     CONTOUR_HARMONICS,
 };
-use kerf::app::supervisor::{Machine, Mode};
 use kerf::scalar::Float;
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::shapes::{octagon, OCTAGON_POINTS};

@@ -8,13 +8,13 @@
 
 use crate::slave::{rest_unpowered, SlaveError, SlavePeriod, SlaveRig, SlaveScenario};
 use heapless::spsc::{Consumer, Producer, Queue};
-use kerf::app::delta_slave::link::SlaveSettings;
-use kerf::app::delta_slave::product::{
-    contour_defaults, nominal_calibration, LINK_JOB_BYTES, TELEMETRY_DECIMATION,
-};
-use kerf::app::delta_slave::DeltaSlave;
 use kerf::app::host_link::{HostLink, HostLinkConfig};
 use kerf::app::supervisor::{Command, Report};
+use kerf::machines::delta_slave::link::SlaveSettings;
+use kerf::machines::delta_slave::product::{
+    contour_defaults, nominal_calibration, LINK_JOB_BYTES, TELEMETRY_DECIMATION,
+};
+use kerf::machines::delta_slave::DeltaSlave;
 use kerf::scalar::Float;
 
 /// Longest the carriages may take to come to rest, unpowered, before the machine is

@@ -12,12 +12,12 @@
 use crate::arrow::ArrowScenario;
 use hal_mock::arrow::{ArrowPlant, ArrowReading};
 use heapless::spsc::{Consumer, Producer, Queue};
-use kerf::app::arrow::link::ArrowSettings;
-use kerf::app::arrow::machine::{ArrowInputs, ArrowLimits, ArrowOutputs};
-use kerf::app::arrow::product::{Arrow, LINK_JOB_BYTES, PERIOD_S, TELEMETRY_DECIMATION};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
 use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
 use kerf::kinematics::arrow::{ArrowError, Pose};
+use kerf::machines::arrow::link::ArrowSettings;
+use kerf::machines::arrow::machine::{ArrowInputs, ArrowLimits, ArrowOutputs};
+use kerf::machines::arrow::product::{Arrow, LINK_JOB_BYTES, PERIOD_S, TELEMETRY_DECIMATION};
 use kerf::scalar::{Float, Real};
 
 /// Where the plate stands at power-up: the pyramid's first point (pose in m and rad,

@@ -9,11 +9,11 @@
 use crate::scenario::{Period, Rig, Scenario};
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
-use kerf::app::single_axis::link::AxisSettings;
-use kerf::app::single_axis::product::{
+use kerf::app::supervisor::{Command, Report};
+use kerf::machines::single_axis::link::AxisSettings;
+use kerf::machines::single_axis::product::{
     nominal_calibration, Axis, LINK_JOB_BYTES, TELEMETRY_DECIMATION,
 };
-use kerf::app::supervisor::{Command, Report};
 use kerf::{ConfigError, Real};
 
 /// The moves of `data/axis_moves.gcode`, as the image and the host tests run them.

@@ -20,18 +20,18 @@ use hal_mock::grinding_cell::{Cell, CellConfig, CellReading};
 use hal_mock::hexapod::{HexapodLimits, SimHexapod, REFERENCE_TIME_S};
 use hal_mock::spindle::SimSpindle;
 use heapless::spsc::{Consumer, Producer, Queue};
-use kerf::app::grinding::devices::{DeviceDemand, DeviceFault, DeviceLink, DeviceLinkState};
-use kerf::app::grinding::link::GrindingSettings;
-use kerf::app::grinding::product::{
-    device_tick_periods, Cell as GrindingCell, CONFIG, DEVICES, LINK_JOB_BYTES, PASS, PERIOD_S,
-    TELEMETRY_DECIMATION,
-};
-use kerf::app::grinding::{GrindingCalibration, GrindingInputs, GrindingOutputs};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
 use kerf::app::supervisor::{Command, CommandKind, Mode, Report, Supervisor};
 use kerf::control::adrc::FalPower;
 use kerf::error::ConfigError;
 use kerf::hal::{LinkError, Transact};
+use kerf::machines::grinding::devices::{DeviceDemand, DeviceFault, DeviceLink, DeviceLinkState};
+use kerf::machines::grinding::link::GrindingSettings;
+use kerf::machines::grinding::product::{
+    device_tick_periods, Cell as GrindingCell, CONFIG, DEVICES, LINK_JOB_BYTES, PASS, PERIOD_S,
+    TELEMETRY_DECIMATION,
+};
+use kerf::machines::grinding::{GrindingCalibration, GrindingInputs, GrindingOutputs};
 use kerf::scalar::{Float, Real};
 use kerf::sensing::force::Eccentricity;
 use nalgebra::{Matrix6, Vector6};

@@ -1,5 +1,5 @@
 //! The remote machining master behind the host link: the master as flashed
-//! ([`kerf::app::remote_master::product`]) on the simulated horizontal master delta
+//! ([`kerf::machines::remote_master::product`]) on the simulated horizontal master delta
 //! behind its 0.5 µm encoders (`hal_mock::master`), moved by an operator's hand, with
 //! its end of the remote link to a slave site over a delayed network, and with its
 //! supervisor's commands coming from [`HostLink`] only, so a host (a test's, or the
@@ -22,7 +22,7 @@
 //! The slave site: the slave as its disturbance observer makes it (T eq. 93), the
 //! nominal double integrator ẍs = u (the master's delay observer then corrects only
 //! what the network's delay and jitter and the reports' SDCT coding leave), behind the slave's end of the remote link
-//! ([`kerf::app::remote_link::SlaveLink`]: the playout, the reports); the network
+//! ([`kerf::machines::remote_link::SlaveLink`]: the playout, the reports); the network
 //! delays each frame by [`DELAY_MS`] ± [`JITTER_MS`], in order. The slave starts at
 //! rest at the mapping's centre, where the master's rest point maps.
 //!
@@ -34,13 +34,6 @@ use hal_mock::link::{FrameEnd, LinkConfig};
 use hal_mock::master::SimulatedMaster;
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
-use kerf::app::remote_link::{MasterLink, SlaveLink};
-use kerf::app::remote_master::link::MasterSettings;
-use kerf::app::remote_master::product::{
-    config, session, Master, HOME_M, LINK_BLOCK, LINK_JOB_BYTES, PERIOD_S, SAMPLES_PER_COMMAND,
-    TELEMETRY_DECIMATION,
-};
-use kerf::app::remote_master::{RemoteMasterInputs, FIXTURE_POINTS};
 use kerf::app::stream::MAX_FRAME_LEN;
 use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
 use kerf::codec::job::JobFile;
@@ -48,6 +41,13 @@ use kerf::codec::sdct::{SdctConfig, Selection};
 use kerf::error::ConfigError;
 use kerf::kinematics::delta::DeltaConfig;
 use kerf::kinematics::Vector3;
+use kerf::machines::remote_link::{MasterLink, SlaveLink};
+use kerf::machines::remote_master::link::MasterSettings;
+use kerf::machines::remote_master::product::{
+    config, session, Master, HOME_M, LINK_BLOCK, LINK_JOB_BYTES, PERIOD_S, SAMPLES_PER_COMMAND,
+    TELEMETRY_DECIMATION,
+};
+use kerf::machines::remote_master::{RemoteMasterInputs, FIXTURE_POINTS};
 use kerf::scalar::Float;
 use kerf::sensing::encoder::EncoderConfig;
 

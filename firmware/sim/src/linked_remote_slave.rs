@@ -1,5 +1,5 @@
 //! The remote slave behind the host link: the slave that plays a recorded master
-//! session ([`SessionSlave`], `kerf::app::remote_slave::session`) on the simulated
+//! session ([`SessionSlave`], `kerf::machines::remote_slave::session`) on the simulated
 //! Keops delta of the remote scenarios (the realistic plant, the imperfect Hall
 //! sensors, [`keops_site`]), with commands coming from [`HostLink`] only, so a host (a
 //! test's, or the host tool over the QEMU image's serial port) uploads a session,
@@ -18,13 +18,15 @@ use hal_mock::delta_plant::DeltaPlantParams;
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::calibrate::{CalibrationFit, HallMachine};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
-use kerf::app::remote_slave::link::RemoteSlaveSettings;
-use kerf::app::remote_slave::product::{CONFIG, LINK_JOB_BYTES, PERIOD_S, TELEMETRY_DECIMATION};
-use kerf::app::remote_slave::recording::Recording;
-use kerf::app::remote_slave::session::SessionSlave;
 use kerf::app::supervisor::{Command, Report, Supervisor};
 use kerf::hal::{ForceAndLaser, SampleInputs, WriteOutputs};
 use kerf::kinematics::delta::KinematicsError;
+use kerf::machines::remote_slave::link::RemoteSlaveSettings;
+use kerf::machines::remote_slave::product::{
+    CONFIG, LINK_JOB_BYTES, PERIOD_S, TELEMETRY_DECIMATION,
+};
+use kerf::machines::remote_slave::recording::Recording;
+use kerf::machines::remote_slave::session::SessionSlave;
 use kerf::scalar::Float;
 
 /// The recorded master session of the remote scenario (4 s, `data/remote_commands.krfr`).

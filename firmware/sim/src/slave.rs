@@ -9,13 +9,15 @@ use hal_mock::delta_plant::{DeltaPlant, DeltaPlantParams};
 use hal_mock::hall_sensor::{ChannelFault, HallSensorParams};
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::axis::HallAxis;
-use kerf::app::delta_slave::{DeltaFault, DeltaJob, DeltaJobError, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::joints::Segment;
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::app::PeriodClock;
 use kerf::hal::Monotonic;
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
 use kerf::kinematics::Vector3;
+use kerf::machines::delta_slave::{
+    DeltaFault, DeltaJob, DeltaJobError, DeltaSlave, DeltaSlaveConfig,
+};
 use kerf::scalar::Float;
 use kerf::ConfigError;
 

@@ -1,12 +1,12 @@
 //! The grinding cell's device link (`grinding_devices`): the hexapod's GCS replies and
-//! the spindle converter's frames as `app::grinding::devices` reads them, tick by tick.
+//! the spindle converter's frames as `machines::grinding::devices` reads them, tick by tick.
 //! Seeds are the replies of `hal-mock`'s simulated H-824 and converter to the link's
 //! own requests.
 
 use crate::input::{Input, Seed};
 use hal_mock::hexapod::{HexapodLimits, SimHexapod, REFERENCE_TIME_S};
 use hal_mock::spindle::SimSpindle;
-use kerf::app::grinding::devices::{
+use kerf::machines::grinding::devices::{
     DeviceDemand, DeviceFault, DeviceLink, DeviceLinkConfig, DeviceLinkState, HexapodFault,
 };
 use kerf::codec::gcs::{AxisSet, Command};

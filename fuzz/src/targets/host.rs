@@ -4,7 +4,7 @@
 
 use crate::input::{same_bits, Input, Seed};
 use image::{GrayImage, ImageFormat, ImageReader, Limits, Luma};
-use kerf::app::delta_slave::{CONTOUR_HARMONICS, OPEN_PATH_POINTS};
+use kerf::machines::delta_slave::{CONTOUR_HARMONICS, OPEN_PATH_POINTS};
 use kerf::app::host_link::{describe, LinkMachine, SettingPath};
 use kerf::codec::link::{
     encode, ChannelValues, Event, MachineMessage, MachineStatus, ModeCode, Reply, TelemetrySample,
@@ -61,7 +61,7 @@ fn frame(message: &MachineMessage<'_>) -> Vec<u8> {
 }
 
 /// The Keops slave, whose description and samples the seeds carry.
-type Slave = kerf::app::delta_slave::DeltaSlave<f32>;
+type Slave = kerf::machines::delta_slave::DeltaSlave<f32>;
 
 /// The slave's channels as the host keeps them.
 fn slave_channels() -> Vec<ChannelInfo> {

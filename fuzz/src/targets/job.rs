@@ -4,8 +4,8 @@
 
 use crate::input::same_bits;
 use crate::targets::link::octagon_job;
-use kerf::app::arrow::job::ArrowJobConfig;
-use kerf::app::arrow::product::{Job as ArrowJob, PROGRAM_POINTS};
+use kerf::machines::arrow::job::ArrowJobConfig;
+use kerf::machines::arrow::product::{Job as ArrowJob, PROGRAM_POINTS};
 use kerf::codec::job::{
     write_efd, write_gcode, write_points, write_recording, JobFile, HEADER_BYTES,
 };

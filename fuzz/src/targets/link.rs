@@ -9,9 +9,9 @@
 
 use crate::input::{Input, Seed};
 use heapless::spsc::Queue;
-use kerf::app::delta_slave::link::SlaveSettings;
-use kerf::app::delta_slave::product::{contour_defaults, LINK_JOB_BYTES};
-use kerf::app::delta_slave::{DeltaFault, DeltaSlave, DeltaSlaveConfig};
+use kerf::machines::delta_slave::link::SlaveSettings;
+use kerf::machines::delta_slave::product::{contour_defaults, LINK_JOB_BYTES};
+use kerf::machines::delta_slave::{DeltaFault, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::host_link::{HostLink, HostLinkConfig, LinkMachine};
 use kerf::app::supervisor::{Command, Mode, Report};
 use kerf::codec::job::write_efd;

@@ -1,6 +1,6 @@
 //! QEMU host-link image of ARROW (`Arrow<f32>` on its simulated plant with the
 //! geometric error), driven only by a host over the emulated UART0 with the link
-//! protocol (`kerf_sim::linked_arrow`, `kerf::app::arrow::link`): the host uploads a
+//! protocol (`kerf_sim::linked_arrow`, `kerf::machines::arrow::link`): the host uploads a
 //! G-code job (the pyramid), starts it, changes gains, streams telemetry. Run it with
 //! QEMU's serial port on a socket (`kerf run --qemu --image …/arrow-link JOB`); the
 //! image runs until the host ends QEMU.

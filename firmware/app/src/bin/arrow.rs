@@ -12,8 +12,8 @@
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use heapless::Vec;
-use kerf::app::arrow::product::{load_job, Job, PROGRAM_POINTS};
 use kerf::app::supervisor::Mode;
+use kerf::machines::arrow::product::{load_job, Job, PROGRAM_POINTS};
 use kerf_app::exit;
 use kerf_sim::arrow::{run_job, ArrowScenario, TrackingSums, ARROW_SMOKE_BOUNDS, PYRAMID_GCODE};
 

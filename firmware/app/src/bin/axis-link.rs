@@ -1,6 +1,6 @@
 //! QEMU host-link image of the single axis (`Joints<f32, 1>` on the simulated LM1247
 //! axis with its payload), driven only by a host over the emulated UART0 with the link
-//! protocol (`kerf_sim::linked_axis`, `kerf::app::single_axis::link`): the host
+//! protocol (`kerf_sim::linked_axis`, `kerf::machines::single_axis::link`): the host
 //! uploads G-code moves along X, starts them, changes the axis law's gains, streams
 //! position, reference, force and disturbance. Run it with QEMU's serial port on a
 //! socket (`kerf run --qemu --image …/axis-link JOB`); the image runs until the host

@@ -23,11 +23,11 @@
 use core::hint::black_box;
 use cortex_m_semihosting::hprintln;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
-use kerf::app::delta_slave::DeltaSlaveConfig;
 use kerf::app::joints::{JointJob, Joints, Segment};
 use kerf::app::supervisor::{Machine, Step};
 use kerf::control::dob::{Dob, DobState};
 use kerf::control::pd::Pd;
+use kerf::machines::delta_slave::DeltaSlaveConfig;
 use kerf::sensing::hall::HallConfig;
 use kerf::trajectory::Reference;
 use kerf::{Real, Q31_32, Q6_25};

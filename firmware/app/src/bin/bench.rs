@@ -13,13 +13,13 @@ use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
 use kerf::app::calibrate::{
     CalibrationFit, HallMachine, HallSample, SAMPLES_PER_COAST, SEGMENT_BREAK,
 };
-use kerf::app::delta_slave::{ContourLaw, DeltaJob, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
 use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
 use kerf::control::contouring::Contouring;
 use kerf::control::dob::{Dob, DobState};
 use kerf::control::pd::Pd;
 use kerf::kinematics::delta::DeltaGeometry;
+use kerf::machines::delta_slave::{ContourLaw, DeltaJob, DeltaSlave, DeltaSlaveConfig};
 use kerf::sensing::hall::{HallArithmetic, HallConfig, HallDecoder, HallState};
 use kerf::trajectory::Reference;
 use kerf::{Real, Q31_32};
@@ -629,7 +629,7 @@ fn slave_period_rows(counter: &mut Counter) {
         let _ = core::fmt::write(
             &mut name,
             format_args!(
-                "app::delta_slave contour period <f32>, EFD n={harmonics}, contouring law"
+                "machines::delta_slave contour period <f32>, EFD n={harmonics}, contouring law"
             ),
         );
         let mut reference = name.clone();

@@ -1,7 +1,7 @@
 //! QEMU host-link image of the grinding cell (`GrindingCell<f32>` on the simulated
 //! cell with its hexapod and spindle on their protocols), driven only by a host over
 //! the emulated UART0 with the link protocol (`kerf_sim::linked_grinding`,
-//! `kerf::app::grinding::link`): the host uploads a pass in G-code, starts it,
+//! `kerf::machines::grinding::link`): the host uploads a pass in G-code, starts it,
 //! changes the force law's gains, streams the forces. Run it with QEMU's serial port
 //! on a socket (`kerf run --qemu --image …/grinding-link JOB`); the image runs until
 //! the host ends QEMU.

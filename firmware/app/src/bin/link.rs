@@ -10,7 +10,7 @@
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use hal_mock::hall_sensor::HallSensorParams;
-use kerf::app::delta_slave::product::JOB_LAPS;
+use kerf::machines::delta_slave::product::JOB_LAPS;
 use kerf_app::exit;
 use kerf_app::uart::{serve_link, CmsdkUart, UART0_BASE};
 use kerf_sim::linked::with_linked_slave;

@@ -1,7 +1,7 @@
 //! QEMU host-link image of the remote machining master (`RemoteMaster<f32>` on the
 //! simulated master delta, moved by an operator's hand, commanding a slave site over
 //! a delayed network), driven only by a host over the emulated UART0 with the link
-//! protocol (`kerf_sim::linked_master`, `kerf::app::remote_master::link`): the host
+//! protocol (`kerf_sim::linked_master`, `kerf::machines::remote_master::link`): the host
 //! uploads the fixture's contour as points, starts the session, changes the
 //! fixture's poles, streams the master and the slave it commands. Run it with QEMU's
 //! serial port on a socket (`kerf run --qemu --image …/remote-master-link JOB`); the

@@ -7,18 +7,11 @@
 //! joint-space jobs (the single LM1247 axis is its N = 1 case); [`calibrate`] is the
 //! calibration sweep and the fit the slower context runs on the streamed samples.
 
-pub mod arrow;
 pub mod axis;
 pub mod calibrate;
-pub mod delta_slave;
-pub mod grinding;
 pub mod host_link;
 pub mod joints;
 pub mod playout;
-pub mod remote_link;
-pub mod remote_master;
-pub mod remote_slave;
-pub mod single_axis;
 pub mod stream;
 pub mod supervisor;
 

@@ -340,7 +340,7 @@ pub fn kinematics_rows(counter: &mut Counter) {
     );
 }
 
-/// One ARROW control period (`kerf::app::arrow::ArrowLaw::period`: IK and Jm at the
+/// One ARROW control period (`kerf::machines::arrow::ArrowLaw::period`: IK and Jm at the
 /// desired pose, Jm⁺ and Rm, the inverse dynamic model, the regularized PID of the six
 /// actuators and of the two table motors) in f32, beside the same period without the
 /// feedforward (what the inverse dynamic model costs), on 64 desired poses along a
@@ -349,9 +349,9 @@ pub fn kinematics_rows(counter: &mut Counter) {
 /// loop.)
 #[inline(never)]
 pub fn arrow_rows(counter: &mut Counter) {
-    use kerf::app::arrow::{ArrowDesired, ArrowLaw, ArrowLoopState};
     use kerf::control::redundant_pid::{RedundantPid, RedundantPidConfig};
     use kerf::kinematics::arrow::{ArrowConfig, ArrowDynamics, ArrowGeometry, ArrowMasses, Pose};
+    use kerf::machines::arrow::{ArrowDesired, ArrowLaw, ArrowLoopState};
     use kerf::Float;
     fn law<T: Float>() -> Option<ArrowLaw<T>> {
         let model = ArrowConfig::ARROW;
@@ -407,7 +407,7 @@ pub fn arrow_rows(counter: &mut Counter) {
     let mask = INPUTS as u32 - 1;
     row_with_errors(
         counter,
-        "app::arrow::ArrowLaw::period <f32> (IK, Jm, Jm⁺, Rm, feedforward, PID ×6 + ×2)",
+        "machines::arrow::ArrowLaw::period <f32> (IK, Jm, Jm⁺, Rm, feedforward, PID ×6 + ×2)",
         |i| {
             let k = (i & mask) as usize;
             let table = [desired32[k].theta_x_rad, -desired32[k].theta_x_rad];

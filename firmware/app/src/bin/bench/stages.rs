@@ -16,11 +16,11 @@
 
 use core::hint::black_box;
 use kerf::app::axis::{AxisLaw, AxisState, HallAxis};
-use kerf::app::delta_slave::product::CUT_MOTION;
-use kerf::app::delta_slave::DeltaSlaveConfig;
 use kerf::control::contouring::{Contouring, TaskReference};
 use kerf::kinematics::delta::DeltaGeometry;
 use kerf::kinematics::Vector3;
+use kerf::machines::delta_slave::product::CUT_MOTION;
+use kerf::machines::delta_slave::DeltaSlaveConfig;
 use kerf::trajectory::efd::Efd;
 use kerf::trajectory::tangential::{ContourFollower, FollowerConfig, SpeedRampConfig};
 use kerf_app::bench::Counter;
@@ -56,7 +56,7 @@ pub fn key(stage: &str) -> heapless::String<128> {
     // A name cut short would name its row wrongly: stop the run instead.
     if core::fmt::write(
         &mut key,
-        format_args!("app::delta_slave contour period: {stage}"),
+        format_args!("machines::delta_slave contour period: {stage}"),
     )
     .is_err()
     {

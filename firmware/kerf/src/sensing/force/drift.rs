@@ -16,7 +16,7 @@
 //! mean r·(t − W/2) (from the capture), so it is found at the end of the first window
 //! whose mean exceeds the bound; the drift then is at most the bound plus 1.5·r·W.
 //! The watch only knows forces: which samples are out of contact is the machine's
-//! call (`app::grinding` feeds it at rest only).
+//! call (`machines::grinding` feeds it at rest only).
 
 use super::Wrench;
 use crate::error::{positive, ConfigError};

@@ -3,16 +3,16 @@
 //! outputs are indexed and named as documented.
 
 use super::*;
-use crate::app::arrow::machine::{ArrowFault, ArrowOutputs};
 use crate::app::axis::AxisFault;
-use crate::app::delta_slave::DeltaFault;
-use crate::app::grinding::{GrindingFault, GrindingOutputs};
 use crate::app::joints::JointFault;
-use crate::app::remote_master::{MasterOutputs, RemoteMasterFault};
-use crate::app::remote_slave::RemoteSlaveFault;
 use crate::app::supervisor::NoSweep;
 use crate::app::supervisor::{Command, Machine, Mode, Report, Step, Supervisor};
 use crate::kinematics::arrow::ActuatorVector;
+use crate::machines::arrow::machine::{ArrowFault, ArrowOutputs};
+use crate::machines::delta_slave::DeltaFault;
+use crate::machines::grinding::{GrindingFault, GrindingOutputs};
+use crate::machines::remote_master::{MasterOutputs, RemoteMasterFault};
+use crate::machines::remote_slave::RemoteSlaveFault;
 use heapless::spsc::Queue;
 
 /// A machine whose running step returns the force it is given as input.
@@ -115,7 +115,7 @@ fn outputs_are_indexed_and_named_per_machine() {
         spindle_rpm: nan,
     };
     assert_eq!(grinding.first_not_finite(), Some(2));
-    let mut command = crate::app::remote_link::RemoteCommand {
+    let mut command = crate::machines::remote_link::RemoteCommand {
         acceleration_m_s2: [0.0, 0.0, f32::INFINITY],
         laser_on: false,
     };

@@ -2,9 +2,9 @@
 //! inverse kinematics (a different computation from the Jacobian route).
 
 use super::*;
-use crate::app::delta_slave::ContourCurve;
 use crate::app::joints::MAX_SEGMENTS;
 use crate::control::laser::LaserMode;
+use crate::machines::delta_slave::ContourCurve;
 use crate::trajectory::efd::Efd;
 use std::format;
 use std::string::ToString;

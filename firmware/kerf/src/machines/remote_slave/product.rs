@@ -5,8 +5,8 @@
 
 use super::recording::RECORDING_HEADER_LEN;
 use super::RemoteSlaveConfig;
-use crate::app::remote_link::SlaveLink;
 use crate::codec::job::HEADER_BYTES;
+use crate::machines::remote_link::SlaveLink;
 
 /// The slave: the Keops delta over a 1 kHz command stream ([`RemoteSlaveConfig::KEOPS`]).
 pub const CONFIG: RemoteSlaveConfig = RemoteSlaveConfig::KEOPS;

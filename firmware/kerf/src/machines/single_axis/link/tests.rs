@@ -1,12 +1,12 @@
 use super::*;
 use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingPath};
-use crate::app::single_axis::product::{CONFIG, LINK_JOB_BYTES, PERIOD_S};
 use crate::app::supervisor::Command;
 use crate::codec::job::{write_efd, write_gcode};
 use crate::codec::link::{
     decode, encode, Description, HostFrame, MachineMessage, Refusal, Reply, Request,
     LINK_JOB_REFUSALS, MAX_FRAME,
 };
+use crate::machines::single_axis::product::{CONFIG, LINK_JOB_BYTES, PERIOD_S};
 use heapless::spsc::Queue;
 use miniconf::json_core;
 use std::format;

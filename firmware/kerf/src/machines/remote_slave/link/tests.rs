@@ -1,12 +1,12 @@
 use super::*;
 use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingPath};
-use crate::app::remote_slave::product::{LINK_JOB_BYTES, PERIOD_S};
 use crate::app::supervisor::{Command, Machine, Mode, NonFiniteOutput, Report, Supervisor};
 use crate::codec::job::{write_gcode, write_recording};
 use crate::codec::link::{
     decode, encode, Description, Event, HostFrame, MachineMessage, Request, LINK_JOB_REFUSALS,
     MAX_FRAME,
 };
+use crate::machines::remote_slave::product::{LINK_JOB_BYTES, PERIOD_S};
 use heapless::spsc::Queue;
 use miniconf::json_core;
 use std::boxed::Box;
@@ -55,14 +55,14 @@ fn a_session_loads_and_other_jobs_are_refused_in_words() {
     let mut at = 0;
     let mut last = 0;
     while let Some((arrival, _, next)) =
-        crate::app::remote_slave::recording::frame_at(&job.frames, at)
+        crate::machines::remote_slave::recording::frame_at(&job.frames, at)
     {
         (at, last) = (next, arrival);
     }
     assert_eq!(at, job.frames.len());
     assert!(last < 20_000);
     let (following, _, _) =
-        crate::app::remote_slave::recording::frame_at(recording.frames(), at).unwrap();
+        crate::machines::remote_slave::recording::frame_at(recording.frames(), at).unwrap();
     assert!(following >= 20_000, "{following}");
     // The 4 s do not fit.
     let code = load(&session_file(40_000)).unwrap_err();

@@ -153,8 +153,8 @@ fn arrow_describes_itself() {
 /// commands and the move, in the channels' order.
 #[test]
 fn a_sample_has_a_value_per_channel() {
-    use crate::app::arrow::machine::ArrowOutputs;
     use crate::kinematics::arrow::{ActuatorVector, Pose};
+    use crate::machines::arrow::machine::ArrowOutputs;
     let t = ArrowTelemetry::<f64> {
         move_index: 2,
         desired: Pose::new(0.1, 0.5, -0.02, 0.3),

@@ -43,7 +43,7 @@ pub const PERIOD_S: f64 = 1e-4;
 pub const SAMPLES_PER_COMMAND: u32 = 10;
 
 /// Link samples per SDCT block of the command and report streams (the beam mask's 16
-/// bits hold a block: `app::remote_link`).
+/// bits hold a block: `machines::remote_link`).
 pub const LINK_BLOCK: usize = 16;
 
 /// The carriages at power-up (the homing stops), m.

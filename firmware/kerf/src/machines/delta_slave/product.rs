@@ -87,8 +87,8 @@ pub fn nominal_calibration<T: Float>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::app::delta_slave::CONTOUR_HARMONICS;
     use crate::codec::job::{write_efd, JobFile};
+    use crate::machines::delta_slave::CONTOUR_HARMONICS;
 
     /// The largest contour the machine cuts, written as a job file, fits the link's
     /// job buffer.
