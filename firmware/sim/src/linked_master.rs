@@ -44,7 +44,7 @@ use kerf::kinematics::Vector3;
 use kerf::machines::remote_link::{MasterLink, SlaveLink};
 use kerf::machines::remote_master::link::MasterSettings;
 use kerf::machines::remote_master::product::{
-    config, session, Master, HOME_M, LINK_BLOCK, LINK_JOB_BYTES, PERIOD_S, SAMPLES_PER_COMMAND,
+    config, session, Master, BLOCK, HOME_M, LINK_JOB_BYTES, PERIOD_S, SAMPLES_PER_COMMAND,
     TELEMETRY_DECIMATION,
 };
 use kerf::machines::remote_master::{RemoteMasterInputs, FIXTURE_POINTS};
@@ -70,7 +70,7 @@ pub const JITTER_MS: u32 = 10;
 /// Laps of the contour the operator follows before pressing the stop button.
 pub const SESSION_LAPS: f64 = 1.0;
 
-/// SDCT coefficients kept of each block of [`LINK_BLOCK`] samples, both ways.
+/// SDCT coefficients kept of each block of [`BLOCK`] samples, both ways.
 pub const SDCT_M: usize = 6;
 
 /// Segments either side of the last one the hand's search looks at.
@@ -209,7 +209,7 @@ pub fn wanted_speed_m_s(s: f64, length_m: f64, t: f64) -> f64 {
 
 /// The slave site: the nominal double integrator behind its link end.
 struct NominalSlave {
-    link: SlaveLink<LINK_BLOCK, PLAYOUT>,
+    link: SlaveLink<BLOCK, PLAYOUT>,
     position_m: Vector3<f64>,
     velocity_m_s: Vector3<f64>,
 }
@@ -219,7 +219,7 @@ pub struct LinkedMaster<'q, T: Float> {
     supervisor: Supervisor<'q, Master<T>>,
     plant: SimulatedMaster,
     drawing: Drawing,
-    master_link: MasterLink<LINK_BLOCK>,
+    master_link: MasterLink<BLOCK>,
     forward: FrameEnd<MAX_FRAME_LEN, IN_FLIGHT>,
     backward: FrameEnd<MAX_FRAME_LEN, IN_FLIGHT>,
     slave: NominalSlave,

@@ -108,7 +108,7 @@ impl DeltaSlaveConfig {
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DeltaJobError {
-    /// The job has no move, or more than [`MAX_SEGMENTS`](super::joints::MAX_SEGMENTS).
+    /// The job has no move, or more than [`MAX_SEGMENTS`](crate::app::joints::MAX_SEGMENTS).
     Size,
     /// A point or duration is NaN or infinite, or a duration is not positive.
     NotFinite {

@@ -28,6 +28,10 @@ use crate::codec::sdct::SdctConfig;
 use crate::error::{positive, ConfigError};
 use crate::hal::FrameLink;
 
+/// Link samples per SDCT block of the command and report streams, at both ends (at most
+/// 16: the beam mask's bits hold a block).
+pub const BLOCK: usize = 16;
+
 /// What the master sends for one link sample.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct RemoteCommand {

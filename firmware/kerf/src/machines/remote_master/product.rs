@@ -42,9 +42,7 @@ pub const PERIOD_S: f64 = 1e-4;
 /// Control periods per remote link sample (1 kHz samples).
 pub const SAMPLES_PER_COMMAND: u32 = 10;
 
-/// Link samples per SDCT block of the command and report streams (the beam mask's 16
-/// bits hold a block: `machines::remote_link`).
-pub const LINK_BLOCK: usize = 16;
+pub use crate::machines::remote_link::BLOCK;
 
 /// The carriages at power-up (the homing stops), m.
 pub const HOME_M: [f64; 3] = [0.07; 3];

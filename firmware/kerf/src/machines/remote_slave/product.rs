@@ -14,8 +14,7 @@ pub const CONFIG: RemoteSlaveConfig = RemoteSlaveConfig::KEOPS;
 /// The control period, s (10 kHz).
 pub const PERIOD_S: f64 = CONFIG.slave.joints.period_s;
 
-/// Link samples per SDCT block of the command and report streams.
-pub const BLOCK: usize = 16;
+pub use crate::machines::remote_link::BLOCK;
 
 /// Commands the slave's playout holds: 256 ms of 1 kHz samples, past any delay the
 /// remote scenarios use.
