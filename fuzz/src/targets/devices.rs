@@ -6,11 +6,11 @@
 use crate::input::{Input, Seed};
 use hal_mock::hexapod::{HexapodLimits, SimHexapod, REFERENCE_TIME_S};
 use hal_mock::spindle::SimSpindle;
+use kerf::codec::gcs::{AxisSet, Command};
+use kerf::hal::{LinkError, Transact};
 use kerf::machines::grinding::devices::{
     DeviceDemand, DeviceFault, DeviceLink, DeviceLinkConfig, DeviceLinkState, HexapodFault,
 };
-use kerf::codec::gcs::{AxisSet, Command};
-use kerf::hal::{LinkError, Transact};
 use std::cell::RefCell;
 
 /// A device whose replies come from the fuzz input: per exchange one status byte

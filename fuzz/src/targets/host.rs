@@ -4,12 +4,12 @@
 
 use crate::input::{same_bits, Input, Seed};
 use image::{GrayImage, ImageFormat, ImageReader, Limits, Luma};
-use kerf::machines::delta_slave::{CONTOUR_HARMONICS, OPEN_PATH_POINTS};
 use kerf::app::host_link::{describe, LinkMachine, SettingPath};
 use kerf::codec::link::{
     encode, ChannelValues, Event, MachineMessage, MachineStatus, ModeCode, Reply, TelemetrySample,
     MAX_CHANNELS, MAX_FRAME, VERSION,
 };
+use kerf::machines::delta_slave::{CONTOUR_HARMONICS, OPEN_PATH_POINTS};
 use kerf_host::description::ChannelInfo;
 use kerf_host::job::Job;
 use kerf_host::link::{Heard, MachineLink};

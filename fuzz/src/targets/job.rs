@@ -4,13 +4,13 @@
 
 use crate::input::same_bits;
 use crate::targets::link::octagon_job;
-use kerf::machines::arrow::job::ArrowJobConfig;
-use kerf::machines::arrow::product::{Job as ArrowJob, PROGRAM_POINTS};
 use kerf::codec::job::{
     write_efd, write_gcode, write_points, write_recording, JobFile, HEADER_BYTES,
 };
 use kerf::codec::link::crc32;
 use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry};
+use kerf::machines::arrow::job::ArrowJobConfig;
+use kerf::machines::arrow::product::{Job as ArrowJob, PROGRAM_POINTS};
 use kerf::trajectory::gcode::GcodePoint;
 use kerf_host::job::Job as HostJob;
 

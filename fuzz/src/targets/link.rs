@@ -9,9 +9,6 @@
 
 use crate::input::{Input, Seed};
 use heapless::spsc::Queue;
-use kerf::machines::delta_slave::link::SlaveSettings;
-use kerf::machines::delta_slave::product::{contour_defaults, LINK_JOB_BYTES};
-use kerf::machines::delta_slave::{DeltaFault, DeltaSlave, DeltaSlaveConfig};
 use kerf::app::host_link::{HostLink, HostLinkConfig, LinkMachine};
 use kerf::app::supervisor::{Command, Mode, Report};
 use kerf::codec::job::write_efd;
@@ -19,6 +16,9 @@ use kerf::codec::link::{
     crc32, decode, encode, FrameReader, HostFrame, JobKind, MachineMessage, Reply, Request,
     MAX_CHUNK, MAX_FRAME, VERSION,
 };
+use kerf::machines::delta_slave::link::SlaveSettings;
+use kerf::machines::delta_slave::product::{contour_defaults, LINK_JOB_BYTES};
+use kerf::machines::delta_slave::{DeltaFault, DeltaSlave, DeltaSlaveConfig};
 use kerf_sim::contour::octagon_efd;
 
 /// Encodes `$message`, decodes it as `$type`, encodes it again: the two frames are
