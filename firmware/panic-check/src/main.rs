@@ -58,6 +58,7 @@ use kerf::machines::remote_link::SlaveReport;
 use kerf::machines::remote_master::{
     FixtureJob, RemoteMaster, RemoteMasterConfig, RemoteMasterInputs,
 };
+use kerf::machines::remote_slave::session::{SessionJob, SessionSlave};
 use kerf::machines::remote_slave::{FollowJob, RemoteSlave, RemoteSlaveConfig, RemoteSlaveInputs};
 use kerf::sensing::encoder::EncoderConfig;
 use kerf::sensing::force::Eccentricity;
@@ -91,6 +92,7 @@ fn main() -> ! {
             12 => remote_master(),
             13 => remote_slave(),
             14 => grinding_cell(),
+            15 => session_slave(),
             _ => stream(),
         }
     }
@@ -258,6 +260,24 @@ fn remote_slave() {
         machine,
         inputs,
         opaque(FollowJob::default()),
+        [axis, axis, axis],
+    );
+}
+
+/// The remote slave playing a recorded session (the host link's remote slave): its
+/// session's frames fed to its own end of the link each period.
+fn session_slave() {
+    let config = opaque(RemoteSlaveConfig::KEOPS);
+    let (Ok(machine), Ok(axis)) = (
+        SessionSlave::<f32>::new(&config),
+        HallAxis::<f32>::new(&opaque(HallConfig::LM1247_16BIT)),
+    ) else {
+        return;
+    };
+    periods(
+        machine,
+        opaque([[0u16; 3]; 3]),
+        opaque(SessionJob::default()),
         [axis, axis, axis],
     );
 }

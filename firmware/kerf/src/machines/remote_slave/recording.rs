@@ -72,12 +72,18 @@ pub struct RecordingHeader {
     pub measure_from: u32,
 }
 
+/// The `N` bytes at `at`, if the slice holds them (an offset near `usize::MAX` is
+/// past the end, not a wrap: these run in the control period).
+fn bytes_at<const N: usize>(bytes: &[u8], at: usize) -> Option<[u8; N]> {
+    bytes.get(at..at.checked_add(N)?)?.try_into().ok()
+}
+
 fn u16_at(bytes: &[u8], at: usize) -> Option<u16> {
-    Some(u16::from_le_bytes(bytes.get(at..at + 2)?.try_into().ok()?))
+    bytes_at(bytes, at).map(u16::from_le_bytes)
 }
 
 fn u32_at(bytes: &[u8], at: usize) -> Option<u32> {
-    Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?))
+    bytes_at(bytes, at).map(u32::from_le_bytes)
 }
 
 fn f32_at(bytes: &[u8], at: usize) -> Option<f32> {
@@ -87,15 +93,15 @@ fn f32_at(bytes: &[u8], at: usize) -> Option<f32> {
 fn vector_at(bytes: &[u8], at: usize) -> Option<[f32; 3]> {
     Some([
         f32_at(bytes, at)?,
-        f32_at(bytes, at + 4)?,
-        f32_at(bytes, at + 8)?,
+        f32_at(bytes, at.checked_add(4)?)?,
+        f32_at(bytes, at.checked_add(8)?)?,
     ])
 }
 
 /// The frame at byte `at` of a frame section: (arrival, bytes, next offset).
 pub fn frame_at(frames: &[u8], at: usize) -> Option<(u32, &[u8], usize)> {
     let arrival = u32_at(frames, at)?;
-    let len = usize::from(u16_at(frames, at + 4)?);
+    let len = usize::from(u16_at(frames, at.checked_add(4)?)?);
     let start = at.checked_add(FRAME_PREFIX_LEN)?;
     let end = start.checked_add(len)?;
     let frame = frames.get(start..end)?;
@@ -335,5 +341,28 @@ impl FrameLink for ReplayLink<'_> {
 
     fn receive(&mut self, buf: &mut [u8]) -> Option<usize> {
         self.cursor.next(self.frames, self.now, buf)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An offset at the end of the address range is past the end of any section, never
+    /// a wrap (a panic with overflow checks, a wrong frame without): every reader of
+    /// the frame section says `None` there, as the control period relies on.
+    #[test]
+    fn offsets_near_the_top_are_past_the_end() {
+        let frames = [0u8; 32];
+        for at in [usize::MAX, usize::MAX - 1, usize::MAX - 3, usize::MAX - 5] {
+            assert_eq!(frame_at(&frames, at), None, "{at}");
+            assert_eq!(vector_at(&frames, at), None, "{at}");
+        }
+        // Inside the section the same readers read: a frame of 2 bytes arriving at 7.
+        let mut frames = [0u8; FRAME_PREFIX_LEN + 2];
+        frames[..4].copy_from_slice(&7u32.to_le_bytes());
+        frames[4..6].copy_from_slice(&2u16.to_le_bytes());
+        let (arrival, frame, next) = frame_at(&frames, 0).unwrap();
+        assert_eq!((arrival, frame.len(), next), (7, 2, FRAME_PREFIX_LEN + 2));
     }
 }
