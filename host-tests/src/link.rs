@@ -6,6 +6,7 @@ use kerf::codec::job::write_efd;
 use kerf::codec::link::{
     decode, encode, Event, HostFrame, MachineMessage, Request, TelemetrySample, MAX_FRAME,
 };
+use kerf_host::session::{RunPlan, TimedChange};
 use kerf_sim::contour::octagon_efd;
 
 /// What the host heard, owned.
@@ -44,4 +45,21 @@ pub fn octagon_job_file() -> Vec<u8> {
     let mut buf = [0u8; 1024];
     let n = write_efd([c.x, c.y], efd.coefficients(), &mut buf).expect("504 bytes");
     buf[..n].to_vec()
+}
+
+/// A run's plan: telemetry at `telemetry_hz`, the host giving up after `quiet_s` of
+/// silence, and `changes` as (time in s, setting path, value).
+pub fn run_plan(telemetry_hz: f64, quiet_s: u64, changes: &[(f64, &str, &str)]) -> RunPlan {
+    RunPlan {
+        telemetry_hz,
+        changes: changes
+            .iter()
+            .map(|(at_s, path, value)| TimedChange {
+                at_s: *at_s,
+                path: (*path).into(),
+                value: (*value).into(),
+            })
+            .collect(),
+        quiet_s,
+    }
 }

@@ -5,10 +5,11 @@
 //! telemetry, changes a gain mid-run, and hears the end; a second run lowers the
 //! force limit until a joint falls behind, heard as a fault with the machine's words.
 
+use host_tests::link::run_plan;
 use kerf::codec::job::write_gcode;
 use kerf::codec::link::JobKind;
 use kerf_host::link::{LinkError, MachineLink};
-use kerf_host::session::{Progress, RunPlan, Session, SessionError, TimedChange};
+use kerf_host::session::{Progress, RunPlan, Session, SessionError};
 use kerf_host::telemetry::TelemetryLog;
 use kerf_sim::arrow::{ArrowScenario, PYRAMID_GCODE};
 use kerf_sim::linked_arrow::with_linked_arrow;
@@ -101,18 +102,7 @@ fn rig() -> Rig {
 }
 
 fn plan(changes: &[(f64, &str, &str)]) -> RunPlan {
-    RunPlan {
-        telemetry_hz: 100.0,
-        changes: changes
-            .iter()
-            .map(|(at_s, path, value)| TimedChange {
-                at_s: *at_s,
-                path: (*path).into(),
-                value: (*value).into(),
-            })
-            .collect(),
-        quiet_s: 30,
-    }
+    run_plan(100.0, 30, changes)
 }
 
 #[test]

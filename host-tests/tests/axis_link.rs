@@ -7,10 +7,11 @@
 //! is heard as a fault in the machine's words.
 
 use hal_mock::hall_sensor::ChannelFault;
+use host_tests::link::run_plan;
 use kerf::codec::job::write_gcode;
 use kerf::codec::link::{JobKind, ModeCode, Request};
 use kerf_host::link::{Heard, LinkError, MachineLink};
-use kerf_host::session::{Progress, RunPlan, Session, SessionError, TimedChange};
+use kerf_host::session::{Progress, RunPlan, Session, SessionError};
 use kerf_host::telemetry::TelemetryLog;
 use kerf_sim::linked_axis::{with_linked_axis, AXIS_MOVES_GCODE};
 use kerf_sim::scenario::Scenario;
@@ -116,18 +117,7 @@ fn rig(scenario: Scenario) -> Rig {
 }
 
 fn plan(changes: &[(f64, &str, &str)]) -> RunPlan {
-    RunPlan {
-        telemetry_hz: 200.0,
-        changes: changes
-            .iter()
-            .map(|(at_s, path, value)| TimedChange {
-                at_s: *at_s,
-                path: (*path).into(),
-                value: (*value).into(),
-            })
-            .collect(),
-        quiet_s: 30,
-    }
+    run_plan(200.0, 30, changes)
 }
 
 /// The moves run with telemetry; `changes` made on the way. Returns the log and the

@@ -6,10 +6,11 @@
 //! then a device broken mid-pass (a command the hexapod's controller refuses, a
 //! converter that stops answering) is heard as a fault in the cell's words.
 
+use host_tests::link::run_plan;
 use kerf::codec::job::write_gcode;
 use kerf::codec::link::JobKind;
 use kerf_host::link::{LinkError, MachineLink};
-use kerf_host::session::{Progress, RunPlan, Session, SessionError, TimedChange};
+use kerf_host::session::{Progress, RunPlan, Session, SessionError};
 use kerf_host::telemetry::TelemetryLog;
 use kerf_sim::linked_grinding::{with_linked_grinding, PASS_GCODE};
 use std::io::{Read, Write};
@@ -145,18 +146,7 @@ fn rig() -> Rig {
 }
 
 fn plan(changes: &[(f64, &str, &str)]) -> RunPlan {
-    RunPlan {
-        telemetry_hz: 100.0,
-        changes: changes
-            .iter()
-            .map(|(at_s, path, value)| TimedChange {
-                at_s: *at_s,
-                path: (*path).into(),
-                value: (*value).into(),
-            })
-            .collect(),
-        quiet_s: 30,
-    }
+    run_plan(100.0, 30, changes)
 }
 
 /// The pass (0.5 mm at 0.1 mm/s: 5 s, the first 2 s of it the piezo's approach) runs

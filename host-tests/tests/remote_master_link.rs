@@ -8,11 +8,12 @@
 //! stop lets go of the hand and puts the beam off; an encoder glitch mid-session is
 //! heard as a fault in the master's words.
 
+use host_tests::link::run_plan;
 use kerf::codec::job::{write_gcode, write_points};
 use kerf::codec::link::{JobKind, ModeCode};
 use kerf::machines::remote_master::product::sample_contour;
 use kerf_host::link::{Heard, LinkError, MachineLink};
-use kerf_host::session::{Progress, RunPlan, Session, SessionError, TimedChange};
+use kerf_host::session::{Progress, RunPlan, Session, SessionError};
 use kerf_host::telemetry::TelemetryLog;
 use kerf_sim::linked_master::{with_linked_master, SAMPLE_JOB};
 use kerf_sim::remote::REPLAY_BOUNDS_M;
@@ -170,18 +171,7 @@ fn rig() -> Rig {
 }
 
 fn plan(changes: &[(f64, &str, &str)]) -> RunPlan {
-    RunPlan {
-        telemetry_hz: 100.0,
-        changes: changes
-            .iter()
-            .map(|(at_s, path, value)| TimedChange {
-                at_s: *at_s,
-                path: (*path).into(),
-                value: (*value).into(),
-            })
-            .collect(),
-        quiet_s: 30,
-    }
+    run_plan(100.0, 30, changes)
 }
 
 /// (max, RMS) of `values`.

@@ -8,11 +8,12 @@
 //! session, reads the status, and hears a link loss (timeouts set below the command
 //! interval) in the slave's words.
 
+use host_tests::link::run_plan;
 use kerf::codec::job::write_recording;
 use kerf::codec::link::{JobKind, ModeCode};
 use kerf::machines::remote_slave::recording::Recording;
 use kerf_host::link::{LinkError, MachineLink};
-use kerf_host::session::{Progress, RunPlan, Session, SessionError, TimedChange};
+use kerf_host::session::{Progress, RunPlan, Session, SessionError};
 use kerf_host::telemetry::TelemetryLog;
 use kerf_sim::linked_remote_slave::{session, with_linked_remote_slave, RECORDING};
 use std::io::{Read, Write};
@@ -138,18 +139,7 @@ fn rig() -> Rig {
 }
 
 fn plan(changes: &[(f64, &str, &str)]) -> RunPlan {
-    RunPlan {
-        telemetry_hz: 100.0,
-        changes: changes
-            .iter()
-            .map(|(at_s, path, value)| TimedChange {
-                at_s: *at_s,
-                path: (*path).into(),
-                value: (*value).into(),
-            })
-            .collect(),
-        quiet_s: 60,
-    }
+    run_plan(100.0, 60, changes)
 }
 
 /// (time, value) of a channel over the run.
