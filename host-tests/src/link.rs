@@ -8,6 +8,9 @@ use kerf::codec::link::{
 };
 use kerf_host::session::{RunPlan, TimedChange};
 use kerf_sim::contour::octagon_efd;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
 
 /// What the host heard, owned.
 #[derive(Clone, Debug, PartialEq)]
@@ -61,5 +64,31 @@ pub fn run_plan(telemetry_hz: f64, quiet_s: u64, changes: &[(f64, &str, &str)]) 
             })
             .collect(),
         quiet_s,
+    }
+}
+
+/// A simulated machine on its own thread, told to stop by `stop` and joined when this
+/// is dropped (so that a test that fails leaves no machine running).
+pub struct MachineThread {
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl MachineThread {
+    /// The machine `thread`, which returns once `stop` is set.
+    pub fn new(stop: Arc<AtomicBool>, thread: JoinHandle<()>) -> Self {
+        Self {
+            stop,
+            thread: Some(thread),
+        }
+    }
+}
+
+impl Drop for MachineThread {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
     }
 }

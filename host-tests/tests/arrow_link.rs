@@ -5,7 +5,7 @@
 //! telemetry, changes a gain mid-run, and hears the end; a second run lowers the
 //! force limit until a joint falls behind, heard as a fault with the machine's words.
 
-use host_tests::link::run_plan;
+use host_tests::link::{run_plan, MachineThread};
 use kerf::codec::job::write_gcode;
 use kerf::codec::link::JobKind;
 use kerf_host::link::{LinkError, MachineLink};
@@ -70,18 +70,9 @@ fn pyramid_job() -> Vec<u8> {
 }
 
 struct Rig {
+    /// First, so that the machine stops before the host's end closes.
+    _machine: MachineThread,
     session: Session,
-    stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<()>>,
-}
-
-impl Drop for Rig {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
 }
 
 fn rig() -> Rig {
@@ -96,8 +87,7 @@ fn rig() -> Rig {
     .expect("the simulated ARROW answers");
     Rig {
         session: Session::over(link),
-        stop,
-        thread: Some(thread),
+        _machine: MachineThread::new(stop, thread),
     }
 }
 

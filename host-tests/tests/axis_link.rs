@@ -7,7 +7,7 @@
 //! is heard as a fault in the machine's words.
 
 use hal_mock::hall_sensor::ChannelFault;
-use host_tests::link::run_plan;
+use host_tests::link::{run_plan, MachineThread};
 use kerf::codec::job::write_gcode;
 use kerf::codec::link::{JobKind, ModeCode, Request};
 use kerf_host::link::{Heard, LinkError, MachineLink};
@@ -85,18 +85,9 @@ fn the_committed_moves_job_is_its_gcode() {
 }
 
 struct Rig {
+    /// First, so that the machine stops before the host's end closes.
+    _machine: MachineThread,
     session: Session,
-    stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<()>>,
-}
-
-impl Drop for Rig {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
 }
 
 fn rig(scenario: Scenario) -> Rig {
@@ -111,8 +102,7 @@ fn rig(scenario: Scenario) -> Rig {
     .expect("the simulated axis answers");
     Rig {
         session: Session::over(link),
-        stop,
-        thread: Some(thread),
+        _machine: MachineThread::new(stop, thread),
     }
 }
 

@@ -6,7 +6,7 @@
 //! then a device broken mid-pass (a command the hexapod's controller refuses, a
 //! converter that stops answering) is heard as a fault in the cell's words.
 
-use host_tests::link::run_plan;
+use host_tests::link::{run_plan, MachineThread};
 use kerf::codec::job::write_gcode;
 use kerf::codec::link::JobKind;
 use kerf_host::link::{LinkError, MachineLink};
@@ -111,19 +111,10 @@ fn pass_job() -> Vec<u8> {
 }
 
 struct Rig {
+    /// First, so that the machine stops before the host's end closes.
+    _machine: MachineThread,
     session: Session,
     breaks: Arc<AtomicU8>,
-    stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<()>>,
-}
-
-impl Drop for Rig {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
 }
 
 fn rig() -> Rig {
@@ -140,8 +131,7 @@ fn rig() -> Rig {
     Rig {
         session: Session::over(link),
         breaks,
-        stop,
-        thread: Some(thread),
+        _machine: MachineThread::new(stop, thread),
     }
 }
 

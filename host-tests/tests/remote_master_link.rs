@@ -8,7 +8,7 @@
 //! stop lets go of the hand and puts the beam off; an encoder glitch mid-session is
 //! heard as a fault in the master's words.
 
-use host_tests::link::run_plan;
+use host_tests::link::{run_plan, MachineThread};
 use kerf::codec::job::{write_gcode, write_points};
 use kerf::codec::link::{JobKind, ModeCode};
 use kerf::machines::remote_master::product::sample_contour;
@@ -128,20 +128,11 @@ fn the_committed_fixture_job_is_the_product_contour() {
 }
 
 struct Rig {
+    /// First, so that the machine stops before the host's end closes.
+    _machine: MachineThread,
     session: Session,
     glitch: Arc<AtomicBool>,
     truth: Truth,
-    stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<()>>,
-}
-
-impl Drop for Rig {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
 }
 
 fn rig() -> Rig {
@@ -165,8 +156,7 @@ fn rig() -> Rig {
         session: Session::over(link),
         glitch,
         truth,
-        stop,
-        thread: Some(thread),
+        _machine: MachineThread::new(stop, thread),
     }
 }
 

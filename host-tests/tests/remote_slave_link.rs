@@ -8,7 +8,7 @@
 //! session, reads the status, and hears a link loss (timeouts set below the command
 //! interval) in the slave's words.
 
-use host_tests::link::run_plan;
+use host_tests::link::{run_plan, MachineThread};
 use kerf::codec::job::write_recording;
 use kerf::codec::link::{JobKind, ModeCode};
 use kerf::machines::remote_slave::recording::Recording;
@@ -107,18 +107,9 @@ fn machine(socket: UnixStream, stop: Arc<AtomicBool>) -> JoinHandle<()> {
 }
 
 struct Rig {
+    /// First, so that the machine stops before the host's end closes.
+    _machine: MachineThread,
     session: Session,
-    stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<()>>,
-}
-
-impl Drop for Rig {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
 }
 
 fn rig() -> Rig {
@@ -133,8 +124,7 @@ fn rig() -> Rig {
     .expect("the simulated slave answers");
     Rig {
         session: Session::over(link),
-        stop,
-        thread: Some(thread),
+        _machine: MachineThread::new(stop, thread),
     }
 }
 
