@@ -9,7 +9,7 @@ use kerf::hal::Monotonic;
 
 /// The control step's timing, readable by the link task and by a debugger (the
 /// symbol `KERF_STATUS`: `probe-rs read b32 <address> 6`, the address from
-/// `nm target/thumbv7em-none-eabihf/release/board | grep KERF_STATUS`).
+/// `nm` on the image, symbol `KERF_STATUS`).
 #[repr(C)]
 pub struct Status {
     /// Control periods run.
@@ -24,9 +24,11 @@ pub struct Status {
     pub worst_finish_cycles: AtomicU32,
     /// Periods the kerf period clock found late (more than half a period).
     pub late_periods: AtomicU32,
-    /// The board fault that holds the outputs off without a reset ([`crate::fault::Cause`]
+    /// The board fault that holds the outputs off without a reset ([`crate::fault_record::Cause`]
     /// as a number; 0 = none).
     pub held_fault: AtomicU32,
+    /// The control period, core cycles (set once at start-up).
+    pub period_cycles: AtomicU32,
 }
 
 /// See [`Status`].
@@ -38,6 +40,7 @@ pub static KERF_STATUS: Status = Status {
     worst_finish_cycles: AtomicU32::new(0),
     late_periods: AtomicU32::new(0),
     held_fault: AtomicU32::new(0),
+    period_cycles: AtomicU32::new(0),
 };
 
 /// Starts the cycle counter (DEMCR.TRCENA, then DWT_CTRL.CYCCNTENA).
@@ -78,7 +81,7 @@ impl Default for CycleClock {
 
 impl Monotonic for CycleClock {
     fn tick_hz(&self) -> u64 {
-        u64::from(crate::board::SYSCLK_HZ)
+        u64::from(super::clocks::SYSCLK_HZ)
     }
 
     #[inline]

@@ -11,7 +11,7 @@
 //! reach the library's (see the Hall rows of BENCHMARKS.md for the figures). The
 //! start-up measurement logs both on the board so that the claim can be checked.
 
-use crate::timing;
+use super::timing;
 use embassy_stm32::pac;
 use kerf::sensing::hall::atan2_turns;
 use pac::cordic::vals::{Func, Num, Precision, Scale, Size};

@@ -1,4 +1,5 @@
-//! The board's fault path: a HardFault, a panic or a missed control deadline puts the
+//! The board's fault path: a HardFault (bound by the image,
+//! [`crate::bind_board_handlers!`]), a panic or a missed control deadline puts the
 //! outputs in their safe state (in hardware through TIM1's break, then in software),
 //! writes the reason into a RAM word that survives the reset, and resets; the
 //! independent watchdog resets a board whose control interrupt or link task stopped.
@@ -10,15 +11,57 @@
 //! initialised at start-up, so a software or watchdog reset leaves it as it was; a
 //! power cycle leaves garbage, which the magic word and the check word reject.
 
-use crate::outputs;
+use super::timer;
+use crate::fault_record::{reset_cause, FaultRecord, ResetFlags};
+pub use crate::fault_record::{Cause, ResetCause};
 use core::mem::MaybeUninit;
-use core::sync::atomic::{AtomicBool, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use embassy_stm32::pac;
-use kerf_board_support::fault_record::{reset_cause, FaultRecord, ResetFlags};
-pub use kerf_board_support::fault_record::{Cause, ResetCause};
+
+/// IWDG: LSI 32 kHz / 4 = 8 kHz, reload 80: the image resets 10 ms after the control
+/// interrupt or the link task stopped (RM0440, IWDG "Window option" and the timeout table).
+const IWDG_PRESCALER: u8 = 0;
+/// See [`IWDG_PRESCALER`].
+const IWDG_RELOAD: u16 = 80;
 
 #[link_section = ".uninit.kerf_fault_record"]
 static mut RECORD: MaybeUninit<FaultRecord> = MaybeUninit::uninit();
+
+/// Register writes that put the machine's own outputs safe (zero on its DACs), at
+/// most [`SAFE_WRITES`]: a list of (address, value) the image registers once at
+/// start-up ([`set_safe_writes`]) rather than a function to call, so that the fault
+/// path stays direct code a static stack bound can follow, from any context.
+static SAFE_ADDRESSES: [AtomicU32; SAFE_WRITES] = [const { AtomicU32::new(0) }; SAFE_WRITES];
+static SAFE_VALUES: [AtomicU32; SAFE_WRITES] = [const { AtomicU32::new(0) }; SAFE_WRITES];
+
+/// Register writes an image can register for its safe outputs.
+pub const SAFE_WRITES: usize = 4;
+
+/// Registers the writes (address, word) that put the machine's outputs safe after
+/// TIM1's hardware break; the first [`SAFE_WRITES`] are kept. Call before the
+/// outputs start, with addresses of peripheral registers (`reg.as_ptr()`).
+pub fn set_safe_writes(writes: &[(*mut u32, u32)]) {
+    for ((address, value), (a, v)) in SAFE_ADDRESSES.iter().zip(&SAFE_VALUES).zip(writes) {
+        value.store(*v, Ordering::Relaxed);
+        address.store(*a as u32, Ordering::Release);
+    }
+}
+
+/// All outputs safe: TIM1's break in hardware (its PWM and enable lines low within a
+/// timer clock), then the machine's registered writes in software.
+#[inline]
+pub fn outputs_safe() {
+    timer::force_safe();
+    for (address, value) in SAFE_ADDRESSES.iter().zip(&SAFE_VALUES) {
+        let address = address.load(Ordering::Acquire);
+        if address != 0 {
+            // SAFETY: the only addresses stored are peripheral registers an image
+            // registered for this purpose ([`set_safe_writes`]); a word write to
+            // them has no effect but the output's.
+            unsafe { (address as *mut u32).write_volatile(value.load(Ordering::Relaxed)) };
+        }
+    }
+}
 
 /// Reads and clears the fault record and the reset flags (RCC_CSR, RM0440 "Control/
 /// status register"): call once at start-up.
@@ -50,7 +93,7 @@ pub fn take_reset_cause() -> ResetCause {
 /// The fault path: outputs safe (hardware break, then software), the cause recorded,
 /// a reset. Never returns; callable from any context, the HardFault handler included.
 pub fn fail(cause: Cause, detail: u32) -> ! {
-    outputs::force_safe();
+    outputs_safe();
     cortex_m::interrupt::disable();
     let record = FaultRecord::new(cause, detail);
     // SAFETY: interrupts are off and this path never returns: nothing else writes the
@@ -73,8 +116,8 @@ pub fn start_watchdog() {
     iwdg.kr().write(|w| w.set_key(pac::iwdg::vals::Key::START));
     iwdg.kr().write(|w| w.set_key(pac::iwdg::vals::Key::ENABLE));
     iwdg.pr()
-        .write(|w| w.set_pr(pac::iwdg::vals::Pr::from_bits(crate::board::IWDG_PRESCALER)));
-    iwdg.rlr().write(|w| w.set_rl(crate::board::IWDG_RELOAD));
+        .write(|w| w.set_pr(pac::iwdg::vals::Pr::from_bits(IWDG_PRESCALER)));
+    iwdg.rlr().write(|w| w.set_rl(IWDG_RELOAD));
     // Bounded: the registers update within a few LSI periods (RM0440 IWDG_SR).
     let _ = (0..100_000).any(|_| iwdg.sr().read().0 & 0x7 == 0);
     refresh_watchdog();
@@ -88,11 +131,6 @@ pub fn refresh_watchdog() {
         .write(|w| w.set_key(pac::iwdg::vals::Key::RESET));
 }
 
-#[cortex_m_rt::exception]
-unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
-    fail(Cause::HardFault, frame.pc() & 0xFFFF)
-}
-
 /// Set by the first panic: a panic inside the panic's own log line (defmt refuses to
 /// be entered twice) goes straight to the reset instead of recursing.
 static PANICKING: AtomicBool = AtomicBool::new(false);
@@ -100,7 +138,7 @@ static PANICKING: AtomicBool = AtomicBool::new(false);
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     // Outputs first, before anything that could fail again.
-    outputs::force_safe();
+    outputs_safe();
     let line = info.location().map_or(0, |l| l.line());
     if !PANICKING.swap(true, Ordering::Relaxed) {
         defmt::error!("panic at line {}", line);

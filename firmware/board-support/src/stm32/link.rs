@@ -1,61 +1,93 @@
 //! The slower context: the host link on LPUART1 (received by DMA into a ring, sent by
-//! DMA), driven by `kerf::app::host_link::HostLink` exactly as the QEMU link image
-//! drives it, plus what only a board has: the calibration run from the user button,
-//! the cause of the last reset told to the host, the status log and the watchdog's
-//! sign of life.
+//! DMA), driven by `kerf::app::host_link::HostLink` exactly as the QEMU link images
+//! drive it, for any machine, plus what only a board has: the calibration run from
+//! the user button (for a machine with a sweep, [`SweepFit`]), the cause of the last
+//! reset told to the host, the status log and the watchdog's sign of life.
 //!
 //! The task wakes on received bytes and on the control interrupt's tick (every
 //! millisecond); it never blocks the control interrupt, which preempts it.
 
-use crate::board;
-use crate::control::{BoardMachine, FIT_RUNNING, LINK_ALIVE, LINK_TICK};
-use crate::fault::{Cause, ResetCause};
-use crate::timing::{CycleClock, KERF_STATUS};
+use super::clocks::SYSCLK_HZ;
+use super::fault::{Cause, ResetCause};
+use super::period::{FIT_RUNNING, LINK_ALIVE, LINK_TICK};
+use super::pins::PinId;
+use super::timing::{CycleClock, KERF_STATUS};
 use core::sync::atomic::Ordering;
 use embassy_futures::select::{select, Either};
 use embassy_stm32::mode::Async;
-use embassy_stm32::pac;
 use embassy_stm32::usart::{RingBufferedUartRx, UartTx};
 use heapless::spsc::{Consumer, Producer};
-use kerf::app::calibrate::{CalibrationFit, HallMachine};
-use kerf::app::host_link::HostLink;
-use kerf::app::supervisor::{Command, Mode, Report};
+use kerf::app::host_link::{HostLink, LinkMachine};
+use kerf::app::supervisor::{Command, Machine, Mode, NoSweep, Report};
 use kerf::codec::link::BOARD_FAULT;
 use kerf::hal::Monotonic;
-use kerf::machines::delta_slave::product::LINK_JOB_BYTES;
-use kerf::sensing::hall::HallConfig;
 
-/// The board's link.
-pub type BoardLink = HostLink<BoardMachine, LINK_JOB_BYTES>;
+/// LPUART1's baud rate: the ST-LINK V3 virtual COM port carries it; a telemetry
+/// sample every millisecond (about 70 bytes) needs 700 kBd.
+pub const LINK_BAUD: u32 = 921_600;
+
+/// The host link's received bytes: 1024 last 11 ms at 921 600 Bd, ten link ticks.
+pub const RX_RING_BYTES: usize = 1024;
+
+/// A machine's calibration sweep as the board runs it from the button: the samples
+/// the sweep streams, then the fit, in the link task. A machine without a sweep uses
+/// [`NoFit`].
+pub trait SweepFit<M: Machine> {
+    /// Whether the machine has a sweep (the button starts one).
+    const SWEEPS: bool;
+    /// Forgets the samples of an earlier sweep.
+    fn restart(&mut self);
+    /// Keeps one sample; false when it is refused (logged).
+    fn push(&mut self, sample: &M::SweepSample) -> bool;
+    /// Fits the samples into a calibration (tens of kilobytes of stack, preempted by
+    /// every control period); `None` when the fit failed (logged by the fit).
+    fn fit(&mut self) -> Option<M::Calibration>;
+}
+
+/// The sweep of a machine that has none.
+pub struct NoFit;
+
+impl<M: Machine<SweepSample = NoSweep>> SweepFit<M> for NoFit {
+    const SWEEPS: bool = false;
+    fn restart(&mut self) {}
+    fn push(&mut self, sample: &NoSweep) -> bool {
+        match *sample {}
+    }
+    fn fit(&mut self) -> Option<M::Calibration> {
+        None
+    }
+}
 
 /// Bytes queued for the UART per wake-up: a telemetry sample, a few replies and
 /// events (a frame is at most 262 bytes); 11 ms of the line at 921 600 Bd.
 const OUT_BYTES: usize = 1024;
 
-/// What the link task owns.
-pub struct LinkTask {
+/// What the link task owns, for machine `M` with an uploaded job of up to `J` bytes
+/// and its sweep fit `F`.
+pub struct LinkTask<M: LinkMachine + 'static, F: SweepFit<M> + 'static, const J: usize> {
     /// The host link.
-    pub link: BoardLink,
+    pub link: HostLink<M, J>,
     /// Commands to the supervisor.
-    pub commands: Producer<'static, Command<BoardMachine>>,
+    pub commands: Producer<'static, Command<M>>,
     /// Reports from it.
-    pub reports: Consumer<'static, Report<BoardMachine>>,
+    pub reports: Consumer<'static, Report<M>>,
     /// Received bytes.
     pub rx: RingBufferedUartRx<'static>,
     /// The transmitter.
     pub tx: UartTx<'static, Async>,
-    /// The Hall sensors as configured (the calibration fit starts from them), in
-    /// flash: five kilobytes the RAM does not hold.
-    pub hall: &'static [HallConfig; 3],
-    /// The calibration run's samples (9 KB: kept in a static).
-    pub fit: &'static mut CalibrationFit<3>,
+    /// The calibration sweep's samples and fit (kept in a static).
+    pub fit: &'static mut F,
     /// Why the board last reset.
     pub reset: ResetCause,
+    /// The calibrate button (high while pressed).
+    pub button: PinId,
+    /// The control rate, Hz (for the fit's duration in the log).
+    pub control_hz: u32,
 }
 
 /// Where the task is.
-struct State {
-    mode: Mode<kerf::machines::delta_slave::DeltaFault>,
+struct State<F> {
+    mode: Mode<F>,
     /// The held board fault went to the link.
     held_told: bool,
     calibrating: bool,
@@ -70,12 +102,7 @@ fn queue(out: &mut heapless::Vec<u8, OUT_BYTES>, frame: &[u8]) -> bool {
     out.extend_from_slice(frame).is_ok()
 }
 
-/// The calibration button (PC13, NUCLEO B1: high while pressed).
-fn button_pressed() -> bool {
-    pac::GPIOC.idr().read().idr(13) == pac::gpio::vals::Idr::HIGH
-}
-
-impl LinkTask {
+impl<M: LinkMachine + 'static, F: SweepFit<M> + 'static, const J: usize> LinkTask<M, F, J> {
     /// Runs the link for ever.
     pub async fn run(&mut self) -> ! {
         let mut clock = CycleClock::new();
@@ -97,7 +124,7 @@ impl LinkTask {
                 .board_fault(code, detail, &mut |frame| queue(&mut out, frame));
         }
         loop {
-            let now_s = clock.now() as f64 / f64::from(board::SYSCLK_HZ);
+            let now_s = clock.now() as f64 / f64::from(SYSCLK_HZ);
             LINK_ALIVE.fetch_add(1, Ordering::Relaxed);
             match select(self.rx.read(&mut chunk), LINK_TICK.wait()).await {
                 Either::First(Ok(n)) => {
@@ -141,12 +168,17 @@ impl LinkTask {
 
     /// The millisecond tick: reports, heartbeat, the button, the status log.
     #[inline(never)]
-    fn tick(&mut self, state: &mut State, now_s: f64, send: &mut dyn FnMut(&[u8]) -> bool) {
+    fn tick(
+        &mut self,
+        state: &mut State<M::Fault>,
+        now_s: f64,
+        send: &mut dyn FnMut(&[u8]) -> bool,
+    ) {
         while let Some(report) = self.reports.dequeue() {
             match &report {
                 Report::ModeChanged { mode, .. } => state.mode = *mode,
-                Report::CalibrationSample(sample) if self.fit.push(*sample).is_err() => {
-                    defmt::warn!("calibration: sample of axis {} refused", sample.axis);
+                Report::CalibrationSample(sample) if !self.fit.push(sample) => {
+                    defmt::warn!("calibration: sample refused");
                 }
                 Report::SweepDone => state.fit_due = true,
                 _ => {}
@@ -154,10 +186,10 @@ impl LinkTask {
             self.link.report(&report, &mut *send);
         }
         self.link.tick(now_s, &mut self.commands, &mut *send);
-        let pressed = button_pressed();
+        let pressed = self.button.read();
         let ready = matches!(state.mode, Mode::Idle | Mode::Ready);
-        if pressed && !state.button_was && ready && !state.calibrating {
-            *self.fit = CalibrationFit::default();
+        if F::SWEEPS && pressed && !state.button_was && ready && !state.calibrating {
+            self.fit.restart();
             if self.commands.enqueue(Command::Calibrate).is_ok() {
                 state.calibrating = true;
                 defmt::info!("calibration: sweep started");
@@ -170,59 +202,44 @@ impl LinkTask {
         }
     }
 
-    /// The sweep is done: fit the three carriages' sensors (in this task, tens of
-    /// kilobytes of stack, preempted by every control period) and install the fit.
+    /// The sweep is done: fit (in this task, preempted by every control period) and
+    /// install the fit.
     #[inline(never)]
-    fn finish_calibration(&mut self, state: &mut State) {
+    fn finish_calibration(&mut self, state: &mut State<M::Fault>) {
         state.calibrating = false;
         FIT_RUNNING.store(true, Ordering::Relaxed);
         // Timed in control periods, which go on above the fit (the cycle counter
         // would wrap on a fit longer than 25 s).
         let start = KERF_STATUS.periods.load(Ordering::Relaxed);
-        let fitted = BoardMachine::fit(self.hall, self.fit);
+        let fitted = self.fit.fit();
         let periods = KERF_STATUS
             .periods
             .load(Ordering::Relaxed)
             .wrapping_sub(start);
-        let fit_ms = periods / (board::CONTROL_HZ / 1000);
+        let fit_ms = periods / (self.control_hz / 1000).max(1);
         // A sign of life before the check resumes, which would otherwise find the
         // task silent since the fit began.
         LINK_ALIVE.fetch_add(1, Ordering::Relaxed);
         FIT_RUNNING.store(false, Ordering::Relaxed);
         defmt::info!("calibration: fit took {} ms", fit_ms);
-        match fitted {
-            Ok((decoders, fits)) => {
-                for (axis, fit) in fits.iter().enumerate() {
-                    defmt::info!(
-                        "calibration: axis {} offsets {} counts, residual {} counts RMS",
-                        axis,
-                        fit.calibration.offset_counts,
-                        fit.residual_rms_counts
-                    );
-                    if let Some(raised) = fit.fault_budget_raised {
-                        defmt::warn!(
-                            "calibration: axis {} fault budget {} um (configured {} um: more than its noise allows)",
-                            axis,
-                            raised.installed_m * 1e6,
-                            raised.requested_m * 1e6
-                        );
-                    }
-                }
-                if self
-                    .commands
-                    .enqueue(Command::FinishCalibration(decoders))
-                    .is_err()
-                {
-                    defmt::warn!("calibration: command queue full, fit dropped");
-                }
+        if let Some(calibration) = fitted {
+            if self
+                .commands
+                .enqueue(Command::FinishCalibration(calibration))
+                .is_err()
+            {
+                defmt::warn!("calibration: command queue full, fit dropped");
             }
-            Err(e) => defmt::error!("calibration failed: {}", defmt::Debug2Format(&e)),
         }
     }
 
     /// A board fault that holds the outputs off without a reset (the break input),
     /// once: to the host as a fault event, kept as the last fault for `Status`.
-    fn tell_held_fault(&mut self, state: &mut State, out: &mut heapless::Vec<u8, OUT_BYTES>) {
+    fn tell_held_fault(
+        &mut self,
+        state: &mut State<M::Fault>,
+        out: &mut heapless::Vec<u8, OUT_BYTES>,
+    ) {
         let held = KERF_STATUS.held_fault.load(Ordering::Relaxed);
         if held != 0 && !state.held_told {
             state.held_told = true;
@@ -234,7 +251,7 @@ impl LinkTask {
 }
 
 /// The status line, once a second.
-fn log_status(link: &BoardLink) {
+fn log_status<M: LinkMachine, const J: usize>(link: &HostLink<M, J>) {
     let s = &KERF_STATUS;
     let counters = link.counters();
     defmt::info!(
@@ -243,10 +260,10 @@ fn log_status(link: &BoardLink) {
         s.worst_step_cycles.load(Ordering::Relaxed),
         s.last_step_cycles.load(Ordering::Relaxed),
         s.worst_finish_cycles.load(Ordering::Relaxed),
-        board::PERIOD_CYCLES,
+        KERF_STATUS.period_cycles.load(Ordering::Relaxed),
         s.late_periods.load(Ordering::Relaxed),
         counters.bad_frames,
         counters.unsent,
-        crate::stack::used()
+        super::stack::used()
     );
 }

@@ -1,0 +1,56 @@
+//! The STM32G474 layer of the board images: what every machine's image does the
+//! same way, written once.
+//!
+//! | part | module | what it owns |
+//! |---|---|---|
+//! | clocks | [`clocks`] | 170 MHz from HSI16 through the PLL |
+//! | pins | [`pins`] | a typed pin (embassy's pin traits) to its port, number and alternate function |
+//! | sampling | [`adc`] | up to three ADCs converting on TIM1's trigger, copied by DMA1 |
+//! | outputs | [`timer`] | TIM1: the period's trigger, a PWM channel, the enable line, the break (the DACs are embassy's typed channels) |
+//! | control period | [`period`] | the supervisor step in the control interrupt, its deadline, the watchdog's refresh |
+//! | host link | [`link`] | LPUART1 with DMA, the link task, the calibration sweep from the button |
+//! | fault path | [`fault`] | outputs safe in hardware and software, the cause kept across a reset |
+//! | timing | [`timing`] | the cycle counter as the period clock, the step's statistics |
+//! | stack | [`stack`] | painting and the high-water mark |
+//!
+//! A machine's image adds its pin table (typed peripherals: a channel on the wrong
+//! ADC or a DAC pin on the wrong DAC does not compile), its implementation of
+//! `kerf::hal` on these parts, its start-up commands and its interrupt bindings
+//! (a library cannot bind an interrupt reliably: [`bind_board_handlers!`] writes
+//! the image's HardFault and link-tick handlers).
+
+pub mod adc;
+pub mod clocks;
+pub mod cordic;
+pub mod fault;
+pub mod link;
+pub mod period;
+pub mod pins;
+pub mod stack;
+pub mod timer;
+pub mod timing;
+
+/// Writes the handlers every board image binds: the HardFault exception (the fault
+/// path) and the link's tick interrupt ([`period::TICK_INTERRUPT`], woken by the
+/// control period). Call once at the top level of the image's `main.rs`.
+#[macro_export]
+macro_rules! bind_board_handlers {
+    () => {
+        mod board_handlers {
+            use embassy_stm32::pac::interrupt;
+
+            #[cortex_m_rt::exception]
+            unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+                $crate::stm32::fault::fail(
+                    $crate::fault_record::Cause::HardFault,
+                    frame.pc() & 0xFFFF,
+                )
+            }
+
+            #[interrupt]
+            fn FMAC() {
+                $crate::stm32::period::on_tick_interrupt();
+            }
+        }
+    };
+}

@@ -1,0 +1,260 @@
+//! The control period: the machine's supervisor step (`kerf::app::control_period`)
+//! in the highest-priority interrupt, through the image's implementation of the HAL
+//! traits, measured with the cycle counter and held to its deadline; then the
+//! watchdog's refresh, the link task's tick and the status LED.
+//!
+//! The image binds the interrupt that starts its period (DMA1 channel 1's
+//! transfer-complete when the period's samples come from the ADCs, TIM1's update
+//! when they come from a bus) and calls [`on_samples`] or [`on_update`] from it with
+//! its [`Handoff`] and a [`Watch`] of its own.
+
+use super::adc::{self, Arrival};
+use super::clocks::{CONTROL_PRIORITY, LINK_PRIORITY};
+use super::fault::{self, Cause};
+use super::pins::PinId;
+use super::timer;
+use super::timing::{self, KERF_STATUS};
+use crate::timer_period::TimerPeriod;
+use core::sync::atomic::{AtomicBool, AtomicPtr, AtomicU32, Ordering};
+use embassy_stm32::pac;
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::signal::Signal;
+use kerf::app::supervisor::{Machine, Mode, Supervisor};
+use kerf::app::PeriodClock;
+use kerf::hal::{Monotonic, SampleInputs, WriteOutputs};
+
+/// A board behind kerf's HAL traits for machine `M`, which also drives the enable
+/// line of the machine's power stage.
+pub trait BoardHal<M: Machine>:
+    SampleInputs<M::Inputs> + WriteOutputs<M::Outputs> + Monotonic
+{
+    /// Whether the power stage may be enabled this period (false after a fault or a
+    /// break); written with the outputs.
+    fn set_enabled(&mut self, enabled: bool);
+}
+
+/// What the control interrupt owns.
+pub struct Control<M: Machine + 'static, H> {
+    /// The machine under its supervisor.
+    pub supervisor: Supervisor<'static, M>,
+    /// Late periods, on the cycle counter.
+    pub clock: PeriodClock,
+    /// The board.
+    pub hal: H,
+    /// The period as TIM1 counts it.
+    pub period: TimerPeriod,
+    /// The status LED (blinks at 1 Hz while periods run) and the fault LED.
+    pub leds: Leds,
+}
+
+/// The status and fault LEDs.
+#[derive(Copy, Clone, Debug)]
+pub struct Leds {
+    /// Blinks at 1 Hz while the control period runs.
+    pub status: PinId,
+    /// Lit when the last reset was a fault, or the break holds the outputs.
+    pub fault: PinId,
+}
+
+/// The control state, handed from `main` to the interrupt once: `main` builds it in
+/// a static cell and stores its address here before the interrupt is unmasked, and
+/// never touches it again. One copy of the state, no critical section in the period.
+pub struct Handoff<T>(AtomicPtr<T>);
+
+impl<T> Handoff<T> {
+    /// Empty.
+    pub const fn new() -> Self {
+        Self(AtomicPtr::new(core::ptr::null_mut()))
+    }
+
+    /// Hands the control state to the interrupt (before [`enable`]).
+    pub fn hand_over(&self, control: &'static mut T) {
+        self.0.store(control, Ordering::Release);
+    }
+
+    /// The state, in the one interrupt that owns it.
+    ///
+    /// # Safety
+    ///
+    /// Only the control interrupt may call this, once per entry: `hand_over` stored
+    /// a `&'static mut` whose owner gave it up, and the interrupt does not nest in
+    /// itself, so the reference returned is then the only live one.
+    #[allow(clippy::mut_from_ref)]
+    unsafe fn get(&self) -> Option<&mut T> {
+        // SAFETY: see the function's contract.
+        unsafe { self.0.load(Ordering::Acquire).as_mut() }
+    }
+}
+
+impl<T> Default for Handoff<T> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Wakes the link task every [`LINK_TICK_MS`] millisecond.
+pub static LINK_TICK: Signal<CriticalSectionRawMutex, ()> = Signal::new();
+
+/// The link task's tick, ms.
+pub const LINK_TICK_MS: u32 = 1;
+
+/// Counts the link task's runs: the watchdog is refreshed only while it moves.
+pub static LINK_ALIVE: AtomicU32 = AtomicU32::new(0);
+
+/// Set by the link task while it runs a calibration fit (a library call of unknown
+/// length that cannot report progress): the watchdog then watches the control
+/// interrupt alone.
+pub static FIT_RUNNING: AtomicBool = AtomicBool::new(false);
+
+/// The link task must have run within 200 ms for the control interrupt to refresh
+/// the watchdog, so that a link task stuck in a loop resets the board as a hung
+/// control period does. Longer than the longest wait of the task on the transmitter
+/// (1 KB at 921 600 Bd: 11 ms); a calibration fit suspends the check while it runs.
+pub const LINK_SILENCE_MS: u32 = 200;
+
+/// What the interrupt keeps between periods beside the control state; the image
+/// keeps one in its interrupt handler (`static mut`).
+pub struct Watch {
+    link_seen: u32,
+    link_seen_at: u32,
+    periods: u32,
+    /// The control rate, Hz.
+    control_hz: u32,
+}
+
+impl Watch {
+    /// For a control rate of `control_hz`.
+    pub const fn new(control_hz: u32) -> Self {
+        Self {
+            link_seen: 0,
+            link_seen_at: 0,
+            periods: 0,
+            control_hz,
+        }
+    }
+}
+
+/// The period of an image whose samples come from the ADCs: call from DMA1 channel
+/// 1's interrupt. A broken sample set ends in the fault path.
+#[inline(always)]
+pub fn on_samples<const A: usize, M: Machine + 'static, H: BoardHal<M>>(
+    handoff: &Handoff<Control<M, H>>,
+    watch: &mut Watch,
+) {
+    let entry = timing::cycles();
+    if adc::arrival::<A>() == Arrival::Broken {
+        fault::fail(Cause::Sampling, 0);
+    }
+    run(handoff, watch, entry);
+}
+
+/// The period of an image whose period is TIM1's update: call from its interrupt.
+#[inline(always)]
+pub fn on_update<M: Machine + 'static, H: BoardHal<M>>(
+    handoff: &Handoff<Control<M, H>>,
+    watch: &mut Watch,
+) {
+    let entry = timing::cycles();
+    run(handoff, watch, entry);
+}
+
+#[inline(always)]
+fn run<M: Machine + 'static, H: BoardHal<M>>(
+    handoff: &Handoff<Control<M, H>>,
+    watch: &mut Watch,
+    entry: u32,
+) {
+    // SAFETY: `run` is reached only from the control interrupt ([`on_samples`],
+    // [`on_update`]), once per entry.
+    let Some(control) = (unsafe { handoff.get() }) else {
+        timer::clear_update();
+        return;
+    };
+    // Cycles since the period's start: TIM1 counts from its update.
+    let since_start = timer::cycles_into_period(&control.period);
+    timer::clear_update();
+    step(control);
+    let step_cycles = timing::cycles().wrapping_sub(entry);
+    let finish = since_start.saturating_add(step_cycles);
+    // A second update during the step (UIF set again) or a finish past the period: the
+    // next samples are already on their way, and the outputs came late.
+    let period_cycles = control.period.cycles_per_tick * control.period.ticks;
+    if timer::updated_again() || finish >= period_cycles {
+        fault::fail(Cause::MissedDeadline, step_cycles / 16);
+    }
+    timing::record(step_cycles, finish, control.clock.late_periods());
+    supervise(watch, &control.leds);
+}
+
+/// One control period, out of line so that its stack shows as its own frame.
+#[inline(never)]
+fn step<M: Machine + 'static, H: BoardHal<M>>(control: &mut Control<M, H>) {
+    let held = !timer::armed();
+    if held {
+        // The break input cut the outputs in hardware; hold the software side too,
+        // and light the fault LED.
+        KERF_STATUS
+            .held_fault
+            .store(Cause::Break as u32, Ordering::Relaxed);
+        control.leds.fault.write(true);
+    }
+    let enabled = !held && !matches!(control.supervisor.mode(), Mode::Fault(_));
+    control.hal.set_enabled(enabled);
+    kerf::app::control_period(
+        &mut control.supervisor,
+        &mut control.clock,
+        &mut control.hal,
+    );
+    if held {
+        fault::outputs_safe();
+    }
+}
+
+/// Watchdog, link tick and status LED.
+fn supervise(watch: &mut Watch, leds: &Leds) {
+    watch.periods = watch.periods.wrapping_add(1);
+    let link = LINK_ALIVE.load(Ordering::Relaxed);
+    if link != watch.link_seen {
+        watch.link_seen = link;
+        watch.link_seen_at = watch.periods;
+    }
+    let per_ms = (watch.control_hz / 1000).max(1);
+    if watch.periods.wrapping_sub(watch.link_seen_at) < LINK_SILENCE_MS * per_ms
+        || FIT_RUNNING.load(Ordering::Relaxed)
+    {
+        fault::refresh_watchdog();
+    }
+    if watch.periods % (per_ms * LINK_TICK_MS) == 0 {
+        // Waking a task calls through its waker's vtable; that happens in the tick
+        // interrupt below this one, so that the period's code is all direct calls
+        // (and its stack statically bounded, scripts/stack-bound).
+        cortex_m::peripheral::NVIC::pend(TICK_INTERRUPT);
+    }
+    let blink = (watch.control_hz / 2).max(1);
+    if watch.periods % blink == 0 {
+        leds.status.write((watch.periods / blink) % 2 == 0);
+    }
+}
+
+/// The interrupt line that wakes the link task: FMAC's, a peripheral no image uses,
+/// pended by the control interrupt every millisecond; its handler
+/// ([`crate::bind_board_handlers!`]) calls [`on_tick_interrupt`].
+pub const TICK_INTERRUPT: pac::Interrupt = pac::Interrupt::FMAC;
+
+/// The tick interrupt's work: wake the link task.
+pub fn on_tick_interrupt() {
+    LINK_TICK.signal(());
+}
+
+/// Enables the control interrupt `control` at the highest priority and the link's
+/// tick interrupt below it.
+pub fn enable(nvic: &mut cortex_m::peripheral::NVIC, control: pac::Interrupt) {
+    // SAFETY: the control state is in place before the interrupt is unmasked, and no
+    // priority-based critical section in the images depends on these lines' levels.
+    unsafe {
+        nvic.set_priority(TICK_INTERRUPT, LINK_PRIORITY);
+        cortex_m::peripheral::NVIC::unmask(TICK_INTERRUPT);
+        nvic.set_priority(control, CONTROL_PRIORITY);
+        cortex_m::peripheral::NVIC::unmask(control);
+    }
+}
