@@ -14,7 +14,9 @@
 #![cfg_attr(not(feature = "stm32"), forbid(unsafe_code))]
 
 pub mod fault_record;
+pub mod input_codes;
 pub mod output_codes;
+pub mod reply_framing;
 #[cfg(feature = "stm32")]
 pub mod stm32;
 pub mod timer_period;

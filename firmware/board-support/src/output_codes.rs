@@ -46,6 +46,37 @@ impl ForceDac {
     }
 }
 
+/// The scale from a unipolar command (a piezo stroke, m) to a 12-bit DAC code: the
+/// range `[lo, hi]` spans codes 0…4095 (the amplifier's input range on the DAC's).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct DacSpan {
+    /// The command at code 0.
+    pub lo: f32,
+    /// Codes per unit of command.
+    pub codes_per_unit: f32,
+}
+
+impl DacSpan {
+    /// `lo` at code 0, `hi` at code 4095 (`hi > lo`).
+    pub const fn new(lo: f32, hi: f32) -> Self {
+        Self {
+            lo,
+            codes_per_unit: DAC_MAX_CODE as f32 / (hi - lo),
+        }
+    }
+
+    /// The code for `value`, saturated to 0..=4095; not-a-number gives code 0 (the
+    /// range's low end: a retracted piezo).
+    pub fn code(&self, value: f32) -> u16 {
+        let code = (value - self.lo) * self.codes_per_unit + 0.5;
+        if code.is_nan() {
+            0
+        } else {
+            (code as u16).min(DAC_MAX_CODE)
+        }
+    }
+}
+
 /// The compare value of a PWM duty in [0, 1] on a timer of `period_cycles` counts:
 /// saturated to [0, period]; not-a-number is off.
 pub fn pwm_compare(duty: f32, period_cycles: u16) -> u16 {
@@ -61,6 +92,27 @@ pub fn pwm_compare(duty: f32, period_cycles: u16) -> u16 {
 mod tests {
     extern crate std;
     use super::*;
+
+    /// A 0–30 µm piezo stroke over the DAC against the rounding written out in f64:
+    /// the nearest code wherever the exact value is not within 1e-3 of a half code;
+    /// ends, saturation and NaN (retracted).
+    #[test]
+    fn a_span_maps_its_ends_to_the_dac_rails() {
+        let span = DacSpan::new(0.0, 30e-6);
+        for k in 0..=3000 {
+            let x = k as f32 * 1e-8;
+            let exact = f64::from(x) / 30e-6 * 4095.0;
+            if (exact - exact.floor() - 0.5).abs() < 1e-3 {
+                continue;
+            }
+            assert_eq!(span.code(x), exact.round() as u16, "{x} m");
+        }
+        assert_eq!(span.code(0.0), 0);
+        assert_eq!(span.code(30e-6), DAC_MAX_CODE);
+        assert_eq!(span.code(-1e-6), 0);
+        assert_eq!(span.code(1.0), DAC_MAX_CODE);
+        assert_eq!(span.code(f32::NAN), 0);
+    }
 
     /// The board's scale: LM1247 (3.47 N/A), 1 A/V driver, 3.3 V over 4096 codes.
     const BOARD: ForceDac = ForceDac::new(2048, 3.47, 1.0, 3.3 / 4096.0);

@@ -31,7 +31,7 @@ pub const RX_RING_BYTES: usize = 1024;
 
 /// A machine's calibration sweep as the board runs it from the button: the samples
 /// the sweep streams, then the fit, in the link task. A machine without a sweep uses
-/// [`NoFit`].
+/// [`Stored`] (a sweep without samples: the calibration it finishes with is stored).
 pub trait SweepFit<M: Machine> {
     /// Whether the machine has a sweep (the button starts one).
     const SWEEPS: bool;
@@ -44,17 +44,22 @@ pub trait SweepFit<M: Machine> {
     fn fit(&mut self) -> Option<M::Calibration>;
 }
 
-/// The sweep of a machine that has none.
-pub struct NoFit;
+/// The sweep of a machine that streams no samples and needs no fit: what it
+/// finishes with is stored (the grinding cell's bias capture, finished with the
+/// tool's measured eccentricity; ARROW's empty sweep). The button runs it again.
+pub struct Stored<C: Copy>(pub C);
 
-impl<M: Machine<SweepSample = NoSweep>> SweepFit<M> for NoFit {
-    const SWEEPS: bool = false;
+impl<M: Machine<SweepSample = NoSweep>> SweepFit<M> for Stored<M::Calibration>
+where
+    M::Calibration: Copy,
+{
+    const SWEEPS: bool = true;
     fn restart(&mut self) {}
     fn push(&mut self, sample: &NoSweep) -> bool {
         match *sample {}
     }
     fn fit(&mut self) -> Option<M::Calibration> {
-        None
+        Some(self.0)
     }
 }
 

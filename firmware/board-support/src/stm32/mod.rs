@@ -9,6 +9,7 @@
 //! | outputs | [`timer`] | TIM1: the period's trigger, a PWM channel, the enable line, the break (the DACs are embassy's typed channels) |
 //! | control period | [`period`] | the supervisor step in the control interrupt, its deadline, the watchdog's refresh |
 //! | host link | [`link`] | LPUART1 with DMA, the link task, the calibration sweep from the button |
+//! | devices | [`serial`] | a device's request/reply exchange on a polled UART |
 //! | fault path | [`fault`] | outputs safe in hardware and software, the cause kept across a reset |
 //! | timing | [`timing`] | the cycle counter as the period clock, the step's statistics |
 //! | stack | [`stack`] | painting and the high-water mark |
@@ -26,6 +27,7 @@ pub mod fault;
 pub mod link;
 pub mod period;
 pub mod pins;
+pub mod serial;
 pub mod stack;
 pub mod timer;
 pub mod timing;

@@ -95,6 +95,10 @@ impl<T> Default for Handoff<T> {
 /// Wakes the link task every [`LINK_TICK_MS`] millisecond.
 pub static LINK_TICK: Signal<CriticalSectionRawMutex, ()> = Signal::new();
 
+/// Wakes a machine's device task (a slower context than the link's) every
+/// millisecond, as [`LINK_TICK`] wakes the link task.
+pub static DEVICE_TICK: Signal<CriticalSectionRawMutex, ()> = Signal::new();
+
 /// The link task's tick, ms.
 pub const LINK_TICK_MS: u32 = 1;
 
@@ -241,9 +245,10 @@ fn supervise(watch: &mut Watch, leds: &Leds) {
 /// ([`crate::bind_board_handlers!`]) calls [`on_tick_interrupt`].
 pub const TICK_INTERRUPT: pac::Interrupt = pac::Interrupt::FMAC;
 
-/// The tick interrupt's work: wake the link task.
+/// The tick interrupt's work: wake the link task and a device task.
 pub fn on_tick_interrupt() {
     LINK_TICK.signal(());
+    DEVICE_TICK.signal(());
 }
 
 /// Enables the control interrupt `control` at the highest priority and the link's

@@ -25,8 +25,7 @@ use pac::timer::vals::{Bkp, Mms, Ocm, Ossi, Ossr};
 /// TIM1's pins: the PWM output (channel 1), the enable line (channel 2), the break
 /// input. Typed: only pins that carry these functions of TIM1 are accepted.
 pub struct Tim1Pins {
-    pwm: PinId,
-    pwm_af: u8,
+    pwm: Option<(PinId, u8)>,
     enable: PinId,
     enable_af: u8,
     brk: PinId,
@@ -46,8 +45,24 @@ impl Tim1Pins {
         B: BreakInputPin<TIM1, BkIn1>,
     {
         Self {
-            pwm: PinId::of(&*pwm),
-            pwm_af: pwm.af_num(),
+            pwm: Some((PinId::of(&*pwm), pwm.af_num())),
+            enable: PinId::of(&*enable),
+            enable_af: enable.af_num(),
+            brk: PinId::of(&*brk),
+            brk_af: brk.af_num(),
+        }
+    }
+}
+
+impl Tim1Pins {
+    /// The enable line and the break input, for a machine without a PWM output.
+    pub fn without_pwm<E, B>(enable: Peri<'static, E>, brk: Peri<'static, B>) -> Self
+    where
+        E: TimerPin<TIM1, Ch2>,
+        B: BreakInputPin<TIM1, BkIn1>,
+    {
+        Self {
+            pwm: None,
             enable: PinId::of(&*enable),
             enable_af: enable.af_num(),
             brk: PinId::of(&*brk),
@@ -111,7 +126,9 @@ pub fn start(pins: &Tim1Pins, period: TimerPeriod, interrupt: bool) -> Result<()
     tim.dier().write(|w| w.set_uie(interrupt));
     // The pins go to the timer only now that its outputs are defined and off; the
     // break line is pulled down inside too, so an unconnected one holds them off.
-    pins.pwm.set_alternate(pins.pwm_af, false);
+    if let Some((pwm, af)) = pins.pwm {
+        pwm.set_alternate(af, false);
+    }
     pins.enable.set_alternate(pins.enable_af, false);
     pins.brk.set_alternate(pins.brk_af, true);
     tim.bdtr().modify(|w| w.set_moe(true));
