@@ -14,6 +14,7 @@ use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::link::{FrameEnd, LinkConfig};
 use hal_mock::master::SimulatedMaster;
 use heapless::spsc::Queue;
+use kerf::app::remote_link::MasterLink;
 use kerf::app::stream::MAX_FRAME_LEN;
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::codec::sdct::{SdctConfig, Selection};
@@ -25,11 +26,10 @@ use kerf::control::preview::PreviewConfig;
 use kerf::hal::{FrameLink, LinkBusy};
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
-use kerf::machines::remote_link::MasterLink;
+use kerf::machines::delta_slave::remote::{FollowJob, FollowPhase, RemoteSlave, RemoteSlaveConfig};
 use kerf::machines::remote_master::{
     FixtureJob, HapticConfig, RemoteMaster, RemoteMasterConfig, RemoteMasterInputs,
 };
-use kerf::machines::remote_slave::{FollowJob, FollowPhase, RemoteSlave, RemoteSlaveConfig};
 use kerf::sensing::encoder::EncoderConfig;
 use kerf::sensing::velocity::TrackingObserverConfig;
 use kerf::trajectory::constraint::ConstraintConfig;
@@ -197,7 +197,7 @@ pub struct RemoteRun {
     /// Master restarts the slave saw.
     pub restarts: u32,
     /// Modes at the end.
-    pub slave_mode: Mode<kerf::machines::remote_slave::RemoteSlaveFault>,
+    pub slave_mode: Mode<kerf::machines::delta_slave::remote::RemoteSlaveFault>,
     /// The master's.
     pub master_mode: Mode<kerf::machines::remote_master::RemoteMasterFault>,
     /// The slave's centre of the mapping, m.

@@ -20,7 +20,7 @@ use kerf::control::laser::LaserMode;
 use kerf::hal::{FrameLink, LinkBusy, Monotonic};
 use kerf::kinematics::delta::DeltaGeometry;
 use kerf::kinematics::Vector3;
-use kerf::machines::remote_slave::{FollowJob, FollowPhase, RemoteSlave, RemoteSlaveConfig};
+use kerf::machines::delta_slave::remote::{FollowJob, FollowPhase, RemoteSlave, RemoteSlaveConfig};
 use kerf::trajectory::gcode::{self, GcodePoint, Parser};
 use kerf_sim::operator::{Operator, OperatorState};
 use kerf_sim::remote::{keops_site, SlaveSite};

@@ -5,10 +5,10 @@
 use heapless::spsc::Queue;
 use host_tests::arrow::{scenario, ArrowRunConfig};
 use host_tests::remote::{master_config, RemoteCase, MASTER_HOME_M};
+use kerf::app::remote_link::SlaveReport;
 use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
 use kerf::control::redundant_pid::RedundantPidConfig;
 use kerf::kinematics::Vector3;
-use kerf::machines::remote_link::SlaveReport;
 use kerf::machines::remote_master::{
     FixtureJob, RemoteMaster, RemoteMasterFault, RemoteMasterInputs,
 };

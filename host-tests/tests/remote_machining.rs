@@ -9,7 +9,7 @@ use host_tests::remote::{
 use kerf::app::stream::FRAME_CRC_LEN;
 use kerf::app::supervisor::Mode;
 use kerf::control::laser::LaserMode;
-use kerf::machines::remote_slave::RemoteSlaveFault;
+use kerf::machines::delta_slave::remote::RemoteSlaveFault;
 
 /// Tracking is measured from here on (the first seconds include the start from rest).
 const FROM_S: f64 = 2.0;

@@ -11,7 +11,7 @@
 use host_tests::link::{run_plan, MachineThread};
 use kerf::codec::job::write_recording;
 use kerf::codec::link::{JobKind, ModeCode};
-use kerf::machines::remote_slave::recording::Recording;
+use kerf::machines::delta_slave::remote::recording::Recording;
 use kerf_host::link::{LinkError, MachineLink};
 use kerf_host::session::{Progress, RunPlan, Session, SessionError};
 use kerf_host::telemetry::TelemetryLog;

@@ -11,7 +11,7 @@
 //! - G-code (A §4): the program's text as read, for
 //!   `kerf::machines::arrow::job::ArrowJob::from_gcode`.
 //! - Recording (T ch. 5): a recorded master session (`KRFR`) as it is, for
-//!   `kerf::machines::remote_slave::recording::Recording::parse`.
+//!   `kerf::machines::delta_slave::remote::recording::Recording::parse`.
 
 use kerf::codec::job::{write_efd, write_gcode, write_points, write_recording, JobFile};
 pub use kerf::codec::job::{JobFileError, HEADER_BYTES, JOB_FORMAT_VERSION};

@@ -25,6 +25,7 @@ use cortex_m_rt::entry;
 use heapless::spsc::Queue;
 use kerf::app::calibrate::{fit_sensors, CalibrationFit, HallSample};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
+use kerf::app::remote_link::{MasterLink, SlaveLink};
 use kerf::app::supervisor::{Command, Report};
 use kerf::codec::gcs;
 use kerf::codec::job::JobFile;
@@ -39,7 +40,6 @@ use kerf::machines::delta_slave::{ContourLaw, DeltaSlave, DeltaSlaveConfig};
 use kerf::machines::grinding::devices::{
     DeviceDemand, DeviceLink, DeviceLinkConfig, DeviceLinkState,
 };
-use kerf::machines::remote_link::{MasterLink, SlaveLink};
 use kerf::sensing::hall::HallConfig;
 use kerf::trajectory::gcode::{self, GcodePoint};
 

@@ -30,6 +30,8 @@ use cortex_m_rt::entry;
 use heapless::spsc::Queue;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
+use kerf::app::remote_link::RemoteCommand;
+use kerf::app::remote_link::SlaveReport;
 use kerf::app::stream::{SignalReceiver, SignalSender};
 use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
 use kerf::codec::dct::Dct;
@@ -51,15 +53,15 @@ use kerf::kinematics::Vector3;
 use kerf::machines::arrow::job::ArrowJob;
 use kerf::machines::arrow::machine::{ArrowInputs, ArrowLimits, ArrowMachine};
 use kerf::machines::arrow::ArrowLaw;
+use kerf::machines::delta_slave::remote::session::{SessionJob, SessionSlave};
+use kerf::machines::delta_slave::remote::{
+    FollowJob, RemoteSlave, RemoteSlaveConfig, RemoteSlaveInputs,
+};
 use kerf::machines::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
 use kerf::machines::grinding::{GrindingCalibration, GrindingCell, GrindingConfig, GrindingInputs};
-use kerf::machines::remote_link::RemoteCommand;
-use kerf::machines::remote_link::SlaveReport;
 use kerf::machines::remote_master::{
     FixtureJob, RemoteMaster, RemoteMasterConfig, RemoteMasterInputs,
 };
-use kerf::machines::remote_slave::session::{SessionJob, SessionSlave};
-use kerf::machines::remote_slave::{FollowJob, RemoteSlave, RemoteSlaveConfig, RemoteSlaveInputs};
 use kerf::sensing::encoder::EncoderConfig;
 use kerf::sensing::force::Eccentricity;
 use kerf::sensing::hall::{HallConfig, HallDecoder, HallState};

@@ -22,7 +22,7 @@
 //! The slave site: the slave as its disturbance observer makes it (T eq. 93), the
 //! nominal double integrator ẍs = u (the master's delay observer then corrects only
 //! what the network's delay and jitter and the reports' SDCT coding leave), behind the slave's end of the remote link
-//! ([`kerf::machines::remote_link::SlaveLink`]: the playout, the reports); the network
+//! ([`kerf::app::remote_link::SlaveLink`]: the playout, the reports); the network
 //! delays each frame by [`DELAY_MS`] ± [`JITTER_MS`], in order. The slave starts at
 //! rest at the mapping's centre, where the master's rest point maps.
 //!
@@ -34,6 +34,7 @@ use hal_mock::link::{FrameEnd, LinkConfig};
 use hal_mock::master::SimulatedMaster;
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
+use kerf::app::remote_link::{MasterLink, SlaveLink};
 use kerf::app::stream::MAX_FRAME_LEN;
 use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
 use kerf::codec::job::JobFile;
@@ -41,7 +42,6 @@ use kerf::codec::sdct::{SdctConfig, Selection};
 use kerf::error::ConfigError;
 use kerf::kinematics::delta::DeltaConfig;
 use kerf::kinematics::Vector3;
-use kerf::machines::remote_link::{MasterLink, SlaveLink};
 use kerf::machines::remote_master::link::MasterSettings;
 use kerf::machines::remote_master::product::{
     config, session, Master, BLOCK, HOME_M, LINK_JOB_BYTES, PERIOD_S, SAMPLES_PER_COMMAND,

@@ -1,5 +1,5 @@
 //! The remote slave behind the host link: the slave that plays a recorded master
-//! session ([`SessionSlave`], `kerf::machines::remote_slave::session`) on the simulated
+//! session ([`SessionSlave`], `kerf::machines::delta_slave::remote::session`) on the simulated
 //! Keops delta of the remote scenarios (the realistic plant, the imperfect Hall
 //! sensors, [`keops_site`]), with commands coming from [`HostLink`] only, so a host (a
 //! test's, or the host tool over the QEMU image's serial port) uploads a session,
@@ -21,12 +21,12 @@ use kerf::app::host_link::{HostLink, HostLinkConfig};
 use kerf::app::supervisor::{Command, Report, Supervisor};
 use kerf::hal::{ForceAndLaser, SampleInputs, WriteOutputs};
 use kerf::kinematics::delta::KinematicsError;
-use kerf::machines::remote_slave::link::RemoteSlaveSettings;
-use kerf::machines::remote_slave::product::{
+use kerf::machines::delta_slave::remote::link::RemoteSlaveSettings;
+use kerf::machines::delta_slave::remote::product::{
     CONFIG, LINK_JOB_BYTES, PERIOD_S, TELEMETRY_DECIMATION,
 };
-use kerf::machines::remote_slave::recording::Recording;
-use kerf::machines::remote_slave::session::SessionSlave;
+use kerf::machines::delta_slave::remote::recording::Recording;
+use kerf::machines::delta_slave::remote::session::SessionSlave;
 use kerf::scalar::Float;
 
 /// The recorded master session of the remote scenario (4 s, `data/remote_commands.krfr`).

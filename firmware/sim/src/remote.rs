@@ -5,12 +5,12 @@
 //! the command frames a host run recorded ([`replay`]).
 //!
 //! A recording ([`Recording`], its format and reader in
-//! `kerf::machines::remote_slave::recording`) holds what reached the slave: each command
+//! `kerf::machines::delta_slave::remote::recording`) holds what reached the slave: each command
 //! frame as it arrived (after the network's delay and loss) with its arrival period
 //! counted from the master's start, and, for the tracking summary, the scaled master
 //! position of every command tick. Replayed open loop — the reports go nowhere — the
 //! slave still tracks as it did in the closed loop: the commands fix the nominal model
-//! it follows (`machines::remote_slave`), so only its own local loop differs between the two
+//! it follows (`machines::delta_slave::remote`), so only its own local loop differs between the two
 //! runs.
 
 use crate::operator::{Operator, OperatorError, OperatorState};
@@ -25,14 +25,16 @@ use kerf::control::laser::LaserMode;
 use kerf::hal::{ForceAndLaser, FrameLink, LinkBusy, SampleInputs, WriteOutputs};
 use kerf::kinematics::delta::KinematicsError;
 use kerf::kinematics::Vector3;
-use kerf::machines::remote_slave::{
+use kerf::machines::delta_slave::remote::{
     FollowJob, FollowPhase, RemoteSlave, RemoteSlaveConfig, RemoteSlaveFault, RemoteSlaveInputs,
 };
 use kerf::scalar::Float;
 use kerf::ConfigError;
 
-pub use kerf::machines::remote_slave::product::{SlaveEnd as SiteLink, BLOCK, PLAYOUT_CAPACITY};
-pub use kerf::machines::remote_slave::recording::{
+pub use kerf::machines::delta_slave::remote::product::{
+    SlaveEnd as SiteLink, BLOCK, PLAYOUT_CAPACITY,
+};
+pub use kerf::machines::delta_slave::remote::recording::{
     header_bytes, Recording, RecordingError, RecordingHeader, ReplayLink, RECORDING_HEADER_LEN,
     RECORDING_MAGIC, RECORDING_VERSION, REFERENCE_LEN,
 };

@@ -11,8 +11,8 @@ use kerf::app::stream::{StreamReceiver, StreamSender, MAX_FRAME_HEADER};
 use kerf::codec::packet::MAX_SAMPLE_ABS;
 use kerf::codec::sdct::{SdctConfig, Selection};
 use kerf::hal::{FrameLink, LinkBusy};
-use kerf::machines::remote_link::MasterLink;
-use kerf::machines::remote_link::RemoteCommand;
+use kerf::app::remote_link::MasterLink;
+use kerf::app::remote_link::RemoteCommand;
 use kerf_sim::remote::{SiteLink, BLOCK};
 use std::collections::VecDeque;
 

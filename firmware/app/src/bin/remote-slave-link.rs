@@ -1,7 +1,7 @@
 //! QEMU host-link image of the remote slave (`SessionSlave<f32>` on the remote
 //! scenarios' simulated Keops delta, calibrated at power-up), driven only by a host
 //! over the emulated UART0 with the link protocol (`kerf_sim::linked_remote_slave`,
-//! `kerf::machines::remote_slave::link`): the host uploads a recorded master session
+//! `kerf::machines::delta_slave::remote::link`): the host uploads a recorded master session
 //! (`data/remote_session.krfj`: the first 2 s of `data/remote_commands.krfr`), starts
 //! it, retunes the slave, streams its tracking. Run it with QEMU's serial port on a
 //! socket (`kerf run --qemu --image …/remote-slave-link JOB`); the image runs until the

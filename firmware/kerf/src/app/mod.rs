@@ -12,6 +12,7 @@ pub mod calibrate;
 pub mod host_link;
 pub mod joints;
 pub mod playout;
+pub mod remote_link;
 pub mod stream;
 pub mod supervisor;
 

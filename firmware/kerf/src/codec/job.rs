@@ -20,7 +20,7 @@
 //! Bodies: EFD, the centre (x, y) then (a_k, b_k, c_k, d_k) per harmonic, f32, m;
 //! points, (x, y) per point, f32, m; G-code, the text (ASCII); recording, a recorded
 //! master session as its own format writes it (`KRFR`,
-//! `machines::remote_slave::recording`, which checks it when a machine loads it).
+//! `machines::delta_slave::remote::recording`, which checks it when a machine loads it).
 
 pub use super::link::JobKind;
 

@@ -88,7 +88,7 @@ pub enum JobKind {
     /// G-code text.
     Gcode,
     /// A recorded master session: the command frames that reached a remote slave,
-    /// each with its arrival period (`machines::remote_slave::recording`).
+    /// each with its arrival period (`machines::delta_slave::remote::recording`).
     Recording,
 }
 

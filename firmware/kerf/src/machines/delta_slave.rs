@@ -52,6 +52,7 @@ mod contour;
 mod line;
 pub mod link;
 pub mod product;
+pub mod remote;
 
 /// Instants per move at which a plan checks the joint limits (plus the end). A
 /// minimum-jerk move's joint speed and acceleration are smooth in time; between

@@ -6,18 +6,19 @@
 //! defaults, code tables).
 //!
 //! - [`delta_slave`]: the Keops slave, a linear delta that cuts closed contours with a
-//!   laser;
-//! - [`remote_master`] and [`remote_slave`]: remote machining, the virtual-fixture
-//!   master and the slave that follows it over a delayed link ([`remote_link`], their
-//!   messages);
+//!   laser, and the same robot as the slave of remote machining
+//!   ([`delta_slave::remote`]), following a master over a delayed link;
+//! - [`remote_master`]: the virtual-fixture master of remote machining (the link's
+//!   messages are the framework's, [`crate::app::remote_link`]);
 //! - [`arrow`]: ARROW, the redundantly actuated parallel machining robot;
 //! - [`grinding`]: the force-controlled grinding cell with its devices;
 //! - [`single_axis`]: one Hall-sensed linear-motor axis.
+//!
+//! No machine imports another's module: what two machines share is the framework's
+//! (the remote link, the joints, the calibration).
 
 pub mod arrow;
 pub mod delta_slave;
 pub mod grinding;
-pub mod remote_link;
 pub mod remote_master;
-pub mod remote_slave;
 pub mod single_axis;

@@ -34,6 +34,7 @@
 //! poles this costs a tracking error of the slave's acceleration over λK, a few
 //! micrometres on the scenarios' curves.
 
+use crate::app::remote_link::{RemoteCommand, SlaveReport};
 use crate::app::supervisor::NoSweep;
 use crate::app::supervisor::{
     first_non_finite_index, FiniteOutputs, Machine, NonFiniteOutput, Step,
@@ -44,7 +45,6 @@ use crate::control::delay_observer::{DelayObserver, DelayObserverConfig};
 use crate::control::dob::{Dob, DobConfig, DobState};
 use crate::error::{coefficient, positive, representable, ConfigContext, ConfigError};
 use crate::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
-use crate::machines::remote_link::{RemoteCommand, SlaveReport};
 use crate::scalar::{lit, Float, Real};
 use crate::sensing::encoder::{Encoder, EncoderConfig, EncoderFault, EncoderState};
 use crate::sensing::velocity::{TrackingObserver, TrackingObserverConfig, TrackingObserverState};

@@ -42,7 +42,7 @@ pub const PERIOD_S: f64 = 1e-4;
 /// Control periods per remote link sample (1 kHz samples).
 pub const SAMPLES_PER_COMMAND: u32 = 10;
 
-pub use crate::machines::remote_link::BLOCK;
+pub use crate::app::remote_link::BLOCK;
 
 /// The carriages at power-up (the homing stops), m.
 pub const HOME_M: [f64; 3] = [0.07; 3];

@@ -9,10 +9,10 @@ use crate::app::supervisor::NoSweep;
 use crate::app::supervisor::{Command, Machine, Mode, Report, Step, Supervisor};
 use crate::kinematics::arrow::ActuatorVector;
 use crate::machines::arrow::machine::{ArrowFault, ArrowOutputs};
+use crate::machines::delta_slave::remote::RemoteSlaveFault;
 use crate::machines::delta_slave::DeltaFault;
 use crate::machines::grinding::{GrindingFault, GrindingOutputs};
 use crate::machines::remote_master::{MasterOutputs, RemoteMasterFault};
-use crate::machines::remote_slave::RemoteSlaveFault;
 use heapless::spsc::Queue;
 
 /// A machine whose running step returns the force it is given as input.
@@ -115,7 +115,7 @@ fn outputs_are_indexed_and_named_per_machine() {
         spindle_rpm: nan,
     };
     assert_eq!(grinding.first_not_finite(), Some(2));
-    let mut command = crate::machines::remote_link::RemoteCommand {
+    let mut command = crate::app::remote_link::RemoteCommand {
         acceleration_m_s2: [0.0, 0.0, f32::INFINITY],
         laser_on: false,
     };

@@ -5,8 +5,8 @@
 
 use super::recording::RECORDING_HEADER_LEN;
 use super::RemoteSlaveConfig;
+use crate::app::remote_link::SlaveLink;
 use crate::codec::job::HEADER_BYTES;
-use crate::machines::remote_link::SlaveLink;
 
 /// The slave: the Keops delta over a 1 kHz command stream ([`RemoteSlaveConfig::KEOPS`]).
 pub const CONFIG: RemoteSlaveConfig = RemoteSlaveConfig::KEOPS;
@@ -14,7 +14,7 @@ pub const CONFIG: RemoteSlaveConfig = RemoteSlaveConfig::KEOPS;
 /// The control period, s (10 kHz).
 pub const PERIOD_S: f64 = CONFIG.slave.joints.period_s;
 
-pub use crate::machines::remote_link::BLOCK;
+pub use crate::app::remote_link::BLOCK;
 
 /// Commands the slave's playout holds: 256 ms of 1 kHz samples, past any delay the
 /// remote scenarios use.

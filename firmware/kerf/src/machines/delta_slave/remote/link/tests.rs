@@ -6,7 +6,7 @@ use crate::codec::link::{
     decode, encode, Description, Event, HostFrame, MachineMessage, Request, LINK_JOB_REFUSALS,
     MAX_FRAME,
 };
-use crate::machines::remote_slave::product::{LINK_JOB_BYTES, PERIOD_S};
+use crate::machines::delta_slave::remote::product::{LINK_JOB_BYTES, PERIOD_S};
 use heapless::spsc::Queue;
 use miniconf::json_core;
 use std::boxed::Box;
@@ -17,7 +17,7 @@ use std::vec::Vec;
 type S = SessionSlave<f64>;
 
 /// The recorded master session the QEMU replay plays (4 s, 24 KB of frames).
-const RECORDING: &[u8] = include_bytes!("../../../../../../data/remote_commands.krfr");
+const RECORDING: &[u8] = include_bytes!("../../../../../../../data/remote_commands.krfr");
 
 /// The first `periods` of the recording as a session job file.
 fn session_file(periods: u32) -> Vec<u8> {
@@ -55,14 +55,14 @@ fn a_session_loads_and_other_jobs_are_refused_in_words() {
     let mut at = 0;
     let mut last = 0;
     while let Some((arrival, _, next)) =
-        crate::machines::remote_slave::recording::frame_at(&job.frames, at)
+        crate::machines::delta_slave::remote::recording::frame_at(&job.frames, at)
     {
         (at, last) = (next, arrival);
     }
     assert_eq!(at, job.frames.len());
     assert!(last < 20_000);
     let (following, _, _) =
-        crate::machines::remote_slave::recording::frame_at(recording.frames(), at).unwrap();
+        crate::machines::delta_slave::remote::recording::frame_at(recording.frames(), at).unwrap();
     assert!(following >= 20_000, "{following}");
     // The 4 s do not fit.
     let code = load(&session_file(40_000)).unwrap_err();

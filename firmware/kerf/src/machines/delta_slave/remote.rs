@@ -32,19 +32,19 @@
 //! ([`session`], [`recording`]) through its own end of the link; [`link`] describes it
 //! to the host, [`product`] holds what is flashed.
 
+use super::{DeltaFault, DeltaSlave, DeltaSlaveConfig, DeltaTelemetry};
 use crate::app::axis::{AxisConfig, AxisLaw, HallAxis};
 use crate::app::calibrate::{
     fit_sensors, CalibrationFailure, CalibrationFit, HallMachine, HallSample,
 };
 use crate::app::joints::{JobError, JointJob, Segment};
+use crate::app::remote_link::RemoteCommand;
 use crate::app::supervisor::{Machine, NonFiniteOutput, Step};
 use crate::control::laser::LaserMode;
 use crate::control::pd::{Pd, PdConfig};
 use crate::error::{positive, ConfigContext, ConfigError, ConfigErrorKind};
 use crate::hal::ForceAndLaser;
 use crate::kinematics::delta::KinematicsError;
-use crate::machines::delta_slave::{DeltaFault, DeltaSlave, DeltaSlaveConfig, DeltaTelemetry};
-use crate::machines::remote_link::RemoteCommand;
 use crate::scalar::{lit, Float};
 use crate::sensing::hall::{HallConfig, SelfCalibration};
 use crate::trajectory::Reference;

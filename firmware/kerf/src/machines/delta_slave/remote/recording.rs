@@ -14,9 +14,9 @@
 //! frames × (arrival:u32 len:u16 bytes) in arrival order
 //! ```
 
+use crate::app::remote_link::BLOCK;
 use crate::app::stream::MAX_FRAME_LEN;
 use crate::hal::{FrameLink, LinkBusy};
-use crate::machines::remote_link::BLOCK;
 
 /// Magic of a recording.
 pub const RECORDING_MAGIC: [u8; 4] = *b"KRFR";
