@@ -7,6 +7,7 @@
 //! The task wakes on received bytes and on the control interrupt's tick (every
 //! millisecond); it never blocks the control interrupt, which preempts it.
 
+use super::clocks::LINK_PRIORITY;
 use super::clocks::SYSCLK_HZ;
 use super::fault::{Cause, ResetCause};
 use super::period::{FIT_RUNNING, LINK_ALIVE, LINK_TICK};
@@ -14,8 +15,11 @@ use super::pins::PinId;
 use super::timing::{CycleClock, KERF_STATUS};
 use core::sync::atomic::Ordering;
 use embassy_futures::select::{select, Either};
+use embassy_stm32::interrupt::typelevel::{Binding, Interrupt};
+use embassy_stm32::interrupt::Priority;
 use embassy_stm32::mode::Async;
-use embassy_stm32::usart::{RingBufferedUartRx, UartTx};
+use embassy_stm32::usart::{self, RingBufferedUartRx, UartTx};
+use embassy_stm32::{dma, Peri};
 use heapless::spsc::{Consumer, Producer};
 use kerf::app::host_link::{HostLink, LinkMachine};
 use kerf::app::supervisor::{Command, Machine, Mode, NoSweep, Report};
@@ -28,6 +32,37 @@ pub const LINK_BAUD: u32 = 921_600;
 
 /// The host link's received bytes: 1024 last 11 ms at 921 600 Bd, ten link ticks.
 pub const RX_RING_BYTES: usize = 1024;
+
+/// The host link's UART with DMA both ways, its interrupt below the control
+/// interrupt, reception into `ring` (typed pins and DMA channels: only those that
+/// serve this UART compile). The image binds the interrupts (`bind_interrupts!`).
+///
+/// Errors: the UART's configuration refused (a baud rate it cannot make).
+#[allow(clippy::too_many_arguments)]
+pub fn host_uart<T, D1, D2>(
+    peri: Peri<'static, T>,
+    rx: Peri<'static, impl usart::RxPin<T>>,
+    tx: Peri<'static, impl usart::TxPin<T>>,
+    tx_dma: Peri<'static, D1>,
+    rx_dma: Peri<'static, D2>,
+    irqs: impl Binding<T::Interrupt, usart::InterruptHandler<T>>
+        + Binding<D1::Interrupt, dma::InterruptHandler<D1>>
+        + Binding<D2::Interrupt, dma::InterruptHandler<D2>>
+        + 'static,
+    ring: &'static mut [u8],
+) -> Result<(UartTx<'static, Async>, RingBufferedUartRx<'static>), usart::ConfigError>
+where
+    T: usart::Instance,
+    D1: usart::TxDma<T>,
+    D2: usart::RxDma<T>,
+{
+    let mut config = usart::Config::default();
+    config.baudrate = LINK_BAUD;
+    let uart = usart::Uart::new(peri, rx, tx, tx_dma, rx_dma, irqs, config)?;
+    T::Interrupt::set_priority(Priority::from(LINK_PRIORITY));
+    let (tx, rx) = uart.split();
+    Ok((tx, rx.into_ring_buffered(ring)))
+}
 
 /// A machine's calibration sweep as the board runs it from the button: the samples
 /// the sweep streams, then the fit, in the link task. A machine without a sweep uses

@@ -10,6 +10,7 @@
 //! | control period | [`period`] | the supervisor step in the control interrupt, its deadline, the watchdog's refresh |
 //! | host link | [`link`] | LPUART1 with DMA, the link task, the calibration sweep from the button |
 //! | devices | [`serial`] | a device's request/reply exchange on a polled UART |
+//! | start-up | [`image`] | the machine handed to the control interrupt, the link built, sampling and outputs started |
 //! | fault path | [`fault`] | outputs safe in hardware and software, the cause kept across a reset |
 //! | timing | [`timing`] | the cycle counter as the period clock, the step's statistics |
 //! | stack | [`stack`] | painting and the high-water mark |
@@ -24,6 +25,7 @@ pub mod adc;
 pub mod clocks;
 pub mod cordic;
 pub mod fault;
+pub mod image;
 pub mod link;
 pub mod period;
 pub mod pins;
@@ -31,6 +33,24 @@ pub mod serial;
 pub mod stack;
 pub mod timer;
 pub mod timing;
+
+/// What every image does first: the last reset's cause read (before anything can
+/// overwrite the record), the stack painted, the clocks and embassy started, the
+/// cycle counter running. Returns the peripherals, the core's, and the cause.
+pub fn start_board() -> (
+    embassy_stm32::Peripherals,
+    cortex_m::Peripherals,
+    fault::ResetCause,
+) {
+    let reset = fault::take_reset_cause();
+    stack::paint();
+    let p = embassy_stm32::init(clocks::config());
+    let Some(mut core) = cortex_m::Peripherals::take() else {
+        fault::fail(crate::fault_record::Cause::Startup, 1)
+    };
+    timing::start(&mut core.DCB, &mut core.DWT);
+    (p, core, reset)
+}
 
 /// Writes the handlers every board image binds: the HardFault exception (the fault
 /// path) and the link's tick interrupt ([`period::TICK_INTERRUPT`], woken by the

@@ -56,6 +56,15 @@ pub struct Leds {
     pub fault: PinId,
 }
 
+impl Leds {
+    /// The two LEDs as outputs, the fault LED lit when the last reset was a fault.
+    pub fn new(status: PinId, fault: PinId, last_reset_was_fault: bool) -> Self {
+        status.set_output(false);
+        fault.set_output(last_reset_was_fault);
+        Self { status, fault }
+    }
+}
+
 /// The control state, handed from `main` to the interrupt once: `main` builds it in
 /// a static cell and stores its address here before the interrupt is unmasked, and
 /// never touches it again. One copy of the state, no critical section in the period.

@@ -48,6 +48,13 @@ impl PinId {
         pac::RCC.ahb2enr().modify(|w| w.0 |= 1 << bit);
     }
 
+    /// `pin` as an input.
+    pub fn input(pin: &impl Pin) -> Self {
+        let id = Self::of(pin);
+        id.set_input();
+        id
+    }
+
     /// The pin to alternate function `af`, optionally pulled down inside.
     pub fn set_alternate(self, af: u8, pull_down: bool) {
         self.clock();

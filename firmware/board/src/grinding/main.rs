@@ -40,10 +40,8 @@ use embassy_stm32::pac::interrupt;
 use embassy_stm32::{bind_interrupts, dma, pac, peripherals, usart};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
-use heapless::spsc::{Consumer, Producer, Queue};
-use kerf::app::host_link::{HostLink, HostLinkConfig};
-use kerf::app::supervisor::{Command, Report, Supervisor};
-use kerf::app::PeriodClock;
+use heapless::spsc::Queue;
+use kerf::app::supervisor::{Command, Report};
 use kerf::codec::gcs::MAX_REPLY_LEN;
 use kerf::hal::{Monotonic, SampleInputs, Transact, WriteOutputs};
 use kerf::machines::grinding::devices::{DeviceDemand, DeviceFault, DeviceLink, DeviceLinkState};
@@ -56,16 +54,17 @@ use kerf::machines::grinding::{
 };
 use kerf::sensing::force::Eccentricity;
 use kerf_board_support::reply_framing::ReplyEnd;
-use kerf_board_support::stm32::adc::{self, AdcRow, DmaBuffer};
-use kerf_board_support::stm32::fault::{self, Cause, ResetCause};
-use kerf_board_support::stm32::link::{LinkTask, Stored, LINK_BAUD, RX_RING_BYTES};
+use kerf_board_support::stm32::adc::{AdcRow, DmaBuffer};
+use kerf_board_support::stm32::fault::{self, Cause};
+use kerf_board_support::stm32::image::{self, Image, Trigger};
+use kerf_board_support::stm32::link::{host_uart, LinkTask, Stored, RX_RING_BYTES};
 use kerf_board_support::stm32::period::{
     self, BoardHal, Control, Handoff, Leds, Watch, DEVICE_TICK,
 };
 use kerf_board_support::stm32::pins::PinId;
 use kerf_board_support::stm32::serial::PolledPort;
-use kerf_board_support::stm32::timing::{self, CycleClock, KERF_STATUS};
-use kerf_board_support::stm32::{clocks, stack, timer};
+use kerf_board_support::stm32::timing::CycleClock;
+use kerf_board_support::stm32::{clocks, start_board, timer};
 use kerf_board_support::timer_period::TimerPeriod;
 use static_cell::{ConstStaticCell, StaticCell};
 
@@ -183,77 +182,6 @@ fn register_safe_piezo() {
     fault::set_safe_writes(&[(pac::DAC1.dhr12r(0).as_ptr().cast(), 0)]);
 }
 
-/// The machine and its supervisor, built into their static and handed to the control
-/// interrupt (out of line: its frame holds a copy of the machine).
-#[inline(never)]
-fn start_machine(
-    hal: CellHal,
-    leds: Leds,
-    from_sender: Consumer<'static, Command<Machine>>,
-    to_link: Producer<'static, Report<Machine>>,
-) {
-    let Ok(clock) = PeriodClock::new(PERIOD_S, u64::from(clocks::SYSCLK_HZ)) else {
-        fault::fail(Cause::Startup, 8)
-    };
-    let Ok(cell) = Machine::new(&CONFIG) else {
-        fault::fail(Cause::Startup, 4)
-    };
-    let period = hal.period;
-    let control = CONTROL.init_with(|| {
-        let mut supervisor = Supervisor::new(cell, from_sender, to_link);
-        supervisor.set_telemetry_decimation(TELEMETRY_DECIMATION);
-        Control {
-            supervisor,
-            clock,
-            hal,
-            period,
-            leds,
-        }
-    });
-    HANDOFF.hand_over(control);
-}
-
-/// The host link's state, built into its static (out of line, as [`start_machine`]).
-#[inline(never)]
-fn start_link(parts: LinkParts, reset: ResetCause) -> &'static mut CellLink {
-    let link_config = HostLinkConfig {
-        period_s: PERIOD_S,
-        heartbeat_timeout_s: HostLinkConfig::DEFAULT_TIMEOUT_S,
-    };
-    let Ok(host_link) = HostLink::new(&link_config, GrindingSettings::CELL, PASS) else {
-        fault::fail(Cause::Startup, 7)
-    };
-    // No eccentricity until one is measured (the configuration's tool).
-    let fit = FIT.init_with(|| {
-        Stored(GrindingCalibration {
-            eccentricity: Eccentricity {
-                dx_m: 0.0,
-                dy_m: 0.0,
-            },
-        })
-    });
-    LINK.init_with(|| LinkTask {
-        link: host_link,
-        commands: parts.commands,
-        reports: parts.reports,
-        rx: parts.rx,
-        tx: parts.tx,
-        fit,
-        reset,
-        button: parts.button,
-        control_hz: pins::CONTROL_HZ,
-    })
-}
-
-/// What the link task is given besides its own state.
-struct LinkParts {
-    commands: Producer<'static, Command<Machine>>,
-    reports: Consumer<'static, Report<Machine>>,
-    rx: usart::RingBufferedUartRx<'static>,
-    tx: usart::UartTx<'static, embassy_stm32::mode::Async>,
-    button: PinId,
-}
-
 /// The devices' side: the two ports and the device link.
 struct Devices {
     hexapod: PolledPort,
@@ -262,37 +190,18 @@ struct Devices {
     state: DeviceLinkState,
 }
 
+/// The bias capture at power-up; the link task finishes it when the sweep is done.
+fn capture_bias() -> Option<Command<Machine>> {
+    Some(Command::Calibrate)
+}
+
 #[cortex_m_rt::entry]
 fn main() -> ! {
-    let reset = fault::take_reset_cause();
-    stack::paint();
-    let p = embassy_stm32::init(clocks::config());
-    let Some(mut core) = cortex_m::Peripherals::take() else {
-        fault::fail(Cause::Startup, 1)
-    };
-    timing::start(&mut core.DCB, &mut core.DWT);
-    register_safe_piezo();
-    let leds = Leds {
-        status: PinId::of(&*p.PC6),
-        fault: PinId::of(&*p.PC7),
-    };
-    leds.status.set_output(false);
-    leds.fault.set_output(reset.cause.is_fault());
-    let button = PinId::of(&*p.PC13);
-    button.set_input();
+    let (p, mut core, reset) = start_board();
     defmt::info!("kerf grinding board: reset by {}", reset);
-
-    if libm::fabs(PERIOD_S * f64::from(pins::CONTROL_HZ) - 1.0) > 1e-9 {
-        fault::fail(Cause::Startup, 2)
-    }
-    let period_cycles = clocks::SYSCLK_HZ / pins::CONTROL_HZ;
-    let Ok(period) = timer::period_of(period_cycles) else {
+    let Ok(period) = timer::period_of(clocks::SYSCLK_HZ / pins::CONTROL_HZ) else {
         fault::fail(Cause::Startup, 3)
     };
-    KERF_STATUS
-        .period_cycles
-        .store(period_cycles, core::sync::atomic::Ordering::Relaxed);
-
     // The wiring (pins.rs), typed.
     let gauges = [
         AdcRow::adc1([
@@ -306,9 +215,9 @@ fn main() -> ! {
             p.PB2.degrade_adc(),
         ]),
     ];
-    let tim1 = timer::Tim1Pins::without_pwm(p.PA9, p.PB12);
     let mut piezo = DacChannel::new_blocking(p.DAC1, p.PA4);
     piezo.set(Value::Bit12Right(0));
+    register_safe_piezo();
     let hal = CellHal {
         clock: CycleClock::new(),
         enabled: false,
@@ -328,62 +237,60 @@ fn main() -> ! {
     let Ok(device_link) = DeviceLink::new(&DEVICES) else {
         fault::fail(Cause::Startup, 14)
     };
-    let devices = Devices {
+    let devices = DEVICES_TASK.init(Devices {
         hexapod: PolledPort::new(hexapod, ReplyEnd::Line, pins::DEVICE_TIMEOUT_MS),
         spindle: PolledPort::new(spindle, ReplyEnd::Fixed, pins::DEVICE_TIMEOUT_MS),
         link: device_link,
         state: DeviceLinkState::new(),
-    };
-
-    let (mut to_machine, from_sender) = COMMANDS.take().split();
-    let (to_link, from_machine) = REPORTS.take().split();
-    start_machine(hal, leds, from_sender, to_link);
-    // The bias capture at power-up; the link task finishes it when the sweep is done.
-    if to_machine.enqueue(Command::Calibrate).is_err() {
-        fault::fail(Cause::Startup, 6)
-    }
-
-    let mut uart_config = usart::Config::default();
-    uart_config.baudrate = LINK_BAUD;
-    let Ok(uart) = usart::Uart::new(
+    });
+    let Ok(uart) = host_uart(
         p.LPUART1,
         p.PA3,
         p.PA2,
         p.DMA1_CH4,
         p.DMA1_CH5,
         Irqs,
-        uart_config,
+        RX_RING.take(),
     ) else {
         fault::fail(Cause::Startup, 9)
     };
-    pac::Interrupt::LPUART1.set_priority(Priority::from(clocks::LINK_PRIORITY));
-    let (tx, rx) = uart.split();
-    let rx = rx.into_ring_buffered(RX_RING.take());
-    let parts = LinkParts {
-        commands: to_machine,
-        reports: from_machine,
-        rx,
-        tx,
-        button,
+    // No eccentricity until one is measured (the configuration's tool).
+    let stored = GrindingCalibration {
+        eccentricity: Eccentricity {
+            dx_m: 0.0,
+            dy_m: 0.0,
+        },
     };
-    let task = start_link(parts, reset);
-
-    if let Err(e) = adc::start(&gauges, &SAMPLES) {
-        defmt::error!("sampling: {}", e);
-        fault::fail(Cause::Startup, 10)
-    }
-    period::enable(&mut core.NVIC, pac::Interrupt::DMA1_CHANNEL1);
-    match timer::start(&tim1, period, false) {
-        Ok(()) => {}
-        Err(timer::TimerError::BreakActive) => {
-            defmt::error!("break input active: outputs held off until reset");
-        }
-        Err(e) => {
-            defmt::error!("outputs: {}", e);
-            fault::fail(Cause::Startup, 11)
-        }
-    }
-    fault::start_watchdog();
+    let image = Image {
+        name: "grinding cell",
+        control_hz: pins::CONTROL_HZ,
+        period_s: PERIOD_S,
+        telemetry_decimation: TELEMETRY_DECIMATION,
+        hal,
+        trigger: Trigger::Adc(&gauges, &SAMPLES),
+        tim1: timer::Tim1Pins::without_pwm(p.PA9, p.PB12),
+        leds: Leds::new(
+            PinId::of(&*p.PC6),
+            PinId::of(&*p.PC7),
+            reset.cause.is_fault(),
+        ),
+        button: PinId::input(&*p.PC13),
+        uart,
+        commands: COMMANDS.take().split(),
+        reports: REPORTS.take().split(),
+        startup: &[capture_bias],
+        link: (GrindingSettings::CELL, PASS),
+        fit: FIT.init_with(|| Stored(stored)),
+        reset,
+    };
+    let task = image::start(
+        image,
+        || Machine::new(&CONFIG).ok(),
+        &CONTROL,
+        &HANDOFF,
+        &LINK,
+        &mut core.NVIC,
+    );
     // The link on an interrupt executor at the link's priority (its UART's), above the
     // devices in thread mode.
     pac::Interrupt::UCPD1.set_priority(Priority::from(clocks::LINK_PRIORITY));
@@ -392,13 +299,7 @@ fn main() -> ! {
         Ok(token) => link_spawner.spawn(token),
         Err(_) => fault::fail(Cause::Startup, 12),
     }
-    defmt::info!(
-        "kerf grinding board: control at {} Hz, link at {} Bd",
-        pins::CONTROL_HZ,
-        LINK_BAUD
-    );
     let thread = THREAD.init(Executor::new());
-    let devices = DEVICES_TASK.init(devices);
     thread.run(|spawner| match device_task(devices) {
         Ok(token) => spawner.spawn(token),
         Err(_) => fault::fail(Cause::Startup, 15),
