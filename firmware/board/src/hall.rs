@@ -284,3 +284,24 @@ impl<M: HallMachine<N>, const N: usize> SweepFit<M> for HallFit<M, N> {
         }
     }
 }
+
+/// The sweep of an image whose RAM has no room for the fit (the remote slave: its
+/// session buffer and command queue leave 34 KB of the 74 KB the fit's stack needs):
+/// the nominal decoders are stored at power-up, the button starts nothing, and a
+/// sweep the host starts ends without a fit (the host stops it).
+pub struct NoRoomToFit;
+
+impl<M: Machine<SweepSample = HallSample>> SweepFit<M> for NoRoomToFit {
+    const SWEEPS: bool = false;
+
+    fn restart(&mut self) {}
+
+    fn push(&mut self, _sample: &HallSample) -> bool {
+        false
+    }
+
+    fn fit(&mut self) -> Option<M::Calibration> {
+        defmt::warn!("calibration: this image has no room for the fit; stop the sweep");
+        None
+    }
+}
