@@ -12,9 +12,11 @@
 //!   messages);
 //! - [`arrow`]: ARROW, the redundantly actuated parallel machining robot;
 //! - [`grinding`]: the force-controlled grinding cell with its devices;
-//! - [`single_axis`]: one Hall-sensed linear-motor axis.
+//! - [`single_axis`]: one Hall-sensed linear-motor axis;
+//! - [`autofocus`]: a zoom camera's focus axis kept at the sharpness peak.
 
 pub mod arrow;
+pub mod autofocus;
 pub mod delta_slave;
 pub mod grinding;
 pub mod remote_link;
