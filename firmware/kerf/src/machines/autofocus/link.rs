@@ -62,7 +62,7 @@ pub struct LawSettings {
     #[tree(meta(range = "> 0 and < 1"))]
     pub refocus_change: f64,
     /// Least sharpness of a textured scene, grey levels.
-    #[tree(meta(unit = "grey levels", range = "> 0"))]
+    #[tree(meta(unit = "grey", range = "> 0"))]
     pub min_sharpness: f64,
 }
 
@@ -197,7 +197,10 @@ const _: () = assert!(product::JOB_STEPS == 16 && product::MAX_DWELL_S == 600.0)
 const _: () = assert!(product::ZOOM_RANGE[0] == 1.0 && product::ZOOM_RANGE[1] == 3.0);
 const _: () = assert!(product::MISSED_FRAMES == 5);
 
-/// The telemetry channels.
+/// The telemetry channels: SI units, the sharpness in grey levels (the normalized
+/// variance is a variance over a mean), plain numbers in "1": the magnification, the
+/// law's mode (0 search, 1 track, 2 hold) and the schedule's step (0-based; the
+/// schedule's length once it is over).
 const CHANNELS: [Channel; 9] = [
     Channel {
         name: "position",
@@ -205,7 +208,7 @@ const CHANNELS: [Channel; 9] = [
     },
     Channel {
         name: "sharpness",
-        unit: "grey levels",
+        unit: "grey",
     },
     Channel {
         name: "gradient",
@@ -225,15 +228,15 @@ const CHANNELS: [Channel; 9] = [
     },
     Channel {
         name: "magnification",
-        unit: "",
+        unit: "1",
     },
     Channel {
         name: "law_mode",
-        unit: "0 search, 1 track, 2 hold",
+        unit: "1",
     },
     Channel {
         name: "step",
-        unit: "",
+        unit: "1",
     },
 ];
 const _: () = assert!(CHANNELS.len() <= crate::codec::link::MAX_CHANNELS);
