@@ -151,12 +151,6 @@ impl<T: Float> LinkedAutofocus<'_, T> {
         self.camera_state = state;
     }
 
-    /// The focus position of the camera's present magnification, m: where the
-    /// sharpness peaks.
-    pub fn true_focus_m(&self) -> f64 {
-        self.camera.params.focus_m(self.camera.magnification)
-    }
-
     /// The simulated focus axis.
     pub fn axis(&self) -> &FocusAxis {
         &self.axis

@@ -319,11 +319,6 @@ impl<T: Float> FocusStage<T> {
         &self.config
     }
 
-    /// The law's state (for inspection).
-    pub fn law_state(&self) -> &AutofocusState<T, RING> {
-        &self.state
-    }
-
     /// The position checked (finite, off the hard stops) and the velocity estimate,
     /// the observer fed the acceleration applied over the last period.
     fn sense(&mut self, position_m: T) -> Result<(T, T), StageFault> {
