@@ -178,11 +178,19 @@ fn speed_peak(log: &TelemetryLog, from_s: f64) -> f64 {
         .fold(0.0, |w: f64, v| w.max(v.abs()))
 }
 
-/// The schedule in focus at the end of each step (bound: half the depth of field,
-/// as the host scenario `autofocus` finds it on every texture: the residual is
-/// noise-limited, about 0.2 w); with μ0 lowered to 2 mm/s just after the zoom to
+/// The schedule in focus at the end of each step. The residual is noise-limited: the
+/// gradient's zero is found to about 0.2 w (one standard deviation, at m = 1; the
+/// host scenario `autofocus` derives it), and where in the camera's noise a run
+/// starts depends on the host's timing, so the residual at a step's end varies from
+/// run to run (0.09–0.45 w at m = 1 over twelve runs): the bound is 0.75 w, 3.75
+/// standard deviations, still inside the depth of field (a zoom change missed would
+/// leave 15 w); with μ0 lowered to 2 mm/s just after the zoom to
 /// m = 2 starts, the velocity reference keeps to it while the focus moves 3 mm, and
-/// the step still ends in focus.
+/// the step still ends in focus. The change reaches the machine when the host sends
+/// it, some periods after the sample at 5.2 s (the simulation runs faster than real
+/// time, so a busy host's milliseconds are a larger part of a second of machine
+/// time); the reference is checked from 5.7 s, while the 3 mm refocus at 2 mm/s still
+/// runs (until 6.5 s at the earliest).
 #[test]
 fn the_host_runs_the_zoom_schedule_and_retunes_the_law_mid_run() {
     let mut rig = rig(None);
@@ -225,7 +233,7 @@ fn the_host_runs_the_zoom_schedule_and_retunes_the_law_mid_run() {
         );
     }
     let before = speed_peak(&log, 0.0);
-    let after = speed_peak(&log, 5.3);
+    let after = speed_peak(&log, 5.7);
     println!(
         "autofocus link: {samples} samples; velocity reference peak {:.3} mm/s before the \
          change, {:.3} mm/s after",
@@ -239,7 +247,7 @@ fn the_host_runs_the_zoom_schedule_and_retunes_the_law_mid_run() {
         "{lines:?}"
     );
     assert_eq!(errors.len(), ZOOM_SCHEDULE.len(), "{errors:?}");
-    assert!(errors.iter().all(|(_, _, w)| *w < 0.5), "{errors:?}");
+    assert!(errors.iter().all(|(_, _, w)| *w < 0.75), "{errors:?}");
     // 11 s at 100 samples a second.
     assert!(samples > 1000, "{samples}");
     assert!(before > 3e-3, "{before}");
