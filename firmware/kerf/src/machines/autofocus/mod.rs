@@ -10,9 +10,10 @@
 //! which a camera frame has been read out, that frame's window moments
 //! ([`crate::sensing::sharpness::window_moments`]: the exact integer sums Σ i and Σ i²
 //! over the window) with the axis position latched at the frame's exposure. A board
-//! computes the moments in the period the frame's DMA completes (4096 pixels, some
-//! 12 000 cycles on a Cortex-M4: a sixth of the 1 ms period), so only 16 bytes of it
-//! reach the machine; the sharpness S = (n S2 − S1²)/(n S1) is formed here.
+//! computes the moments in the period the frame's DMA completes (4096 pixels, four
+//! integer sums and squares to an iteration: no floating point, no rounding), so the
+//! 4 KiB frame stays in its DMA buffer and 16 bytes of it reach the machine; the
+//! sharpness S = (n S2 − S1²)/(n S1) is formed here, once per frame.
 //!
 //! It writes the focus axis' acceleration command (the axis follows acceleration
 //! behind its disturbance observer, T 4.1.2) and the zoom drive's magnification
