@@ -12,8 +12,12 @@
 //!   `kerf::machines::arrow::job::ArrowJob::from_gcode`.
 //! - Recording (T ch. 5): a recorded master session (`KRFR`) as it is, for
 //!   `kerf::machines::delta_slave::remote::recording::Recording::parse`.
+//! - Schedule: steps of (setpoint, duration s), the setpoint in the machine's own unit
+//!   (the autofocus stage's zoom schedule, `kerf::machines::autofocus::product`).
 
-use kerf::codec::job::{write_efd, write_gcode, write_points, write_recording, JobFile};
+use kerf::codec::job::{
+    write_efd, write_gcode, write_points, write_recording, write_schedule, JobFile,
+};
 pub use kerf::codec::job::{JobFileError, HEADER_BYTES, JOB_FORMAT_VERSION};
 pub use kerf::codec::link::JobKind;
 
@@ -42,6 +46,11 @@ pub enum Job {
         /// The recording's bytes.
         bytes: Vec<u8>,
     },
+    /// A schedule: setpoints, each held for a duration.
+    Schedule {
+        /// (setpoint, duration s) per step.
+        steps: Vec<[f32; 2]>,
+    },
 }
 
 impl Job {
@@ -52,6 +61,7 @@ impl Job {
             Job::Path { .. } => JobKind::Points,
             Job::Gcode { .. } => JobKind::Gcode,
             Job::Recording { .. } => JobKind::Recording,
+            Job::Schedule { .. } => JobKind::Schedule,
         }
     }
 
@@ -63,6 +73,7 @@ impl Job {
             Job::Path { points_m } => 8 * points_m.len(),
             Job::Gcode { text } => text.len(),
             Job::Recording { bytes } => bytes.len(),
+            Job::Schedule { steps } => 8 * steps.len(),
         };
         let mut out = vec![0u8; HEADER_BYTES + body + 4];
         let n = match self {
@@ -79,6 +90,10 @@ impl Job {
             }
             Job::Gcode { text } => write_gcode(text, &mut out)?,
             Job::Recording { bytes } => write_recording(bytes, &mut out)?,
+            Job::Schedule { steps } => {
+                let wide: Vec<[f64; 2]> = steps.iter().map(|p| p.map(f64::from)).collect();
+                write_schedule(&wide, &mut out)?
+            }
         };
         out.truncate(n);
         Ok(out)
@@ -101,6 +116,9 @@ impl Job {
             },
             JobFile::Recording { bytes } => Job::Recording {
                 bytes: bytes.to_vec(),
+            },
+            JobFile::Schedule { .. } => Job::Schedule {
+                steps: (0..n).filter_map(|k| file.step(k)).collect(),
             },
         })
     }

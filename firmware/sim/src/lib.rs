@@ -11,6 +11,7 @@ pub mod arrow;
 pub mod contour;
 pub mod linked;
 pub mod linked_arrow;
+pub mod linked_autofocus;
 pub mod linked_axis;
 pub mod linked_grinding;
 pub mod linked_master;

@@ -5,7 +5,8 @@
 use crate::input::same_bits;
 use crate::targets::link::octagon_job;
 use kerf::codec::job::{
-    write_efd, write_gcode, write_points, write_recording, JobFile, HEADER_BYTES,
+    write_efd, write_gcode, write_points, write_recording, write_schedule, JobFile,
+    HEADER_BYTES,
 };
 use kerf::codec::link::crc32;
 use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry};
@@ -65,6 +66,13 @@ pub fn job_file(data: &[u8]) -> usize {
         }
         JobFile::Gcode { text } => (text.len(), write_gcode(text, &mut out)),
         JobFile::Recording { bytes } => (bytes.len(), write_recording(bytes, &mut out)),
+        JobFile::Schedule { .. } => {
+            let steps: Vec<[f32; 2]> = (0..n).map(|k| file.step(k).unwrap()).collect();
+            assert!(file.step(n).is_none());
+            assert!(steps.iter().flatten().all(|v| v.is_finite()), "{steps:?}");
+            let wide: Vec<[f64; 2]> = steps.iter().map(|p| p.map(f64::from)).collect();
+            (8 * n, write_schedule(&wide, &mut out))
+        }
     };
     assert_eq!(bytes.len(), HEADER_BYTES + body + 4);
     assert_eq!(written, Ok(bytes.len()));
@@ -104,6 +112,9 @@ pub fn host_job(data: &[u8]) -> usize {
         }
         (HostJob::Gcode { text: a }, HostJob::Gcode { text: b }) => assert_eq!(a, b),
         (HostJob::Recording { bytes: a }, HostJob::Recording { bytes: b }) => assert_eq!(a, b),
+        (HostJob::Schedule { steps: a }, HostJob::Schedule { steps: b }) => {
+            assert!(same_bits(a.as_flattened(), b.as_flattened()));
+        }
         _ => unreachable!("the kinds agree"),
     }
     1
@@ -120,6 +131,8 @@ pub fn job_file_seeds() -> Vec<Vec<u8>> {
     let n = write_gcode(super::codec::GCODE_SEEDS[1].as_bytes(), &mut out).unwrap();
     files.push(out[..n].to_vec());
     let n = write_recording(b"KRFR\x01\x00", &mut out).unwrap();
+    files.push(out[..n].to_vec());
+    let n = write_schedule(&[[1.0, 6.0], [2.0, 4.0], [1.5, 4.0]], &mut out).unwrap();
     files.push(out[..n].to_vec());
     files
         .iter()

@@ -7,9 +7,9 @@
 //! |---|---|---|
 //! | 0 | 4 | magic `KRFJ` |
 //! | 4 | 1 | format version (= [`JOB_FORMAT_VERSION`]) |
-//! | 5 | 1 | kind: 0 EFD, 1 points, 2 G-code, 3 recording ([`JobKind`]) |
+//! | 5 | 1 | kind: 0 EFD, 1 points, 2 G-code, 3 recording, 4 schedule ([`JobKind`]) |
 //! | 6 | 2 | reserved, 0 |
-//! | 8 | 4 | count: harmonics (EFD), points (points), body bytes (G-code, recording) |
+//! | 8 | 4 | count: harmonics (EFD), points (points), body bytes (G-code, recording), steps (schedule) |
 //! | 12 | … | body |
 //! | end − 4 | 4 | CRC-32 (ISO-HDLC) of every byte before it |
 //!
@@ -20,7 +20,10 @@
 //! Bodies: EFD, the centre (x, y) then (a_k, b_k, c_k, d_k) per harmonic, f32, m;
 //! points, (x, y) per point, f32, m; G-code, the text (ASCII); recording, a recorded
 //! master session as its own format writes it (`KRFR`,
-//! `machines::delta_slave::remote::recording`, which checks it when a machine loads it).
+//! `machines::delta_slave::remote::recording`, which checks it when a machine loads it);
+//! schedule, (setpoint, duration s) per step, f32, the setpoint in the unit of the
+//! machine that runs it (the autofocus stage's magnification,
+//! `machines::autofocus::product`).
 
 pub use super::link::JobKind;
 
@@ -103,6 +106,11 @@ pub enum JobFile<'a> {
         /// The recording's bytes.
         bytes: &'a [u8],
     },
+    /// A schedule: steps of (setpoint, duration s), read with [`JobFile::step`].
+    Schedule {
+        /// The body.
+        steps: &'a [u8],
+    },
 }
 
 /// Row `row` of `N` little-endian f32s; `None` past the end (an index so large that
@@ -125,16 +133,19 @@ impl<'a> JobFile<'a> {
             Self::Points { .. } => JobKind::Points,
             Self::Gcode { .. } => JobKind::Gcode,
             Self::Recording { .. } => JobKind::Recording,
+            Self::Schedule { .. } => JobKind::Schedule,
         }
     }
 
-    /// Harmonics (EFD), points (points), text bytes (G-code) or recording bytes.
+    /// Harmonics (EFD), points (points), text bytes (G-code), recording bytes or
+    /// steps (schedule).
     pub fn count(&self) -> usize {
         match self {
             Self::Efd { coefficients, .. } => coefficients.len() / 16,
             Self::Points { points } => points.len() / 8,
             Self::Gcode { text } => text.len(),
             Self::Recording { bytes } => bytes.len(),
+            Self::Schedule { steps } => steps.len() / 8,
         }
     }
 
@@ -152,6 +163,14 @@ impl<'a> JobFile<'a> {
             return None;
         };
         f32_row::<2>(points, k)
+    }
+
+    /// Step `k` of a schedule job: (setpoint, duration s).
+    pub fn step(&self, k: usize) -> Option<[f32; 2]> {
+        let Self::Schedule { steps } = self else {
+            return None;
+        };
+        f32_row::<2>(steps, k)
     }
 
     /// Reads and checks a job file.
@@ -180,7 +199,7 @@ impl<'a> JobFile<'a> {
         let count = u64::from(count);
         let expected = match kind {
             0 => 8 + 16 * count,
-            1 => 8 * count,
+            1 | 4 => 8 * count,
             2 | 3 => count,
             k => return Err(JobFileError::Kind(k)),
         };
@@ -222,7 +241,13 @@ impl<'a> JobFile<'a> {
                 Ok(Self::Points { points: body })
             }
             2 => Ok(Self::Gcode { text: body }),
-            _ => Ok(Self::Recording { bytes: body }),
+            3 => Ok(Self::Recording { bytes: body }),
+            _ => {
+                if !finite(body) {
+                    return Err(JobFileError::NotFinite);
+                }
+                Ok(Self::Schedule { steps: body })
+            }
         }
     }
 }
@@ -324,6 +349,13 @@ pub fn write_recording(bytes: &[u8], out: &mut [u8]) -> Result<usize, JobFileErr
     })
 }
 
+/// Writes a schedule job ((setpoint, duration s) per step, stored as f32).
+///
+/// Errors: as [`write_efd`].
+pub fn write_schedule(steps: &[[f64; 2]], out: &mut [u8]) -> Result<usize, JobFileError> {
+    write_values(4, steps.len(), steps.iter().flatten(), out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -376,10 +408,20 @@ mod tests {
                 bytes: b"KRFR\x01\x00"
             }
         );
+        let n = write_schedule(&[[1.0, 6.0], [2.0, 4.5]], &mut buf).unwrap();
+        let file = JobFile::read(&buf[..n]).unwrap();
+        assert_eq!((file.kind(), file.count()), (JobKind::Schedule, 2));
+        assert_eq!(file.step(1), Some([2.0, 4.5]));
+        assert_eq!((file.step(2), file.point(0)), (None, None));
+        let mut nan = buf;
+        nan[HEADER_BYTES..HEADER_BYTES + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+        let crc = crc32(&nan[..n - 4]);
+        nan[n - 4..n].copy_from_slice(&crc.to_le_bytes());
+        assert_eq!(JobFile::read(&nan[..n]), Err(JobFileError::NotFinite));
         // A kind past the last is still refused by number.
         let mut bad = buf;
-        bad[5] = 4;
-        assert_eq!(JobFile::read(&bad[..n]), Err(JobFileError::Kind(4)));
+        bad[5] = 5;
+        assert_eq!(JobFile::read(&bad[..n]), Err(JobFileError::Kind(5)));
         assert_eq!(
             write_points(&[[f64::NAN, 0.0]], &mut buf),
             Err(JobFileError::NotFinite)

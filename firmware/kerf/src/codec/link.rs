@@ -90,6 +90,9 @@ pub enum JobKind {
     /// A recorded master session: the command frames that reached a remote slave,
     /// each with its arrival period (`machines::delta_slave::remote::recording`).
     Recording,
+    /// A schedule: setpoints, each held for a duration (the autofocus stage's zoom
+    /// schedule, `machines::autofocus::product`).
+    Schedule,
 }
 
 /// A request of the host.

@@ -12,12 +12,14 @@
 //!   messages are the framework's, [`crate::app::remote_link`]);
 //! - [`arrow`]: ARROW, the redundantly actuated parallel machining robot;
 //! - [`grinding`]: the force-controlled grinding cell with its devices;
-//! - [`single_axis`]: one Hall-sensed linear-motor axis.
+//! - [`single_axis`]: one Hall-sensed linear-motor axis;
+//! - [`autofocus`]: a zoom camera's focus axis kept at the sharpness peak.
 //!
 //! No machine imports another's module: what two machines share is the framework's
 //! (the remote link, the joints, the calibration).
 
 pub mod arrow;
+pub mod autofocus;
 pub mod delta_slave;
 pub mod grinding;
 pub mod remote_master;
