@@ -188,6 +188,7 @@ fn arrow_machine() {
     let inputs = ArrowInputs {
         joints_m: opaque(ActuatorVector::zeros()),
         table_rad: opaque([0.0; 2]),
+        drive_fault: None,
     };
     periods(machine, inputs, job, ());
 }

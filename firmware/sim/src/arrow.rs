@@ -242,6 +242,7 @@ pub fn run_job<T: Float>(
     let read = |r: ArrowReading<T>| ArrowInputs {
         joints_m: r.joints_m,
         table_rad: r.turntable_rad,
+        drive_fault: None,
     };
     let mut inputs = read(plant.read()?);
     let mut outputs = supervisor.step(&inputs);
