@@ -25,10 +25,12 @@
 //! the drive's slot, TPDO1 as [`cia402::TPDO_MAPPING`], both transmission type 1.
 
 use heapless::Deque;
+use kerf::app::drive_set::{DriveAddress, DriveSetConfig};
 use kerf::codec::canopen::{
     CanFrame, Emergency, NmtCommand, NmtState, Od, Received, SdoAbort, SdoRequest, SdoResponse,
 };
 use kerf::codec::cia402::{self, cw, sw, CstCommand, CstFeedback, DriveCommand, DriveState};
+use kerf::kinematics::arrow::ArrowMasses;
 
 /// A simulated drive's parameters.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -51,6 +53,54 @@ pub struct SimDriveConfig {
     pub watchdog_periods: u32,
 }
 
+/// What a drive model brings (the same for every drive of a set).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct SimDriveModel {
+    /// Rated force 0x6076, mN.
+    pub rated_mn: u32,
+    /// The highest max torque 0x6072 it accepts, per mille.
+    pub peak_permille: u16,
+    /// Ticks without a SYNC that trip the watchdog.
+    pub watchdog_periods: u32,
+}
+
+impl SimDriveModel {
+    /// ARROW's actuator drives: rated at half the actuators' 2,500 N limit
+    /// ([`ArrowMasses::ARROW`]; linear motors' peak force is commonly twice their
+    /// continuous one), so the limit is 2,000 per mille and one per mille of target
+    /// torque is 1.25 N; peak 2,000 per mille. The watchdog allows three periods
+    /// without SYNC (600 µs at 5 kHz).
+    pub const ARROW: Self = Self {
+        rated_mn: (ArrowMasses::ARROW.actuator_force_limit_n * 500.0) as u32,
+        peak_permille: 2000,
+        watchdog_periods: 3,
+    };
+
+    /// The drives of a master's configuration: its buses and node ids, the RPDO
+    /// COB-ID and slot each maps, its encoder increment.
+    pub fn drives<const N: usize>(&self, master: &DriveSetConfig<N>) -> [SimDriveConfig; N] {
+        core::array::from_fn(|i| {
+            let a = master
+                .drives
+                .get(i)
+                .copied()
+                .unwrap_or(DriveAddress { bus: 0, node: 0 });
+            let on_bus = master.drives.iter().take(i).filter(|b| b.bus == a.bus);
+            let first = master.drives.iter().find(|b| b.bus == a.bus).unwrap_or(&a);
+            SimDriveConfig {
+                bus: a.bus,
+                node: a.node,
+                rpdo_id: kerf::codec::canopen::cob::RPDO1 | u16::from(first.node),
+                slot: on_bus.count() as u8,
+                rated_mn: self.rated_mn,
+                peak_permille: self.peak_permille,
+                increment_m: master.increment_m,
+                watchdog_periods: self.watchdog_periods,
+            }
+        })
+    }
+}
+
 /// A fault to inject into a drive.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum Injection {
@@ -58,7 +108,8 @@ pub enum Injection {
     Overcurrent,
     /// The encoder fails: EMCY 0x7305 and Fault at the next SYNC.
     EncoderFault,
-    /// The drive falls silent: it neither sends nor hears a frame from now on.
+    /// The drive falls silent (its bus cable cut): it neither sends nor hears a frame
+    /// from now on, and its watchdog, hearing no SYNC, takes its force off.
     Silent,
     /// It answers the write of mode 10 with abort 0x06090030.
     RefuseCst,
@@ -135,22 +186,18 @@ impl SimDrive {
             | if clipped { sw::INTERNAL_LIMIT } else { 0 }
     }
 
-    /// Power-on / NMT reset: parameters to their defaults, boot-up message.
+    /// Power-on / NMT reset: parameters to their defaults, boot-up message. The
+    /// hardware stays as it is (the position, a failed encoder, the injections).
     fn reset(&mut self, out: &mut dyn FnMut(CanFrame)) {
-        let keep = (
-            self.config,
-            self.position,
-            self.refuse_cst,
-            self.never_boots,
-            self.start_in_fault,
-        );
-        *self = Self::new(keep.0);
-        (
-            self.position,
-            self.refuse_cst,
-            self.never_boots,
-            self.start_in_fault,
-        ) = (keep.1, keep.2, keep.3, keep.4);
+        *self = Self {
+            position: self.position,
+            silent: self.silent,
+            refuse_cst: self.refuse_cst,
+            never_boots: self.never_boots,
+            start_in_fault: self.start_in_fault,
+            encoder_failed: self.encoder_failed,
+            ..Self::new(self.config)
+        };
         if self.never_boots {
             return;
         }
@@ -336,9 +383,12 @@ impl SimDrive {
     }
 
     fn tick(&mut self, period_s: f64, out: &mut dyn FnMut(CanFrame)) {
-        if self.silent || self.nmt.is_none() {
+        if self.nmt.is_none() {
             return;
         }
+        // A silent drive hears no SYNC, so its watchdog trips; what it sends is lost.
+        let mut lost = |_| {};
+        let out: &mut dyn FnMut(CanFrame) = if self.silent { &mut lost } else { out };
         self.periods_since_sync = self.periods_since_sync.saturating_add(1);
         let enabled = matches!(
             self.state,
@@ -361,7 +411,7 @@ impl SimDrive {
 
     /// The force the drive applies now, N.
     fn force_n(&self) -> f64 {
-        if self.silent || self.state != DriveState::OperationEnabled {
+        if self.state != DriveState::OperationEnabled {
             return 0.0;
         }
         f64::from(self.torque_permille) * f64::from(self.config.rated_mn) * 1e-6

@@ -33,7 +33,8 @@ use crate::codec::canopen::{cob, sync, CanFrame, Emergency, NmtState, Od, Receiv
 use crate::codec::cia402::{self, cw, CstCommand, DriveState};
 use crate::error::{positive, ConfigError};
 use crate::scalar::Float;
-use bring_up::{BringUp, BringUpStep};
+use bring_up::BringUp;
+pub use bring_up::BringUpStep;
 use core::fmt;
 
 /// Most buses a set spans.
