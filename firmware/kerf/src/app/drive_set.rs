@@ -257,7 +257,7 @@ impl<T: Float, const N: usize> DriveSet<T, N> {
                 return Err(ConfigError::out_of_range("node").at(i).within("drives"));
             }
             d.slot = *count;
-            *count += 1;
+            *count = count.saturating_add(1);
             d.address = Some(*a);
         }
         positive("increment_m", config.increment_m)?;

@@ -204,7 +204,7 @@ pub fn next_sync_counter(c: u8, max: u8) -> u8 {
     if c >= max.clamp(2, 240) {
         1
     } else {
-        c + 1
+        c.saturating_add(1)
     }
 }
 

@@ -290,7 +290,8 @@ pub fn encode_rpdo(pair: &[CstCommand; 2]) -> [u8; 8] {
 /// The slot `slot` (0 or 1) of a pair RPDO's payload, as the drive mapped to it
 /// reads it; `None` for a short payload or another slot.
 pub fn decode_rpdo(payload: &[u8], slot: usize) -> Option<CstCommand> {
-    let bytes = payload.get(4 * slot..4 * slot + 4)?;
+    let start = slot.checked_mul(4)?;
+    let bytes = payload.get(start..start.checked_add(4)?)?;
     match bytes {
         [c0, c1, t0, t1] => Some(CstCommand {
             controlword: u16::from_le_bytes([*c0, *c1]),

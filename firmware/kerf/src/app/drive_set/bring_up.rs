@@ -101,7 +101,7 @@ impl<T: Float, const N: usize> DriveSet<T, N> {
             };
             return;
         }
-        self.bring_up.periods += 1;
+        self.bring_up.periods = self.bring_up.periods.saturating_add(1);
         if let Some(i) = self.drives.iter().position(|d| !d.booted) {
             if self.bring_up.periods > self.config().boot_timeout_periods {
                 self.latch(DriveFault::BringUpTimeout {
@@ -155,7 +155,7 @@ impl<T: Float, const N: usize> DriveSet<T, N> {
             };
             least = Some(least.map_or(step, |l: BringUpStep| l.min(step)));
             if d.progress.pending {
-                let waited = d.progress.waited + 1;
+                let waited = d.progress.waited.saturating_add(1);
                 if let Some(d) = self.drives.get_mut(i) {
                     d.progress.waited = waited;
                 }
@@ -249,7 +249,7 @@ impl<T: Float, const N: usize> DriveSet<T, N> {
             }
         };
         d.progress.pending = false;
-        d.progress.step += 1;
+        d.progress.step = d.progress.step.saturating_add(1);
         if let Some(f) = fault {
             self.latch(f);
         }
@@ -257,7 +257,7 @@ impl<T: Float, const N: usize> DriveSet<T, N> {
 
     /// The controlword walk: each drive's next controlword from its last statusword.
     fn enable(&mut self) {
-        self.bring_up.periods += 1;
+        self.bring_up.periods = self.bring_up.periods.saturating_add(1);
         let timed_out = self.bring_up.periods > self.config().enable_timeout_periods;
         let mut all = true;
         let mut fault = None;
