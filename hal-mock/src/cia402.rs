@@ -117,6 +117,9 @@ pub enum Injection {
     NeverBoots,
     /// It is in Fault (EMCY 0x3210 on entry) when brought up; a fault reset clears it.
     StartInFault,
+    /// Safe torque off from the machine's safety circuit: EMCY 0x5441, the power
+    /// stage off, the drive back in Switch on disabled (no Fault).
+    SafeTorqueOff,
 }
 
 /// One simulated drive.
@@ -458,6 +461,18 @@ impl<const N: usize> SimDriveSet<N> {
             Injection::RefuseCst => d.refuse_cst = true,
             Injection::NeverBoots => d.never_boots = true,
             Injection::StartInFault => d.start_in_fault = true,
+            Injection::SafeTorqueOff => {
+                d.state = DriveState::SwitchOnDisabled;
+                d.torque_permille = 0;
+                if let Ok(f) = (Emergency {
+                    code: Emergency::SAFE_TORQUE_OFF,
+                    register: Emergency::REG_GENERIC,
+                })
+                .frame(d.config.node)
+                {
+                    let _ = sent.push(f);
+                }
+            }
         }
         let bus = d.config.bus;
         for f in sent {

@@ -144,3 +144,39 @@ fn a_drive_in_fault_at_start_is_reset_once() {
         );
     });
 }
+
+/// A drive whose safety circuit takes its torque off (EMCY 0x5441, back to Switch
+/// on disabled) has left Operation enabled: the master names it with its state in
+/// the period its TPDO shows it and sends Quick stop with zero torque to all.
+#[test]
+fn a_drive_that_leaves_operation_is_named() {
+    use kerf::machines::arrow::machine::ArrowOutputs;
+    use kerf_sim::arrow::ArrowIo;
+    bring_up(None, |result, io| {
+        result.unwrap();
+        let zero = ArrowOutputs {
+            forces_n: kerf::kinematics::arrow::ActuatorVector::zeros(),
+            torques_n_m: [0.0; 2],
+        };
+        for k in 0..3 {
+            let inputs = io.read(k).unwrap();
+            assert_eq!(inputs.drive_fault, None, "{k}");
+            io.step(&zero).unwrap();
+        }
+        io.drives.inject(0, Injection::SafeTorqueOff);
+        let inputs = io.read(3).unwrap();
+        let fault = inputs.drive_fault.unwrap();
+        assert!(
+            matches!(fault, DriveFault::LeftOperation { drive: 0, statusword } if statusword & 0x4F == 0x40),
+            "{fault:?}"
+        );
+        assert_eq!(
+            format!("{fault}"),
+            "drive 0 left Operation enabled: Switch on disabled (statusword 0x0240)"
+        );
+        for i in 0..6 {
+            let c = io.master.drive_command(i).unwrap();
+            assert_eq!((c.controlword, c.target_torque), (0x0002, 0));
+        }
+    });
+}
