@@ -67,6 +67,9 @@ fn six_drives_reach_operation_enabled() {
             );
         }
         assert_eq!(io.drives.dropped, 0);
+        // Never more than the two a bus the period's timing counts (SYNC + RPDO, or
+        // one bring-up frame a drive), within the FDCAN's three transmit buffers.
+        assert_eq!(io.most_frames_per_bus, 2);
     });
 }
 

@@ -39,6 +39,8 @@ pub struct DriveIo<'d> {
     pub inject: &'d mut dyn FnMut(u64, &mut SimDriveSet<ACTUATORS>),
     /// Frames the master sent, in all.
     pub frames_sent: u64,
+    /// The most frames the master handed out for one bus in one period.
+    pub most_frames_per_bus: usize,
     period_s: f64,
     joints_m: ActuatorVector<f64>,
 }
@@ -60,6 +62,7 @@ impl<'d> DriveIo<'d> {
             rpdo_before_sync: false,
             inject,
             frames_sent: 0,
+            most_frames_per_bus: 0,
             period_s: scenario.plant.period_s,
             joints_m: ActuatorVector::zeros(),
         };
@@ -84,6 +87,10 @@ impl<'d> DriveIo<'d> {
             let _ = sent.push((bus, *f));
         });
         self.frames_sent += sent.len() as u64;
+        for bus in 0..3u8 {
+            let n = sent.iter().filter(|(b, _)| *b == bus).count();
+            self.most_frames_per_bus = self.most_frames_per_bus.max(n);
+        }
         if self.rpdo_before_sync {
             sent.sort_unstable_by_key(|(bus, f)| (*bus, f.function() != cob::RPDO1));
         }

@@ -401,17 +401,26 @@ impl<T: Float, const N: usize> DriveSet<T, N> {
         }
     }
 
-    /// The period's tick: bring-up's frames, or per bus the SYNC and the RPDO with
-    /// the commands set by [`Self::command`] in the period before (or Quick stop and
-    /// zero torque after a fault). `tx(bus, frame)` queues a frame for sending.
+    /// The period's tick: bring-up's frames (at most one a drive), or per bus the
+    /// SYNC and the RPDO with the commands set by [`Self::command`] in the period
+    /// before (or Quick stop and zero torque after a fault). `tx(bus, frame)` queues
+    /// a frame for sending; at most two a bus come in a period.
     pub fn start_period(&mut self, tx: &mut dyn FnMut(u8, &CanFrame)) {
+        // A period carries bring-up frames or cyclic ones, never both: at most one
+        // frame a drive, two a bus, within the FDCAN's three transmit buffers.
+        let mut bring_up_frames = 0u32;
         if let Phase::BringingUp(step) = self.phase {
-            self.bring_up_period(step, tx);
+            self.bring_up_period(step, &mut |bus, frame| {
+                bring_up_frames = bring_up_frames.saturating_add(1);
+                tx(bus, frame);
+            });
         }
-        if matches!(
-            self.phase,
-            Phase::BringingUp(BringUpStep::Enable) | Phase::Operational | Phase::Faulted(_)
-        ) {
+        if bring_up_frames == 0
+            && matches!(
+                self.phase,
+                Phase::BringingUp(BringUpStep::Enable) | Phase::Operational | Phase::Faulted(_)
+            )
+        {
             self.cyclic_frames(tx);
         }
     }
