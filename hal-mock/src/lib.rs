@@ -8,6 +8,7 @@ extern crate std;
 
 pub mod arrow;
 pub mod axis;
+pub mod cia402;
 pub mod delta;
 pub mod delta_plant;
 pub mod drive;

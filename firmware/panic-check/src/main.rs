@@ -4,7 +4,7 @@
 //! per-period methods and its supervisor step (the joints, the delta slave, ARROW, the
 //! remote master, the remote slave and the grinding cell), the axis law, Hall decoding,
 //! velocity observation, image sharpness and the autofocus law, delta kinematics,
-//! ARROW's machine, the contour and joint references, the DCT/SDCT codec and the packet
+//! ARROW's machine and its CiA 402 drive master, the contour and joint references, the DCT/SDCT codec and the packet
 //! format with its stream ends — and the constructors and planners that feed them, on
 //! inputs the optimiser cannot see through (`core::hint::black_box`).
 //! Its panic handler calls a symbol that no object defines, so the image links only if
@@ -29,11 +29,13 @@ use common::{opaque, sink, OpaqueLink};
 use cortex_m_rt::entry;
 use heapless::spsc::Queue;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
+use kerf::app::drive_set::DriveFault;
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
 use kerf::app::remote_link::RemoteCommand;
 use kerf::app::remote_link::SlaveReport;
 use kerf::app::stream::{SignalReceiver, SignalSender};
 use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
+use kerf::codec::canopen::CanFrame;
 use kerf::codec::dct::Dct;
 use kerf::codec::packet::{self, PacketDecoder, MAX_PACKET_LEN};
 use kerf::codec::sdct::{SdctConfig, SdctDecoder, SdctEncoder, Selection};
@@ -50,6 +52,7 @@ use kerf::kinematics::arrow::{
 };
 use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
+use kerf::machines::arrow::drives::{ArrowDrives, ARROW_DRIVES};
 use kerf::machines::arrow::job::ArrowJob;
 use kerf::machines::arrow::machine::{ArrowInputs, ArrowLimits, ArrowMachine};
 use kerf::machines::arrow::ArrowLaw;
@@ -95,6 +98,7 @@ fn main() -> ! {
             13 => remote_slave(),
             14 => grinding_cell(),
             15 => session_slave(),
+            16 => drive_set(),
             _ => stream(),
         }
     }
@@ -190,8 +194,28 @@ fn arrow_machine() {
     let inputs = ArrowInputs {
         joints_m: opaque(ActuatorVector::zeros()),
         table_rad: opaque([0.0; 2]),
+        drive_fault: None,
     };
     periods(machine, inputs, job, ());
+}
+
+/// ARROW's CiA 402 master: bring-up and cyclic periods on frames the optimiser
+/// cannot predict, with the frame codecs and the drive state decode under them.
+fn drive_set() {
+    let Ok(mut set) = ArrowDrives::<f32>::new(&opaque(ARROW_DRIVES)) else {
+        return;
+    };
+    for _ in 0..opaque(4u32) {
+        set.start_period(&mut |bus, frame| sink((bus, *frame)));
+        let bus = opaque(0u8);
+        let frame = opaque(CanFrame::default());
+        set.receive(bus, &frame);
+        sink(set.feedback());
+        sink(set.command(&opaque([0.0f32; 6])));
+        sink(set.fault().map(|f| f == DriveFault::Stopped));
+    }
+    set.stop();
+    sink(set.phase());
 }
 
 /// The remote master on the horizontal master delta (the host's remote scenario's

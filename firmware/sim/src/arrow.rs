@@ -206,24 +206,55 @@ pub struct ArrowRunEnd<T> {
     pub last_outputs: ArrowOutputs<T>,
 }
 
-/// Runs `job` on the simulated ARROW through the supervisor: calibrate, load, start,
-/// then one period at a time until the machine leaves `Running` or `max_periods`
-/// pass. `disturb(k, reading)` may corrupt the encoders before the machine reads them
-/// in period k; `observe` sees every period's errors. The plant starts at rest where
-/// its joints are the job's start joints on the model (its least-squares pose for
-/// them: the geometric error leaves a joint inconsistency the regularized law does
-/// not fight).
-pub fn run_job<T: Float>(
+/// How the machine meets its plant: the encoders it reads at a period's start, the
+/// outputs it writes, and the plate's true pose (for the figures). [`PlantIo`] is
+/// the plant wired directly; `crate::arrow_drives` puts the actuators' drives and
+/// their buses in between.
+pub trait ArrowIo<T: Float> {
+    /// The inputs of period `k` (at its start), as the machine reads them.
+    fn read(&mut self, k: u64) -> Result<ArrowInputs<T>, ArrowError>;
+    /// The period's outputs written; the encoders at its end, as the figures see them.
+    fn step(&mut self, outputs: &ArrowOutputs<T>) -> Result<ArrowReading<T>, ArrowError>;
+    /// The plate's true pose now.
+    fn pose(&self) -> Pose<T>;
+}
+
+/// The plant wired directly: the machine reads its encoders, and its forces act in
+/// the period they were computed in.
+pub struct PlantIo<'d, T: Float> {
+    /// The plant.
+    pub plant: ArrowPlant<T>,
+    /// May corrupt the encoders of period k before the machine reads them.
+    pub disturb: &'d mut dyn FnMut(u64, &mut ArrowReading<T>),
+}
+
+impl<T: Float> ArrowIo<T> for PlantIo<'_, T> {
+    fn read(&mut self, k: u64) -> Result<ArrowInputs<T>, ArrowError> {
+        let mut reading = self.plant.read()?;
+        (self.disturb)(k, &mut reading);
+        Ok(ArrowInputs {
+            joints_m: reading.joints_m,
+            table_rad: reading.turntable_rad,
+            drive_fault: None,
+        })
+    }
+
+    fn step(&mut self, outputs: &ArrowOutputs<T>) -> Result<ArrowReading<T>, ArrowError> {
+        self.plant.step(&outputs.forces_n, outputs.torques_n_m)
+    }
+
+    fn pose(&self) -> Pose<T> {
+        self.plant.state().0
+    }
+}
+
+/// The plant at rest where its joints are the job's start joints on the model (its
+/// least-squares pose for them: the geometric error leaves a joint inconsistency
+/// the regularized law does not fight).
+pub fn start_plant<T: Float>(
     scenario: &ArrowScenario,
     job: &Job<T>,
-    max_periods: u64,
-    disturb: &mut dyn FnMut(u64, &mut ArrowReading<T>),
-    observe: &mut dyn FnMut(&ArrowPeriod<T>),
-) -> Result<ArrowRunEnd<T>, ArrowError> {
-    let law = scenario.law::<T>()?;
-    let geometry = law.geometry;
-    let machine = Arrow::<T>::new(law, scenario.plant.period_s, &ArrowLimits::ARROW)
-        .map_err(|_| ArrowError::NotFinite)?;
+) -> Result<ArrowPlant<T>, ArrowError> {
     let (start, theta_x0) = job.start();
     let plant_geometry =
         ArrowGeometry::<T>::new(&scenario.plant.geometry).map_err(|_| ArrowError::NotFinite)?;
@@ -232,18 +263,45 @@ pub fn run_job<T: Float>(
         ..ForwardConfig::MONITOR
     };
     let start_true = plant_geometry.forward(job.start_joints_m(), &start, &loose)?;
-    let mut plant = ArrowPlant::<T>::new(&scenario.plant, start_true, theta_x0)?;
+    ArrowPlant::<T>::new(&scenario.plant, start_true, theta_x0)
+}
+
+/// Runs `job` on the simulated ARROW through the supervisor: calibrate, load, start,
+/// then one period at a time until the machine leaves `Running` or `max_periods`
+/// pass. `disturb(k, reading)` may corrupt the encoders before the machine reads them
+/// in period k; `observe` sees every period's errors. The plant starts as
+/// [`start_plant`] puts it.
+pub fn run_job<T: Float>(
+    scenario: &ArrowScenario,
+    job: &Job<T>,
+    max_periods: u64,
+    disturb: &mut dyn FnMut(u64, &mut ArrowReading<T>),
+    observe: &mut dyn FnMut(&ArrowPeriod<T>),
+) -> Result<ArrowRunEnd<T>, ArrowError> {
+    let plant = start_plant(scenario, job)?;
+    let mut io = PlantIo { plant, disturb };
+    run_job_on(scenario, job, max_periods, &mut io, observe)
+}
+
+/// [`run_job`] on any [`ArrowIo`].
+pub fn run_job_on<T: Float>(
+    scenario: &ArrowScenario,
+    job: &Job<T>,
+    max_periods: u64,
+    io: &mut dyn ArrowIo<T>,
+    observe: &mut dyn FnMut(&ArrowPeriod<T>),
+) -> Result<ArrowRunEnd<T>, ArrowError> {
+    let law = scenario.law::<T>()?;
+    let geometry = law.geometry;
+    let machine = Arrow::<T>::new(law, scenario.plant.period_s, &ArrowLimits::ARROW)
+        .map_err(|_| ArrowError::NotFinite)?;
     let mut commands: Queue<Command<Arrow<T>>, 2> = Queue::new();
     let mut reports: Queue<Report<Arrow<T>>, 8> = Queue::new();
     let (mut to_machine, from_sender) = commands.split();
     let (to_sender, mut from_machine) = reports.split();
     let mut supervisor = Supervisor::new(machine, from_sender, to_sender);
     supervisor.set_telemetry_decimation(u32::MAX);
-    let read = |r: ArrowReading<T>| ArrowInputs {
-        joints_m: r.joints_m,
-        table_rad: r.turntable_rad,
-    };
-    let mut inputs = read(plant.read()?);
+    let mut inputs = io.read(0)?;
     let mut outputs = supervisor.step(&inputs);
     // One command a period: the queue holds one job-sized command at a time.
     for command in [
@@ -260,13 +318,11 @@ pub fn run_job<T: Float>(
     }
     let mut k = 0;
     while k < max_periods && supervisor.mode() == Mode::Running {
-        let mut reading = plant.read()?;
-        disturb(k, &mut reading);
-        inputs = read(reading);
+        inputs = io.read(k)?;
         outputs = supervisor.step(&inputs);
         while from_machine.dequeue().is_some() {}
         let telemetry = supervisor.machine().telemetry();
-        let after = plant.step(&outputs.forces_n, outputs.torques_n_m)?;
+        let after = io.step(&outputs)?;
         k += 1;
         if matches!(supervisor.mode(), Mode::Fault(_)) {
             break;
@@ -291,7 +347,7 @@ pub fn run_job<T: Float>(
             cartesian_error,
             joint_error_consistent_m: jm * cartesian_error,
             theta_x_error_rad: half * (table_error_rad[0] - table_error_rad[1]),
-            true_pose_error: plant.state().0 - telemetry.desired,
+            true_pose_error: io.pose() - telemetry.desired,
             outputs,
             saturated: telemetry.saturated,
         });

@@ -8,6 +8,7 @@
 extern crate std;
 
 pub mod arrow;
+pub mod arrow_drives;
 pub mod contour;
 pub mod linked;
 pub mod linked_arrow;

@@ -59,6 +59,7 @@ impl<T: Float> LinkedArrow<'_, T> {
         let inputs = ArrowInputs {
             joints_m: self.reading.joints_m,
             table_rad: self.reading.turntable_rad,
+            drive_fault: None,
         };
         let outputs = self.supervisor.step(&inputs);
         if matches!(self.supervisor.mode(), Mode::Running | Mode::Stopping) {
@@ -126,6 +127,7 @@ pub fn with_linked_arrow<T: Float, R>(
     let inputs = ArrowInputs {
         joints_m: reading.joints_m,
         table_rad: reading.turntable_rad,
+        drive_fault: None,
     };
     let mut from_machine = from_machine;
     for command in [Command::Calibrate, Command::FinishCalibration(())] {

@@ -9,6 +9,7 @@
 
 pub mod axis;
 pub mod calibrate;
+pub mod drive_set;
 pub mod host_link;
 pub mod joints;
 pub mod playout;

@@ -14,6 +14,9 @@
 //! N − 1 periods for the others, plus one period to close the block), on top of the
 //! link delay. At 10 kHz, N = 32 adds 3.2 ms and N = 64 adds 6.4 ms.
 
+pub mod canfd_timing;
+pub mod canopen;
+pub mod cia402;
 pub mod dct;
 pub mod gcs;
 pub mod job;

@@ -18,6 +18,7 @@ use super::job::ArrowJobErrorKind;
 use super::machine::{ArrowFault, ArrowJobRefusal, ArrowTelemetry};
 use super::product::{law, load_job, Arrow, Job, PROGRAM_POINTS};
 use super::ArrowLaw;
+use crate::app::drive_set::DriveFault;
 use crate::app::host_link::LinkMachine;
 use crate::codec::job::JobFile;
 use crate::codec::link::code_words as words;
@@ -167,7 +168,7 @@ pub mod load_codes {
 const ENCODER: &str = "encoder (0-5 the actuators, 6-7 the table motors)";
 
 /// The fault codes of [`LinkMachine::fault_code`].
-const FAULTS: [CodeWords; 6] = [
+const FAULTS: [CodeWords; 7] = [
     words(1, "an encoder reading was not a number", ""),
     words(
         2,
@@ -190,7 +191,28 @@ const FAULTS: [CodeWords; 6] = [
         "an output (an actuator force or a table torque) was not finite",
         "output (0-5 the actuator forces, 6-7 the table torques)",
     ),
+    words(
+        7,
+        "an actuator's drive stopped (in Fault, out of Operation enabled, silent, or refused bring-up)",
+        "drive (0-5 the actuators; 255 none: the master stopped them)",
+    ),
 ];
+
+/// The drive a drive fault names (255 for none).
+fn drive_index(fault: &DriveFault) -> u16 {
+    match *fault {
+        DriveFault::LeftOperation { drive, .. }
+        | DriveFault::InFault { drive, .. }
+        | DriveFault::Silent { drive, .. }
+        | DriveFault::SdoAbort { drive, .. }
+        | DriveFault::BringUpTimeout { drive, .. }
+        | DriveFault::ModeRefused { drive, .. }
+        | DriveFault::RatedForce { drive, .. }
+        | DriveFault::SdoProtocol { drive, .. }
+        | DriveFault::Rebooted { drive } => u16::from(drive),
+        DriveFault::Stopped => 255,
+    }
+}
 
 /// The job refusal codes of the supervisor's check ([`LinkMachine::job_error_code`])
 /// and the loader ([`load_codes`]).
@@ -357,6 +379,7 @@ impl<T: Float> LinkMachine for Arrow<T> {
             ArrowFault::Law(_) => (4, 0),
             ArrowFault::Path => (5, 0),
             ArrowFault::Output(output) => (6, u16::from(output.index)),
+            ArrowFault::Drive(fault) => (7, drive_index(fault)),
         }
     }
 

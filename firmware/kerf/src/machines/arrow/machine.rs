@@ -5,7 +5,9 @@
 //!
 //! # Faults
 //!
-//! Every period, in every mode, the encoders are checked: a reading that is not finite
+//! Every period, in every mode, a fault of the actuators' drive set
+//! ([`ArrowInputs::drive_fault`]) is [`ArrowFault::Drive`], and the encoders are
+//! checked: a reading that is not finite
 //! is [`ArrowFault::NotFinite`]; one that moved farther in a period than the machine
 //! can (an encoder that skipped or a cable that picked up a burst) is
 //! [`ArrowFault::EncoderJump`]. While moving, a joint farther from its reference than
@@ -22,6 +24,7 @@
 
 use super::job::{split_pose, ArrowJob};
 use super::{ArrowDesired, ArrowLaw, ArrowLoopState, ArrowPeriodError};
+use crate::app::drive_set::DriveFault;
 use crate::app::supervisor::NoSweep;
 use crate::app::supervisor::{
     first_non_finite_index, FiniteOutputs, Machine, NonFiniteOutput, Step,
@@ -38,6 +41,9 @@ pub struct ArrowInputs<T> {
     pub joints_m: ActuatorVector<T>,
     /// Turntable motor angles q_T1, q_T2, rad.
     pub table_rad: [T; 2],
+    /// The actuators' drive set's fault, when it has one
+    /// ([`crate::app::drive_set::DriveSet::feedback`]; `None` for drives not on a bus).
+    pub drive_fault: Option<DriveFault>,
 }
 
 /// One period's commands.
@@ -66,6 +72,8 @@ pub enum ArrowFault {
     Path,
     /// An output was NaN or infinite: the actuator forces 0–5, the table torques 6–7.
     Output(NonFiniteOutput),
+    /// The actuators' drives stopped ([`DriveFault`] says why, in words).
+    Drive(DriveFault),
 }
 
 /// Why a job may not start.
@@ -298,6 +306,9 @@ impl<T: Float, const N: usize, const R: usize> Machine for ArrowMachine<T, N, R>
     }
 
     fn monitor(&mut self, inputs: &ArrowInputs<T>) -> Result<(), ArrowFault> {
+        if let Some(f) = inputs.drive_fault {
+            return Err(ArrowFault::Drive(f));
+        }
         let finite = inputs
             .joints_m
             .iter()

@@ -7,6 +7,7 @@
 //! unreachable or singular desired pose, a NaN) is returned; the caller's outputs go
 //! to zero force.
 
+pub mod drives;
 pub mod job;
 pub mod link;
 pub mod machine;

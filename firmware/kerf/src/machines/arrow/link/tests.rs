@@ -87,6 +87,10 @@ fn every_code_has_its_words() {
         ArrowFault::TrackingError(2),
         ArrowFault::Path,
         ArrowFault::Output(crate::app::supervisor::NonFiniteOutput { index: 6 }),
+        ArrowFault::Drive(crate::app::drive_set::DriveFault::Silent {
+            drive: 4,
+            periods: 2,
+        }),
     ];
     for f in &faults {
         assert!(
@@ -94,7 +98,7 @@ fn every_code_has_its_words() {
             "{f:?}"
         );
     }
-    assert!(FAULTS.iter().map(|f| f.code).eq(1..=6));
+    assert!(FAULTS.iter().map(|f| f.code).eq(1..=7));
     let (code, detail) = A::fault_code(&ArrowFault::TrackingError(2));
     let entry = CodeWords::find(&FAULTS, code).unwrap();
     assert!(entry.words.contains("tracking limit"));
