@@ -42,12 +42,11 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
 use heapless::spsc::Queue;
 use kerf::app::supervisor::{Command, Report};
-use kerf::codec::gcs::MAX_REPLY_LEN;
 use kerf::hal::{Monotonic, SampleInputs, Transact, WriteOutputs};
 use kerf::machines::grinding::devices::{DeviceDemand, DeviceFault, DeviceLink, DeviceLinkState};
 use kerf::machines::grinding::link::GrindingSettings;
 use kerf::machines::grinding::product::{
-    device_tick_periods, CONFIG, DEVICES, LINK_JOB_BYTES, PASS, PERIOD_S, TELEMETRY_DECIMATION,
+    CONFIG, DEVICES, LINK_JOB_BYTES, PASS, PERIOD_S, TELEMETRY_DECIMATION,
 };
 use kerf::machines::grinding::{
     GrindingCalibration, GrindingCell, GrindingInputs, GrindingOutputs,
@@ -327,19 +326,20 @@ async fn link_task(task: &'static mut CellLink) -> ! {
     task.run().await
 }
 
-/// The devices' tick (every [`device_tick_periods`] ms): the hexapod referenced
+/// The devices' tick (every `DEVICES.tick_s`, 10 ms): the hexapod referenced
 /// first, then the period's demand sent and the replies checked; a fault is latched
 /// for the next control period. A fault is cleared here once the cell runs again
 /// (the demand no longer halts): the operator reset the cell's fault, which is what
 /// the link's `ResetFault` did.
 #[embassy_executor::task]
 async fn device_task(devices: &'static mut Devices) -> ! {
-    let mut reply = [0u8; MAX_REPLY_LEN];
     // Referenced at power-up, as the controller requires before a move.
-    if devices.hexapod.transact(b"FRF\n", &mut reply).is_err() {
+    // A GCS command without `?` has no answer: nothing to wait for.
+    if devices.hexapod.transact(b"FRF\n", &mut []).is_err() {
         defmt::warn!("hexapod: reference command not sent");
     }
-    let tick = device_tick_periods().max(1) * (pins::CONTROL_HZ / 1000).max(1);
+    // The device tick in the milliseconds `DEVICE_TICK` counts (10).
+    let tick = (libm::round(DEVICES.tick_s * 1000.0) as u32).max(1);
     let mut ticks = 0u32;
     loop {
         DEVICE_TICK.wait().await;
