@@ -13,3 +13,4 @@
 )]
 
 pub mod hall;
+pub mod image;

@@ -30,160 +30,43 @@
     clippy::indexing_slicing
 )]
 
-use defmt_rtt as _;
-use embassy_executor::Executor;
-use embassy_stm32::pac::interrupt;
-use embassy_stm32::{bind_interrupts, dma, peripherals, usart};
-use heapless::spsc::Queue;
-use kerf::app::supervisor::{Command, Report};
+use kerf::app::supervisor::Command;
 use kerf::machines::delta_slave::link::SlaveSettings;
 use kerf::machines::delta_slave::product::{
     contour_defaults, nominal_calibration, JOB_LAPS, LINK_JOB_BYTES, TELEMETRY_DECIMATION,
 };
 use kerf::machines::delta_slave::{DeltaSlave, DeltaSlaveConfig};
-use kerf_board::hall::{HallFit, HallHal};
-use kerf_board_support::stm32::adc::DmaBuffer;
-use kerf_board_support::stm32::fault::{self, Cause};
-use kerf_board_support::stm32::image::{self, Image, Trigger};
-use kerf_board_support::stm32::link::{host_uart, LinkTask, RX_RING_BYTES};
-use kerf_board_support::stm32::period::{self, Control, Handoff, Leds, Watch};
-use kerf_board_support::stm32::pins::PinId;
-use kerf_board_support::stm32::{cordic, start_board, timer};
-use static_cell::{ConstStaticCell, StaticCell};
-
-kerf_board_support::bind_board_handlers!();
-
-bind_interrupts!(struct Irqs {
-    LPUART1 => usart::InterruptHandler<peripherals::LPUART1>;
-    DMA1_CHANNEL4 => dma::InterruptHandler<peripherals::DMA1_CH4>;
-    DMA1_CHANNEL5 => dma::InterruptHandler<peripherals::DMA1_CH5>;
-});
-
-/// The machine the board runs.
-type Machine = DeltaSlave<f32>;
-/// The board behind the HAL traits.
-type Hal = HallHal<3>;
-/// The Hall calibration from the button.
-type Fit = HallFit<Machine, 3>;
-/// The link task of this image.
-type Link = LinkTask<Machine, Fit, LINK_JOB_BYTES>;
-
-/// The control rate, Hz: the Keops slave's period of 100 µs (checked at start-up).
-const CONTROL_HZ: u32 = 10_000;
-
-/// Commands to the supervisor: two at a time (a queue of N holds N − 1; a command with
-/// a calibration is 5 KB). The supervisor takes them within a period; the link answers
-/// `Busy` to a third.
-static COMMANDS: ConstStaticCell<Queue<Command<Machine>, 3>> = ConstStaticCell::new(Queue::new());
-/// Reports to the link task, drained every millisecond (ten periods): 23 hold the
-/// telemetry and calibration samples of twice the link task's longest wait on the
-/// transmitter (11 ms).
-static REPORTS: ConstStaticCell<Queue<Report<Machine>, 24>> = ConstStaticCell::new(Queue::new());
-static FIT: StaticCell<Fit> = StaticCell::new();
-static RX_RING: ConstStaticCell<[u8; RX_RING_BYTES]> = ConstStaticCell::new([0; RX_RING_BYTES]);
-static EXECUTOR: StaticCell<Executor> = StaticCell::new();
-static CONTROL: StaticCell<Control<Machine, Hal>> = StaticCell::new();
-static LINK: StaticCell<Link> = StaticCell::new();
-static HANDOFF: Handoff<Control<Machine, Hal>> = Handoff::new();
-/// The nine Hall samples of a period, `[carriage][channel]`.
-static SAMPLES: DmaBuffer<3, 3> = DmaBuffer::new();
+use kerf_board::hall::HallFit;
 
 /// The nominal decoders as a stored calibration (as the QEMU link image installs
 /// them; the calibration run, button B1, replaces them).
-fn nominal() -> Option<Command<Machine>> {
+fn nominal() -> Option<Command<DeltaSlave<f32>>> {
     nominal_calibration::<f32>(&DeltaSlaveConfig::KEOPS)
         .ok()
         .map(Command::FinishCalibration)
 }
 
-#[cortex_m_rt::entry]
-fn main() -> ! {
-    let (p, mut core, reset) = start_board();
-    defmt::info!("kerf board: reset by {}", reset);
-    cordic::start();
-    let cmp = cordic::compare();
-    defmt::info!(
-        "cordic phase vs library atan2: worst difference {} (2^-32 turn), {} vs {} cycles per call",
-        cmp.worst_difference,
-        cmp.cordic_cycles,
-        cmp.library_cycles
-    );
-    let machine = DeltaSlaveConfig::KEOPS;
-    let Ok(period) = timer::period_of(kerf_board_support::stm32::clocks::SYSCLK_HZ / CONTROL_HZ)
-    else {
-        fault::fail(Cause::Startup, 3)
-    };
-    let (rows, hal) = Hal::three(
-        period,
-        &SAMPLES,
-        (
-            (p.PC0, p.PC1, p.PC2),
-            (p.PC4, p.PC5, p.PB2),
-            (p.PB0, p.PB1, p.PB13),
-        ),
-        (p.DAC1, p.PA4, p.PA5, p.DAC2, p.PA6),
-    );
-    let Ok(uart) = host_uart(
-        p.LPUART1,
-        p.PA3,
-        p.PA2,
-        p.DMA1_CH4,
-        p.DMA1_CH5,
-        Irqs,
-        RX_RING.take(),
-    ) else {
-        fault::fail(Cause::Startup, 9)
-    };
-    let image = Image {
-        name: "Keops slave",
-        control_hz: CONTROL_HZ,
-        period_s: machine.joints.period_s,
-        telemetry_decimation: TELEMETRY_DECIMATION,
-        hal,
-        trigger: Trigger::Adc(&rows, &SAMPLES),
-        tim1: timer::Tim1Pins::new(p.PA8, p.PA9, p.PB12),
-        leds: Leds::new(
-            PinId::of(&*p.PC6),
-            PinId::of(&*p.PC7),
-            reset.cause.is_fault(),
-        ),
-        button: PinId::input(&*p.PC13),
-        uart,
-        commands: COMMANDS.take().split(),
-        reports: REPORTS.take().split(),
-        startup: &[nominal],
-        link: (
-            SlaveSettings::of(&machine.joints.axis),
-            contour_defaults(&machine, JOB_LAPS),
-        ),
-        // The Hall configuration is read from flash by the fit.
-        fit: FIT.init_with(|| HallFit::new(&DeltaSlaveConfig::KEOPS.joints.hall)),
-        reset,
-    };
-    let task = image::start(
-        image,
-        || Machine::new(&DeltaSlaveConfig::KEOPS).ok(),
-        &CONTROL,
-        &HANDOFF,
-        &LINK,
-        &mut core.NVIC,
-    );
-    let executor = EXECUTOR.init(Executor::new());
-    executor.run(|spawner| match link_task(task) {
-        Ok(token) => spawner.spawn(token),
-        Err(_) => fault::fail(Cause::Startup, 12),
-    })
-}
-
-#[interrupt]
-fn DMA1_CHANNEL1() {
-    // cortex-m-rt hands this handler the only reference to this: the period runs
-    // without a critical section and masks nothing.
-    static mut WATCH: Watch = Watch::new(CONTROL_HZ);
-    period::on_samples::<3, Machine, Hal>(&HANDOFF, WATCH);
-}
-
-#[embassy_executor::task]
-async fn link_task(task: &'static mut Link) -> ! {
-    task.run().await
+kerf_board::hall_image! {
+    name: "Keops slave",
+    machine: DeltaSlave<f32>,
+    carriages: 3,
+    laser: true,
+    job_bytes: LINK_JOB_BYTES,
+    // Two at a time: a command with a calibration is 5 KB. The supervisor takes them
+    // within a period; the link answers `Busy` to a third.
+    commands: 3,
+    // Drained every millisecond (ten periods): 23 hold the telemetry and calibration
+    // samples of twice the link task's longest wait on the transmitter (11 ms).
+    reports: 24,
+    control_hz: 10_000,
+    period_s: DeltaSlaveConfig::KEOPS.joints.period_s,
+    telemetry_decimation: TELEMETRY_DECIMATION,
+    // The Hall configuration is read from flash by the fit.
+    fit: HallFit<DeltaSlave<f32>, 3> = HallFit::new(&DeltaSlaveConfig::KEOPS.joints.hall),
+    startup: nominal,
+    link: (
+        SlaveSettings::of(&DeltaSlaveConfig::KEOPS.joints.axis),
+        contour_defaults(&DeltaSlaveConfig::KEOPS, JOB_LAPS),
+    ),
+    new: || DeltaSlave::<f32>::new(&DeltaSlaveConfig::KEOPS).ok(),
 }
