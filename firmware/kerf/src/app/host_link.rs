@@ -591,4 +591,6 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
 }
 
 #[cfg(test)]
+pub(crate) mod test_support;
+#[cfg(test)]
 mod tests;

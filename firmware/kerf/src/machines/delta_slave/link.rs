@@ -373,16 +373,7 @@ mod tests {
         assert!(CodeWords::find(&LINK_JOB_REFUSALS, code).is_some());
         // Codes and words are each one of a kind, and the machine's refusals are not
         // the link's.
-        for table in [&FAULTS[..], &JOB_REFUSALS[..]] {
-            for (i, a) in table.iter().enumerate() {
-                assert!(table[..i]
-                    .iter()
-                    .all(|b| b.code != a.code && b.words != a.words));
-            }
-        }
-        assert!(JOB_REFUSALS
-            .iter()
-            .all(|r| CodeWords::find(&LINK_JOB_REFUSALS, r.code).is_none()));
+        crate::app::host_link::test_support::assert_code_tables(&FAULTS, &JOB_REFUSALS);
     }
 
     /// The description lists the channels in the order of a sample's values, the

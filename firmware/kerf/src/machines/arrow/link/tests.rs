@@ -1,7 +1,7 @@
 use super::*;
 use crate::app::host_link::{describe, SettingPath};
 use crate::codec::job::{write_efd, write_gcode};
-use crate::codec::link::{Description, LINK_JOB_REFUSALS};
+use crate::codec::link::Description;
 use miniconf::json_core;
 use std::format;
 use std::string::String;
@@ -111,34 +111,13 @@ fn every_code_has_its_words() {
     ] {
         assert!(CodeWords::find(&JOB_REFUSALS, A::job_error_code(&r)).is_some());
     }
-    for table in [&FAULTS[..], &JOB_REFUSALS[..]] {
-        for (i, a) in table.iter().enumerate() {
-            assert!(table[..i]
-                .iter()
-                .all(|b| b.code != a.code && b.words != a.words));
-        }
-    }
-    assert!(JOB_REFUSALS
-        .iter()
-        .all(|r| CodeWords::find(&LINK_JOB_REFUSALS, r.code).is_none()));
+    crate::app::host_link::test_support::assert_code_tables(&FAULTS, &JOB_REFUSALS);
 }
 
 /// The description: sixteen channels, G-code jobs, eleven settings with their units.
 #[test]
 fn arrow_describes_itself() {
-    let mut settings = Vec::new();
-    let mut count = 0;
-    for index in 0.. {
-        let mut path = SettingPath::default();
-        match describe::<A>(index, &mut path) {
-            Some(Description::Setting { path, unit, range }) => {
-                settings.push(format!("{path} [{unit}] {range}"))
-            }
-            Some(_) => {}
-            None => break,
-        }
-        count += 1;
-    }
+    let (settings, count) = crate::app::host_link::test_support::described::<A>();
     assert_eq!(settings.len(), 11, "{settings:?}");
     assert!(settings.contains(&String::from("/turntable/kp [N·m/rad] > 0")));
     assert!(settings.contains(&String::from("/feedforward [] true or false")));

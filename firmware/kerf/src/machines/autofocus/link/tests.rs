@@ -3,8 +3,7 @@ use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingPath};
 use crate::app::supervisor::{Command, Machine, NonFiniteOutput};
 use crate::codec::job::{write_gcode, write_schedule};
 use crate::codec::link::{
-    decode, encode, Description, HostFrame, MachineMessage, Refusal, Reply, Request,
-    LINK_JOB_REFUSALS, MAX_FRAME,
+    decode, encode, Description, HostFrame, MachineMessage, Refusal, Reply, Request, MAX_FRAME,
 };
 use crate::machines::autofocus::product::{CONFIG, LAW, LINK_JOB_BYTES, PERIOD_S};
 use heapless::spsc::Queue;
@@ -110,16 +109,7 @@ fn every_code_has_its_words() {
     ] {
         assert!(CodeWords::find(&JOB_REFUSALS, S::job_error_code(&e)).is_some());
     }
-    for table in [&FAULTS[..], &JOB_REFUSALS[..]] {
-        for (i, a) in table.iter().enumerate() {
-            assert!(table[..i]
-                .iter()
-                .all(|b| b.code != a.code && b.words != a.words));
-        }
-    }
-    assert!(JOB_REFUSALS
-        .iter()
-        .all(|r| CodeWords::find(&LINK_JOB_REFUSALS, r.code).is_none()));
+    crate::app::host_link::test_support::assert_code_tables(&FAULTS, &JOB_REFUSALS);
 }
 
 /// The description: the channels in a sample's order, schedule jobs, nine settings
@@ -127,19 +117,7 @@ fn every_code_has_its_words() {
 /// the stage's period.
 #[test]
 fn the_stage_describes_itself() {
-    let mut settings = Vec::new();
-    let mut count = 0;
-    for index in 0.. {
-        let mut path = SettingPath::default();
-        match describe::<S>(index, &mut path) {
-            Some(Description::Setting { path, unit, range }) => {
-                settings.push(format!("{path} [{unit}] {range}"))
-            }
-            Some(_) => {}
-            None => break,
-        }
-        count += 1;
-    }
+    let (settings, count) = crate::app::host_link::test_support::described::<S>();
     assert_eq!(settings.len(), 9, "{settings:?}");
     assert!(settings.contains(&String::from("/law/max_speed_m_s [m/s] > 0")));
     assert!(settings.contains(&String::from("/velocity/bandwidth_hz [Hz] > 0 and ≤ 318")));

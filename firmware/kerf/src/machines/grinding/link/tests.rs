@@ -2,7 +2,7 @@ use super::*;
 use crate::app::host_link::{describe, SettingPath};
 use crate::app::supervisor::{Machine, NonFiniteOutput};
 use crate::codec::job::{write_efd, write_gcode};
-use crate::codec::link::{Description, LINK_JOB_REFUSALS};
+use crate::codec::link::Description;
 use crate::codec::spindle::SpindleError;
 use crate::hal::LinkError;
 use crate::sensing::force::BiasDrift;
@@ -209,34 +209,13 @@ fn every_code_has_its_words() {
         assert_eq!(G::job_error_code(&e), code);
         assert!(CodeWords::find(&JOB_REFUSALS, code).is_some());
     }
-    for table in [&FAULTS[..], &JOB_REFUSALS[..]] {
-        for (i, a) in table.iter().enumerate() {
-            assert!(table[..i]
-                .iter()
-                .all(|b| b.code != a.code && b.words != a.words));
-        }
-    }
-    assert!(JOB_REFUSALS
-        .iter()
-        .all(|r| CodeWords::find(&LINK_JOB_REFUSALS, r.code).is_none()));
+    crate::app::host_link::test_support::assert_code_tables(&FAULTS, &JOB_REFUSALS);
 }
 
 /// The description: nine channels, G-code jobs, eleven settings with their units.
 #[test]
 fn the_cell_describes_itself() {
-    let mut settings = Vec::new();
-    let mut count = 0;
-    for index in 0.. {
-        let mut path = SettingPath::default();
-        match describe::<G>(index, &mut path) {
-            Some(Description::Setting { path, unit, range }) => {
-                settings.push(format!("{path} [{unit}] {range}"))
-            }
-            Some(_) => {}
-            None => break,
-        }
-        count += 1;
-    }
+    let (settings, count) = crate::app::host_link::test_support::described::<G>();
     assert_eq!(settings.len(), 11, "{settings:?}");
     assert!(settings.contains(&String::from("/pid/kp [nm/N] finite")));
     assert!(settings.contains(&String::from("/pid/anti_windup [1/s] 0 to 1000")));

@@ -210,34 +210,13 @@ fn every_fault_is_told_in_words() {
     ] {
         assert_eq!(M::job_error_code(&e), code);
     }
-    for table in [&FAULTS[..], &JOB_REFUSALS[..]] {
-        for (i, a) in table.iter().enumerate() {
-            assert!(table[..i]
-                .iter()
-                .all(|b| b.code != a.code && b.words != a.words));
-        }
-    }
-    assert!(JOB_REFUSALS
-        .iter()
-        .all(|r| CodeWords::find(&LINK_JOB_REFUSALS, r.code).is_none()));
+    crate::app::host_link::test_support::assert_code_tables(&FAULTS, &JOB_REFUSALS);
 }
 
 /// The description: sixteen channels, points jobs, four settings with their units.
 #[test]
 fn the_master_describes_itself() {
-    let mut settings = Vec::new();
-    let mut count = 0;
-    for index in 0.. {
-        let mut path = SettingPath::default();
-        match describe::<M>(index, &mut path) {
-            Some(Description::Setting { path, unit, range }) => {
-                settings.push(format!("{path} [{unit}] {range}"))
-            }
-            Some(_) => {}
-            None => break,
-        }
-        count += 1;
-    }
+    let (settings, count) = crate::app::host_link::test_support::described::<M>();
     assert_eq!(
         settings,
         [

@@ -112,16 +112,7 @@ fn every_code_has_its_words() {
     }
     let moving = A::job_error_code(&JobError::Moving { axis: 0 });
     assert!(CodeWords::find(&LINK_JOB_REFUSALS, moving).is_some());
-    for table in [&FAULTS[..], &JOB_REFUSALS[..]] {
-        for (i, a) in table.iter().enumerate() {
-            assert!(table[..i]
-                .iter()
-                .all(|b| b.code != a.code && b.words != a.words));
-        }
-    }
-    assert!(JOB_REFUSALS
-        .iter()
-        .all(|r| CodeWords::find(&LINK_JOB_REFUSALS, r.code).is_none()));
+    crate::app::host_link::test_support::assert_code_tables(&FAULTS, &JOB_REFUSALS);
 }
 
 /// The description: the channels in a sample's order, G-code jobs, seven settings with
@@ -129,19 +120,7 @@ fn every_code_has_its_words() {
 /// refuses at the axis' period.
 #[test]
 fn the_axis_describes_itself() {
-    let mut settings = Vec::new();
-    let mut count = 0;
-    for index in 0.. {
-        let mut path = SettingPath::default();
-        match describe::<A>(index, &mut path) {
-            Some(Description::Setting { path, unit, range }) => {
-                settings.push(format!("{path} [{unit}] {range}"))
-            }
-            Some(_) => {}
-            None => break,
-        }
-        count += 1;
-    }
+    let (settings, count) = crate::app::host_link::test_support::described::<A>();
     assert_eq!(settings.len(), 7, "{settings:?}");
     assert!(settings.contains(&String::from("/pd/kp_per_s2 [1/s²] > 0")));
     assert!(settings.contains(&String::from("/dob/bandwidth_hz [Hz] > 0 and ≤ 3183")));

@@ -3,8 +3,7 @@ use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingPath};
 use crate::app::supervisor::{Command, Machine, Mode, NonFiniteOutput, Report, Supervisor};
 use crate::codec::job::{write_gcode, write_recording};
 use crate::codec::link::{
-    decode, encode, Description, Event, HostFrame, MachineMessage, Request, LINK_JOB_REFUSALS,
-    MAX_FRAME,
+    decode, encode, Description, Event, HostFrame, MachineMessage, Request, MAX_FRAME,
 };
 use crate::machines::delta_slave::remote::product::{LINK_JOB_BYTES, PERIOD_S};
 use heapless::spsc::Queue;
@@ -119,16 +118,7 @@ fn the_slave_describes_itself() {
         CHANNELS.len() + 1 + 9 + FAULTS.len() + JOB_REFUSALS.len()
     );
     assert_eq!(items[CHANNELS.len()], "JobKind(Recording)");
-    for table in [&FAULTS[..], &JOB_REFUSALS[..]] {
-        for (i, a) in table.iter().enumerate() {
-            assert!(table[..i]
-                .iter()
-                .all(|b| b.code != a.code && b.words != a.words));
-        }
-    }
-    assert!(JOB_REFUSALS
-        .iter()
-        .all(|r| CodeWords::find(&LINK_JOB_REFUSALS, r.code).is_none()));
+    crate::app::host_link::test_support::assert_code_tables(&FAULTS, &JOB_REFUSALS);
 }
 
 /// The product's settings give back its configuration; the announced ranges are
