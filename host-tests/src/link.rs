@@ -92,3 +92,69 @@ impl Drop for MachineThread {
         }
     }
 }
+
+/// How fast a simulated machine runs its periods.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum Pace {
+    /// As fast as it can.
+    Free,
+    /// `speedup` times real time, for a control period of `period_s`.
+    Scaled {
+        /// The machine's control period, s.
+        period_s: f64,
+        /// Machine time over wall time.
+        speedup: f64,
+    },
+}
+
+/// The far end of a host test's link: the host's bytes from `socket` through a reader
+/// thread (so a period never waits for them), then per turn one `period` with the
+/// bytes that arrived, its period count (from 1) and a sender that writes frames
+/// back, at `pace`; until `stop` is set, the host hangs up, a write fails or `period`
+/// returns false.
+pub fn serve(
+    socket: std::os::unix::net::UnixStream,
+    stop: &AtomicBool,
+    pace: Pace,
+    mut period: impl FnMut(u32, &[u8], &mut dyn FnMut(&[u8]) -> bool) -> bool,
+) {
+    use std::io::{Read, Write};
+    use std::sync::mpsc::{channel, TryRecvError};
+    let (tx, rx) = channel::<Vec<u8>>();
+    let Ok(mut reader) = socket.try_clone() else {
+        return;
+    };
+    std::thread::spawn(move || {
+        let mut buf = [0u8; 512];
+        while let Ok(n) = reader.read(&mut buf) {
+            if n == 0 || tx.send(buf[..n].to_vec()).is_err() {
+                return;
+            }
+        }
+    });
+    let mut out = socket;
+    let start = std::time::Instant::now();
+    let mut periods = 0u32;
+    while !stop.load(Ordering::Relaxed) {
+        if let Pace::Scaled { period_s, speedup } = pace {
+            let ahead = f64::from(periods) * period_s / speedup - start.elapsed().as_secs_f64();
+            if ahead > 1e-3 {
+                std::thread::sleep(std::time::Duration::from_secs_f64(ahead));
+            }
+        }
+        periods += 1;
+        let input = match rx.try_recv() {
+            Ok(bytes) => bytes,
+            Err(TryRecvError::Empty) => Vec::new(),
+            Err(TryRecvError::Disconnected) => return,
+        };
+        let mut failed = false;
+        let go_on = period(periods, &input, &mut |frame| {
+            failed |= out.write_all(frame).is_err();
+            true
+        });
+        if failed || !go_on {
+            return;
+        }
+    }
+}

@@ -5,7 +5,7 @@
 //! telemetry, changes a gain mid-run, and hears the end; a second run lowers the
 //! force limit until a joint falls behind, heard as a fault with the machine's words.
 
-use host_tests::link::{run_plan, MachineThread};
+use host_tests::link::{run_plan, serve, MachineThread, Pace};
 use kerf::codec::job::write_gcode;
 use kerf::codec::link::JobKind;
 use kerf_host::link::{LinkError, MachineLink};
@@ -13,10 +13,8 @@ use kerf_host::session::{Progress, RunPlan, Session, SessionError};
 use kerf_host::telemetry::TelemetryLog;
 use kerf_sim::arrow::{ArrowScenario, PYRAMID_GCODE};
 use kerf_sim::linked_arrow::with_linked_arrow;
-use std::io::{Read, Write};
 use std::os::unix::net::UnixStream;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{channel, TryRecvError};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -26,37 +24,14 @@ use std::time::Duration;
 /// reader thread, so a period never waits for them.
 fn machine(socket: UnixStream, stop: Arc<AtomicBool>) -> JoinHandle<()> {
     std::thread::spawn(move || {
-        let (tx, rx) = channel::<Vec<u8>>();
-        let mut reader = socket.try_clone().unwrap();
-        std::thread::spawn(move || {
-            let mut buf = [0u8; 512];
-            while let Ok(n) = reader.read(&mut buf) {
-                if n == 0 || tx.send(buf[..n].to_vec()).is_err() {
-                    return;
-                }
-            }
-        });
-        let mut out = socket;
         let mut scenario = ArrowScenario::smoke();
         scenario.plant.substeps = 1;
         // The simulation runs some fifty times faster than real time: the heartbeat
         // (tested with the link itself) must not take a busy host for a lost one.
         with_linked_arrow::<f64, _>(&scenario, 1e4, |arrow| {
-            while !stop.load(Ordering::Relaxed) {
-                let input = match rx.try_recv() {
-                    Ok(bytes) => bytes,
-                    Err(TryRecvError::Empty) => Vec::new(),
-                    Err(TryRecvError::Disconnected) => return,
-                };
-                let mut failed = false;
-                let stepped = arrow.period(&input, &mut |frame| {
-                    failed |= out.write_all(frame).is_err();
-                    true
-                });
-                if failed || stepped.is_err() {
-                    return;
-                }
-            }
+            serve(socket, &stop, Pace::Free, |_, input, send| {
+                arrow.period(input, send).is_ok()
+            })
         })
         .expect("ARROW builds");
     })

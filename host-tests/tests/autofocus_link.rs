@@ -9,7 +9,7 @@
 //! faults in the stage's words.
 
 use hal_mock::focus::CameraParams;
-use host_tests::link::{run_plan, MachineThread};
+use host_tests::link::{run_plan, serve, MachineThread, Pace};
 use kerf::codec::job::write_schedule;
 use kerf::codec::link::{JobKind, ModeCode, Request};
 use kerf::machines::autofocus::product::PERIOD_S;
@@ -17,10 +17,8 @@ use kerf_host::link::{Heard, LinkError, MachineLink};
 use kerf_host::session::{Progress, Session, SessionError};
 use kerf_host::telemetry::{Entry, TelemetryLog};
 use kerf_sim::linked_autofocus::{with_linked_autofocus, CameraState, CAMERA_SEED, ZOOM_SCHEDULE};
-use std::io::{Read, Write};
 use std::os::unix::net::UnixStream;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{channel, TryRecvError};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -31,42 +29,20 @@ use std::time::{Duration, Instant};
 /// through a reader thread, so a period never waits for them.
 fn machine(socket: UnixStream, stop: Arc<AtomicBool>, silent_after: Option<u32>) -> JoinHandle<()> {
     std::thread::spawn(move || {
-        let (tx, rx) = channel::<Vec<u8>>();
-        let mut reader = socket.try_clone().unwrap();
-        std::thread::spawn(move || {
-            let mut buf = [0u8; 512];
-            while let Ok(n) = reader.read(&mut buf) {
-                if n == 0 || tx.send(buf[..n].to_vec()).is_err() {
-                    return;
-                }
-            }
-        });
-        let mut out = socket;
         let mut running = 0u32;
         // The simulation runs faster than real time: the heartbeat (tested with the
         // link itself) must not take a busy host for a lost one.
         with_linked_autofocus::<f64, _>(CAMERA_SEED, 1e4, |stage| {
-            while !stop.load(Ordering::Relaxed) {
-                let input = match rx.try_recv() {
-                    Ok(bytes) => bytes,
-                    Err(TryRecvError::Empty) => Vec::new(),
-                    Err(TryRecvError::Disconnected) => return,
-                };
-                let mut failed = false;
-                stage.period(&input, &mut |frame| {
-                    failed |= out.write_all(frame).is_err();
-                    true
-                });
-                if failed {
-                    return;
-                }
+            serve(socket, &stop, Pace::Free, |_, input, send| {
+                stage.period(input, send);
                 if stage.supervisor().mode() == kerf::app::supervisor::Mode::Running {
                     running += 1;
                     if silent_after == Some(running) {
                         stage.set_camera(CameraState::Silent);
                     }
                 }
-            }
+                true
+            })
         })
         .expect("the stage builds");
     })

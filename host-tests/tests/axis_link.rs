@@ -7,7 +7,7 @@
 //! is heard as a fault in the machine's words.
 
 use hal_mock::hall_sensor::ChannelFault;
-use host_tests::link::{run_plan, MachineThread};
+use host_tests::link::{run_plan, serve, MachineThread, Pace};
 use kerf::codec::job::write_gcode;
 use kerf::codec::link::{JobKind, ModeCode, Request};
 use kerf_host::link::{Heard, LinkError, MachineLink};
@@ -15,10 +15,8 @@ use kerf_host::session::{Progress, RunPlan, Session, SessionError};
 use kerf_host::telemetry::TelemetryLog;
 use kerf_sim::linked_axis::{with_linked_axis, AXIS_MOVES_GCODE};
 use kerf_sim::scenario::Scenario;
-use std::io::{Read, Write};
 use std::os::unix::net::UnixStream;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{channel, TryRecvError};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -31,35 +29,13 @@ const PERIOD_S: f64 = 1e-4;
 /// through a reader thread, so a period never waits for them.
 fn machine(scenario: Scenario, socket: UnixStream, stop: Arc<AtomicBool>) -> JoinHandle<()> {
     std::thread::spawn(move || {
-        let (tx, rx) = channel::<Vec<u8>>();
-        let mut reader = socket.try_clone().unwrap();
-        std::thread::spawn(move || {
-            let mut buf = [0u8; 512];
-            while let Ok(n) = reader.read(&mut buf) {
-                if n == 0 || tx.send(buf[..n].to_vec()).is_err() {
-                    return;
-                }
-            }
-        });
-        let mut out = socket;
         // The simulation runs faster than real time: the heartbeat (tested with the
         // link itself) must not take a busy host for a lost one.
         with_linked_axis::<f64, _>(&scenario, 1e4, |axis| {
-            while !stop.load(Ordering::Relaxed) {
-                let input = match rx.try_recv() {
-                    Ok(bytes) => bytes,
-                    Err(TryRecvError::Empty) => Vec::new(),
-                    Err(TryRecvError::Disconnected) => return,
-                };
-                let mut failed = false;
-                axis.period(&input, &mut |frame| {
-                    failed |= out.write_all(frame).is_err();
-                    true
-                });
-                if failed {
-                    return;
-                }
-            }
+            serve(socket, &stop, Pace::Free, |_, input, send| {
+                axis.period(input, send);
+                true
+            })
         })
         .expect("the axis builds");
     })

@@ -6,20 +6,18 @@
 //! then a device broken mid-pass (a command the hexapod's controller refuses, a
 //! converter that stops answering) is heard as a fault in the cell's words.
 
-use host_tests::link::{run_plan, MachineThread};
+use host_tests::link::{run_plan, serve, MachineThread, Pace};
 use kerf::codec::job::write_gcode;
 use kerf::codec::link::JobKind;
 use kerf_host::link::{LinkError, MachineLink};
 use kerf_host::session::{Progress, RunPlan, Session, SessionError};
 use kerf_host::telemetry::TelemetryLog;
 use kerf_sim::linked_grinding::{with_linked_grinding, PASS_GCODE};
-use std::io::{Read, Write};
 use std::os::unix::net::UnixStream;
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
-use std::sync::mpsc::{channel, TryRecvError};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// A device to break: none, the hexapod's controller, the spindle's converter.
 const BREAK_NONE: u8 = 0;
@@ -41,26 +39,12 @@ const HEARTBEAT_TIMEOUT_S: f64 = 1e4;
 /// for them.
 fn machine(socket: UnixStream, stop: Arc<AtomicBool>, breaks: Arc<AtomicU8>) -> JoinHandle<()> {
     std::thread::spawn(move || {
-        let (tx, rx) = channel::<Vec<u8>>();
-        let mut reader = socket.try_clone().unwrap();
-        std::thread::spawn(move || {
-            let mut buf = [0u8; 512];
-            while let Ok(n) = reader.read(&mut buf) {
-                if n == 0 || tx.send(buf[..n].to_vec()).is_err() {
-                    return;
-                }
-            }
-        });
-        let mut out = socket;
         with_linked_grinding::<f64, _>(HEARTBEAT_TIMEOUT_S, |cell| {
-            let start = Instant::now();
-            let mut periods = 0u32;
-            while !stop.load(Ordering::Relaxed) {
-                let ahead = f64::from(periods) * 1e-3 / PACE - start.elapsed().as_secs_f64();
-                if ahead > 1e-3 {
-                    std::thread::sleep(Duration::from_secs_f64(ahead));
-                }
-                periods += 1;
+            let pace = Pace::Scaled {
+                period_s: 1e-3,
+                speedup: PACE,
+            };
+            serve(socket, &stop, pace, |_, input, send| {
                 match breaks.swap(BREAK_NONE, Ordering::Relaxed) {
                     // VLS beyond the H-824's 1 mm/s: the controller sets error 8,
                     // which the device link's next ERR? reads.
@@ -71,20 +55,9 @@ fn machine(socket: UnixStream, stop: Arc<AtomicBool>, breaks: Arc<AtomicU8>) -> 
                     BREAK_SPINDLE => cell.spindle_mut().answering = false,
                     _ => {}
                 }
-                let input = match rx.try_recv() {
-                    Ok(bytes) => bytes,
-                    Err(TryRecvError::Empty) => Vec::new(),
-                    Err(TryRecvError::Disconnected) => return,
-                };
-                let mut failed = false;
-                cell.period(&input, &mut |frame| {
-                    failed |= out.write_all(frame).is_err();
-                    true
-                });
-                if failed {
-                    return;
-                }
-            }
+                cell.period(input, send);
+                true
+            })
         })
         .expect("the cell builds and calibrates");
     })

@@ -8,7 +8,7 @@
 //! stop lets go of the hand and puts the beam off; an encoder glitch mid-session is
 //! heard as a fault in the master's words.
 
-use host_tests::link::{run_plan, MachineThread};
+use host_tests::link::{run_plan, serve, MachineThread, Pace};
 use kerf::codec::job::{write_gcode, write_points};
 use kerf::codec::link::{JobKind, ModeCode};
 use kerf::machines::remote_master::product::sample_contour;
@@ -17,10 +17,9 @@ use kerf_host::session::{Progress, RunPlan, Session, SessionError};
 use kerf_host::telemetry::TelemetryLog;
 use kerf_sim::linked_master::{with_linked_master, SAMPLE_JOB};
 use kerf_sim::remote::REPLAY_BOUNDS_M;
-use std::io::{Read, Write};
 use std::os::unix::net::UnixStream;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{channel, TryRecvError};
+use std::sync::mpsc::channel;
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -52,42 +51,16 @@ fn machine(
     truth: Truth,
 ) -> JoinHandle<()> {
     std::thread::spawn(move || {
-        let (tx, rx) = channel::<Vec<u8>>();
-        let mut reader = socket.try_clone().unwrap();
-        std::thread::spawn(move || {
-            let mut buf = [0u8; 512];
-            while let Ok(n) = reader.read(&mut buf) {
-                if n == 0 || tx.send(buf[..n].to_vec()).is_err() {
-                    return;
-                }
-            }
-        });
-        let mut out = socket;
         with_linked_master::<f64, _>(SAMPLE_JOB, HEARTBEAT_TIMEOUT_S, |master| {
-            let start = Instant::now();
-            let mut periods = 0u32;
-            while !stop.load(Ordering::Relaxed) {
-                let ahead = f64::from(periods) * TS / PACE - start.elapsed().as_secs_f64();
-                if ahead > 1e-3 {
-                    std::thread::sleep(Duration::from_secs_f64(ahead));
-                }
-                periods += 1;
+            let pace = Pace::Scaled {
+                period_s: TS,
+                speedup: PACE,
+            };
+            serve(socket, &stop, pace, |periods, input, send| {
                 if glitch.swap(false, Ordering::Relaxed) {
                     master.glitch_encoder(1, 5000);
                 }
-                let input = match rx.try_recv() {
-                    Ok(bytes) => bytes,
-                    Err(TryRecvError::Empty) => Vec::new(),
-                    Err(TryRecvError::Disconnected) => return,
-                };
-                let mut failed = false;
-                master.period(&input, &mut |frame| {
-                    failed |= out.write_all(frame).is_err();
-                    true
-                });
-                if failed {
-                    return;
-                }
+                master.period(input, send);
                 if master.supervisor().mode() == kerf::app::supervisor::Mode::Running {
                     let t = f64::from(periods) * TS;
                     let across = master.across_m().unwrap_or(f64::NAN);
@@ -96,7 +69,8 @@ fn machine(
                         .unwrap()
                         .push((t, across, master.slave_tracking_m()));
                 }
-            }
+                true
+            })
         })
         .expect("the master builds");
     })

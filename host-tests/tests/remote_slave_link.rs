@@ -8,7 +8,7 @@
 //! session, reads the status, and hears a link loss (timeouts set below the command
 //! interval) in the slave's words.
 
-use host_tests::link::{run_plan, MachineThread};
+use host_tests::link::{run_plan, serve, MachineThread, Pace};
 use kerf::codec::job::write_recording;
 use kerf::codec::link::{JobKind, ModeCode};
 use kerf::machines::delta_slave::remote::recording::Recording;
@@ -16,13 +16,12 @@ use kerf_host::link::{LinkError, MachineLink};
 use kerf_host::session::{Progress, RunPlan, Session, SessionError};
 use kerf_host::telemetry::TelemetryLog;
 use kerf_sim::linked_remote_slave::{session, with_linked_remote_slave, RECORDING};
-use std::io::{Read, Write};
 use std::os::unix::net::UnixStream;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{channel, TryRecvError};
+use std::sync::atomic::AtomicBool;
+use std::sync::mpsc::channel;
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Machine time per host second the simulated slave is held to, at most: unpaced, a
 /// session would end before a busy host's mid-session change arrives. Only a bound on
@@ -64,42 +63,17 @@ fn machine(socket: UnixStream, stop: Arc<AtomicBool>) -> JoinHandle<()> {
     std::thread::Builder::new()
         .stack_size(16 << 20)
         .spawn(move || {
-            let (tx, rx) = channel::<Vec<u8>>();
-            let mut reader = socket.try_clone().unwrap();
-            std::thread::spawn(move || {
-                let mut buf = [0u8; 512];
-                while let Ok(n) = reader.read(&mut buf) {
-                    if n == 0 || tx.send(buf[..n].to_vec()).is_err() {
-                        return;
-                    }
-                }
-            });
-            let mut out = socket;
             with_linked_remote_slave::<f64, _>(HEARTBEAT_TIMEOUT_S, |slave| {
-                let start = Instant::now();
-                let mut periods = 0u32;
-                while !stop.load(Ordering::Relaxed) {
-                    let ahead = f64::from(periods) * TS / PACE - start.elapsed().as_secs_f64();
-                    if ahead > 1e-3 {
-                        std::thread::sleep(Duration::from_secs_f64(ahead));
-                    }
-                    periods += 1;
-                    let input = match rx.try_recv() {
-                        Ok(bytes) => bytes,
-                        Err(TryRecvError::Empty) => Vec::new(),
-                        Err(TryRecvError::Disconnected) => return,
-                    };
-                    let mut failed = false;
+                let pace = Pace::Scaled {
+                    period_s: TS,
+                    speedup: PACE,
+                };
+                serve(socket, &stop, pace, |_, input, send| {
                     slave
-                        .period(&input, &mut |frame| {
-                            failed |= out.write_all(frame).is_err();
-                            true
-                        })
+                        .period(input, send)
                         .expect("the simulated delta assembles");
-                    if failed {
-                        return;
-                    }
-                }
+                    true
+                })
             })
             .expect("the slave builds and calibrates");
         })
