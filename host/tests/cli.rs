@@ -210,10 +210,10 @@ fn gcode_reports_file_line_and_column_and_exits_1() {
     let (line, column, message) = broken("bad_number.gcode", "N70 X13.333", "N70 X13.3.33");
     assert_eq!((line, column), (line_of("N70 X13.333"), 10));
     assert!(message.contains("unexpected '.'"), "{message}");
-    // An unsupported code.
+    // An arc without its centre or radius, at its G2.
     let (line, column, message) = broken("arc.gcode", "N100 X-7.333", "N100 G2 X-7.333");
     assert_eq!((line, column), (line_of("N100 X-7.333"), 6));
-    assert!(message.contains("G2"), "{message}");
+    assert!(message.contains("error: arc needs"), "{message}");
     // A point far outside ARROW's workspace: the loader names the line.
     let (line, column, message) = broken("outside.gcode", "N90 X7.333", "N90 X1900.0");
     assert_eq!((line, column), (line_of("N90 X7.333"), 1));
