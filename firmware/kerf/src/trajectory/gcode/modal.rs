@@ -226,7 +226,7 @@ impl Parser {
             _ => line,
         };
         if self.ended {
-            if !self.after_end_reported && line.iter().any(|&b| b > b' ') {
+            if !self.after_end_reported && line.iter().any(|&b| b > b' ' && b != b'%') {
                 self.after_end_reported = true;
                 report(0, GcodeErrorKind::AfterEnd);
             }
