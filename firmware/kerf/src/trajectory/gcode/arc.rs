@@ -63,7 +63,9 @@ pub(super) fn about_center(
     let [ex, ey] = [end[0] - center[0], end[1] - center[1]];
     let radius = hypot([sx, sy]);
     let end_radius = hypot([ex, ey]);
-    if !(radius > 0.0) || !(libm::fabs(radius - end_radius) <= tolerance(radius)) {
+    let off = libm::fabs(radius - end_radius);
+    // NaN-safe: a NaN radius or difference is refused.
+    if radius.is_nan() || radius <= 0.0 || off.is_nan() || off > tolerance(radius) {
         return Err(GcodeErrorKind::ArcRadiusMismatch);
     }
     Ok(sweep(center, radius, [sx, sy], [ex, ey], clockwise, turns))
@@ -108,7 +110,7 @@ pub(super) fn of_radius(
     let d = [end[0] - start[0], end[1] - start[1]];
     let chord = hypot(d);
     let r = libm::fabs(radius);
-    if !(chord > 0.0) || !(r > 0.0) {
+    if chord.is_nan() || chord <= 0.0 || r.is_nan() || r <= 0.0 {
         return Err(GcodeErrorKind::ArcUndefined);
     }
     let half = chord / 2.0;
@@ -141,7 +143,7 @@ impl Arc {
         let cos = (1.0 - tolerance_m / self.radius).clamp(-1.0, 1.0);
         let max_rad = 2.0 * libm::acos(cos);
         let n = libm::ceil(libm::fabs(self.sweep_rad) / max_rad);
-        if !(n <= f64::from(MAX_CHORDS)) {
+        if n.is_nan() || n > f64::from(MAX_CHORDS) {
             return Err(GcodeErrorKind::ArcTooFine);
         }
         // Within 1..=MAX_CHORDS: the conversion is exact.

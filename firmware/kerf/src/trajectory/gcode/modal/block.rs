@@ -409,7 +409,7 @@ impl Parser {
         }
         let turns = match l.p {
             None => 1,
-            Some((p, _)) if p >= 1.0 && p <= 1e6 && libm::trunc(p) == p => p as u32,
+            Some((p, _)) if (1.0..=1e6).contains(&p) && libm::trunc(p) == p => p as u32,
             Some((_, column)) => {
                 say((column, Kind::MalformedNumber));
                 return None;
