@@ -1,12 +1,15 @@
 //! `kerf gcode`: a G-code program checked as ARROW will check it at load (A §4), with
 //! the firmware's own parser and job loader ([`kerf::machines::arrow::product::load_job`])
 //! and the capacities of the machine as flashed ([`JOB_MOVES`] moves of
-//! [`JOB_POINTS`] points, [`PROGRAM_POINTS`] points read).
+//! [`JOB_POINTS`] points, [`PROGRAM_POINTS`] points read). [`diagnose`] first lists
+//! every warning and error of the program in one pass.
 
 use kerf::kinematics::arrow::ArrowError;
 use kerf::machines::arrow::job::ArrowJobErrorKind;
 use kerf::machines::arrow::product::{load_job, JOB_MOVES, JOB_POINTS, PROGRAM_POINTS};
-use kerf::trajectory::gcode::{GcodeErrorKind, GcodePoint, MoveKind, MAX_LINE_BYTES};
+use kerf::trajectory::gcode::{
+    self, Diagnostic, GcodeErrorKind, GcodePoint, MoveKind, ReaderConfig, Severity,
+};
 
 /// The job as the machine holds it.
 pub type Job = kerf::machines::arrow::product::Job<f64>;
@@ -90,45 +93,35 @@ pub fn check(text: &[u8]) -> Result<GcodeReport, GcodeCheckError> {
     })
 }
 
-fn letter(b: u8) -> String {
-    if b.is_ascii_graphic() {
-        format!("'{}'", b as char)
-    } else {
-        format!("byte {b:#04x}")
-    }
+/// Every warning and error of `text` read for ARROW's axes (all five), in the order of
+/// the file.
+pub fn diagnose(text: &[u8]) -> Vec<Diagnostic> {
+    let mut points = Box::new(heapless::Vec::<GcodePoint, PROGRAM_POINTS>::new());
+    let mut found = Vec::new();
+    // The default configuration is valid: `read` cannot refuse it.
+    let _ = gcode::read(text, &ReaderConfig::DEFAULT, &mut points, &mut |d| {
+        found.push(*d)
+    });
+    found
+}
+
+/// `FILE:LINE:COLUMN: warning|error: message`, as compilers print.
+pub fn format_diagnostic(file: &str, d: &Diagnostic) -> String {
+    format!("{file}:{d}")
+}
+
+/// Whether any of `found` is an error.
+pub fn has_errors(found: &[Diagnostic]) -> bool {
+    found.iter().any(|d| d.severity() == Severity::Error)
 }
 
 /// The parser's refusal in words.
 pub fn describe_gcode(kind: GcodeErrorKind) -> String {
     match kind {
-        GcodeErrorKind::UnknownWord(b) => format!("unknown word {}", letter(b)),
-        GcodeErrorKind::Unsupported {
-            letter: l,
-            code_x10,
-        } => {
-            let code = if code_x10 % 10 == 0 {
-                format!("{}", code_x10 / 10)
-            } else {
-                format!("{}.{}", code_x10 / 10, code_x10 % 10)
-            };
-            format!("unsupported code {}{code}", l as char)
-        }
-        GcodeErrorKind::UnexpectedByte(b) => format!("unexpected {}", letter(b)),
-        GcodeErrorKind::MalformedNumber => "malformed number".into(),
-        GcodeErrorKind::DuplicateWord(b) => format!("word {} given twice", letter(b)),
-        GcodeErrorKind::MissingFeed => "G1 move before any feed (F)".into(),
-        GcodeErrorKind::NoMotionMode => "axis words before any G0/G1".into(),
-        GcodeErrorKind::BadFeed => "feed must be positive".into(),
-        GcodeErrorKind::BadChecksum { given, computed } => {
-            format!("checksum *{given} does not match the line's {computed}")
-        }
-        GcodeErrorKind::UnclosedComment => "comment not closed on its line".into(),
-        GcodeErrorKind::LineTooLong => format!("line longer than {MAX_LINE_BYTES} bytes"),
         GcodeErrorKind::TooManyPoints => {
             format!("more than {PROGRAM_POINTS} points (the machine's buffer)")
         }
-        GcodeErrorKind::TooManyWords => "too many words on the line".into(),
-        GcodeErrorKind::NotFinite => "coordinate or feed not finite".into(),
+        other => other.to_string(),
     }
 }
 

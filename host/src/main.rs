@@ -323,11 +323,24 @@ fn run_gcode(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
     let out = prepare(args.out.as_deref(), "job file")?;
     let text = std::fs::read(&args.file)
         .map_err(|e| format!("{name}: cannot read the program: {}", io_words(&e)))?;
+    // Every problem of the program first, one per line on standard error.
+    let found = gcode::diagnose(&text);
+    let listed: Vec<String> = found
+        .iter()
+        .map(|d| gcode::format_diagnostic(&name, d))
+        .collect();
+    if gcode::has_errors(&found) {
+        return Err(Failure::Input(listed.join("\n")));
+    }
+    for line in &listed {
+        // Standard error may be closed: the report still follows.
+        let _ = writeln!(std::io::stderr(), "{line}");
+    }
     let checked = gcode::check(&text).map_err(|e: GcodeCheckError| {
         if e.line == 0 {
-            format!("{name}: {}", e.message)
+            format!("{name}: error: {}", e.message)
         } else {
-            format!("{name}:{}:{}: {}", e.line, e.column, e.message)
+            format!("{name}:{}:{}: error: {}", e.line, e.column, e.message)
         }
     })?;
     say!(report, "{name}: accepted, {} moves", checked.moves.len());

@@ -1,57 +1,61 @@
-//! G-code paths (A §4; docs/equations.md §16): the subset a CAM post-processor emits
-//! for a 5-axis milling path, read line by line without allocation into the caller's
-//! fixed-capacity buffer of points in SI units.
+//! G-code programs (A §4; docs/equations.md §16) read as grbl and LinuxCNC's RS-274/NGC
+//! read them, line by line without allocation, into points in SI units, with every
+//! warning and error reported at once by line and column.
 //!
 //! # What is read
 //!
-//! - Motion: `G0`/`G00` (rapid) and `G1`/`G01` (feed), modal: a line with axis words
-//!   and no G word repeats the last motion mode. Axis words `X Y Z` (length) and
-//!   `A B` (degrees, always, in both unit modes), feed `F` (length per minute).
-//! - Modes: `G90`/`G91` (absolute / incremental coordinates, default G90),
-//!   `G20`/`G21` (inch / millimetre, default G21). Lengths become metres (1 in =
-//!   0.0254 m exactly), angles radians, feeds m/s. Mode words act before the motion on
-//!   the same line (RS-274 order of execution).
-//! - Harmless G words, accepted and without effect on straight moves: `G17` (XY plane),
-//!   `G40` (no cutter radius compensation), `G49` (no tool length offset), `G80` (no
-//!   canned cycle), `G94` (feed per minute, the only feed mode read).
-//! - M words: `M3`/`M4` (spindle on) and `M5` (off) are recorded in
-//!   [`Program::spindle_on`] with the last `S` (rpm, [`Program::spindle_rpm`]);
-//!   `M7`/`M8`/`M9` (coolant) are ignored; `M2`/`M30` end the program: later lines are
-//!   not read. Every other M word (`M6` tool change, `M0` pause, …) is refused: it
-//!   would change the tool or need an operator.
-//! - `N` line numbers (recorded, not required), comments `( … )` (not nested, closed on
-//!   the line) and `;` to the end of the line, a `%` line (tape marker), blank lines.
-//! - RepRap checksums: `*nn` after the words, nn (0–255) the XOR of every byte of the
-//!   line before the `*`; checked when present.
+//! - The text: a UTF-8 byte-order mark before the first line, `\n` or `\r\n` line ends,
+//!   upper or lower case, blanks anywhere outside comments (`G 1`, `X - 1 . 5` are `G1`,
+//!   `X-1.5`: grbl strips every blank before parsing), `( … )` comments (a `(` inside one
+//!   is a warning and the comment ends at the first `)`, as grbl and LinuxCNC), `;`
+//!   comments to the end of the line, a `%` tape mark, `N` line numbers, a leading `/`
+//!   (block delete, switch off: the line is read), RepRap `*nn` checksums (the XOR of
+//!   every byte before `*`, checked when present), an `O` program number (warning; `O`
+//!   subroutines and flow control are errors, as are `#` parameters and `[ ]`
+//!   expressions: their values are not known to the reader).
+//! - Motion, modal: `G0` rapid, `G1` feed, `G2`/`G3` arcs (clockwise / counter-clockwise
+//!   in the plane `G17` XY, `G18` ZX, `G19` YZ) by centre `I J K` (relative to the start,
+//!   or absolute after `G90.1`; `G91.1` back) or radius `R` (negative: the longer way),
+//!   full circles by centre, extra turns `P`; helical moves on the plane's normal and on
+//!   `A B`. Arcs become chords within the caller's tolerance ([`arc`](self) module docs:
+//!   the sagitta r·(1 − cos(φ/2)) of each chord at most the tolerance).
+//! - Axes `X Y Z` (length) and `A B` (degrees, always); an axis word the machine lacks
+//!   ([`ReaderConfig::axes`]) is an error. `G20`/`G21` inch / millimetre (1 in = 0.0254 m
+//!   exactly), `G90`/`G91` absolute / incremental. Offsets: `G54`…`G59` select the
+//!   caller's work offsets ([`ReaderConfig::work_offsets`], zero by default), `G92` sets
+//!   the current position, `G92.1` clears, `G92.2` suspends and `G92.3` restores it;
+//!   `G53` moves in machine coordinates on its line. Points are machine positions.
+//! - Feed `F` in length per minute (`G94`); `G93` inverse time is a warning and feed
+//!   moves under it are errors; `G95` is refused. `S` spindle speed or laser power and
+//!   `M3`/`M4`/`M5` (`M4` is grbl's dynamic laser power: [`Spindle`]), `G4 P` dwell in
+//!   seconds (carried by the next point), `M2`/`M30` end the program.
+//! - Warnings, skipped safely: `T`, `M6`, `M7`/`M8`/`M9`, `M1`, `G43`, `G61`/`G61.1`/`G64`,
+//!   `G28.1`/`G30.1`. Silent, the reader's own state restated: `G17`, `G40`, `G49`,
+//!   `G80`, `G94`, `G98`/`G99`.
+//! - Errors: a feed move before any `F`, unknown G/M codes, a malformed number, two words
+//!   of one modal group or one letter twice on a line, `I J K R P` no code uses, an arc
+//!   whose end misses its circle, and the codes whose effect the reader cannot follow:
+//!   `G28`/`G30` (go to the machine's home: where that is, is not in the program),
+//!   `G10`, `G38.x` probing, `G41`/`G42` cutter compensation, canned cycles, `M0`/`M60`
+//!   (a pause for the operator).
 //!
-//! Numbers are a sign, digits and at most one decimal point (no exponent, as RS-274),
-//! converted by `core`'s correctly rounded decimal parser.
-//!
-//! # Errors
-//!
-//! Every refusal is a [`GcodeError`] with the 1-based line and byte column of its cause
-//! and a [`GcodeErrorKind`]: unknown or unsupported word, malformed number, a word given
-//! twice, a `G1` before any feed, axis words before any motion mode, a bad checksum, an unclosed comment, a line longer
-//! than [`MAX_LINE_BYTES`], more points than the buffer holds, and a coordinate that is
-//! not finite (incremental moves accumulating past the `f64` range).
-//!
-//! Before the first absolute move the position is the origin (all axes 0): an
-//! incremental move there is relative to it.
+//! A line with an error has no effect (its points are not given, the state is kept);
+//! reading goes on with the next line, so one pass reports every problem.
 //!
 //! For ARROW (A §2) the post-processor names the turntable's θx `A` and the
-//! platform's θz `B`; the parser itself gives both as angles and assigns no machine
+//! platform's θz `B`; the reader itself gives both as angles and assigns no machine
 //! meaning.
 
+use crate::error::ConfigError;
 use heapless::Vec;
 
-/// Longest line accepted, bytes (without the line end).
-pub const MAX_LINE_BYTES: usize = 256;
+mod arc;
+mod diagnostic;
+mod lex;
+mod modal;
 
-/// Most words on one line.
-const MAX_WORDS: usize = 24;
-
-/// Metres per inch (exact by definition).
-const M_PER_INCH: f64 = 0.0254;
+pub use diagnostic::{Diagnostic, GcodeError, GcodeErrorKind, Severity};
+pub use modal::Parser;
 
 /// How the tool moves to a point.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -59,15 +63,27 @@ const M_PER_INCH: f64 = 0.0254;
 pub enum MoveKind {
     /// `G0`: positioning at the machine's rapid rate, no cutting.
     Rapid,
-    /// `G1`: straight cutting move at the feed `F`.
+    /// `G1`, or a chord of a `G2`/`G3` arc: cutting at the feed `F`.
     Feed,
+}
+
+/// The spindle, or a laser's beam, as `M3`/`M4`/`M5` left it.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Spindle {
+    /// `M5` (and at the start).
+    Off,
+    /// `M3`: clockwise; for a laser, constant power.
+    Clockwise,
+    /// `M4`: counter-clockwise; for a laser, grbl's dynamic power (scaled by speed).
+    CounterClockwise,
 }
 
 /// One target point of the path, SI units.
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct GcodePoint {
-    /// x, y, z, m.
+    /// x, y, z, m (machine position: work and `G92` offsets applied).
     pub position_m: [f64; 3],
     /// A, B, rad.
     pub angles_rad: [f64; 2],
@@ -77,76 +93,13 @@ pub struct GcodePoint {
     pub kind: MoveKind,
     /// 1-based line of the file that gave the point.
     pub line: u32,
+    /// Spindle or beam state during the move.
+    pub spindle: Spindle,
+    /// The last `S` (spindle rpm or laser power, in the program's own scale).
+    pub spindle_s: f64,
+    /// Dwell (`G4`) before this move, s.
+    pub dwell_s: f64,
 }
-
-/// What is wrong with a line.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum GcodeErrorKind {
-    /// A letter that is not a word of this subset (the letter, upper case).
-    UnknownWord(u8),
-    /// A G or M code outside the subset (letter and the code's value × 10, so that
-    /// `G2` is 20 and `G43.4` is 434).
-    Unsupported {
-        /// `b'G'` or `b'M'`.
-        letter: u8,
-        /// The code × 10.
-        code_x10: u32,
-    },
-    /// A byte that starts no word (a digit or sign without a letter, a control byte).
-    UnexpectedByte(u8),
-    /// The number after a letter is missing or not `[+-]digits[.digits]`.
-    MalformedNumber,
-    /// The same letter twice on one line (two G codes of one modal group, two `X`…).
-    DuplicateWord(u8),
-    /// A `G1` move before any `F` word gave a feed.
-    MissingFeed,
-    /// Axis words before any `G0`/`G1` set the motion mode.
-    NoMotionMode,
-    /// A zero or negative feed.
-    BadFeed,
-    /// The checksum after `*` differs from the XOR of the line's bytes before it.
-    BadChecksum {
-        /// The value written after `*`.
-        given: u8,
-        /// The XOR of the bytes before `*`.
-        computed: u8,
-    },
-    /// A `(` comment not closed on its line, or a `)` without a `(`.
-    UnclosedComment,
-    /// The line is longer than [`MAX_LINE_BYTES`].
-    LineTooLong,
-    /// More points than the caller's buffer holds.
-    TooManyPoints,
-    /// More than the supported number of words on a line.
-    TooManyWords,
-    /// A coordinate or feed is infinite after conversion and accumulation.
-    NotFinite,
-}
-
-/// A refused line: where, and why.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct GcodeError {
-    /// 1-based line number in the input.
-    pub line: u32,
-    /// 1-based byte column of the cause (0 when it is the whole line).
-    pub column: u32,
-    /// What is wrong.
-    pub kind: GcodeErrorKind,
-}
-
-impl core::fmt::Display for GcodeError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(
-            f,
-            "line {}, column {}: {:?}",
-            self.line, self.column, self.kind
-        )
-    }
-}
-
-impl core::error::Error for GcodeError {}
 
 /// A whole file's result beside its points.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -160,418 +113,102 @@ pub struct Program {
     pub spindle_on: bool,
     /// Last `S` value, rpm.
     pub spindle_rpm: f64,
+    /// Errors reported.
+    pub errors: u32,
+    /// Warnings reported.
+    pub warnings: u32,
 }
 
-/// One word of a line: letter, value, and where the letter was.
-#[derive(Copy, Clone, Debug)]
-struct Word {
-    letter: u8,
-    value: f64,
-    column: u32,
-}
-
-/// Modal state of a program read line by line ([`Parser::parse_line`]); [`parse`] drives
-/// it over a whole file.
+/// What the reader knows of the machine.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub struct Parser {
-    line: u32,
-    incremental: bool,
-    /// Metres per length unit: 1e-3 (G21) or 0.0254 (G20).
-    unit_m: f64,
-    motion: Option<MoveKind>,
-    feed_m_s: Option<f64>,
-    position_m: [f64; 3],
-    angles_rad: [f64; 2],
-    ended: bool,
-    spindle_on: bool,
-    spindle_rpm: f64,
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ReaderConfig {
+    /// Which of the axes `X Y Z A B` the machine has.
+    pub axes: [bool; 5],
+    /// `G54`…`G59`: the machine position of each system's origin (x, y, z in m, A, B
+    /// in rad).
+    pub work_offsets: [[f64; 5]; 6],
+    /// Largest distance of an arc's chord from the arc (its sagitta), m.
+    pub chord_tolerance_m: f64,
 }
 
-impl Default for Parser {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl Parser {
-    /// At the origin, G90, G21, no motion mode and no feed yet.
-    pub const fn new() -> Self {
-        Self {
-            line: 0,
-            incremental: false,
-            unit_m: 1e-3,
-            motion: None,
-            feed_m_s: None,
-            position_m: [0.0; 3],
-            angles_rad: [0.0; 2],
-            ended: false,
-            spindle_on: false,
-            spindle_rpm: 0.0,
-        }
-    }
-
-    /// Whether `M2`/`M30` has ended the program (later lines are skipped).
-    pub fn ended(&self) -> bool {
-        self.ended
-    }
-
-    /// Lines read so far.
-    pub fn lines(&self) -> u32 {
-        self.line
-    }
-
-    /// The summary of what was read so far.
-    pub fn program(&self) -> Program {
-        Program {
-            lines: self.line,
-            ended: self.ended,
-            spindle_on: self.spindle_on,
-            spindle_rpm: self.spindle_rpm,
-        }
-    }
-
-    /// Reads the next line (without its line end; a trailing `\r` is dropped) and
-    /// returns the point it moves to, if it moves. After `M2`/`M30` lines are counted
-    /// and skipped. On an error the state is as before the line (only the line count
-    /// advanced).
-    pub fn parse_line(&mut self, line: &[u8]) -> Result<Option<GcodePoint>, GcodeError> {
-        self.line = self.line.saturating_add(1);
-        let line_no = self.line;
-        let err = |column: usize, kind| GcodeError {
-            line: line_no,
-            column: u32::try_from(column).unwrap_or(u32::MAX),
-            kind,
-        };
-        if self.ended {
-            return Ok(None);
-        }
-        let line = match line {
-            [rest @ .., b'\r'] => rest,
-            _ => line,
-        };
-        if line.len() > MAX_LINE_BYTES {
-            return Err(err(MAX_LINE_BYTES + 1, GcodeErrorKind::LineTooLong));
-        }
-        let words = split_words(line).map_err(|(column, kind)| err(column, kind))?;
-        let mut next = *self;
-        let point = next
-            .apply(&words)
-            .map_err(|(column, kind)| err(column, kind))?;
-        *self = next;
-        Ok(point.map(|mut p| {
-            p.line = line_no;
-            p
-        }))
-    }
-
-    /// Applies one line's words to the state: modes first, then the move.
-    fn apply(&mut self, words: &[Word]) -> Result<Option<GcodePoint>, (usize, GcodeErrorKind)> {
-        let mut motion_here: Option<(MoveKind, u32)> = None;
-        let mut axes: [Option<(f64, u32)>; 5] = [None; 5];
-        let mut feed: Option<(f64, u32)> = None;
-        let mut end = false;
-        for w in words {
-            let column = w.column as usize;
-            let unsupported = || {
-                // Values are checked to be small non-negative before this conversion.
-                let code_x10 = libm::round(w.value * 10.0) as u32;
-                (
-                    column,
-                    GcodeErrorKind::Unsupported {
-                        letter: w.letter,
-                        code_x10,
-                    },
-                )
-            };
-            match w.letter {
-                b'G' | b'M' if !(0.0..=999.9).contains(&w.value) => {
-                    return Err((column, GcodeErrorKind::MalformedNumber));
-                }
-                b'G' => match code_x10(w.value) {
-                    0 => motion_here = Some((MoveKind::Rapid, w.column)),
-                    10 => motion_here = Some((MoveKind::Feed, w.column)),
-                    200 => self.unit_m = M_PER_INCH,
-                    210 => self.unit_m = 1e-3,
-                    900 => self.incremental = false,
-                    910 => self.incremental = true,
-                    170 | 400 | 490 | 800 | 940 => {}
-                    _ => return Err(unsupported()),
-                },
-                b'M' => match code_x10(w.value) {
-                    30 | 40 => self.spindle_on = true,
-                    50 => self.spindle_on = false,
-                    70 | 80 | 90 => {}
-                    20 | 300 => end = true,
-                    _ => return Err(unsupported()),
-                },
-                b'S' => self.spindle_rpm = w.value,
-                b'N' => {}
-                b'F' => feed = Some((w.value, w.column)),
-                letter => {
-                    let slot = b"XYZAB"
-                        .iter()
-                        .position(|&l| l == letter)
-                        .and_then(|i| axes.get_mut(i));
-                    match slot {
-                        Some(slot) => *slot = Some((w.value, w.column)),
-                        None => return Err((column, GcodeErrorKind::UnknownWord(letter))),
-                    }
-                }
-            }
-        }
-        // Feed in the line's units (G20/G21 on the same line already applied).
-        if let Some((f, column)) = feed {
-            let f_m_s = f * self.unit_m / 60.0;
-            if !f_m_s.is_finite() {
-                return Err((column as usize, GcodeErrorKind::NotFinite));
-            }
-            if f_m_s <= 0.0 {
-                return Err((column as usize, GcodeErrorKind::BadFeed));
-            }
-            self.feed_m_s = Some(f_m_s);
-        }
-        if let Some((kind, _)) = motion_here {
-            self.motion = Some(kind);
-        }
-        let first_axis = axes.iter().flatten().map(|&(_, c)| c).min();
-        let moved = if let Some(axis_column) = first_axis {
-            let kind = self
-                .motion
-                .ok_or((axis_column as usize, GcodeErrorKind::NoMotionMode))?;
-            let feed_m_s = match (kind, self.feed_m_s) {
-                (MoveKind::Feed, None) => {
-                    let column = motion_here.map_or(axis_column, |(_, c)| c);
-                    return Err((column as usize, GcodeErrorKind::MissingFeed));
-                }
-                (_, f) => f.unwrap_or(0.0),
-            };
-            let [x, y, z, a, b] = axes;
-            let [px, py, pz] = &mut self.position_m;
-            let [pa, pb] = &mut self.angles_rad;
-            let rad_per_deg = core::f64::consts::PI / 180.0;
-            let targets = [
-                (x, px, self.unit_m),
-                (y, py, self.unit_m),
-                (z, pz, self.unit_m),
-                (a, pa, rad_per_deg),
-                (b, pb, rad_per_deg),
-            ];
-            for (word, coordinate, scale) in targets {
-                if let Some((value, column)) = word {
-                    let v = value * scale;
-                    let new = if self.incremental { *coordinate + v } else { v };
-                    if !new.is_finite() {
-                        return Err((column as usize, GcodeErrorKind::NotFinite));
-                    }
-                    *coordinate = new;
-                }
-            }
-            Some(GcodePoint {
-                position_m: self.position_m,
-                angles_rad: self.angles_rad,
-                feed_m_s,
-                kind,
-                line: 0,
-            })
-        } else {
-            None
-        };
-        if end {
-            self.ended = true;
-        }
-        Ok(moved)
-    }
-}
-
-/// A G/M code's value × 10, rounded (G43.4 → 434). Values outside 0..=999.9 are
-/// refused before this is called.
-fn code_x10(value: f64) -> u32 {
-    libm::round(value * 10.0) as u32
-}
-
-/// Splits a line into words, dropping comments, checking the checksum.
-fn split_words(line: &[u8]) -> Result<Vec<Word, MAX_WORDS>, (usize, GcodeErrorKind)> {
-    let mut words: Vec<Word, MAX_WORDS> = Vec::new();
-    let mut i = 0;
-    let mut xor = 0u8;
-    let at = |k: usize| line.get(k).copied();
-    if let Some(first) = line.iter().position(|b| !b.is_ascii_whitespace()) {
-        if at(first) == Some(b'%') && line.iter().skip(first + 1).all(u8::is_ascii_whitespace) {
-            return Ok(words);
-        }
-    }
-    while let Some(byte) = at(i) {
-        let column = i + 1;
-        match byte {
-            b' ' | b'\t' => {
-                xor ^= byte;
-                i += 1;
-            }
-            b'(' => {
-                // Positions in a slice rather than a `skip`ped iterator, whose count
-                // keeps an overflow check.
-                let rest = line.get(i..).unwrap_or(&[]);
-                let Some(close) = rest.iter().position(|&b| b == b')') else {
-                    return Err((column, GcodeErrorKind::UnclosedComment));
-                };
-                // Positions in the line (fewer than usize::MAX bytes): never saturate.
-                let end = i.saturating_add(close).saturating_add(1);
-                for &b in line.get(i..end).unwrap_or(&[]) {
-                    xor ^= b;
-                }
-                i = end;
-            }
-            b')' => return Err((column, GcodeErrorKind::UnclosedComment)),
-            b';' => break,
-            b'*' => {
-                let (value, end) = checksum_value(line, i + 1)
-                    .ok_or((column + 1, GcodeErrorKind::MalformedNumber))?;
-                if value != xor {
-                    return Err((
-                        column,
-                        GcodeErrorKind::BadChecksum {
-                            given: value,
-                            computed: xor,
-                        },
-                    ));
-                }
-                // Only blanks or a `;` comment may follow the checksum.
-                let rest = line.get(end..).unwrap_or(&[]);
-                match rest.iter().position(|b| !b.is_ascii_whitespace()) {
-                    None => break,
-                    Some(k) if at(end.saturating_add(k)) == Some(b';') => break,
-                    Some(k) => {
-                        let at_k = end.saturating_add(k);
-                        let b = at(at_k).unwrap_or(0);
-                        return Err((at_k.saturating_add(1), GcodeErrorKind::UnexpectedByte(b)));
-                    }
-                }
-            }
-            letter if letter.is_ascii_alphabetic() => {
-                let upper = letter.to_ascii_uppercase();
-                let (value, len) = parse_number(line.get(i + 1..).unwrap_or(&[]))
-                    .ok_or((column + 1, GcodeErrorKind::MalformedNumber))?;
-                if words
-                    .iter()
-                    .any(|w| w.letter == upper && upper != b'G' && upper != b'M')
-                    || words
-                        .iter()
-                        .any(|w| w.letter == upper && same_group(upper, w.value, value))
-                {
-                    return Err((column, GcodeErrorKind::DuplicateWord(upper)));
-                }
-                let word = Word {
-                    letter: upper,
-                    value,
-                    column: u32::try_from(column).unwrap_or(u32::MAX),
-                };
-                words
-                    .push(word)
-                    .map_err(|_| (column, GcodeErrorKind::TooManyWords))?;
-                for &b in line.iter().skip(i).take(len + 1) {
-                    xor ^= b;
-                }
-                i += len + 1;
-            }
-            other => return Err((column, GcodeErrorKind::UnexpectedByte(other))),
-        }
-    }
-    Ok(words)
-}
-
-/// Whether two G (or M) codes belong to the same modal group, so may not share a line:
-/// motion (G0/G1), units (G20/G21), distance (G90/G91); for M, spindle (M3/M4/M5).
-fn same_group(letter: u8, a: f64, b: f64) -> bool {
-    let group = |v: f64| match (letter, code_x10(v.clamp(0.0, 999.9))) {
-        (b'G', 0 | 10 | 20 | 30) => 1,
-        (b'G', 200 | 210) => 2,
-        (b'G', 900 | 910) => 3,
-        (b'M', 30 | 40 | 50) => 4,
-        _ => 0,
+impl ReaderConfig {
+    /// All five axes, zero work offsets, chords within 1 µm.
+    pub const DEFAULT: Self = Self {
+        axes: [true; 5],
+        work_offsets: [[0.0; 5]; 6],
+        chord_tolerance_m: 1e-6,
     };
-    let g = group(a);
-    g != 0 && g == group(b)
+
+    /// Checks the tolerance (finite, positive) and the offsets (finite).
+    pub fn check(&self) -> Result<(), ConfigError> {
+        let t = self.chord_tolerance_m;
+        if !t.is_finite() {
+            return Err(ConfigError::not_finite("chord_tolerance_m"));
+        }
+        if t <= 0.0 {
+            return Err(ConfigError::not_positive("chord_tolerance_m"));
+        }
+        for (i, offset) in self.work_offsets.iter().enumerate() {
+            if !offset.iter().all(|v| v.is_finite()) {
+                return Err(ConfigError::not_finite("work_offsets").at(i));
+            }
+        }
+        Ok(())
+    }
 }
 
-/// The checksum's decimal value (0–255) starting at `start`, and where it ends.
-fn checksum_value(line: &[u8], start: usize) -> Option<(u8, usize)> {
-    let digits = line
-        .iter()
-        .skip(start)
-        .take_while(|b| b.is_ascii_digit())
-        .count();
-    if digits == 0 || digits > 3 {
-        return None;
+impl Default for ReaderConfig {
+    fn default() -> Self {
+        Self::DEFAULT
     }
-    let value = line.iter().skip(start).take(digits).fold(0u32, |acc, &d| {
-        // At most three digits (above): never saturates.
-        acc.saturating_mul(10)
-            .saturating_add(char::from(d).to_digit(10).unwrap_or(0))
-    });
-    Some((u8::try_from(value).ok()?, start + digits))
 }
 
-/// A number `[+-]digits[.digits]` (at least one digit) at the start of `bytes`, its
-/// value and its length in bytes. Blanks between the letter and the number are not
-/// allowed.
-fn parse_number(bytes: &[u8]) -> Option<(f64, usize)> {
-    let sign = usize::from(matches!(bytes.first(), Some(b'+' | b'-')));
-    let int = bytes
-        .iter()
-        .skip(sign)
-        .take_while(|b| b.is_ascii_digit())
-        .count();
-    // Lengths within `bytes` (fewer than usize::MAX): the saturating adds never
-    // saturate.
-    let mut len = sign.saturating_add(int);
-    let mut frac = 0;
-    if bytes.get(len) == Some(&b'.') {
-        frac = bytes
-            .iter()
-            .skip(len.saturating_add(1))
-            .take_while(|b| b.is_ascii_digit())
-            .count();
-        len = len.saturating_add(1).saturating_add(frac);
-    }
-    if int == 0 && frac == 0 {
-        return None;
-    }
-    let text = core::str::from_utf8(bytes.get(..len)?).ok()?;
-    // `core` parses "1." and ".5" and a leading '+'; the grammar above admits nothing
-    // else (no exponent, no "inf"/"nan").
-    let value: f64 = text.parse().ok()?;
-    Some((value, len))
-}
-
-/// Parses a whole file (lines ended by `\n`, optionally `\r\n`) into `points`, which is
-/// cleared first. Stops reading at `M2`/`M30`.
+/// Reads a whole file (lines ended by `\n`, optionally `\r\n`) for the machine of
+/// `config` into `points`, which is cleared first, giving every warning and error to
+/// `sink` in the order of the file. Stops reading at `M2`/`M30`.
 ///
-/// Errors: the first refused line's [`GcodeError`]; `TooManyPoints` (at column 0 of the
-/// line) when `points` is full. `points` then holds what was read before it.
+/// Errors: only a bad `config` (nothing is read). The program's own errors are in the
+/// returned [`Program::errors`] and were given to `sink`.
+pub fn read<const N: usize>(
+    text: &[u8],
+    config: &ReaderConfig,
+    points: &mut Vec<GcodePoint, N>,
+    sink: &mut dyn FnMut(&Diagnostic),
+) -> Result<Program, ConfigError> {
+    points.clear();
+    let mut parser = Parser::with_config(config)?;
+    for line in text.split(|&b| b == b'\n') {
+        parser.read_line(line, &mut |p| points.push(*p).is_ok(), sink);
+    }
+    // A final line end leaves an empty last piece: not a line of the file.
+    let mut program = parser.program();
+    if text.last() == Some(&b'\n') && !program.ended {
+        program.lines = program.lines.saturating_sub(1);
+    }
+    Ok(program)
+}
+
+/// Reads a whole file as [`read`] with [`ReaderConfig::DEFAULT`].
+///
+/// Errors: the first error's [`GcodeError`] (warnings are dropped); `points` then holds
+/// the points of the lines without errors.
 pub fn parse<const N: usize>(
     text: &[u8],
     points: &mut Vec<GcodePoint, N>,
 ) -> Result<Program, GcodeError> {
-    points.clear();
-    let mut parser = Parser::new();
-    for line in text.split(|&b| b == b'\n') {
-        if parser.ended() {
-            break;
+    let mut first = None;
+    let program = read(text, &ReaderConfig::DEFAULT, points, &mut |d| {
+        if d.severity() == Severity::Error && first.is_none() {
+            first = Some(*d);
         }
-        if let Some(point) = parser.parse_line(line)? {
-            points.push(point).map_err(|_| GcodeError {
-                line: parser.lines(),
-                column: 0,
-                kind: GcodeErrorKind::TooManyPoints,
-            })?;
-        }
+    });
+    match (first, program) {
+        (Some(e), _) => Err(e),
+        (None, Ok(program)) => Ok(program),
+        // The default configuration is valid: never taken.
+        (None, Err(_)) => Ok(Parser::new().program()),
     }
-    // A final line end leaves an empty last piece: not a line of the file.
-    let mut program = parser.program();
-    if text.last() == Some(&b'\n') && !parser.ended() {
-        program.lines = program.lines.saturating_sub(1);
-    }
-    Ok(program)
 }
 
 /// The runs of a program a constant-feed path follows ([`super::feed`]): each is a
