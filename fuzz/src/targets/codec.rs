@@ -162,11 +162,34 @@ pub fn spindle_reply_seeds() -> std::vec::Vec<std::vec::Vec<u8>> {
 
 /// `gcode_parse`: any text gives points or a typed error naming a line inside the
 /// input; every point is finite with a finite, non-negative feed; the same text read
-/// line by line gives the same points. Returns the points read.
+/// line by line gives the same points; the whole-file reader (every problem reported)
+/// names only lines inside the input, gives finite points, and reports an error
+/// whenever the first-error parse refused. Returns the points read.
 pub fn gcode_parse(data: &[u8]) -> usize {
-    let mut points: Vec<GcodePoint, 64> = Vec::new();
     let lines = data.split(|&b| b == b'\n').count();
-    match gcode::parse(data, &mut points) {
+    let mut all: Vec<GcodePoint, 64> = Vec::new();
+    let mut errors = 0usize;
+    let read = gcode::read(data, &gcode::ReaderConfig::DEFAULT, &mut all, &mut |d| {
+        assert!(d.line >= 1 && d.line as usize <= lines, "{d:?}");
+        errors += usize::from(d.severity() == gcode::Severity::Error);
+    });
+    assert!(read.is_ok(), "the default configuration is valid");
+    for p in &all {
+        let coordinates = p.position_m.iter().chain(&p.angles_rad);
+        assert!(coordinates.clone().all(|v| v.is_finite()), "{p:?}");
+    }
+    let first_error = gcode_parse_first(data, lines);
+    if first_error {
+        assert!(errors > 0, "parse refused what read reported no error for");
+    }
+    all.len()
+}
+
+/// The first-error parse and the line-by-line reader of [`gcode_parse`]; true when
+/// the parse refused the text.
+fn gcode_parse_first(data: &[u8], lines: usize) -> bool {
+    let mut points: Vec<GcodePoint, 64> = Vec::new();
+    let refused = match gcode::parse(data, &mut points) {
         Ok(program) => {
             assert!(program.lines as usize <= lines);
             for p in &points {
@@ -175,9 +198,13 @@ pub fn gcode_parse(data: &[u8]) -> usize {
                 assert!(p.feed_m_s.is_finite() && p.feed_m_s >= 0.0, "{p:?}");
                 assert!(p.line >= 1 && p.line as usize <= lines);
             }
+            false
         }
-        Err(e) => assert!(e.line >= 1 && e.line as usize <= lines, "{e:?}"),
-    }
+        Err(e) => {
+            assert!(e.line >= 1 && e.line as usize <= lines, "{e:?}");
+            true
+        }
+    };
     // Line by line, up to the first refusal: the same points.
     let mut parser = Parser::new();
     let mut k = 0;
@@ -193,7 +220,7 @@ pub fn gcode_parse(data: &[u8]) -> usize {
             Err(_) => break,
         }
     }
-    points.len()
+    refused
 }
 
 /// The ARROW pyramid program's first lines (the firmware's own test program), and
@@ -208,9 +235,22 @@ pub const GCODE_SEEDS: [&str; 3] = [
     "G21 G90\nG0 X0 Y500 Z0 A0 B0\nG1 Y510 F300 ; comment\nG1 X5 Y510 Z5 A10 B-10\nM30\n",
 ];
 
+/// Real programs (`data/gcode`, see its SOURCES.md): arcs in every plane, offsets,
+/// comments, the words a CAM header carries.
+const GCODE_CORPUS: [&[u8]; 4] = [
+    include_bytes!("../../../data/gcode/arc-arc-planeswitch.ngc"),
+    include_bytes!("../../../data/gcode/dodecagon_0.1in.ngc"),
+    include_bytes!("../../../data/gcode/sawtooth.ngc"),
+    include_bytes!("../../../data/gcode/spindle-wait.ngc"),
+];
+
 /// Seeds of [`gcode_parse`].
 pub fn gcode_parse_seeds() -> std::vec::Vec<std::vec::Vec<u8>> {
-    GCODE_SEEDS.iter().map(|s| s.as_bytes().to_vec()).collect()
+    GCODE_SEEDS
+        .iter()
+        .map(|s| s.as_bytes().to_vec())
+        .chain(GCODE_CORPUS.iter().map(|f| f.to_vec()))
+        .collect()
 }
 
 /// `gcs_reply`: one selector byte, then a reply to one of the GCS reply parsers (or a

@@ -5,8 +5,7 @@
 use crate::input::same_bits;
 use crate::targets::link::octagon_job;
 use kerf::codec::job::{
-    write_efd, write_gcode, write_points, write_recording, write_schedule, JobFile,
-    HEADER_BYTES,
+    write_efd, write_gcode, write_points, write_recording, write_schedule, JobFile, HEADER_BYTES,
 };
 use kerf::codec::link::crc32;
 use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry};

@@ -7,12 +7,12 @@
 //! only the committed corpus must be written again (`gen_corpus`).
 
 use crate::input::{Input, Seed};
+use kerf::app::remote_link::MasterLink;
+use kerf::app::remote_link::RemoteCommand;
 use kerf::app::stream::{StreamReceiver, StreamSender, MAX_FRAME_HEADER};
 use kerf::codec::packet::MAX_SAMPLE_ABS;
 use kerf::codec::sdct::{SdctConfig, Selection};
 use kerf::hal::{FrameLink, LinkBusy};
-use kerf::app::remote_link::MasterLink;
-use kerf::app::remote_link::RemoteCommand;
 use kerf_sim::remote::{SiteLink, BLOCK};
 use std::collections::VecDeque;
 
