@@ -4,18 +4,21 @@
 //! host knows nothing of the cell but what it describes: it uploads a pass as a G-code
 //! job file, starts it, streams the forces, changes a gain mid-pass and hears the end;
 //! then a device broken mid-pass (a command the hexapod's controller refuses, a
-//! converter that stops answering) is heard as a fault in the cell's words.
+//! converter that stops answering) is heard as a fault in the cell's words, and the
+//! simulation's device link latched the fault of the device broken.
 
 use host_tests::link::{run_plan, serve, MachineThread, Pace};
+use kerf::codec::gcs::code;
 use kerf::codec::job::write_gcode;
 use kerf::codec::link::JobKind;
+use kerf::machines::grinding::{DeviceFault, HexapodFault, SpindleFault};
 use kerf_host::link::{LinkError, MachineLink};
 use kerf_host::session::{Progress, RunPlan, Session, SessionError};
 use kerf_host::telemetry::TelemetryLog;
 use kerf_sim::linked_grinding::{with_linked_grinding, PASS_GCODE};
 use std::os::unix::net::UnixStream;
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
@@ -33,19 +36,34 @@ const PACE: f64 = 2.0;
 /// busy host is not taken for a lost one (the heartbeat is tested with the link).
 const HEARTBEAT_TIMEOUT_S: f64 = 1e4;
 
+/// The device link's fault as the simulation latched it: in the period a device was
+/// broken (before the break), and the first one after it.
+type DeviceFaults = Arc<Mutex<(Option<DeviceFault>, Option<DeviceFault>)>>;
+
 /// The simulated cell on the far end of `socket`, a period per turn at [`PACE`],
 /// until `stop` is set or the host hangs up; `breaks` names a device to break
-/// (once). Bytes from the host come through a reader thread, so a period never waits
-/// for them.
-fn machine(socket: UnixStream, stop: Arc<AtomicBool>, breaks: Arc<AtomicU8>) -> JoinHandle<()> {
+/// (once), `faults` gets the device link's fault around it. Bytes from the host come
+/// through a reader thread, so a period never waits for them.
+fn machine(
+    socket: UnixStream,
+    stop: Arc<AtomicBool>,
+    breaks: Arc<AtomicU8>,
+    faults: DeviceFaults,
+) -> JoinHandle<()> {
     std::thread::spawn(move || {
         with_linked_grinding::<f64, _>(HEARTBEAT_TIMEOUT_S, |cell| {
             let pace = Pace::Scaled {
                 period_s: 1e-3,
                 speedup: PACE,
             };
+            let mut broken = false;
             serve(socket, &stop, pace, |_, input, send| {
-                match breaks.swap(BREAK_NONE, Ordering::Relaxed) {
+                let device = breaks.swap(BREAK_NONE, Ordering::Relaxed);
+                if device != BREAK_NONE {
+                    faults.lock().unwrap().0 = cell.device_fault();
+                    broken = true;
+                }
+                match device {
                     // VLS beyond the H-824's 1 mm/s: the controller sets error 8,
                     // which the device link's next ERR? reads.
                     BREAK_HEXAPOD => {
@@ -56,6 +74,10 @@ fn machine(socket: UnixStream, stop: Arc<AtomicBool>, breaks: Arc<AtomicU8>) -> 
                     _ => {}
                 }
                 cell.period(input, send);
+                let mut faults = faults.lock().unwrap();
+                if broken && faults.1.is_none() {
+                    faults.1 = cell.device_fault();
+                }
                 true
             })
         })
@@ -88,13 +110,20 @@ struct Rig {
     _machine: MachineThread,
     session: Session,
     breaks: Arc<AtomicU8>,
+    faults: DeviceFaults,
 }
 
 fn rig() -> Rig {
     let (host, far) = UnixStream::pair().unwrap();
     let stop = Arc::new(AtomicBool::new(false));
     let breaks = Arc::new(AtomicU8::new(BREAK_NONE));
-    let thread = machine(far, Arc::clone(&stop), Arc::clone(&breaks));
+    let faults = DeviceFaults::default();
+    let thread = machine(
+        far,
+        Arc::clone(&stop),
+        Arc::clone(&breaks),
+        Arc::clone(&faults),
+    );
     let link = MachineLink::connect(
         Box::new(host.try_clone().unwrap()),
         Box::new(host),
@@ -104,6 +133,7 @@ fn rig() -> Rig {
     Rig {
         session: Session::over(link),
         breaks,
+        faults,
         _machine: MachineThread::new(stop, thread),
     }
 }
@@ -206,8 +236,10 @@ fn the_host_grinds_a_pass_from_its_gcode_file() {
     assert!(summary.to_string().contains("force peak"), "{summary}");
 }
 
-/// Runs the pass and breaks `device` 1 s into it: the run ends in a fault, in words.
-fn broken_pass(device: u8) -> String {
+/// Runs the pass and breaks `device` 1 s into it: the run ends in a fault, in words;
+/// with them, the device link's fault before the break and after it, as the
+/// simulation latched it.
+fn broken_pass(device: u8) -> (String, (Option<DeviceFault>, Option<DeviceFault>)) {
     let mut rig = rig();
     let channels = rig.session.machine.description().channels.clone();
     let mut log = TelemetryLog::new(1e-3, &channels);
@@ -228,28 +260,49 @@ fn broken_pass(device: u8) -> String {
             }
         },
     );
+    let faults = Arc::clone(&rig.faults);
+    // The machine thread stops and is joined: its last period's fault is recorded.
+    drop(rig);
+    let faults = *faults.lock().unwrap();
     match ended {
-        Err(SessionError::Fault(words)) => words,
+        Err(SessionError::Fault(words)) => (words, faults),
         other => panic!("{other:?}"),
     }
 }
 
 #[test]
 fn a_gcs_error_of_the_hexapod_is_heard_in_the_cells_words() {
-    let words = broken_pass(BREAK_HEXAPOD);
+    let (words, faults) = broken_pass(BREAK_HEXAPOD);
     println!("grinding link: the hexapod's fault: {words}");
     assert_eq!(
         words,
         "the hexapod's controller reported a GCS error (code 8)"
     );
+    // Healthy until the break; then the error the VLS set: velocity out of limits.
+    assert_eq!(
+        faults,
+        (
+            None,
+            Some(DeviceFault::Hexapod(HexapodFault::Controller(
+                code::VEL_OUT_OF_LIMITS
+            )))
+        )
+    );
 }
 
 #[test]
 fn a_silent_spindle_is_heard_in_the_cells_words() {
-    let words = broken_pass(BREAK_SPINDLE);
+    let (words, faults) = broken_pass(BREAK_SPINDLE);
     println!("grinding link: the spindle's fault: {words}");
     assert_eq!(
         words,
         "the spindle's converter stopped answering (silent ticks in a row 5)"
+    );
+    assert_eq!(
+        faults,
+        (
+            None,
+            Some(DeviceFault::Spindle(SpindleFault::Silent { ticks: 5 }))
+        )
     );
 }

@@ -11,7 +11,11 @@
 use host_tests::link::{run_plan, serve, MachineThread, Pace};
 use kerf::codec::job::{write_gcode, write_points};
 use kerf::codec::link::{JobKind, ModeCode};
-use kerf::machines::remote_master::product::sample_contour;
+use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
+use kerf::kinematics::Vector3;
+use kerf::machines::remote_master::product::{
+    rest_point, sample_contour, SAMPLE_SEMI_AXES_M, SCALE, SLAVE_CENTRE_Q_M,
+};
 use kerf_host::link::{Heard, LinkError, MachineLink};
 use kerf_host::session::{Progress, RunPlan, Session, SessionError};
 use kerf_host::telemetry::TelemetryLog;
@@ -35,10 +39,30 @@ const PACE: f64 = 2.0;
 /// busy host is not taken for a lost one (the heartbeat is tested with the link).
 const HEARTBEAT_TIMEOUT_S: f64 = 1e4;
 
-/// What the simulation measured on its plants, from the master's start: (time since
-/// the first period, the master's true distance across the drawing, the slave's true
-/// distance from the scaled master at the tick it executes).
-type Truth = Arc<Mutex<Vec<(f64, f64, Option<f64>)>>>;
+/// One period of what the simulation measured on its plants while the master ran.
+#[derive(Copy, Clone, Debug)]
+struct Measured {
+    /// Time since the master's start, s.
+    t: f64,
+    /// The master's true distance across the drawing, m.
+    across_m: f64,
+    /// The slave's true distance from the scaled master at the tick it executes, m.
+    slave_tracking_m: Option<f64>,
+    /// The master's true effector, m.
+    master_m: Option<[f64; 3]>,
+    /// The slave's position, m.
+    slave_m: [f64; 3],
+}
+
+/// What the simulation measured on its plants: the master's and the slave's
+/// positions before the first period, then each period while the master runs.
+#[derive(Clone, Debug, Default)]
+struct Measurements {
+    at_start: Option<(Option<[f64; 3]>, [f64; 3])>,
+    running: Vec<Measured>,
+}
+
+type Truth = Arc<Mutex<Measurements>>;
 
 /// The simulated master on the far end of `socket`, a period per turn at [`PACE`],
 /// until `stop` is set or the host hangs up; `glitch` puts a 5000-count glitch on
@@ -56,18 +80,20 @@ fn machine(
                 period_s: TS,
                 speedup: PACE,
             };
+            truth.lock().unwrap().at_start = Some((master.master_m(), master.slave_m()));
             serve(socket, &stop, pace, |periods, input, send| {
                 if glitch.swap(false, Ordering::Relaxed) {
                     master.glitch_encoder(1, 5000);
                 }
                 master.period(input, send);
                 if master.supervisor().mode() == kerf::app::supervisor::Mode::Running {
-                    let t = f64::from(periods) * TS;
-                    let across = master.across_m().unwrap_or(f64::NAN);
-                    truth
-                        .lock()
-                        .unwrap()
-                        .push((t, across, master.slave_tracking_m()));
+                    truth.lock().unwrap().running.push(Measured {
+                        t: f64::from(periods) * TS,
+                        across_m: master.across_m().unwrap_or(f64::NAN),
+                        slave_tracking_m: master.slave_tracking_m(),
+                        master_m: master.master_m(),
+                        slave_m: master.slave_m(),
+                    });
                 }
                 true
             })
@@ -255,11 +281,12 @@ fn the_host_runs_a_fixture_session_and_softens_the_fixture() {
     let tracking = max_rms(&series("tracking_error", 2.0, f64::MAX));
     let beam = series("beam", 1.0, f64::MAX);
     let truth = rig.truth.lock().unwrap().clone();
-    let t0 = truth.first().map_or(0.0, |t| t.0);
+    let t0 = truth.running.first().map_or(0.0, |m| m.t);
     let true_slave: Vec<f64> = truth
+        .running
         .iter()
-        .filter(|t| t.0 - t0 >= 2.0)
-        .filter_map(|t| t.2)
+        .filter(|m| m.t - t0 >= 2.0)
+        .filter_map(|m| m.slave_tracking_m)
         .collect();
     let true_slave = max_rms(&true_slave);
     println!(
@@ -316,6 +343,87 @@ fn the_host_runs_a_fixture_session_and_softens_the_fixture() {
         tracking.0 < max_bound && tracking.1 < rms_bound,
         "{tracking:?}"
     );
+    check_positions(&truth);
+}
+
+/// The lowest and the highest x and y of `points`.
+fn bounding_box(points: impl Iterator<Item = [f64; 3]>) -> ([f64; 2], [f64; 2]) {
+    points.fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), p| {
+        (
+            [lo[0].min(p[0]), lo[1].min(p[1])],
+            [hi[0].max(p[0]), hi[1].max(p[1])],
+        )
+    })
+}
+
+/// The master and the slave where the simulation has them, against the product's
+/// geometry and the lap: at the start the master rests at its rest point (the
+/// carriages at their homing stops) and the slave at the middle of its travel, where
+/// the rest point maps; in the lap the master goes round the sample ellipse, from its
+/// rightmost point (the rest point) to 2a left of it and b either side, and the slave
+/// round that, scaled about the centres.
+fn check_positions(truth: &Measurements) {
+    let (master_0, slave_0) = truth.at_start.expect("the start was measured");
+    let rest = rest_point().unwrap();
+    let keops = DeltaGeometry::<f64>::new(&DeltaConfig::SLAVE_KEOPS).unwrap();
+    let slave_centre: [f64; 3] = keops
+        .forward(&Vector3::from(SLAVE_CENTRE_Q_M))
+        .unwrap()
+        .into();
+    let master_0 = master_0.expect("the master assembles at its home");
+    for k in 0..3 {
+        // The same closed-form kinematics on the same carriages: equal to rounding.
+        assert!(
+            (master_0[k] - rest[k]).abs() < 1e-12,
+            "{master_0:?} {rest:?}"
+        );
+        assert!(
+            (slave_0[k] - slave_centre[k]).abs() < 1e-12,
+            "{slave_0:?} {slave_centre:?}"
+        );
+    }
+    let (master_lo, master_hi) =
+        bounding_box(truth.running.iter().map(|m| m.master_m.expect("assembled")));
+    let [a, b] = SAMPLE_SEMI_AXES_M;
+    // The data points include the ellipse's four extremes (128 points evenly in its
+    // angle, from the rightmost); the master passes them within its distance across
+    // the contour, and the fixture's windows between the points lie within 1 µm.
+    let across = truth
+        .running
+        .iter()
+        .map(|m| m.across_m.abs())
+        .fold(0.0, f64::max);
+    let tolerance = across + 1e-6;
+    let expected_lo = [rest[0] - 2.0 * a, rest[1] - b];
+    let expected_hi = [rest[0], rest[1] + b];
+    println!(
+        "remote master link: the master's box {master_lo:?}–{master_hi:?} m, the ellipse's {expected_lo:?}–{expected_hi:?} m, within {:.1} µm",
+        tolerance * 1e6
+    );
+    for k in 0..2 {
+        assert!(
+            (master_lo[k] - expected_lo[k]).abs() < tolerance,
+            "{master_lo:?}"
+        );
+        assert!(
+            (master_hi[k] - expected_hi[k]).abs() < tolerance,
+            "{master_hi:?}"
+        );
+    }
+    // The slave reaches the scaled master's extremes within its tracking bound.
+    let (slave_lo, slave_hi) = bounding_box(truth.running.iter().map(|m| m.slave_m));
+    let scaled = |p: [f64; 2], k: usize| slave_centre[k] + SCALE * (p[k] - rest[k]);
+    let (max_bound, _) = REPLAY_BOUNDS_M;
+    for k in 0..2 {
+        assert!(
+            (slave_lo[k] - scaled(master_lo, k)).abs() < max_bound,
+            "{slave_lo:?}"
+        );
+        assert!(
+            (slave_hi[k] - scaled(master_hi, k)).abs() < max_bound,
+            "{slave_hi:?}"
+        );
+    }
 }
 
 /// A glitch on carriage 1's encoder 2 s into a session ends it in a fault, in the

@@ -220,3 +220,50 @@ fn watchdog_heartbeat_and_injected_faults() {
     set.inject(1, Injection::Silent);
     assert_eq!(period(&mut set, rpdo(0x06, 0, 0x06, 0)).len(), 1);
 }
+
+/// Each drive's NMT state follows the master's commands (CiA 301 §7.3.2.2: nothing
+/// before boot-up, pre-operational after it), to its own node or to all.
+#[test]
+fn nmt_states_follow_the_commands() {
+    let mut set = pair();
+    assert_eq!([set.nmt(0), set.nmt(1)], [None, None]);
+    // Before boot-up a Start changes nothing.
+    set.deliver(0, &NmtCommand::Start.frame(0));
+    assert_eq!(set.nmt(0), None);
+    set.deliver(0, &NmtCommand::ResetNode.frame(0));
+    drain(&mut set);
+    assert_eq!(set.nmt(0), Some(NmtState::PreOperational));
+    // Node 2 alone started, then all stopped.
+    set.deliver(0, &NmtCommand::Start.frame(2));
+    assert_eq!(
+        [set.nmt(0), set.nmt(1)],
+        [Some(NmtState::PreOperational), Some(NmtState::Operational)]
+    );
+    set.deliver(0, &NmtCommand::Stop.frame(0));
+    assert_eq!([set.nmt(0), set.nmt(1)], [Some(NmtState::Stopped); 2]);
+    assert_eq!(set.nmt(2), None);
+}
+
+/// The encoders see the positions set, in whole increments of 50 nm, rounded: read
+/// back as 0x6064 and in the TPDO of the next SYNC.
+#[test]
+fn positions_are_seen_in_whole_increments() {
+    let mut set = started();
+    // 1.00000 mm is 20 000 increments; −0.12345 mm is −2469.0 increments,
+    // 1.23458 mm is 24 691.6 (up to 24 692: rounded, not cut).
+    set.set_positions_m(&[1e-3, -0.12345e-3]);
+    let read = |set: &mut SimDriveSet<2>, i| match set.read(i, od_at(0x6064)) {
+        Some(SdoResponse::Uploaded { value, size: 4, .. }) => Some(value as i32),
+        _ => None,
+    };
+    assert_eq!(read(&mut set, 0), Some(20_000));
+    assert_eq!(read(&mut set, 1), Some(-2469));
+    set.set_positions_m(&[1.23458e-3, 0.0]);
+    set.deliver(0, &sync(Some(1)));
+    let positions: Vec<i32> = drain(&mut set)
+        .iter()
+        .filter(|f| f.function() == cob::TPDO1)
+        .filter_map(|f| cia402::decode_tpdo(f.payload()).map(|fb| fb.position))
+        .collect();
+    assert_eq!(positions, [24_692, 0]);
+}

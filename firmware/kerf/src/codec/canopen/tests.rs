@@ -254,3 +254,15 @@ fn identifiers_of_the_connection_set() {
         "TPDO2 is not used"
     );
 }
+
+/// Node ids are 1–127 (CiA 301 §7.3.2.2; 0 addresses all nodes in NMT only): the
+/// edges of the range pass, one past either edge is refused as a bad node.
+#[test]
+fn node_ids_are_one_to_127() {
+    for node in [1u8, 2, 64, 126, 127] {
+        assert_eq!(node_id(node), Ok(node));
+    }
+    for node in [0u8, 128, 200, 255] {
+        assert_eq!(node_id(node), Err(FrameError::BadNode), "{node}");
+    }
+}

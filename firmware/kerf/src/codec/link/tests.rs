@@ -409,3 +409,28 @@ fn fields_outside_their_stated_range_are_refused_both_ways() {
         assert_eq!(encode(&message, &mut out).map(|_| ()), expected.map(|_| ()));
     }
 }
+
+/// An entry written with `code_words`, as every machine's tables are, holds the code,
+/// the words and the detail each in its own field; `find` finds it by its code only.
+#[test]
+fn a_table_written_with_code_words_is_found_by_code() {
+    const TABLE: [CodeWords; 3] = [
+        code_words(1, "the first", ""),
+        code_words(7, "the seventh", "axis"),
+        code_words(0x8000, "the last", "count"),
+    ];
+    let seventh = CodeWords::find(&TABLE, 7).unwrap();
+    assert_eq!(
+        (seventh.code, seventh.words, seventh.detail),
+        (7, "the seventh", "axis")
+    );
+    assert_eq!(
+        CodeWords::find(&TABLE, 0x8000),
+        Some(&CodeWords {
+            code: 0x8000,
+            words: "the last",
+            detail: "count",
+        })
+    );
+    assert_eq!(CodeWords::find(&TABLE, 2), None);
+}

@@ -169,8 +169,8 @@ pub struct RemoteSlaveTelemetry<T> {
 }
 
 /// The following's own law, validated: the local loop and the link's timeouts in
-/// periods. What a configuration sets at [`RemoteSlave::new`] and a change of
-/// settings replaces ([`RemoteSlave::set_follow_law`]).
+/// periods. What a configuration sets at [`RemoteSlave::new`] and a change of the
+/// session's link settings replaces ([`session`]).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct FollowLaw<T: Float> {
     model_following: Pd<T>,
@@ -262,7 +262,10 @@ impl<T: Float> RemoteSlave<T> {
 
     /// Replaces the following's law (the local loop, the timeouts), keeping every
     /// state: the silence counted so far is measured against the new timeouts.
-    pub fn set_follow_law(&mut self, law: &FollowLaw<T>) {
+    /// Private: only the session machine ([`session`]) retunes it, with its link
+    /// settings (host test `remote_slave_link` shortens the timeouts mid-session and
+    /// hears the link given up).
+    fn set_follow_law(&mut self, law: &FollowLaw<T>) {
         self.law = *law;
     }
 

@@ -271,3 +271,49 @@ fn a_sample_has_a_value_per_channel() {
     );
     assert_eq!(at("feed_exceeded"), 1.0);
 }
+
+/// A pass read from G-code takes its law and force from the pass it is given (here
+/// not the cell's), its length, feed and spindle from the program; a refusal names
+/// the 1-based line that caused it (0: the whole program).
+#[test]
+fn a_pass_takes_its_law_from_the_pass_and_a_refusal_names_its_line() {
+    use super::super::product::{load_pass, PassError, PassErrorKind};
+    use super::super::ForceLawKind;
+    let pass = GrindingPass {
+        law: ForceLawKind::Adrc,
+        normal_force_n: 3.0,
+    };
+    // 0.2 + 0.3 mm at F12 mm/min (0.2 mm/s), the spindle at 1000 rpm.
+    let job = load_pass(&pass, b"G91\nM3 S1000\nG1 X0.2 F12\nX0.3\nM5\n").unwrap();
+    assert_eq!((job.law, job.normal_force_n), (ForceLawKind::Adrc, 3.0));
+    assert!((job.length_m - 0.5e-3).abs() < 1e-15, "{job:?}");
+    assert!((job.feed_m_s - 0.2e-3).abs() < 1e-16, "{job:?}");
+    assert_eq!(job.spindle_rpm, 1000.0);
+    let refused = |text: &str| load_pass(&pass, text.as_bytes()).unwrap_err();
+    let at = |line, kind| PassError { line, kind };
+    assert_eq!(
+        refused("G1 X1 F6\nG1 X2\nG1 X3 Y1\n"),
+        at(3, PassErrorKind::OffAxis)
+    );
+    assert_eq!(
+        refused("G1 X1 F6\nG1 X0.5\n"),
+        at(2, PassErrorKind::Backward)
+    );
+    assert_eq!(refused("G21\n\nG0 X1\n"), at(3, PassErrorKind::Rapid));
+    assert_eq!(refused("G21\nM3 S100\n"), at(0, PassErrorKind::Empty));
+    let e = refused("G1 X1 F6\nG1 X2 Q3\n");
+    assert!(
+        matches!(e, PassError { line: 2, kind: PassErrorKind::Gcode(g) } if g.line == 2),
+        "{e:?}"
+    );
+}
+
+/// The devices tick every whole number of control periods: G's 10 ms tick over the
+/// cell's 1 ms period.
+#[test]
+fn the_device_tick_is_ten_control_periods() {
+    use super::super::product::{device_tick_periods, DEVICES, PERIOD_S};
+    let n = device_tick_periods();
+    assert_eq!(n, 10);
+    assert!((f64::from(n) * PERIOD_S - DEVICES.tick_s).abs() < 1e-15);
+}

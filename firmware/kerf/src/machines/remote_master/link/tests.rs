@@ -295,3 +295,64 @@ fn a_sample_has_a_value_per_channel() {
     M::sample(&unknown, &mut values);
     assert!(at(&values, "slave_x").is_nan());
 }
+
+/// The rest point is where the master's carriages at their homing stops put the
+/// effector: the inverse kinematics of it gives back [`HOME_M`](super::super::product::HOME_M).
+#[test]
+fn the_rest_point_is_the_effector_at_home() {
+    use super::super::product::{rest_point, HOME_M};
+    use crate::kinematics::delta::{DeltaConfig, DeltaGeometry};
+    use crate::kinematics::Vector3;
+    let geometry = DeltaGeometry::<f64>::new(&DeltaConfig::MASTER_HORIZONTAL).unwrap();
+    let q = geometry
+        .inverse(&Vector3::from(rest_point().unwrap()))
+        .unwrap();
+    for (axis, (q, home)) in q.iter().zip(HOME_M).enumerate() {
+        // The closed forms of both directions agree to rounding on 0.07 m.
+        assert!((q - home).abs() < 1e-12, "carriage {axis}: {q} vs {home}");
+    }
+}
+
+/// A fixture job takes its points from the file and its height, beam and windows from
+/// the session (here not the product's); another kind of file, more points than the
+/// master holds and a contour the fixture refuses are told apart.
+#[test]
+fn a_fixture_loads_from_points_and_the_session() {
+    use super::super::product::{
+        load_fixture, rest_point, FixtureLoadError, FixtureSession, SAMPLE_SEMI_AXES_M,
+    };
+    use crate::trajectory::constraint::ConstraintConfig;
+    let session = FixtureSession {
+        constraint: ConstraintConfig::closed_contour(),
+        z_m: 0.0123,
+        laser_on: false,
+    };
+    let read = |bytes: &[u8]| load_fixture::<f64>(&session, &JobFile::read(bytes).unwrap());
+    let points = contour();
+    let job = read(&points_file(&points)).unwrap();
+    assert_eq!((job.z_m, job.laser_on), (0.0123, false));
+    // The points are the sample ellipse's, evenly spaced in its angle from the rest
+    // point (its rightmost): their centroid is the ellipse's centre, one semi-axis
+    // left of the rest point. The file holds f32: each coordinate within half an
+    // ulp of its value (< 1e-9 m below 32 mm), and so is their mean.
+    let [x0, y0, _] = rest_point().unwrap();
+    let origin = job.constraint.as_ref().unwrap().origin();
+    assert!(
+        (origin.x - (x0 - SAMPLE_SEMI_AXES_M[0])).abs() < 1e-9,
+        "{origin}"
+    );
+    assert!((origin.y - y0).abs() < 1e-9, "{origin}");
+    let mut gcode = [0u8; 64];
+    let n = write_gcode(b"G1 X1 F6\n", &mut gcode).unwrap();
+    assert!(matches!(read(&gcode[..n]), Err(FixtureLoadError::Kind)));
+    let mut many = points.clone();
+    many.push([0.0, 0.0]);
+    assert!(matches!(
+        read(&points_file(&many)),
+        Err(FixtureLoadError::TooManyPoints)
+    ));
+    assert!(matches!(
+        read(&points_file(&points[..10])),
+        Err(FixtureLoadError::Contour(_))
+    ));
+}
