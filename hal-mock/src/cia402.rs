@@ -25,7 +25,7 @@
 //! the drive's slot, TPDO1 as [`cia402::TPDO_MAPPING`], both transmission type 1.
 
 use heapless::Deque;
-use kerf::app::drive_set::{DriveAddress, DriveSetConfig};
+use kerf::codec::canopen::DriveAddress;
 use kerf::codec::canopen::{
     CanFrame, Emergency, NmtCommand, NmtState, Od, Received, SdoAbort, SdoRequest, SdoResponse,
 };
@@ -76,17 +76,20 @@ impl SimDriveModel {
         watchdog_periods: 3,
     };
 
-    /// The drives of a master's configuration: its buses and node ids, the RPDO
-    /// COB-ID and slot each maps, its encoder increment.
-    pub fn drives<const N: usize>(&self, master: &DriveSetConfig<N>) -> [SimDriveConfig; N] {
+    /// The drives at `addresses` (a master's buses and node ids), with the RPDO
+    /// COB-ID and slot each maps and the encoder increment `increment_m`.
+    pub fn drives<const N: usize>(
+        &self,
+        addresses: &[DriveAddress; N],
+        increment_m: f64,
+    ) -> [SimDriveConfig; N] {
         core::array::from_fn(|i| {
-            let a = master
-                .drives
+            let a = addresses
                 .get(i)
                 .copied()
                 .unwrap_or(DriveAddress { bus: 0, node: 0 });
-            let on_bus = master.drives.iter().take(i).filter(|b| b.bus == a.bus);
-            let first = master.drives.iter().find(|b| b.bus == a.bus).unwrap_or(&a);
+            let on_bus = addresses.iter().take(i).filter(|b| b.bus == a.bus);
+            let first = addresses.iter().find(|b| b.bus == a.bus).unwrap_or(&a);
             SimDriveConfig {
                 bus: a.bus,
                 node: a.node,
@@ -94,7 +97,7 @@ impl SimDriveModel {
                 slot: on_bus.count() as u8,
                 rated_mn: self.rated_mn,
                 peak_permille: self.peak_permille,
-                increment_m: master.increment_m,
+                increment_m,
                 watchdog_periods: self.watchdog_periods,
             }
         })

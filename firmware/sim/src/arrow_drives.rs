@@ -54,7 +54,9 @@ impl<'d> DriveIo<'d> {
         inject: &'d mut dyn FnMut(u64, &mut SimDriveSet<ACTUATORS>),
     ) -> Result<Self, ConfigError> {
         let master = ArrowDrives::<f64>::new(&ARROW_DRIVES)?;
-        let drives = SimDriveSet::new(SimDriveModel::ARROW.drives(&ARROW_DRIVES));
+        let drives = SimDriveSet::new(
+            SimDriveModel::ARROW.drives(&ARROW_DRIVES.drives, ARROW_DRIVES.increment_m),
+        );
         let mut io = Self {
             plant,
             master,

@@ -40,15 +40,7 @@ use core::fmt;
 /// Most buses a set spans.
 pub const MAX_BUSES: usize = 8;
 
-/// Where a drive is: its bus (0-based) and node id (1–127).
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct DriveAddress {
-    /// Bus index.
-    pub bus: u8,
-    /// CANopen node id.
-    pub node: u8,
-}
+pub use crate::codec::canopen::DriveAddress;
 
 /// A drive set as configured.
 #[derive(Copy, Clone, Debug, PartialEq)]

@@ -30,6 +30,16 @@ pub struct CanFrame {
     pub data: [u8; 8],
 }
 
+/// Where a drive is: its bus (0-based) and node id (1–127).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DriveAddress {
+    /// Bus index.
+    pub bus: u8,
+    /// CANopen node id.
+    pub node: u8,
+}
+
 /// Why a frame was refused.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
