@@ -143,3 +143,134 @@ fn every_corpus_program_loads_without_an_error_and_ends_each_move_where_the_scan
         }
     }
 }
+
+/// A move of a generated program: a line to (x, y), or an arc (clockwise or not)
+/// about the centre at (i, j) from the start, sweeping `sweep` radians.
+#[derive(Clone, Debug)]
+enum Move {
+    Line(f64, f64),
+    Arc {
+        cw: bool,
+        i: f64,
+        j: f64,
+        sweep: f64,
+    },
+}
+
+fn moves() -> impl proptest::strategy::Strategy<Value = Vec<Move>> {
+    use proptest::prelude::*;
+    let line = (-50.0f64..50.0, -50.0f64..50.0).prop_map(|(x, y)| Move::Line(x, y));
+    let arc = (
+        any::<bool>(),
+        1.0f64..20.0,
+        0.0f64..std::f64::consts::TAU,
+        0.1f64..6.0,
+    )
+        .prop_map(|(cw, r, at, sweep)| Move::Arc {
+            cw,
+            i: r * at.cos(),
+            j: r * at.sin(),
+            sweep,
+        });
+    proptest::collection::vec(prop_oneof![line, arc], 1..12)
+}
+
+/// The program's text (mm, absolute, four decimals as CAM writes them) and, per move,
+/// its line, printed end point and, for an arc, its centre and radius (mm).
+fn program(moves: &[Move]) -> (String, Vec<(u32, [f64; 2], Option<([f64; 2], f64)>)>) {
+    let round = |v: f64| (v * 1e4).round() / 1e4;
+    let mut text = String::from("G21 G90 G17\nG0 X0 Y0\n");
+    let mut at = [0.0f64, 0.0];
+    let mut ends = Vec::new();
+    for (k, m) in moves.iter().enumerate() {
+        let line = k as u32 + 3;
+        match *m {
+            Move::Line(x, y) => {
+                let end = [round(x), round(y)];
+                text += &format!("G1 X{:.4} Y{:.4} F600\n", end[0], end[1]);
+                ends.push((line, end, None));
+                at = end;
+            }
+            Move::Arc { cw, i, j, sweep } => {
+                let (i, j) = (round(i), round(j));
+                let centre = [at[0] + i, at[1] + j];
+                let r = i.hypot(j);
+                let start = (-j).atan2(-i);
+                let end_angle = if cw { start - sweep } else { start + sweep };
+                let end = [
+                    round(centre[0] + r * end_angle.cos()),
+                    round(centre[1] + r * end_angle.sin()),
+                ];
+                let code = if cw { 2 } else { 3 };
+                text += &format!(
+                    "G{code} X{:.4} Y{:.4} I{i:.4} J{j:.4} F600\n",
+                    end[0], end[1]
+                );
+                ends.push((line, end, Some((centre, r))));
+                at = end;
+            }
+        }
+    }
+    text += "M30\n";
+    (text, ends)
+}
+
+/// The same program with blanks inside its words and in lower case, as grbl and
+/// LinuxCNC accept it.
+fn loosened(text: &str, seed: u64) -> String {
+    let mut state = seed | 1;
+    let mut out = String::new();
+    for c in text.chars() {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        out.push(if state % 2 == 0 {
+            c.to_ascii_lowercase()
+        } else {
+            c
+        });
+        if c != '\n' && state % 5 == 0 {
+            out.push(' ');
+        }
+    }
+    out
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+
+    /// Random valid programs of lines and arcs (I/J form, CW and CCW, up to nearly
+    /// a full turn) read without an error; each move ends at its printed end point
+    /// (1e-9 m); every point of an arc lies on its circle within the reader's arc
+    /// tolerance (max(5 µm, 0.1 % of r), for the four-decimal rounding of the
+    /// centre); and the same program loosened (blanks inside words, lower case) reads
+    /// to the same points.
+    #[test]
+    fn random_programs_read_to_their_end_points(moves in moves(), seed in 1u64..u64::MAX) {
+        let (text, ends) = program(&moves);
+        let (points, found) = read(text.as_bytes());
+        let errors: Vec<&Diagnostic> =
+            found.iter().filter(|d| d.severity() == Severity::Error).collect();
+        proptest::prop_assert!(errors.is_empty(), "{errors:?}\n{text}");
+        for (line, end, arc) in &ends {
+            let of_line: Vec<&GcodePoint> = points.iter().filter(|p| p.line == *line).collect();
+            let last = of_line.last().expect("a move gives points");
+            for (axis, e) in end.iter().enumerate() {
+                proptest::prop_assert!(
+                    (last.position_m[axis] - e * 1e-3).abs() < 1e-9,
+                    "line {line}: {:?} vs {end:?}\n{text}", last.position_m
+                );
+            }
+            if let Some((centre, r)) = arc {
+                let tolerance = (5e-3f64).max(1e-3 * r) * 1e-3;
+                for p in &of_line {
+                    let d = (p.position_m[0] - centre[0] * 1e-3)
+                        .hypot(p.position_m[1] - centre[1] * 1e-3);
+                    proptest::prop_assert!((d - r * 1e-3).abs() <= tolerance, "line {line}: {d} vs {r} mm");
+                }
+            }
+        }
+        let (again, _) = read(loosened(&text, seed).as_bytes());
+        proptest::prop_assert_eq!(again, points);
+    }
+}
