@@ -175,9 +175,13 @@ fn moves() -> impl proptest::strategy::Strategy<Value = Vec<Move>> {
     proptest::collection::vec(prop_oneof![line, arc], 1..12)
 }
 
-/// The program's text (mm, absolute, four decimals as CAM writes them) and, per move,
-/// its line, printed end point and, for an arc, its centre and radius (mm).
-fn program(moves: &[Move]) -> (String, Vec<(u32, [f64; 2], Option<([f64; 2], f64)>)>) {
+/// A generated move as printed: its line, its end point and, for an arc, its centre
+/// and radius (mm).
+type Printed = (u32, [f64; 2], Option<([f64; 2], f64)>);
+
+/// The program's text (mm, absolute, four decimals as CAM writes them) and its moves
+/// as printed.
+fn program(moves: &[Move]) -> (String, Vec<Printed>) {
     let round = |v: f64| (v * 1e4).round() / 1e4;
     let mut text = String::from("G21 G90 G17\nG0 X0 Y0\n");
     let mut at = [0.0f64, 0.0];
