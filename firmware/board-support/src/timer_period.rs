@@ -34,6 +34,11 @@ impl TimerPeriod {
         None
     }
 
+    /// Core cycles per period.
+    pub const fn cycles(&self) -> u32 {
+        self.cycles_per_tick * self.ticks
+    }
+
     /// PSC register value.
     pub const fn psc(&self) -> u16 {
         (self.cycles_per_tick - 1) as u16

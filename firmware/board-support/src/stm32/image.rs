@@ -28,8 +28,6 @@ pub enum Trigger<'a, const A: usize, const C: usize> {
     /// ADC1…A convert on TIM1's update into the buffer; DMA1 channel 1's
     /// transfer-complete runs the period.
     Adc(&'a [AdcRow<C>; A], &'static DmaBuffer<A, C>),
-    /// TIM1's update runs the period (the inputs come from a bus).
-    Update,
 }
 
 /// What [`start`] is given.
@@ -165,11 +163,9 @@ where
             }
             pac::Interrupt::DMA1_CHANNEL1
         }
-        Trigger::Update => pac::Interrupt::TIM1_UP_TIM16,
     };
     period::enable(nvic, control_interrupt);
-    let update_interrupt = matches!(image.trigger, Trigger::Update);
-    match timer::start(&image.tim1, period, update_interrupt) {
+    match timer::start(&image.tim1, period) {
         Ok(()) => {}
         Err(TimerError::BreakActive) => {
             defmt::error!("break input active: outputs held off until reset");

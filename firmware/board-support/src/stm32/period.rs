@@ -4,9 +4,8 @@
 //! watchdog's refresh, the link task's tick and the status LED.
 //!
 //! The image binds the interrupt that starts its period (DMA1 channel 1's
-//! transfer-complete when the period's samples come from the ADCs, TIM1's update
-//! when they come from a bus) and calls [`on_samples`] or [`on_update`] from it with
-//! its [`Handoff`] and a [`Watch`] of its own.
+//! transfer-complete: the period's samples come from the ADCs) and calls
+//! [`on_samples`] from it with its [`Handoff`] and a [`Watch`] of its own.
 
 use super::adc::{self, Arrival};
 use super::clocks::{CONTROL_PRIORITY, LINK_PRIORITY};
@@ -126,23 +125,39 @@ pub static FIT_RUNNING: AtomicBool = AtomicBool::new(false);
 pub const LINK_SILENCE_MS: u32 = 200;
 
 /// What the interrupt keeps between periods beside the control state; the image
-/// keeps one in its interrupt handler (`static mut`).
+/// keeps one in its interrupt handler (`static mut`). Its counts in periods are
+/// worked out once, from the control rate, not in every period.
 pub struct Watch {
     link_seen: u32,
     link_seen_at: u32,
     periods: u32,
-    /// The control rate, Hz.
-    control_hz: u32,
+    /// Periods between the link task's ticks (one millisecond).
+    tick_periods: u32,
+    /// Periods the link task may stay silent before the watchdog is left to bite.
+    silence_periods: u32,
+    /// Periods of half the status LED's blink (1 Hz).
+    blink_periods: u32,
 }
 
 impl Watch {
     /// For a control rate of `control_hz`.
     pub const fn new(control_hz: u32) -> Self {
+        let per_ms = if control_hz / 1000 > 0 {
+            control_hz / 1000
+        } else {
+            1
+        };
         Self {
             link_seen: 0,
             link_seen_at: 0,
             periods: 0,
-            control_hz,
+            tick_periods: per_ms * LINK_TICK_MS,
+            silence_periods: per_ms * LINK_SILENCE_MS,
+            blink_periods: if control_hz / 2 > 0 {
+                control_hz / 2
+            } else {
+                1
+            },
         }
     }
 }
@@ -161,24 +176,14 @@ pub fn on_samples<const A: usize, M: Machine + 'static, H: BoardHal<M>>(
     run(handoff, watch, entry);
 }
 
-/// The period of an image whose period is TIM1's update: call from its interrupt.
-#[inline(always)]
-pub fn on_update<M: Machine + 'static, H: BoardHal<M>>(
-    handoff: &Handoff<Control<M, H>>,
-    watch: &mut Watch,
-) {
-    let entry = timing::cycles();
-    run(handoff, watch, entry);
-}
-
 #[inline(always)]
 fn run<M: Machine + 'static, H: BoardHal<M>>(
     handoff: &Handoff<Control<M, H>>,
     watch: &mut Watch,
     entry: u32,
 ) {
-    // SAFETY: `run` is reached only from the control interrupt ([`on_samples`],
-    // [`on_update`]), once per entry.
+    // SAFETY: `run` is reached only from the control interrupt ([`on_samples`]), once
+    // per entry.
     let Some(control) = (unsafe { handoff.get() }) else {
         timer::clear_update();
         return;
@@ -191,8 +196,7 @@ fn run<M: Machine + 'static, H: BoardHal<M>>(
     let finish = since_start.saturating_add(step_cycles);
     // A second update during the step (UIF set again) or a finish past the period: the
     // next samples are already on their way, and the outputs came late.
-    let period_cycles = control.period.cycles_per_tick * control.period.ticks;
-    if timer::updated_again() || finish >= period_cycles {
+    if timer::updated_again() || finish >= control.period.cycles() {
         fault::fail(Cause::MissedDeadline, step_cycles / 16);
     }
     timing::record(step_cycles, finish, control.clock.late_periods());
@@ -231,19 +235,18 @@ fn supervise(watch: &mut Watch, leds: &Leds) {
         watch.link_seen = link;
         watch.link_seen_at = watch.periods;
     }
-    let per_ms = (watch.control_hz / 1000).max(1);
-    if watch.periods.wrapping_sub(watch.link_seen_at) < LINK_SILENCE_MS * per_ms
+    if watch.periods.wrapping_sub(watch.link_seen_at) < watch.silence_periods
         || FIT_RUNNING.load(Ordering::Relaxed)
     {
         fault::refresh_watchdog();
     }
-    if watch.periods % (per_ms * LINK_TICK_MS) == 0 {
+    if watch.periods % watch.tick_periods == 0 {
         // Waking a task calls through its waker's vtable; that happens in the tick
         // interrupt below this one, so that the period's code is all direct calls
         // (and its stack statically bounded, scripts/stack-bound).
         cortex_m::peripheral::NVIC::pend(TICK_INTERRUPT);
     }
-    let blink = (watch.control_hz / 2).max(1);
+    let blink = watch.blink_periods;
     if watch.periods % blink == 0 {
         leds.status.write((watch.periods / blink) % 2 == 0);
     }

@@ -80,10 +80,10 @@ pub enum TimerError {
     BreakActive,
 }
 
-/// TIM1 counting periods of `period` (update = the period's start, TRGO on update,
-/// the update interrupt enabled when `interrupt` is set), the PWM at 0 and the enable
-/// line low, the break armed; started.
-pub fn start(pins: &Tim1Pins, period: TimerPeriod, interrupt: bool) -> Result<(), TimerError> {
+/// TIM1 counting periods of `period` (update = the period's start, TRGO on update:
+/// the ADCs' trigger), the PWM at 0 and the enable line low, the break armed;
+/// started.
+pub fn start(pins: &Tim1Pins, period: TimerPeriod) -> Result<(), TimerError> {
     pac::RCC.apb2enr().modify(|w| {
         w.set_tim1en(true);
         w.set_syscfgen(true);
@@ -123,7 +123,6 @@ pub fn start(pins: &Tim1Pins, period: TimerPeriod, interrupt: bool) -> Result<()
     });
     tim.egr().write(|w| w.set_ug(true));
     tim.sr().write_value(pac::timer::regs::SrAdv(0));
-    tim.dier().write(|w| w.set_uie(interrupt));
     // The pins go to the timer only now that its outputs are defined and off; the
     // break line is pulled down inside too, so an unconnected one holds them off.
     if let Some((pwm, af)) = pins.pwm {
