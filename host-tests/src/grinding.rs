@@ -6,6 +6,7 @@
 
 use hal_mock::grinding_cell::{Cell, CellConfig, CellReading};
 use heapless::spsc::Queue;
+use kerf::app::jobs::{JobSlot, JobSlots};
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::machines::grinding::{
     ForceLawKind, GrindingCalibration, GrindingCell, GrindingConfig, GrindingInputs, GrindingJob,
@@ -70,12 +71,13 @@ pub fn raw_for(config: &GrindingConfig, wrench: [f64; 6]) -> [f64; 6] {
 /// command, then the job until the machine is Ready again (or faults), at most
 /// `max_periods`.
 pub fn run_pass(setup: &PassSetup, max_periods: usize) -> PassRun {
+    let jobs = JobSlots::new(setup.job, GrindingJob::default());
     let mut commands = Queue::<Command<GrindingCell<f64>>, 4>::new();
     let mut reports = Queue::<Report<GrindingCell<f64>>, 8>::new();
     let (mut to, from) = commands.split();
     let (report_to, mut report_from) = reports.split();
     let machine = GrindingCell::<f64>::new(&setup.config).expect("grinding config");
-    let mut supervisor = Supervisor::new(machine, from, report_to);
+    let mut supervisor = Supervisor::new(machine, from, report_to, &jobs);
     supervisor.set_telemetry_decimation(0);
     let mut cell = Cell::<SAMPLES>::new(&setup.cell, 0.0, DX_M);
     let before_m = cell.workpiece().heights_m().to_vec();
@@ -103,7 +105,7 @@ pub fn run_pass(setup: &PassSetup, max_periods: usize) -> PassRun {
             break;
         }
     }
-    let _ = to.enqueue(Command::LoadJob(setup.job));
+    let _ = to.enqueue(Command::LoadJob(JobSlot::First));
     let _ = to.enqueue(Command::Start);
     let mut samples = Vec::new();
     for k in 0..max_periods {

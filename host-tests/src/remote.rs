@@ -14,6 +14,7 @@ use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::link::{FrameEnd, LinkConfig};
 use hal_mock::master::SimulatedMaster;
 use heapless::spsc::Queue;
+use kerf::app::jobs::{JobSlot, JobSlots};
 use kerf::app::remote_link::MasterLink;
 use kerf::app::stream::MAX_FRAME_LEN;
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
@@ -359,12 +360,14 @@ impl MasterImage {
             Box::leak(Box::new(Queue::new()));
         let (mut to_machine, from_sender) = commands.split();
         let (to_sender, _) = reports.split();
-        let mut supervisor = Supervisor::new(machine, from_sender, to_sender);
+        let jobs: &'static JobSlots<FixtureJob<f64>> =
+            Box::leak(Box::new(JobSlots::new(job, FixtureJob::default())));
+        let mut supervisor = Supervisor::new(machine, from_sender, to_sender, jobs);
         supervisor.set_telemetry_decimation(0);
         // Encoders need no sweep: the stored (empty) calibration, the job, start.
         for command in [
             Command::FinishCalibration(()),
-            Command::LoadJob(job),
+            Command::LoadJob(JobSlot::First),
             Command::Start,
         ] {
             to_machine
@@ -516,11 +519,12 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
 
     let margin = case.network.jitter_ms * 10 * 3 / 2 + 5;
     let site = keops_site(case.slave_plant, case.m, D, margin);
+    let jobs = JobSlots::default();
     let mut slave_commands: Queue<Command<RemoteSlave<f64>>, 8> = Queue::new();
     let mut slave_reports: Queue<Report<RemoteSlave<f64>>, 64> = Queue::new();
     let (mut to_slave, slave_in) = slave_commands.split();
     let (slave_out, mut from_slave) = slave_reports.split();
-    let mut slave = SlaveSite::<f64>::new(&site, slave_in, slave_out)
+    let mut slave = SlaveSite::<f64>::new(&site, slave_in, slave_out, &jobs)
         .map_err(|e| RemoteError::Setup(format!("slave: {e:?}")))?;
     let follow = FollowJob {
         start_m: slave_start,
@@ -529,7 +533,7 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
     };
     let mut operator =
         Operator::<RemoteSlave<f64>, 3>::new(slave_config.slave.joints.hall, None, follow);
-    operator.start(&mut to_slave);
+    operator.start(&mut to_slave, &jobs);
     let periods = (case.seconds / TS) as u64;
     let mut recording = RecordingWriter::new(RecordingHeader {
         m: case.m as u8,
@@ -569,7 +573,7 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
         slave
             .step(now as u32, &mut tap, &mut backward)
             .map_err(setup("slave plant"))?;
-        operator.poll(&mut from_slave, &mut to_slave);
+        operator.poll(&mut from_slave, &mut to_slave, &jobs);
         now += 1;
         if now > 200_000 {
             return Err(RemoteError::Setup(format!(
@@ -660,7 +664,7 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
             recording: Some((&mut recording, k as u32)),
         };
         let slave_out = slave.step(now as u32, &mut tap, &mut backward);
-        operator.poll(&mut from_slave, &mut to_slave);
+        operator.poll(&mut from_slave, &mut to_slave, &jobs);
         let (Ok(slave_out), None) = (slave_out, master_plant.error) else {
             // The mechanism ran away (a loop that diverged): the run ends here.
             break;

@@ -3,6 +3,7 @@
 use hal_mock::hall_sensor::{ChannelFault, HallSensorParams};
 use host_tests::fixed_point::{axis_scenarios, joint_scenarios, with_open_wire};
 use kerf::app::axis::AxisFault;
+use kerf::app::jobs::JobSlots;
 use kerf::sensing::hall::{HallDecoder, HallFault};
 use kerf::{Real, Q31_32, Q6_25};
 use kerf_sim::scenario::{
@@ -314,13 +315,14 @@ fn gain_change_mid_profile_is_bumpless() {
 
     type M = Joints<f64, 1>;
     let scenario = Scenario::TRACKING;
+    let jobs = JobSlots::default();
     let mut commands = Queue::<Command<M>, COMMAND_CAPACITY>::new();
     let mut reports = Queue::<Report<M>, REPORT_CAPACITY>::new();
     let (mut send, from_sender) = commands.split();
     let (to_operator, mut receive) = reports.split();
-    let mut rig = Rig::<f64>::new(&scenario, from_sender, to_operator).unwrap();
+    let mut rig = Rig::<f64>::new(&scenario, from_sender, to_operator, &jobs).unwrap();
     let mut operator = scenario.operator::<f64>().unwrap();
-    operator.start(&mut send);
+    operator.start(&mut send, &jobs);
 
     let old = AxisConfig::LM1247_SLAVE;
     let mut new = old;
@@ -337,7 +339,7 @@ fn gain_change_mid_profile_is_bumpless() {
     while outcome.periods < scenario.periods {
         let machine_before = rig.supervisor().machine().clone();
         let p = rig.step();
-        operator.poll(&mut receive, &mut send);
+        operator.poll(&mut receive, &mut send, &jobs);
         if !p.in_job() {
             continue;
         }

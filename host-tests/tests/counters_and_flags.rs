@@ -9,6 +9,7 @@ use hal_mock::linear_motor::LinearMotorParams;
 use hal_mock::link::{FrameEnd, LinkConfig};
 use heapless::spsc::Queue;
 use kerf::app::host_link::mode_code;
+use kerf::app::jobs::JobSlots;
 use kerf::app::joints::{Joints, JointsConfig};
 use kerf::app::stream::{SignalSender, StreamError};
 use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
@@ -32,11 +33,12 @@ use kerf_sim::remote::{keops_site, SlaveSite};
 fn control_period_counts_each_late_period_once() {
     let config = JointsConfig::LM1247;
     let machine = Joints::<f64, 1>::new(&config).unwrap();
+    let jobs = JobSlots::default();
     let mut commands: Queue<Command<Joints<f64, 1>>, 4> = Queue::new();
     let mut reports: Queue<Report<Joints<f64, 1>>, 4> = Queue::new();
     let (_, from) = commands.split();
     let (to, _) = reports.split();
-    let mut supervisor = Supervisor::new(machine, from, to);
+    let mut supervisor = Supervisor::new(machine, from, to, &jobs);
     supervisor.set_telemetry_decimation(0);
     let mut plant = SimulatedAxis::new(
         LinearMotorParams::LM1247_WITH_PAYLOAD,
@@ -287,11 +289,12 @@ impl FrameLink for Silent {
 fn remote_slave_reports_its_position_except_during_the_approach() {
     let site_config = keops_site(DeltaPlantParams::SLAVE_REALISTIC, 8, 10, 20);
     let slave = RemoteSlaveConfig::KEOPS;
+    let jobs = JobSlots::default();
     let mut commands: Queue<Command<RemoteSlave<f64>>, 8> = Queue::new();
     let mut reports: Queue<Report<RemoteSlave<f64>>, 64> = Queue::new();
     let (mut send, from_operator) = commands.split();
     let (to_operator, mut receive) = reports.split();
-    let mut site = SlaveSite::<f64>::new(&site_config, from_operator, to_operator).unwrap();
+    let mut site = SlaveSite::<f64>::new(&site_config, from_operator, to_operator, &jobs).unwrap();
     let centre: [f64; 3] = DeltaGeometry::<f64>::new(&slave.slave.delta)
         .unwrap()
         .forward(&Vector3::new(0.02, 0.02, 0.02))
@@ -304,11 +307,11 @@ fn remote_slave_reports_its_position_except_during_the_approach() {
     };
     let mut operator = Operator::<RemoteSlave<f64>, 3>::new(slave.slave.joints.hall, None, job);
     assert!(operator.fits().is_none());
-    operator.start(&mut send);
+    operator.start(&mut send, &jobs);
     let (mut approach, mut waiting, mut outside) = (0, 0, 0);
     for now in 0..30_000u32 {
         site.step(now, &mut Silent, &mut Silent).unwrap();
-        let state = operator.poll(&mut receive, &mut send);
+        let state = operator.poll(&mut receive, &mut send, &jobs);
         assert!(!matches!(state, OperatorState::Failed(_)), "{state:?}");
         let machine = site.supervisor().machine();
         let report = machine.report_position_m();

@@ -9,6 +9,7 @@ use hal_mock::hexapod::{HexapodLimits, SimHexapod, REFERENCE_TIME_S};
 use hal_mock::spindle::SimSpindle;
 use heapless::spsc::Queue;
 use host_tests::grinding::{raw_for, seed_pass, PassSetup, DX_M, SAMPLES};
+use kerf::app::jobs::{JobSlot, JobSlots};
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::codec::gcs::{self, Axis, AxisValues};
 use kerf::codec::spindle::{SpindleReading, SpindleRequest};
@@ -115,12 +116,13 @@ fn referenced_hexapod(start_x_mm: f64) -> SimHexapod {
 
 fn run(s: &Scenario) -> Outcome {
     let setup = &s.setup;
+    let jobs = JobSlots::new(setup.job, Default::default());
     let mut commands = Queue::<Command<GrindingCell<f64>>, 4>::new();
     let mut reports = Queue::<Report<GrindingCell<f64>>, 8>::new();
     let (mut to, from) = commands.split();
     let (report_to, mut report_from) = reports.split();
     let machine = GrindingCell::<f64>::new(&setup.config).unwrap();
-    let mut sup = Supervisor::new(machine, from, report_to);
+    let mut sup = Supervisor::new(machine, from, report_to, &jobs);
     sup.set_telemetry_decimation(0);
     let mut cell = Cell::<SAMPLES>::new(&setup.cell, 0.0, DX_M);
     let link = DeviceLink::new(&DeviceLinkConfig::PUBLISHED).unwrap();
@@ -160,7 +162,7 @@ fn run(s: &Scenario) -> Outcome {
             }));
         }
         if mode == Mode::Ready && s.pass && start == usize::MAX {
-            let _ = to.enqueue(Command::LoadJob(setup.job));
+            let _ = to.enqueue(Command::LoadJob(JobSlot::First));
             let _ = to.enqueue(Command::Start);
             start = k + 1;
         }

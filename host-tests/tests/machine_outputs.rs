@@ -5,6 +5,7 @@
 use heapless::spsc::Queue;
 use host_tests::arrow::{scenario, ArrowRunConfig};
 use host_tests::remote::{master_config, RemoteCase, MASTER_HOME_M};
+use kerf::app::jobs::{JobSlot, JobSlots};
 use kerf::app::remote_link::SlaveReport;
 use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
 use kerf::control::redundant_pid::RedundantPidConfig;
@@ -61,15 +62,16 @@ fn master_run(
         })
         .collect();
     let job = FixtureJob::new(&points, &config.constraint, home.z, false).unwrap();
+    let jobs: &'static JobSlots<_> = Box::leak(Box::new(JobSlots::new(job, Default::default())));
     let commands: &'static mut Queue<Command<Master>, 4> = Box::leak(Box::new(Queue::new()));
     let reports: &'static mut Queue<Report<Master>, 64> = Box::leak(Box::new(Queue::new()));
     let (mut to_machine, from_sender) = commands.split();
     let (to_sender, mut from_machine) = reports.split();
-    let mut supervisor = Supervisor::new(machine, from_sender, to_sender);
+    let mut supervisor = Supervisor::new(machine, from_sender, to_sender, jobs);
     supervisor.set_telemetry_decimation(0);
     for command in [
         Command::FinishCalibration(()),
-        Command::LoadJob(job),
+        Command::LoadJob(JobSlot::First),
         Command::Start,
     ] {
         assert!(to_machine.enqueue(command).is_ok());

@@ -256,7 +256,10 @@ impl<M: HallMachine<N>, const N: usize> SweepFit<M> for HallFit<M, N> {
         self.samples.push(*sample).is_ok()
     }
 
-    fn fit(&mut self) -> Option<M::Calibration> {
+    // Out of line: its result (decoders and fits, kilobytes) in its own frame, not
+    // in the link task's.
+    #[inline(never)]
+    fn fit(&mut self, install: &mut dyn FnMut(M::Calibration)) {
         match M::fit(self.hall, &self.samples) {
             Ok((decoders, fits)) => {
                 for (axis, fit) in fits.iter().enumerate() {
@@ -275,11 +278,10 @@ impl<M: HallMachine<N>, const N: usize> SweepFit<M> for HallFit<M, N> {
                         );
                     }
                 }
-                Some(decoders)
+                install(decoders);
             }
             Err(e) => {
                 defmt::error!("calibration failed: {}", defmt::Debug2Format(&e));
-                None
             }
         }
     }
@@ -300,8 +302,7 @@ impl<M: Machine<SweepSample = HallSample>> SweepFit<M> for NoRoomToFit {
         false
     }
 
-    fn fit(&mut self) -> Option<M::Calibration> {
+    fn fit(&mut self, _: &mut dyn FnMut(M::Calibration)) {
         defmt::warn!("calibration: this image has no room for the fit; stop the sweep");
-        None
     }
 }

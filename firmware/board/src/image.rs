@@ -67,6 +67,9 @@ macro_rules! hall_image {
             heapless::spsc::Queue<kerf::app::supervisor::Report<$machine>, { $reports }>,
         > = static_cell::ConstStaticCell::new(heapless::spsc::Queue::new());
         static FIT: static_cell::StaticCell<$fit> = static_cell::StaticCell::new();
+        static JOBS: static_cell::StaticCell<
+            kerf::app::jobs::JobSlots<<$machine as kerf::app::supervisor::Machine>::Job>,
+        > = static_cell::StaticCell::new();
         static RX_RING: static_cell::ConstStaticCell<
             [u8; kerf_board_support::stm32::link::RX_RING_BYTES],
         > = static_cell::ConstStaticCell::new([0; kerf_board_support::stm32::link::RX_RING_BYTES]);
@@ -127,6 +130,7 @@ macro_rules! hall_image {
                 uart,
                 commands: COMMANDS.take().split(),
                 reports: REPORTS.take().split(),
+                jobs: JOBS.init_with(Default::default),
                 startup: &[$startup],
                 link: $link,
                 fit: FIT.init_with(|| $fit_new),

@@ -118,10 +118,12 @@ fn host_link() {
         law: ContourLaw::Contouring,
         laser_power_w: opaque(10.0),
     };
+    let jobs = kerf::app::jobs::JobSlots::default();
     let Ok(link) = HostLink::<DeltaSlave<f32>, 1024>::new(
         &config,
         SlaveSettings::of(&machine.joints.axis),
         context,
+        &jobs,
     ) else {
         return;
     };

@@ -30,6 +30,7 @@ use cortex_m_rt::entry;
 use heapless::spsc::Queue;
 use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
 use kerf::app::drive_set::DriveFault;
+use kerf::app::jobs::{JobSlot, JobSlots};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
 use kerf::app::remote_link::RemoteCommand;
 use kerf::app::remote_link::SlaveReport;
@@ -107,6 +108,7 @@ fn main() -> ! {
 /// Every per-period method of a machine, and a supervisor stepping it with a command.
 fn periods<M: Machine>(machine: M, inputs: M::Inputs, job: M::Job, calibration: M::Calibration)
 where
+    M::Job: Clone,
     M::Coefficients: Clone,
     M::Calibration: Clone,
 {
@@ -126,6 +128,7 @@ where
         10 => sink(machine.safe_outputs()),
         _ => sink(machine.telemetry()),
     }
+    let jobs = JobSlots::new(opaque(job), M::Job::default());
     let mut commands = Queue::<Command<M>, 4>::new();
     let mut reports = Queue::<Report<M>, 8>::new();
     let (mut command_in, command_out) = commands.split();
@@ -133,13 +136,13 @@ where
     let command = match opaque(0u8) {
         0 => Command::Calibrate,
         1 => Command::FinishCalibration(opaque(calibration)),
-        2 => Command::LoadJob(opaque(job)),
+        2 => Command::LoadJob(opaque(JobSlot::First)),
         3 => Command::Start,
         4 => Command::Stop,
         _ => Command::ResetFault,
     };
     sink(command_in.enqueue(command).is_ok());
-    let mut supervisor = opaque(Supervisor::new(machine, command_out, report_in));
+    let mut supervisor = opaque(Supervisor::new(machine, command_out, report_in, &jobs));
     sink(supervisor.step(&inputs));
     sink(supervisor.mode());
     sink(report_out.dequeue());

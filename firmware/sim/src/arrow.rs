@@ -6,6 +6,7 @@
 
 use hal_mock::arrow::{ArrowPlant, ArrowPlantConfig, ArrowReading};
 use heapless::spsc::Queue;
+use kerf::app::jobs::{JobSlot, JobSlots};
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::control::redundant_pid::RedundantPidConfig;
 use kerf::kinematics::arrow::{ActuatorVector, ArrowError, ArrowGeometry, ForwardConfig, Pose};
@@ -295,19 +296,20 @@ pub fn run_job_on<T: Float>(
     let geometry = law.geometry;
     let machine = Arrow::<T>::new(law, scenario.plant.period_s, &ArrowLimits::ARROW)
         .map_err(|_| ArrowError::NotFinite)?;
+    let jobs = JobSlots::new(job.clone(), Job::default());
     let mut commands: Queue<Command<Arrow<T>>, 2> = Queue::new();
     let mut reports: Queue<Report<Arrow<T>>, 8> = Queue::new();
     let (mut to_machine, from_sender) = commands.split();
     let (to_sender, mut from_machine) = reports.split();
-    let mut supervisor = Supervisor::new(machine, from_sender, to_sender);
+    let mut supervisor = Supervisor::new(machine, from_sender, to_sender, &jobs);
     supervisor.set_telemetry_decimation(u32::MAX);
     let mut inputs = io.read(0)?;
     let mut outputs = supervisor.step(&inputs);
-    // One command a period: the queue holds one job-sized command at a time.
+    // One command a period (the queue holds one command).
     for command in [
         Command::Calibrate,
         Command::FinishCalibration(()),
-        Command::LoadJob(job.clone()),
+        Command::LoadJob(JobSlot::First),
         Command::Start,
     ] {
         if to_machine.enqueue(command).is_err() {

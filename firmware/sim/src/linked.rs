@@ -9,6 +9,7 @@
 use crate::slave::{rest_unpowered, SlaveError, SlavePeriod, SlaveRig, SlaveScenario};
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
+use kerf::app::jobs::JobSlots;
 use kerf::app::supervisor::{Command, Report};
 use kerf::machines::delta_slave::link::SlaveSettings;
 use kerf::machines::delta_slave::product::{
@@ -27,7 +28,7 @@ pub const HEARTBEAT_TIMEOUT_S: f64 = 0.05;
 /// The slave, its plant and its host link.
 pub struct LinkedSlave<'q, T: Float> {
     rig: SlaveRig<'q, T>,
-    link: HostLink<DeltaSlave<T>, LINK_JOB_BYTES>,
+    link: HostLink<'q, DeltaSlave<T>, LINK_JOB_BYTES>,
     commands: Producer<'q, Command<DeltaSlave<T>>>,
     reports: Consumer<'q, Report<DeltaSlave<T>>>,
     now_s: f64,
@@ -63,7 +64,7 @@ impl<'q, T: Float> LinkedSlave<'q, T> {
     }
 
     /// The link.
-    pub fn link(&self) -> &HostLink<DeltaSlave<T>, LINK_JOB_BYTES> {
+    pub fn link(&self) -> &HostLink<'_, DeltaSlave<T>, LINK_JOB_BYTES> {
         &self.link
     }
 }
@@ -76,6 +77,7 @@ pub fn with_linked_slave<T: Float, R>(
     laps: f64,
     f: impl FnOnce(&mut LinkedSlave<'_, T>) -> R,
 ) -> Result<R, SlaveError> {
+    let jobs = JobSlots::default();
     let mut commands = Queue::<Command<DeltaSlave<T>>, 4>::new();
     let mut reports = Queue::<Report<DeltaSlave<T>>, 64>::new();
     let (mut to_machine, from_sender) = commands.split();
@@ -85,7 +87,7 @@ pub fn with_linked_slave<T: Float, R>(
     let mut scenario = *scenario;
     scenario.machine.joints.home_m = rest_unpowered(&scenario, POWER_UP_REST_S)?;
     let scenario = &scenario;
-    let mut rig = SlaveRig::<T>::new(scenario, from_sender, to_link)?;
+    let mut rig = SlaveRig::<T>::new(scenario, from_sender, to_link, &jobs)?;
     rig.set_telemetry_decimation(TELEMETRY_DECIMATION);
     let machine = &scenario.machine;
     let stored = nominal_calibration::<T>(machine).map_err(SlaveError::Config)?;
@@ -103,6 +105,7 @@ pub fn with_linked_slave<T: Float, R>(
         &config,
         SlaveSettings::of(&machine.joints.axis),
         contour_defaults(machine, laps),
+        &jobs,
     )
     .map_err(SlaveError::Config)?;
     let mut slave = LinkedSlave {

@@ -13,6 +13,7 @@ use crate::arrow::ArrowScenario;
 use hal_mock::arrow::{ArrowPlant, ArrowReading};
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
+use kerf::app::jobs::JobSlots;
 use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
 use kerf::kinematics::arrow::{ArrowError, Pose};
 use kerf::machines::arrow::link::ArrowSettings;
@@ -35,7 +36,7 @@ pub struct LinkedArrow<'q, T: Float> {
     supervisor: Supervisor<'q, Arrow<T>>,
     plant: ArrowPlant<T>,
     reading: ArrowReading<T>,
-    link: HostLink<Arrow<T>, LINK_JOB_BYTES>,
+    link: HostLink<'q, Arrow<T>, LINK_JOB_BYTES>,
     commands: Producer<'q, Command<Arrow<T>>>,
     reports: Consumer<'q, Report<Arrow<T>>>,
     now_s: f64,
@@ -96,6 +97,7 @@ pub fn with_linked_arrow<T: Float, R>(
     heartbeat_timeout_s: f64,
     f: impl FnOnce(&mut LinkedArrow<'_, T>) -> R,
 ) -> Result<R, ArrowError> {
+    let jobs = JobSlots::default();
     let mut commands = Queue::<Command<Arrow<T>>, 2>::new();
     let mut reports = Queue::<Report<Arrow<T>>, 16>::new();
     let (mut to_machine, from_sender) = commands.split();
@@ -110,7 +112,7 @@ pub fn with_linked_arrow<T: Float, R>(
         <T as Real>::from_f64(theta_x),
     )?;
     let reading = plant.read()?;
-    let mut supervisor = Supervisor::new(machine, from_sender, to_link);
+    let mut supervisor = Supervisor::new(machine, from_sender, to_link, &jobs);
     supervisor.set_telemetry_decimation(TELEMETRY_DECIMATION);
     let config = HostLinkConfig {
         period_s: scenario.plant.period_s,
@@ -121,7 +123,8 @@ pub fn with_linked_arrow<T: Float, R>(
         &scenario.turntable,
         scenario.feedforward,
     );
-    let mut link = HostLink::new(&config, settings, ()).map_err(|_| ArrowError::NotFinite)?;
+    let mut link =
+        HostLink::new(&config, settings, (), &jobs).map_err(|_| ArrowError::NotFinite)?;
     // Ready at power-up: ARROW's calibration is empty. One command a period (the queue
     // holds one job-sized command), the link told of the modes.
     let inputs = ArrowInputs {

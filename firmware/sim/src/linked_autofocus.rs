@@ -22,6 +22,7 @@
 use hal_mock::focus::{CameraParams, FocusAxis, ZoomCamera, FRAME_PIXELS, FRAME_SIDE};
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::host_link::{HostLink, HostLinkConfig, LinkMachine};
+use kerf::app::jobs::JobSlots;
 use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
 use kerf::machines::autofocus::link::StageSettings;
 use kerf::machines::autofocus::product::{
@@ -71,7 +72,7 @@ pub struct LinkedAutofocus<'q, T: Float> {
     frame: [u8; FRAME_BYTES],
     exposed_at_m: Option<f64>,
     period_count: u32,
-    link: HostLink<FocusStage<T>, LINK_JOB_BYTES>,
+    link: HostLink<'q, FocusStage<T>, LINK_JOB_BYTES>,
     commands: Producer<'q, Command<FocusStage<T>>>,
     reports: Consumer<'q, Report<FocusStage<T>>>,
     now_s: f64,
@@ -167,7 +168,7 @@ impl<T: Float> LinkedAutofocus<'_, T> {
     }
 
     /// The link.
-    pub fn link(&self) -> &HostLink<FocusStage<T>, LINK_JOB_BYTES> {
+    pub fn link(&self) -> &HostLink<'_, FocusStage<T>, LINK_JOB_BYTES> {
         &self.link
     }
 }
@@ -183,6 +184,7 @@ pub fn with_linked_autofocus<T: Float, R>(
     heartbeat_timeout_s: f64,
     f: impl FnOnce(&mut LinkedAutofocus<'_, T>) -> R,
 ) -> Result<R, ConfigError> {
+    let jobs = JobSlots::default();
     let mut commands = Queue::<Command<FocusStage<T>>, 2>::new();
     let mut reports = Queue::<Report<FocusStage<T>>, 16>::new();
     let (mut to_machine, from_sender) = commands.split();
@@ -190,13 +192,13 @@ pub fn with_linked_autofocus<T: Float, R>(
     let settings = StageSettings::POWER_UP;
     let law = FocusStage::<T>::coefficients(&settings, PERIOD_S)?;
     let stage = FocusStage::new(&CONFIG, law)?;
-    let mut supervisor = Supervisor::new(stage, from_sender, to_link);
+    let mut supervisor = Supervisor::new(stage, from_sender, to_link, &jobs);
     supervisor.set_telemetry_decimation(TELEMETRY_DECIMATION);
     let config = HostLinkConfig {
         period_s: PERIOD_S,
         heartbeat_timeout_s,
     };
-    let mut link = HostLink::new(&config, settings, CONFIG)?;
+    let mut link = HostLink::new(&config, settings, CONFIG, &jobs)?;
     let axis = FocusAxis::new(START_M, CONFIG.stops_m, PERIOD_S);
     // Ready at power-up: the stage's calibration is empty (the link told of the mode).
     if to_machine.enqueue(Command::FinishCalibration(())).is_err() {

@@ -9,6 +9,7 @@
 use crate::scenario::{Period, Rig, Scenario};
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
+use kerf::app::jobs::JobSlots;
 use kerf::app::supervisor::{Command, Report};
 use kerf::machines::single_axis::link::AxisSettings;
 use kerf::machines::single_axis::product::{
@@ -22,7 +23,7 @@ pub const AXIS_MOVES_GCODE: &str = include_str!("../../../data/axis_moves.gcode"
 /// The axis, its plant and its host link.
 pub struct LinkedAxis<'q, T: Real> {
     rig: Rig<'q, T>,
-    link: HostLink<Axis<T>, LINK_JOB_BYTES>,
+    link: HostLink<'q, Axis<T>, LINK_JOB_BYTES>,
     commands: Producer<'q, Command<Axis<T>>>,
     reports: Consumer<'q, Report<Axis<T>>>,
     now_s: f64,
@@ -53,7 +54,7 @@ impl<'q, T: Real> LinkedAxis<'q, T> {
     }
 
     /// The link.
-    pub fn link(&self) -> &HostLink<Axis<T>, LINK_JOB_BYTES> {
+    pub fn link(&self) -> &HostLink<'_, Axis<T>, LINK_JOB_BYTES> {
         &self.link
     }
 }
@@ -70,11 +71,12 @@ pub fn with_linked_axis<T: Real, R>(
     heartbeat_timeout_s: f64,
     f: impl FnOnce(&mut LinkedAxis<'_, T>) -> R,
 ) -> Result<R, ConfigError> {
+    let jobs = JobSlots::default();
     let mut commands = Queue::<Command<Axis<T>>, 4>::new();
     let mut reports = Queue::<Report<Axis<T>>, 64>::new();
     let (mut to_machine, from_sender) = commands.split();
     let (to_link, from_machine) = reports.split();
-    let mut rig = Rig::<T>::new(scenario, from_sender, to_link)?;
+    let mut rig = Rig::<T>::new(scenario, from_sender, to_link, &jobs)?;
     rig.set_telemetry_decimation(TELEMETRY_DECIMATION);
     let machine = &scenario.machine;
     let stored = nominal_calibration::<T>(machine)?;
@@ -88,7 +90,7 @@ pub fn with_linked_axis<T: Real, R>(
         period_s: machine.period_s,
         heartbeat_timeout_s,
     };
-    let link = HostLink::new(&config, AxisSettings::of(&machine.axis), *machine)?;
+    let link = HostLink::new(&config, AxisSettings::of(&machine.axis), *machine, &jobs)?;
     let mut axis = LinkedAxis {
         rig,
         link,

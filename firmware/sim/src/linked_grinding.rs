@@ -21,6 +21,7 @@ use hal_mock::hexapod::{HexapodLimits, SimHexapod, REFERENCE_TIME_S};
 use hal_mock::spindle::SimSpindle;
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
+use kerf::app::jobs::JobSlots;
 use kerf::app::supervisor::{Command, CommandKind, Mode, Report, Supervisor};
 use kerf::control::adrc::FalPower;
 use kerf::error::ConfigError;
@@ -91,7 +92,7 @@ pub struct LinkedGrinding<'q, T: Float + FalPower> {
     devices: DeviceLink,
     device_state: DeviceLinkState,
     tick_periods: u64,
-    link: HostLink<GrindingCell<T>, LINK_JOB_BYTES>,
+    link: HostLink<'q, GrindingCell<T>, LINK_JOB_BYTES>,
     commands: Producer<'q, Command<GrindingCell<T>>>,
     reports: Consumer<'q, Report<GrindingCell<T>>>,
     period: u64,
@@ -199,18 +200,19 @@ pub fn with_linked_grinding<T: Float + FalPower, R>(
     heartbeat_timeout_s: f64,
     f: impl FnOnce(&mut LinkedGrinding<'_, T>) -> R,
 ) -> Result<R, ConfigError> {
+    let jobs = JobSlots::default();
     let mut commands = Queue::<Command<GrindingCell<T>>, 4>::new();
     let mut reports = Queue::<Report<GrindingCell<T>>, 16>::new();
     let (to_machine, from_sender) = commands.split();
     let (to_link, from_machine) = reports.split();
     let machine = GrindingCell::<T>::new(&CONFIG)?;
-    let mut supervisor = Supervisor::new(machine, from_sender, to_link);
+    let mut supervisor = Supervisor::new(machine, from_sender, to_link, &jobs);
     supervisor.set_telemetry_decimation(TELEMETRY_DECIMATION);
     let config = HostLinkConfig {
         period_s: PERIOD_S,
         heartbeat_timeout_s,
     };
-    let link = HostLink::new(&config, GrindingSettings::CELL, PASS)?;
+    let link = HostLink::new(&config, GrindingSettings::CELL, PASS, &jobs)?;
     let calibration = Matrix6::from_fn(|r, c| CONFIG.sensor.calibration[r][c]);
     let volts_per_wrench = calibration
         .try_inverse()

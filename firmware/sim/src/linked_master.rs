@@ -34,6 +34,7 @@ use hal_mock::link::{FrameEnd, LinkConfig};
 use hal_mock::master::SimulatedMaster;
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
+use kerf::app::jobs::JobSlots;
 use kerf::app::remote_link::{MasterLink, SlaveLink};
 use kerf::app::stream::MAX_FRAME_LEN;
 use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
@@ -227,7 +228,7 @@ pub struct LinkedMaster<'q, T: Float> {
     references: [(u32, [f64; 3]); REFERENCES],
     /// The mapping: master centre, slave centre, scale.
     mapping: ([f64; 3], [f64; 3], f64),
-    link: HostLink<Master<T>, LINK_JOB_BYTES>,
+    link: HostLink<'q, Master<T>, LINK_JOB_BYTES>,
     commands: Producer<'q, Command<Master<T>>>,
     reports: Consumer<'q, Report<Master<T>>>,
     period: u64,
@@ -356,7 +357,7 @@ impl<T: Float> LinkedMaster<'_, T> {
     }
 
     /// The link.
-    pub fn link(&self) -> &HostLink<Master<T>, LINK_JOB_BYTES> {
+    pub fn link(&self) -> &HostLink<'_, Master<T>, LINK_JOB_BYTES> {
         &self.link
     }
 
@@ -404,13 +405,14 @@ pub fn with_linked_master<T: Float, R>(
     heartbeat_timeout_s: f64,
     f: impl FnOnce(&mut LinkedMaster<'_, T>) -> R,
 ) -> Result<R, LinkedMasterError> {
+    let jobs = JobSlots::default();
     let mut commands = Queue::<Command<Master<T>>, 4>::new();
     let mut reports = Queue::<Report<Master<T>>, 16>::new();
     let (mut to_machine, from_sender) = commands.split();
     let (to_link, from_machine) = reports.split();
     let config = config()?;
     let machine = Master::<T>::new(&config)?;
-    let mut supervisor = Supervisor::new(machine, from_sender, to_link);
+    let mut supervisor = Supervisor::new(machine, from_sender, to_link, &jobs);
     supervisor.set_telemetry_decimation(TELEMETRY_DECIMATION);
     // Encoders need no sweep: the stored (empty) calibration at power-up.
     to_machine
@@ -423,6 +425,7 @@ pub fn with_linked_master<T: Float, R>(
         },
         MasterSettings::MASTER,
         session()?,
+        &jobs,
     )?;
     let plant = SimulatedMaster::new(
         &DeltaConfig::MASTER_HORIZONTAL,

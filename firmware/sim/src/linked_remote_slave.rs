@@ -18,6 +18,7 @@ use hal_mock::delta_plant::DeltaPlantParams;
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::calibrate::{CalibrationFit, HallMachine};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
+use kerf::app::jobs::JobSlots;
 use kerf::app::supervisor::{Command, Report, Supervisor};
 use kerf::hal::{ForceAndLaser, SampleInputs, WriteOutputs};
 use kerf::kinematics::delta::KinematicsError;
@@ -49,7 +50,7 @@ pub fn session(out: &mut [u8]) -> Option<usize> {
 pub struct LinkedRemoteSlave<'q, T: Float> {
     supervisor: Supervisor<'q, SessionSlave<T>>,
     plant: SimulatedDelta,
-    link: HostLink<SessionSlave<T>, LINK_JOB_BYTES>,
+    link: HostLink<'q, SessionSlave<T>, LINK_JOB_BYTES>,
     commands: Producer<'q, Command<SessionSlave<T>>>,
     reports: Consumer<'q, Report<SessionSlave<T>>>,
     /// The calibration sweep's samples, for the fit.
@@ -116,13 +117,14 @@ pub fn with_linked_remote_slave<T: Float, R>(
     heartbeat_timeout_s: f64,
     f: impl FnOnce(&mut LinkedRemoteSlave<'_, T>) -> R,
 ) -> Result<R, RemoteSimError> {
+    let jobs = JobSlots::default();
     let mut commands = Queue::<Command<SessionSlave<T>>, 2>::new();
     let mut reports = Queue::<Report<SessionSlave<T>>, 16>::new();
     let (to_machine, from_sender) = commands.split();
     let (to_link, from_machine) = reports.split();
     let config = RemoteSimError::Config;
     let machine = SessionSlave::<T>::new(&CONFIG).map_err(config)?;
-    let mut supervisor = Supervisor::new(machine, from_sender, to_link);
+    let mut supervisor = Supervisor::new(machine, from_sender, to_link, &jobs);
     supervisor.set_telemetry_decimation(TELEMETRY_DECIMATION);
     // The remote scenarios' plant, sensors and noise (their stream setup is the
     // session's, not the site's).
@@ -142,8 +144,8 @@ pub fn with_linked_remote_slave<T: Float, R>(
         period_s: PERIOD_S,
         heartbeat_timeout_s,
     };
-    let link =
-        HostLink::new(&link_config, RemoteSlaveSettings::of_product(), ()).map_err(config)?;
+    let link = HostLink::new(&link_config, RemoteSlaveSettings::of_product(), (), &jobs)
+        .map_err(config)?;
     let mut commands = to_machine;
     commands
         .enqueue(Command::Calibrate)

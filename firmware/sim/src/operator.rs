@@ -5,6 +5,7 @@
 
 use heapless::spsc::{Consumer, Producer};
 use kerf::app::calibrate::{CalibrationFailure, CalibrationFit, HallMachine};
+use kerf::app::jobs::JobSlots;
 use kerf::app::supervisor::{Command, CommandKind, Mode, Report};
 use kerf::sensing::hall::{CalibrationError, HallConfig, SelfCalibration};
 
@@ -67,8 +68,13 @@ impl<M: HallMachine<N>, const N: usize> Operator<M, N> {
         }
     }
 
-    /// The first commands: `Calibrate`, or the stored calibration then the job.
-    pub fn start(&mut self, commands: &mut Producer<'_, Command<M>>) -> OperatorState<M::Fault> {
+    /// The first commands: `Calibrate`, or the stored calibration then the job (placed
+    /// in a free buffer of `jobs`).
+    pub fn start(
+        &mut self,
+        commands: &mut Producer<'_, Command<M>>,
+        jobs: &JobSlots<M::Job>,
+    ) -> OperatorState<M::Fault> {
         match self.stored.take() {
             None => {
                 self.state = OperatorState::Calibrating;
@@ -76,7 +82,7 @@ impl<M: HallMachine<N>, const N: usize> Operator<M, N> {
             }
             Some(calibration) => {
                 self.send(commands, Command::FinishCalibration(calibration));
-                self.send_job(commands);
+                self.send_job(commands, jobs);
             }
         }
         self.state
@@ -97,11 +103,13 @@ impl<M: HallMachine<N>, const N: usize> Operator<M, N> {
         self.state
     }
 
-    /// Handles every pending report; returns the state after them.
+    /// Handles every pending report (the job placed in a free buffer of `jobs` when
+    /// it is due); returns the state after them.
     pub fn poll(
         &mut self,
         reports: &mut Consumer<'_, Report<M>>,
         commands: &mut Producer<'_, Command<M>>,
+        jobs: &JobSlots<M::Job>,
     ) -> OperatorState<M::Fault> {
         while let Some(report) = reports.dequeue() {
             match report {
@@ -116,7 +124,7 @@ impl<M: HallMachine<N>, const N: usize> Operator<M, N> {
                         self.fits = Some(fits);
                         self.state = OperatorState::Calibrated;
                         self.send(commands, Command::FinishCalibration(calibration));
-                        self.send_job(commands);
+                        self.send_job(commands, jobs);
                     }
                     Err(e) => self.fail(OperatorError::Calibration(e)),
                 },
@@ -138,10 +146,15 @@ impl<M: HallMachine<N>, const N: usize> Operator<M, N> {
         self.state
     }
 
-    fn send_job(&mut self, commands: &mut Producer<'_, Command<M>>) {
+    fn send_job(&mut self, commands: &mut Producer<'_, Command<M>>, jobs: &JobSlots<M::Job>) {
         if let Some(job) = self.job.take() {
-            self.send(commands, Command::LoadJob(job));
-            self.send(commands, Command::Start);
+            match jobs.place(job) {
+                Some(slot) => {
+                    self.send(commands, Command::LoadJob(slot));
+                    self.send(commands, Command::Start);
+                }
+                None => self.fail(OperatorError::QueueFull),
+            }
         }
     }
 

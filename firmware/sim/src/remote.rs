@@ -19,6 +19,7 @@ use hal_mock::delta::SimulatedDelta;
 use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::hall_sensor::HallSensorParams;
 use heapless::spsc::{Consumer, Producer, Queue};
+use kerf::app::jobs::JobSlots;
 use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
 use kerf::codec::sdct::{SdctConfig, Selection};
 use kerf::control::laser::LaserMode;
@@ -89,9 +90,10 @@ impl<'q, T: Float> SlaveSite<'q, T> {
         config: &SlaveSiteConfig,
         commands: Consumer<'q, Command<RemoteSlave<T>>>,
         reports: Producer<'q, Report<RemoteSlave<T>>>,
+        jobs: &'q JobSlots<<RemoteSlave<T> as kerf::app::supervisor::Machine>::Job>,
     ) -> Result<Self, RemoteSimError> {
         let machine = RemoteSlave::<T>::new(&config.machine).map_err(RemoteSimError::Config)?;
-        let mut supervisor = Supervisor::new(machine, commands, reports);
+        let mut supervisor = Supervisor::new(machine, commands, reports, jobs);
         supervisor.set_telemetry_decimation(0);
         let slave = &config.machine.slave;
         let plant = simulated_delta(
@@ -281,11 +283,12 @@ pub fn replay<T: Float>(recording: &[u8]) -> Result<ReplaySummary, RemoteSimErro
         u32::from(header.samples_per_command),
         header.margin_periods,
     );
+    let jobs = JobSlots::default();
     let mut commands = Queue::<Command<RemoteSlave<T>>, SLAVE_COMMAND_CAPACITY>::new();
     let mut reports = Queue::<Report<RemoteSlave<T>>, SLAVE_REPORT_CAPACITY>::new();
     let (mut send, from_operator) = commands.split();
     let (to_operator, mut receive) = reports.split();
-    let mut site = SlaveSite::<T>::new(&config, from_operator, to_operator)?;
+    let mut site = SlaveSite::<T>::new(&config, from_operator, to_operator, &jobs)?;
     let hall = config.machine.slave.joints.hall;
     let job = FollowJob {
         start_m: header.start_m.map(f64::from),
@@ -295,7 +298,7 @@ pub fn replay<T: Float>(recording: &[u8]) -> Result<ReplaySummary, RemoteSimErro
         }),
     };
     let mut operator = Operator::<RemoteSlave<T>, 3>::new(hall, None, job);
-    operator.start(&mut send);
+    operator.start(&mut send, &jobs);
     let mut link = ReplayLink::new(recording);
     // Calibration and approach: nothing arrives before the master starts.
     let mut now = 0u32;
@@ -304,7 +307,7 @@ pub fn replay<T: Float>(recording: &[u8]) -> Result<ReplaySummary, RemoteSimErro
     while site.supervisor().machine().phase() != Some(FollowPhase::Waiting) {
         site.step(now, &mut link, &mut ReportSink)
             .map_err(RemoteSimError::Plant)?;
-        if let OperatorState::Failed(e) = operator.poll(&mut receive, &mut send) {
+        if let OperatorState::Failed(e) = operator.poll(&mut receive, &mut send, &jobs) {
             return Err(RemoteSimError::Operator(e));
         }
         now += 1;
@@ -318,7 +321,7 @@ pub fn replay<T: Float>(recording: &[u8]) -> Result<ReplaySummary, RemoteSimErro
         link.now = k;
         site.step(now.wrapping_add(k), &mut link, &mut ReportSink)
             .map_err(RemoteSimError::Plant)?;
-        let _ = operator.poll(&mut receive, &mut send);
+        let _ = operator.poll(&mut receive, &mut send, &jobs);
         if let Mode::Fault(f) = site.supervisor().mode() {
             fault.get_or_insert(f);
         }

@@ -8,6 +8,7 @@ use hal_mock::hall_sensor::{ChannelFault, HallSensorParams};
 use hal_mock::linear_motor::LinearMotorParams;
 use heapless::spsc::{Consumer, Producer};
 use kerf::app::axis::{AxisFault, HallAxis};
+use kerf::app::jobs::JobSlots;
 use kerf::app::joints::{JointFault, JointJob, Joints, JointsConfig, Segment};
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::app::PeriodClock;
@@ -262,11 +263,12 @@ impl<'q, T: Real> Rig<'q, T> {
         scenario: &Scenario,
         commands: Consumer<'q, Command<Joints<T, 1>>>,
         reports: Producer<'q, Report<Joints<T, 1>>>,
+        jobs: &'q JobSlots<<Joints<T, 1> as Machine>::Job>,
     ) -> Result<Self, ConfigError> {
         let mut machine_config = scenario.machine;
         machine_config.home_m = [START_M];
         let machine = Joints::<T, 1>::new(&machine_config)?;
-        let mut supervisor = Supervisor::new(machine, commands, reports);
+        let mut supervisor = Supervisor::new(machine, commands, reports, jobs);
         supervisor.set_telemetry_decimation(0);
         let plant = SimulatedAxis::new(
             scenario.motor,
@@ -475,21 +477,22 @@ pub fn run_with<T: Real>(
     mut outcome: Outcome,
     mut each: impl FnMut(&Period),
 ) -> Result<(Outcome, Option<SelfCalibration>), ScenarioError> {
+    let jobs = JobSlots::default();
     let mut commands = heapless::spsc::Queue::<Command<Joints<T, 1>>, COMMAND_CAPACITY>::new();
     let mut reports = heapless::spsc::Queue::<Report<Joints<T, 1>>, REPORT_CAPACITY>::new();
     let (mut send, from_sender) = commands.split();
     let (to_operator, mut receive) = reports.split();
     let mut rig =
-        Rig::<T>::new(scenario, from_sender, to_operator).map_err(ScenarioError::Config)?;
+        Rig::<T>::new(scenario, from_sender, to_operator, &jobs).map_err(ScenarioError::Config)?;
     let mut operator = scenario.operator::<T>().map_err(ScenarioError::Config)?;
-    operator.start(&mut send);
+    operator.start(&mut send, &jobs);
     for _ in 0..scenario.period_limit() {
         let period = rig.step();
         if period.in_job() {
             outcome.add(&period);
         }
         each(&period);
-        match operator.poll(&mut receive, &mut send) {
+        match operator.poll(&mut receive, &mut send, &jobs) {
             OperatorState::Finished => return Ok((outcome, operator.fit().copied())),
             OperatorState::Failed(OperatorError::Fault(_)) => {}
             OperatorState::Failed(e) => return Err(ScenarioError::Operator(e)),

@@ -9,6 +9,7 @@ use hal_mock::delta_plant::{DeltaPlant, DeltaPlantParams};
 use hal_mock::hall_sensor::{ChannelFault, HallSensorParams};
 use heapless::spsc::{Consumer, Producer, Queue};
 use kerf::app::axis::HallAxis;
+use kerf::app::jobs::JobSlots;
 use kerf::app::joints::Segment;
 use kerf::app::supervisor::{Command, Machine, Mode, Report, Supervisor};
 use kerf::app::PeriodClock;
@@ -199,9 +200,10 @@ impl<'q, T: Float> SlaveRig<'q, T> {
         scenario: &SlaveScenario,
         commands: Consumer<'q, Command<DeltaSlave<T>>>,
         reports: Producer<'q, Report<DeltaSlave<T>>>,
+        jobs: &'q JobSlots<<DeltaSlave<T> as Machine>::Job>,
     ) -> Result<Self, SlaveError> {
         let machine = DeltaSlave::<T>::new(&scenario.machine).map_err(SlaveError::Config)?;
-        let mut supervisor = Supervisor::new(machine, commands, reports);
+        let mut supervisor = Supervisor::new(machine, commands, reports, jobs);
         supervisor.set_telemetry_decimation(0);
         let config = &scenario.machine;
         let plant = simulated_delta(
@@ -391,11 +393,12 @@ pub fn run_slave_job<T: Float>(
     fault_periods: u32,
     mut each: impl FnMut(&SlavePeriod, &SlaveRig<'_, T>),
 ) -> Result<SlaveOutcome, SlaveError> {
+    let jobs = JobSlots::default();
     let mut commands = Queue::<Command<DeltaSlave<T>>, SLAVE_COMMAND_CAPACITY>::new();
     let mut reports = Queue::<Report<DeltaSlave<T>>, SLAVE_REPORT_CAPACITY>::new();
     let (mut send, from_sender) = commands.split();
     let (to_operator, mut receive) = reports.split();
-    let mut rig = SlaveRig::<T>::new(scenario, from_sender, to_operator)?;
+    let mut rig = SlaveRig::<T>::new(scenario, from_sender, to_operator, &jobs)?;
     let hall = scenario.machine.joints.hall;
     let stored = if scenario.stored_nominal_calibration {
         let [a, b, c] = hall.map(|h| HallAxis::<T>::new(&h));
@@ -407,7 +410,7 @@ pub fn run_slave_job<T: Float>(
         None
     };
     let mut operator = Operator::new(hall, stored, job);
-    operator.start(&mut send);
+    operator.start(&mut send, &jobs);
     let mut outcome = SlaveOutcome::default();
     // Calibration sweep (0.8 s), the job, and a margin.
     let limit = ((job_s + 2.0) / scenario.machine.joints.period_s) as u32;
@@ -417,7 +420,7 @@ pub fn run_slave_job<T: Float>(
         outcome.late_periods = rig.clock().late_periods();
         outcome.add(&period);
         each(&period, &rig);
-        match operator.poll(&mut receive, &mut send) {
+        match operator.poll(&mut receive, &mut send, &jobs) {
             OperatorState::Finished => return Ok(outcome),
             OperatorState::Failed(OperatorError::Fault(_)) => {
                 after_fault += 1;

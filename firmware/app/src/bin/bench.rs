@@ -13,6 +13,7 @@ use kerf::app::axis::{AxisConfig, AxisLaw, AxisState, HallAxis};
 use kerf::app::calibrate::{
     CalibrationFit, HallMachine, HallSample, SAMPLES_PER_COAST, SEGMENT_BREAK,
 };
+use kerf::app::jobs::{JobSlot, JobSlots};
 use kerf::app::joints::{JointJob, Joints, JointsConfig, Segment};
 use kerf::app::supervisor::{Command, Machine, Report, Supervisor};
 use kerf::control::contouring::Contouring;
@@ -444,20 +445,21 @@ fn machine_stack<M: Machine>(
     session: (M::Coefficients, M::Job),
 ) {
     let (coefficients, job) = session;
+    let jobs = JobSlots::new(job, M::Job::default());
     // One command in flight per phase (capacity 1).
     let mut commands = Queue::<Command<M>, 2>::new();
     let mut reports = Queue::<Report<M>, 16>::new();
     let (mut send, command_out) = commands.split();
     let (report_in, mut receive) = reports.split();
-    let mut supervisor = Supervisor::new(machine, command_out, report_in);
-    let (mut calibration, mut job) = (Some(calibration), Some(job));
+    let mut supervisor = Supervisor::new(machine, command_out, report_in, &jobs);
+    let mut calibration = Some(calibration);
     let mut coefficients = Some(coefficients);
     let mut deepest = 0;
     for phase in 0..10 {
         let command = match phase {
             0 => Some(Command::Calibrate),
             2 => calibration.take().map(Command::FinishCalibration),
-            3 => job.take().map(Command::LoadJob),
+            3 => Some(Command::LoadJob(JobSlot::First)),
             4 => Some(Command::Start),
             5 => coefficients.take().map(Command::ChangeSettings),
             7 => Some(Command::Stop),
@@ -536,19 +538,20 @@ fn slave_period(
     ) else {
         exit(false)
     };
+    let jobs = JobSlots::new(job, DeltaJob::default());
     let mut commands = Queue::<Command<DeltaSlave<f32>>, 2>::new();
     let mut reports = Queue::<Report<DeltaSlave<f32>>, 16>::new();
     let (mut send, command_out) = commands.split();
     let (report_in, mut receive) = reports.split();
-    let mut supervisor = Supervisor::new(machine, command_out, report_in);
+    let mut supervisor = Supervisor::new(machine, command_out, report_in, &jobs);
     let mut inputs = config.joints.home_m.map(|q| nominal_counts(q as f32));
     let commands = [
         Command::FinishCalibration([sensor; 3]),
-        Command::LoadJob(job),
+        Command::LoadJob(JobSlot::First),
         Command::Start,
     ];
     // The stack of a contour session (n = 30, contouring law; not in the traced run):
-    // the periods that take the commands (the job's load copies its curve in place)
+    // the periods that take the commands (the job's load checks it where it was built)
     // and a contour period at cruise.
     let session_stack = harmonics == 30 && law == ContourLaw::Contouring && !counter.is_traced();
     let mut deepest = 0;

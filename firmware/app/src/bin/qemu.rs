@@ -39,6 +39,8 @@ use cortex_m_semihosting::{hio, hprintln};
 use embassy_executor::InterruptExecutor;
 use hal_mock::hall_sensor::HallSensorParams;
 use heapless::spsc::{Consumer, Producer, Queue};
+use kerf::app::jobs::JobSlots;
+use kerf::app::joints::JointJob;
 use kerf::app::joints::Joints;
 use kerf::app::supervisor::{Command, Mode, Report};
 use kerf_app::exit;
@@ -260,14 +262,15 @@ async fn operator_task(
     mut operator: AxisOperator<f32>,
     mut send: Producer<'static, Command<AxisMachine>>,
     mut receive: Consumer<'static, Report<AxisMachine>>,
+    jobs: &'static JobSlots<JointJob<1>>,
 ) {
     let mut console = Console::open();
     let mut printed_fit = false;
     let mut seen = PERIODS.load(Ordering::Acquire);
-    operator.start(&mut send);
+    operator.start(&mut send, jobs);
     loop {
         seen = next_period(seen).await;
-        let state = operator.poll(&mut receive, &mut send);
+        let state = operator.poll(&mut receive, &mut send, jobs);
         if let (Some(fit), false) = (operator.fit(), printed_fit) {
             printed_fit = true;
             let c = &fit.model.channels;
@@ -320,16 +323,18 @@ fn main() -> ! {
         // Deliberately detuned: 1 % of the position gain must miss the bounds.
         scenario.machine.axis.pd.kp_per_s2 *= 0.01;
     }
-    let (Some(commands), Some(reports)) = (
+    let (Some(commands), Some(reports), Some(jobs)) = (
         cortex_m::singleton!(: Queue<Command<AxisMachine>, COMMAND_CAPACITY> = Queue::new()),
         cortex_m::singleton!(: Queue<Report<AxisMachine>, REPORT_CAPACITY> = Queue::new()),
+        cortex_m::singleton!(: JobSlots<JointJob<1>> = JobSlots::new(JointJob::new(), JointJob::new())),
     ) else {
         exit(false)
     };
+    let jobs: &'static JobSlots<JointJob<1>> = jobs;
     let (send, from_sender) = commands.split();
     let (to_operator, receive) = reports.split();
     let (rig, operator) = match (
-        Rig::<f32>::new(&scenario, from_sender, to_operator),
+        Rig::<f32>::new(&scenario, from_sender, to_operator, jobs),
         scenario.operator::<f32>(),
     ) {
         (Ok(rig), Ok(operator)) => (rig, operator),
@@ -359,7 +364,7 @@ fn main() -> ! {
         core.NVIC.set_priority(OperatorIrq, OPERATOR_PRIORITY);
     }
     let spawner = OPERATOR_EXECUTOR.start(OperatorIrq);
-    match operator_task(operator, send, receive) {
+    match operator_task(operator, send, receive, jobs) {
         Ok(task) => spawner.spawn(task),
         Err(_) => exit(false),
     }

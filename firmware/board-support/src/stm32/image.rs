@@ -19,6 +19,7 @@ use embassy_stm32::pac;
 use embassy_stm32::usart::{RingBufferedUartRx, UartTx};
 use heapless::spsc::{Consumer, Producer};
 use kerf::app::host_link::{HostLink, HostLinkConfig, LinkMachine};
+use kerf::app::jobs::JobSlots;
 use kerf::app::supervisor::{Command, Report, Supervisor};
 use kerf::app::PeriodClock;
 use static_cell::StaticCell;
@@ -65,6 +66,8 @@ pub struct Image<
     pub commands: (Producer<'static, Command<M>>, Consumer<'static, Command<M>>),
     /// The report queue's two ends.
     pub reports: (Producer<'static, Report<M>>, Consumer<'static, Report<M>>),
+    /// The machine's two job buffers, shared by the link and the supervisor.
+    pub jobs: &'static JobSlots<M::Job>,
     /// Queued before the first period (a stored calibration, a calibration to run).
     pub startup: &'a [fn() -> Option<Command<M>>],
     /// The link's settings and job context as flashed.
@@ -118,7 +121,7 @@ where
     let hal = image.hal;
     let decimation = image.telemetry_decimation;
     let state = control.init_with(|| {
-        let mut supervisor = Supervisor::new(machine, from_sender, to_link);
+        let mut supervisor = Supervisor::new(machine, from_sender, to_link, image.jobs);
         supervisor.set_telemetry_decimation(decimation);
         Control {
             supervisor,
@@ -140,7 +143,7 @@ where
         heartbeat_timeout_s: HostLinkConfig::DEFAULT_TIMEOUT_S,
     };
     let (settings, context) = image.link;
-    let Ok(host_link) = HostLink::new(&link_config, settings, context) else {
+    let Ok(host_link) = HostLink::new(&link_config, settings, context, image.jobs) else {
         fault::fail(Cause::Startup, 7)
     };
     let (tx, rx) = image.uart;

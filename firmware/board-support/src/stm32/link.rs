@@ -75,8 +75,11 @@ pub trait SweepFit<M: Machine> {
     /// Keeps one sample; false when it is refused (logged).
     fn push(&mut self, sample: &M::SweepSample) -> bool;
     /// Fits the samples into a calibration (tens of kilobytes of stack, preempted by
-    /// every control period); `None` when the fit failed (logged by the fit).
-    fn fit(&mut self) -> Option<M::Calibration>;
+    /// every control period) and hands it to `install`; nothing when the fit failed
+    /// (logged by the fit). Handed on from the fit's frame rather than returned, so
+    /// that the calibration (kilobytes) and the command it becomes are not held in
+    /// the frame under the fit's deepest calls.
+    fn fit(&mut self, install: &mut dyn FnMut(M::Calibration));
 }
 
 /// The sweep of a machine that streams no samples and needs no fit: what it
@@ -93,8 +96,24 @@ where
     fn push(&mut self, sample: &NoSweep) -> bool {
         match *sample {}
     }
-    fn fit(&mut self) -> Option<M::Calibration> {
-        Some(self.0)
+    fn fit(&mut self, install: &mut dyn FnMut(M::Calibration)) {
+        install(self.0);
+    }
+}
+
+/// Queues a fitted calibration for the supervisor. Out of line: the command it builds
+/// and the queue's copy of it are kilobytes that would otherwise sit in the frame of
+/// the fit's caller, under the fit's deepest calls.
+#[inline(never)]
+fn queue_calibration<M: Machine>(
+    commands: &mut Producer<'static, Command<M>>,
+    calibration: M::Calibration,
+) {
+    if commands
+        .enqueue(Command::FinishCalibration(calibration))
+        .is_err()
+    {
+        defmt::warn!("calibration: command queue full, fit dropped");
     }
 }
 
@@ -106,7 +125,7 @@ const OUT_BYTES: usize = 1024;
 /// and its sweep fit `F`.
 pub struct LinkTask<M: LinkMachine + 'static, F: SweepFit<M> + 'static, const J: usize> {
     /// The host link.
-    pub link: HostLink<M, J>,
+    pub link: HostLink<'static, M, J>,
     /// Commands to the supervisor.
     pub commands: Producer<'static, Command<M>>,
     /// Reports from it.
@@ -251,7 +270,9 @@ impl<M: LinkMachine + 'static, F: SweepFit<M> + 'static, const J: usize> LinkTas
         // Timed in control periods, which go on above the fit (the cycle counter
         // would wrap on a fit longer than 25 s).
         let start = KERF_STATUS.periods.load(Ordering::Relaxed);
-        let fitted = self.fit.fit();
+        let commands = &mut self.commands;
+        self.fit
+            .fit(&mut |calibration| queue_calibration(commands, calibration));
         let periods = KERF_STATUS
             .periods
             .load(Ordering::Relaxed)
@@ -262,15 +283,6 @@ impl<M: LinkMachine + 'static, F: SweepFit<M> + 'static, const J: usize> LinkTas
         LINK_ALIVE.fetch_add(1, Ordering::Relaxed);
         FIT_RUNNING.store(false, Ordering::Relaxed);
         defmt::info!("calibration: fit took {} ms", fit_ms);
-        if let Some(calibration) = fitted {
-            if self
-                .commands
-                .enqueue(Command::FinishCalibration(calibration))
-                .is_err()
-            {
-                defmt::warn!("calibration: command queue full, fit dropped");
-            }
-        }
     }
 
     /// A board fault that holds the outputs off without a reset (the break input),

@@ -41,6 +41,7 @@ use embassy_stm32::{bind_interrupts, dma, pac, peripherals, usart};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
 use heapless::spsc::Queue;
+use kerf::app::jobs::JobSlots;
 use kerf::app::supervisor::{Command, Report};
 use kerf::hal::{Monotonic, SampleInputs, Transact, WriteOutputs};
 use kerf::machines::grinding::devices::{DeviceDemand, DeviceFault, DeviceLink, DeviceLinkState};
@@ -49,7 +50,7 @@ use kerf::machines::grinding::product::{
     CONFIG, DEVICES, LINK_JOB_BYTES, PASS, PERIOD_S, TELEMETRY_DECIMATION,
 };
 use kerf::machines::grinding::{
-    GrindingCalibration, GrindingCell, GrindingInputs, GrindingOutputs,
+    GrindingCalibration, GrindingCell, GrindingInputs, GrindingJob, GrindingOutputs,
 };
 use kerf::sensing::force::Eccentricity;
 use kerf_board_support::reply_framing::ReplyEnd;
@@ -90,6 +91,7 @@ static COMMANDS: ConstStaticCell<Queue<Command<Machine>, 4>> = ConstStaticCell::
 /// telemetry of the link task's longest wait on the transmitter (11 ms).
 static REPORTS: ConstStaticCell<Queue<Report<Machine>, 16>> = ConstStaticCell::new(Queue::new());
 static FIT: StaticCell<Stored<GrindingCalibration>> = StaticCell::new();
+static JOBS: StaticCell<JobSlots<GrindingJob>> = StaticCell::new();
 static RX_RING: ConstStaticCell<[u8; RX_RING_BYTES]> = ConstStaticCell::new([0; RX_RING_BYTES]);
 static THREAD: StaticCell<Executor> = StaticCell::new();
 static LINK_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
@@ -277,6 +279,7 @@ fn main() -> ! {
         uart,
         commands: COMMANDS.take().split(),
         reports: REPORTS.take().split(),
+        jobs: JOBS.init_with(Default::default),
         startup: &[capture_bias],
         link: (GrindingSettings::CELL, PASS),
         fit: FIT.init_with(|| Stored(stored)),

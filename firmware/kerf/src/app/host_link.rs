@@ -23,6 +23,7 @@
 //!   [`HostLinkConfig::heartbeat_timeout_s`] (no frame at all) stops the job, and the
 //!   host is told [`Event::HostLost`] should it come back.
 
+use crate::app::jobs::JobSlots;
 use crate::app::supervisor::{Command, CommandError, CommandKind, Machine, Mode, Report};
 use crate::codec::job::JobFile;
 use crate::codec::link::{
@@ -167,9 +168,11 @@ pub struct LinkCounters {
     pub unsent: u32,
 }
 
-/// The host link of one machine with a job buffer of `J` bytes.
-pub struct HostLink<M: LinkMachine, const J: usize> {
+/// The host link of one machine with an upload buffer of `J` bytes, building jobs in
+/// the machine's job buffers.
+pub struct HostLink<'q, M: LinkMachine, const J: usize> {
     config: HostLinkConfig,
+    jobs: &'q JobSlots<M::Job>,
     /// The control period as `Hello` carries it.
     period_ns: u32,
     context: M::JobContext,
@@ -211,9 +214,9 @@ pub fn mode_code<F>(mode: &Mode<F>) -> ModeCode {
     }
 }
 
-impl<M: LinkMachine, const J: usize> HostLink<M, J> {
+impl<'q, M: LinkMachine, const J: usize> HostLink<'q, M, J> {
     /// A link whose settings start at `settings` (the ones the machine runs), building
-    /// jobs in `context`.
+    /// jobs in `context`, in the buffer of `jobs` the supervisor does not hold.
     ///
     /// Errors: a period or timeout not finite and positive; a period `Hello` cannot
     /// carry (below 0.5 ns or past 4.29 s).
@@ -221,12 +224,14 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
         config: &HostLinkConfig,
         settings: M::Settings,
         context: M::JobContext,
+        jobs: &'q JobSlots<M::Job>,
     ) -> Result<Self, ConfigError> {
         let period_ns = period_ns(positive("period_s", config.period_s)?)
             .ok_or(ConfigError::out_of_range("period_s"))?;
         positive("heartbeat_timeout_s", config.heartbeat_timeout_s)?;
         Ok(Self {
             config: *config,
+            jobs,
             period_ns,
             context,
             reader: FrameReader::new(),
@@ -488,18 +493,27 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
             self.upload = Some(up);
             return self.reply(seq, Reply::Refused(Refusal::Incomplete), send);
         }
+        // One job on its way at a time: the buffer of a job queued but not yet taken
+        // is free to `take_free`, and must not be built over.
+        let loading = self.pending.iter().any(|&(_, k)| k == CommandKind::LoadJob);
+        let free = if loading { None } else { self.jobs.take_free() };
+        let Some((slot, mut job)) = free else {
+            self.upload = Some(up);
+            return self.reply(seq, Reply::Refused(Refusal::Busy), send);
+        };
         let built = JobFile::read(&up.bytes)
             .map_err(|_| JOB_FILE_UNREADABLE)
             .and_then(|file| {
                 if file.kind() != up.kind {
                     return Err(JOB_KIND_MISMATCH);
                 }
-                let mut job = M::Job::default();
-                M::load_job(&self.context, &file, &mut job).map(|()| job)
+                M::load_job(&self.context, &file, &mut job)
             });
+        // Released before the supervisor is asked to take it.
+        drop(job);
         match built {
-            Ok(job) => {
-                self.command(seq, Command::LoadJob(job), commands, send);
+            Ok(()) => {
+                self.command(seq, Command::LoadJob(slot), commands, send);
             }
             Err(code) => self.reply(seq, Reply::Refused(Refusal::Job(code)), send),
         }
@@ -529,6 +543,7 @@ impl<M: LinkMachine, const J: usize> HostLink<M, J> {
                 let refusal = match error {
                     CommandError::InvalidInMode => Refusal::InvalidInMode,
                     CommandError::NoJob => Refusal::NoJob,
+                    CommandError::JobBufferBusy => Refusal::Busy,
                     CommandError::Job(e) => Refusal::Job(M::job_error_code(e)),
                 };
                 if let Some(seq) = self.answered(*command) {

@@ -11,6 +11,7 @@ pub mod axis;
 pub mod calibrate;
 pub mod drive_set;
 pub mod host_link;
+pub mod jobs;
 pub mod joints;
 pub mod playout;
 pub mod remote_link;

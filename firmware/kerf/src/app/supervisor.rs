@@ -4,10 +4,12 @@
 //! lock-free queue ([`heapless::spsc`]); the supervisor takes at most the queue's
 //! capacity of them at the start of a period, and each is a few copies and
 //! comparisons, so nothing a command does can block or lengthen the period. A command
-//! is handled where it lies in the queue, and its payload (a calibration of kilobytes,
-//! a job) is copied once, into its place: nothing of its size passes through the
-//! control interrupt's stack (BENCHMARKS.md, Stack). The supervisor keeps the one copy
-//! of the loaded job and lends it to [`Machine::run`] each period. Anything
+//! is handled where it lies in the queue, and a calibration of kilobytes is copied
+//! once, into its place: nothing of its size passes through the control interrupt's
+//! stack (BENCHMARKS.md, Stack). A job is not copied at all: the sender builds it in
+//! one of the machine's two job buffers ([`super::jobs`]) and names the buffer; the
+//! supervisor holds that buffer while the job is loaded and lends the job to
+//! [`Machine::run`] each period. Anything
 //! expensive — validating a configuration into coefficients, fitting a calibration —
 //! is done by the sender, which enqueues the finished result. What the supervisor has
 //! to say (command replies, mode changes, calibration samples, per-period telemetry)
@@ -28,7 +30,7 @@
 //! | 4 | Calibrating | `FinishCalibration(coefficients)` after the sweep | Ready | safe |
 //! | 4b | Idle | `FinishCalibration(coefficients)`: a stored calibration, no sweep | Ready | safe |
 //! | 5 | Calibrating | `Stop` | Idle | safe |
-//! | 6 | Idle, Ready | `LoadJob(job)` that fits the machine | unchanged, job loaded | safe |
+//! | 6 | Idle, Ready | `LoadJob(buffer)` whose job fits the machine | unchanged, job loaded (its buffer held, the replaced job's released) | safe |
 //! | 7 | Ready | `Start` with a job loaded | Running | job |
 //! | 8 | Running | job done | Ready | safe |
 //! | 9 | Running | `Stop` | Stopping | ramp to rest |
@@ -38,12 +40,15 @@
 //! | 13 | any | `ChangeSettings(coefficients)` | unchanged, coefficients replaced (state kept: bumpless) | as the mode |
 //! | 14 | any | any other command | unchanged, refused with [`CommandError::InvalidInMode`] | as the mode |
 //!
-//! A `LoadJob` whose job does not fit is refused with [`CommandError::Job`], a `Start`
+//! A `LoadJob` whose job does not fit is refused with [`CommandError::Job`], one whose
+//! buffer is still held (being written, or the loaded job's) with
+//! [`CommandError::JobBufferBusy`], a `Start`
 //! without a job with [`CommandError::NoJob`], a `FinishCalibration` before the sweep
 //! is over with [`CommandError::InvalidInMode`]; none of them changes anything.
 //!
 //! ```
 //! use heapless::spsc::Queue;
+//! use kerf::app::jobs::{JobSlot, JobSlots};
 //! use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
 //! # use kerf::app::supervisor::{Machine, NoSweep, Step};
 //! # /// A machine that needs no calibration data and runs jobs of `n` periods.
@@ -70,17 +75,22 @@
 //! #     fn reset(&mut self) {}
 //! #     fn telemetry(&self) -> u32 { self.left }
 //! # }
+//! let jobs = JobSlots::<u32>::default();
 //! let mut commands: Queue<Command<Counter>, 4> = Queue::new();
 //! let mut reports: Queue<Report<Counter>, 16> = Queue::new();
 //! let (mut to_machine, from_sender) = commands.split();
 //! let (to_sender, mut from_machine) = reports.split();
-//! let mut supervisor = Supervisor::new(Counter { left: 0 }, from_sender, to_sender);
+//! let mut supervisor = Supervisor::new(Counter { left: 0 }, from_sender, to_sender, &jobs);
 //!
 //! // The slower context sends; the control period picks the commands up.
 //! to_machine.enqueue(Command::Calibrate).ok();
 //! supervisor.step(&true); // sweep (done at once here)
 //! to_machine.enqueue(Command::FinishCalibration(())).ok();
-//! to_machine.enqueue(Command::LoadJob(3)).ok();
+//! // A job of three periods, built in a free buffer, which is then named.
+//! let (slot, mut job) = jobs.take_free().unwrap();
+//! *job = 3;
+//! drop(job);
+//! to_machine.enqueue(Command::LoadJob(slot)).ok();
 //! to_machine.enqueue(Command::Start).ok();
 //! supervisor.step(&true);
 //! assert_eq!(supervisor.mode(), Mode::Running);
@@ -94,6 +104,7 @@
 //!     .any(|r| matches!(r, Report::Refused { .. })));
 //! ```
 
+use super::jobs::{HeldJob, JobSlot, JobSlots};
 use heapless::spsc::{Consumer, Producer};
 
 mod outputs;
@@ -134,10 +145,10 @@ pub trait Machine {
     /// One period's outputs, written together; checked finite by the supervisor
     /// before they are (a NaN or ∞ faults the machine: [`NonFiniteOutput`]).
     type Outputs: Copy + FiniteOutputs;
-    /// What `Running` follows. `Default` is the empty job the supervisor holds before
-    /// the first `LoadJob`; `clone_from` should copy in place (it runs in the control
-    /// period, and a temporary of a job's size would land on the interrupt's stack).
-    type Job: Clone + Default;
+    /// What `Running` follows, built in one of the machine's two job buffers
+    /// ([`JobSlots`]) and never copied: `Default` is the empty job a buffer holds
+    /// before the first is built in it.
+    type Job: Default;
     /// Why a job does not fit the machine.
     type JobError: Copy + core::fmt::Debug + PartialEq;
     /// Validated coefficients that replace the running ones bumplessly.
@@ -226,8 +237,9 @@ pub enum Command<M: Machine> {
     Calibrate,
     /// The fit of the streamed calibration samples (computed by the sender).
     FinishCalibration(M::Calibration),
-    /// Load a job (checked against the machine before it is kept).
-    LoadJob(M::Job),
+    /// Load the job built in this buffer (checked against the machine before it is
+    /// kept; the buffer is held while the job is loaded).
+    LoadJob(JobSlot),
     /// Run the loaded job.
     Start,
     /// Ramp to rest (Running) or abort the sweep (Calibrating).
@@ -283,6 +295,8 @@ pub enum CommandError<J> {
     NoJob,
     /// The job does not fit the machine, or cannot start from its present state.
     Job(J),
+    /// `LoadJob` named a buffer that is still being written, or the loaded job's.
+    JobBufferBusy,
 }
 
 /// What the supervisor reports to the slower context.
@@ -331,9 +345,11 @@ struct Core<'q, M: Machine> {
     mode: Mode<M::Fault>,
     /// Whether the calibration sweep is over (Calibrating waits for the fit).
     swept: bool,
-    /// The loaded job (the one copy: lent to the machine each period while it runs).
-    job: M::Job,
-    job_loaded: bool,
+    /// The machine's job buffers.
+    jobs: &'q JobSlots<M::Job>,
+    /// The loaded job, held in its buffer (lent to the machine each period while it
+    /// runs; released when another is loaded).
+    job: Option<HeldJob<'q, M::Job>>,
     reports: Producer<'q, Report<M>>,
     period: u64,
     dropped_reports: u32,
@@ -344,12 +360,14 @@ struct Core<'q, M: Machine> {
 }
 
 impl<'q, M: Machine> Supervisor<'q, M> {
-    /// A supervisor in Idle, reading `commands` and writing `reports`; telemetry every
-    /// period until [`Supervisor::set_telemetry_decimation`] says otherwise.
+    /// A supervisor in Idle, reading `commands`, writing `reports` and loading jobs
+    /// from `jobs`; telemetry every period until
+    /// [`Supervisor::set_telemetry_decimation`] says otherwise.
     pub fn new(
         machine: M,
         commands: Consumer<'q, Command<M>>,
         reports: Producer<'q, Report<M>>,
+        jobs: &'q JobSlots<M::Job>,
     ) -> Self {
         Self {
             commands,
@@ -357,8 +375,8 @@ impl<'q, M: Machine> Supervisor<'q, M> {
                 machine,
                 mode: Mode::Idle,
                 swept: false,
-                job: M::Job::default(),
-                job_loaded: false,
+                jobs,
+                job: None,
                 reports,
                 period: 0,
                 dropped_reports: 0,
@@ -445,9 +463,13 @@ impl<M: Machine> Core<'_, M> {
                 };
                 self.machine.calibrate(inputs, &mut record)
             }
-            // `Start` needs a loaded job, and no `LoadJob` replaces it while it runs.
-            Mode::Running => self.machine.run(&self.job, inputs),
-            Mode::Stopping => self.machine.stop(&self.job, inputs),
+            // `Start` needs a loaded job, and no `LoadJob` replaces it while it runs (with
+            // none, which no command sequence leaves, the job is over).
+            Mode::Running | Mode::Stopping => match self.job.as_deref() {
+                Some(job) if self.mode == Mode::Running => self.machine.run(job, inputs),
+                Some(job) => self.machine.stop(job, inputs),
+                None => Ok(Step::Done(self.machine.safe_outputs())),
+            },
         };
         let outputs = match (self.mode, result) {
             // A latched fault stays; the monitor's own errors do not re-enter it.
@@ -531,18 +553,17 @@ impl<M: Machine> Core<'_, M> {
                 self.enter(Mode::Idle);
                 Ok(())
             }
-            (Mode::Idle | Mode::Ready, Command::LoadJob(job)) => {
-                self.machine.check_job(job).map_err(CommandError::Job)?;
-                // Copied over the old job in place (no temporary of its size).
-                self.job.clone_from(job);
-                self.job_loaded = true;
+            (Mode::Idle | Mode::Ready, Command::LoadJob(slot)) => {
+                let job = self.jobs.take(*slot).ok_or(CommandError::JobBufferBusy)?;
+                // Refused: the buffer is released as `job` goes, the loaded job stays.
+                self.machine.check_job(&job).map_err(CommandError::Job)?;
+                // Releases the buffer of the job this one replaces.
+                self.job = Some(job);
                 Ok(())
             }
-            (Mode::Ready, Command::Start) if !self.job_loaded => Err(CommandError::NoJob),
             (Mode::Ready, Command::Start) => {
-                self.machine
-                    .begin_job(&self.job)
-                    .map_err(CommandError::Job)?;
+                let job = self.job.as_deref().ok_or(CommandError::NoJob)?;
+                self.machine.begin_job(job).map_err(CommandError::Job)?;
                 self.enter(Mode::Running);
                 Ok(())
             }

@@ -2,6 +2,7 @@
 //! sends frames byte by byte and reads what comes back.
 
 use super::*;
+use crate::app::jobs::JobSlots;
 use crate::app::supervisor::{Step, Supervisor};
 use crate::codec::job::{write_gcode, write_points};
 use crate::codec::link::JobKind;
@@ -173,7 +174,7 @@ fn frame(seq: u16, request: Request<'_>) -> Vec<u8> {
 /// Runs the toy through the supervisor with the link in front of it.
 struct Rig<'q> {
     supervisor: Supervisor<'q, Toy>,
-    link: HostLink<Toy, 2048>,
+    link: HostLink<'q, Toy, 2048>,
     to_machine: Producer<'q, Command<Toy>>,
     from_machine: heapless::spsc::Consumer<'q, Report<Toy>>,
     sent: Vec<Vec<u8>>,
@@ -223,11 +224,12 @@ impl Rig<'_> {
 }
 
 fn with_rig(test: impl FnOnce(&mut Rig<'_>)) {
+    let jobs = JobSlots::default();
     let mut commands: Queue<Command<Toy>, 4> = Queue::new();
     let mut reports: Queue<Report<Toy>, 64> = Queue::new();
     let (to_machine, from_sender) = commands.split();
     let (to_sender, from_machine) = reports.split();
-    let mut supervisor = Supervisor::new(Toy::default(), from_sender, to_sender);
+    let mut supervisor = Supervisor::new(Toy::default(), from_sender, to_sender, &jobs);
     supervisor.set_telemetry_decimation(1);
     let config = HostLinkConfig {
         period_s: 1e-3,
@@ -235,7 +237,7 @@ fn with_rig(test: impl FnOnce(&mut Rig<'_>)) {
     };
     let mut rig = Rig {
         supervisor,
-        link: HostLink::new(&config, SETTINGS, ()).unwrap(),
+        link: HostLink::new(&config, SETTINGS, (), &jobs).unwrap(),
         to_machine,
         from_machine,
         sent: Vec::new(),
@@ -649,7 +651,7 @@ fn a_period_the_hello_cannot_carry_is_refused() {
             period_s,
             heartbeat_timeout_s: 0.05,
         };
-        HostLink::<Toy, 64>::new(&config, SETTINGS, ()).map(|_| ())
+        HostLink::<Toy, 64>::new(&config, SETTINGS, (), &JobSlots::default()).map(|_| ())
     };
     for period_s in [1e-12, 0.49e-9, 4.3, 10.0] {
         assert_eq!(

@@ -2,7 +2,8 @@
 //! every call is recorded, plus the refusals.
 
 use super::*;
-use heapless::spsc::Queue;
+use crate::app::jobs::JobSlots;
+use heapless::spsc::{Producer, Queue};
 use std::vec::Vec;
 
 /// Inputs of the toy machine: whether the sensors are healthy.
@@ -117,6 +118,13 @@ impl Machine for Toy {
 struct Bench {
     commands: Queue<Command<Toy>, 8>,
     reports: Queue<Report<Toy>, 64>,
+    jobs: JobSlots<u32>,
+}
+
+/// The slower context's side: the command queue and the job buffers.
+struct To<'q> {
+    commands: Producer<'q, Command<Toy>>,
+    jobs: &'q JobSlots<u32>,
 }
 
 impl Bench {
@@ -124,29 +132,41 @@ impl Bench {
         Self {
             commands: Queue::new(),
             reports: Queue::new(),
+            jobs: JobSlots::default(),
         }
     }
 }
 
 /// Runs `f` with a fresh supervisor, a command sender, and a report drain.
 fn with_supervisor(
-    f: impl FnOnce(
-        &mut Supervisor<'_, Toy>,
-        &mut heapless::spsc::Producer<'_, Command<Toy>>,
-        &mut dyn FnMut() -> Vec<Report<Toy>>,
-    ),
+    f: impl FnOnce(&mut Supervisor<'_, Toy>, &mut To<'_>, &mut dyn FnMut() -> Vec<Report<Toy>>),
 ) {
     let mut bench = Bench::new();
-    let (mut send, commands) = bench.commands.split();
+    let (send, commands) = bench.commands.split();
     let (reports, mut receive) = bench.reports.split();
-    let mut supervisor = Supervisor::new(Toy::default(), commands, reports);
+    let mut supervisor = Supervisor::new(Toy::default(), commands, reports, &bench.jobs);
+    let mut send = To {
+        commands: send,
+        jobs: &bench.jobs,
+    };
     supervisor.set_telemetry_decimation(0);
     let mut drain = move || core::iter::from_fn(|| receive.dequeue()).collect::<Vec<_>>();
     f(&mut supervisor, &mut send, &mut drain);
 }
 
-fn send(to: &mut heapless::spsc::Producer<'_, Command<Toy>>, command: Command<Toy>) {
-    assert!(to.enqueue(command).is_ok(), "command queue full");
+fn send(to: &mut To<'_>, command: Command<Toy>) {
+    assert!(to.commands.enqueue(command).is_ok(), "command queue full");
+}
+
+/// Places `job` in a free buffer and sends `LoadJob` with its name.
+fn load(to: &mut To<'_>, job: u32) {
+    let slot = to.jobs.place(job).expect("a free job buffer");
+    send(to, Command::LoadJob(slot));
+}
+
+/// `LoadJob` of `job`, placed in a free buffer.
+fn load_command(to: &To<'_>, job: u32) -> Command<Toy> {
+    Command::LoadJob(to.jobs.place(job).expect("a free job buffer"))
 }
 
 fn refusals(reports: &[Report<Toy>]) -> Vec<(CommandKind, CommandError<&'static str>)> {
@@ -160,7 +180,7 @@ fn refusals(reports: &[Report<Toy>]) -> Vec<(CommandKind, CommandError<&'static 
 }
 
 /// Drives a fresh supervisor to Ready (rows 1, 3, 4).
-fn to_ready(s: &mut Supervisor<'_, Toy>, to: &mut heapless::spsc::Producer<'_, Command<Toy>>) {
+fn to_ready(s: &mut Supervisor<'_, Toy>, to: &mut To<'_>) {
     send(to, Command::Calibrate);
     assert_eq!(s.step(&OK), SWEEP);
     assert_eq!(s.step(&OK), SWEEP);
@@ -253,11 +273,11 @@ fn row_5_stop_aborts_the_sweep() {
 #[test]
 fn row_6_load_job_checks_it_and_changes_nothing_else() {
     with_supervisor(|s, to, drain| {
-        send(to, Command::LoadJob(5));
+        load(to, 5);
         s.step(&OK);
         assert_eq!(s.mode(), Mode::Idle);
         to_ready(s, to);
-        send(to, Command::LoadJob(500));
+        load(to, 500);
         s.step(&OK);
         assert_eq!(
             refusals(&drain()),
@@ -273,6 +293,44 @@ fn row_6_load_job_checks_it_and_changes_nothing_else() {
 }
 
 #[test]
+fn a_loaded_job_holds_its_buffer_and_a_replaced_or_refused_one_is_released() {
+    use crate::app::jobs::JobSlot;
+    with_supervisor(|s, to, drain| {
+        to_ready(s, to);
+        load(to, 4);
+        s.step(&OK);
+        // The loaded job's buffer is held: naming it again is refused, writing it is
+        // not possible, and the other buffer is the free one.
+        assert!(to.jobs.take(JobSlot::First).is_none());
+        send(to, Command::LoadJob(JobSlot::First));
+        s.step(&OK);
+        assert_eq!(
+            refusals(&drain()),
+            [(CommandKind::LoadJob, CommandError::JobBufferBusy)]
+        );
+        // A job that does not fit releases its own buffer; the loaded one stays held.
+        load(to, 500);
+        s.step(&OK);
+        assert!(to.jobs.take(JobSlot::Second).is_some());
+        assert!(to.jobs.take(JobSlot::First).is_none());
+        // A job that fits replaces the loaded one and releases its buffer.
+        load(to, 2);
+        s.step(&OK);
+        assert!(to.jobs.take(JobSlot::First).is_some());
+        assert!(to.jobs.take(JobSlot::Second).is_none());
+        send(to, Command::Start);
+        for _ in 0..2 {
+            assert_eq!(s.step(&OK), JOB);
+        }
+        assert_eq!(s.mode(), Mode::Ready);
+        assert_eq!(
+            refusals(&drain())[..],
+            [(CommandKind::LoadJob, CommandError::Job("does not fit"))]
+        );
+    });
+}
+
+#[test]
 fn row_7_start_runs_the_job_and_without_one_is_refused() {
     with_supervisor(|s, to, drain| {
         to_ready(s, to);
@@ -284,7 +342,7 @@ fn row_7_start_runs_the_job_and_without_one_is_refused() {
             [(CommandKind::Start, CommandError::NoJob)]
         );
         assert_eq!(s.mode(), Mode::Ready);
-        send(to, Command::LoadJob(3));
+        load(to, 3);
         send(to, Command::Start);
         assert_eq!(s.step(&OK), JOB);
         assert_eq!(s.mode(), Mode::Running);
@@ -295,7 +353,7 @@ fn row_7_start_runs_the_job_and_without_one_is_refused() {
 fn row_8_job_done_is_ready() {
     with_supervisor(|s, to, drain| {
         to_ready(s, to);
-        send(to, Command::LoadJob(2));
+        load(to, 2);
         send(to, Command::Start);
         assert_eq!(s.step(&OK), JOB);
         assert_eq!(s.step(&OK), JOB);
@@ -315,7 +373,7 @@ fn row_8_job_done_is_ready() {
 fn rows_9_and_10_stop_ramps_to_rest_then_ready() {
     with_supervisor(|s, to, _| {
         to_ready(s, to);
-        send(to, Command::LoadJob(100));
+        load(to, 100);
         send(to, Command::Start);
         s.step(&OK);
         send(to, Command::Stop);
@@ -330,7 +388,7 @@ fn rows_9_and_10_stop_ramps_to_rest_then_ready() {
 #[test]
 fn row_11_a_fault_in_any_mode_is_safe_in_the_same_period() {
     // Idle, Calibrating, Ready, Running, Stopping.
-    type Setup = fn(&mut Supervisor<'_, Toy>, &mut heapless::spsc::Producer<'_, Command<Toy>>);
+    type Setup = fn(&mut Supervisor<'_, Toy>, &mut To<'_>);
     let setups: [Setup; 5] = [
         |_, _| {},
         |s, to| {
@@ -340,13 +398,13 @@ fn row_11_a_fault_in_any_mode_is_safe_in_the_same_period() {
         |s, to| to_ready(s, to),
         |s, to| {
             to_ready(s, to);
-            send(to, Command::LoadJob(100));
+            load(to, 100);
             send(to, Command::Start);
             s.step(&OK);
         },
         |s, to| {
             to_ready(s, to);
-            send(to, Command::LoadJob(100));
+            load(to, 100);
             send(to, Command::Start);
             s.step(&OK);
             send(to, Command::Stop);
@@ -383,7 +441,7 @@ fn row_13_settings_change_in_every_mode_keeps_the_mode() {
         s.step(&OK);
         assert_eq!((s.mode(), s.machine().gain), (Mode::Idle, 1));
         to_ready(s, to);
-        send(to, Command::LoadJob(100));
+        load(to, 100);
         send(to, Command::Start);
         s.step(&OK);
         send(to, Command::ChangeSettings(2));
@@ -415,13 +473,13 @@ fn row_14_commands_invalid_in_the_mode_are_refused_and_change_nothing() {
         assert_eq!(s.machine().calibrated, None);
         // Running: Calibrate, LoadJob, Start, ResetFault.
         to_ready(s, to);
-        send(to, Command::LoadJob(100));
+        load(to, 100);
         send(to, Command::Start);
         s.step(&OK);
         drain();
         for (command, kind) in [
             (Command::Calibrate, K::Calibrate),
-            (Command::LoadJob(3), K::LoadJob),
+            (load_command(to, 3), K::LoadJob),
             (Command::Start, K::Start),
             (Command::ResetFault, K::ResetFault),
         ] {
@@ -438,7 +496,7 @@ fn row_14_commands_invalid_in_the_mode_are_refused_and_change_nothing() {
         for (command, kind) in [
             (Command::Start, K::Start),
             (Command::Calibrate, K::Calibrate),
-            (Command::LoadJob(3), K::LoadJob),
+            (load_command(to, 3), K::LoadJob),
             (Command::Stop, K::Stop),
         ] {
             send(to, command);
@@ -455,7 +513,8 @@ fn a_full_report_queue_drops_and_counts_instead_of_waiting() {
     let mut reports: Queue<Report<Toy>, 4> = Queue::new();
     let (_, from) = commands.split();
     let (to, mut drain) = reports.split();
-    let mut s = Supervisor::new(Toy::default(), from, to);
+    let jobs = JobSlots::default();
+    let mut s = Supervisor::new(Toy::default(), from, to, &jobs);
     for _ in 0..100 {
         s.step(&OK);
     }

@@ -259,6 +259,22 @@ impl<T: Float, const N: usize, const R: usize> ArrowJob<T, N, R> {
         geometry: &ArrowGeometry<f64>,
         config: &ArrowJobConfig,
     ) -> Result<Self, ArrowJobError> {
+        let mut job = Self::default();
+        job.read_gcode(text, points, geometry, config)?;
+        Ok(job)
+    }
+
+    /// [`ArrowJob::from_gcode`] built in place, over the job this one held (a job of
+    /// ARROW is 34 KB: built where it will run, it is never copied). On an error the
+    /// job is left partly built and must not be run.
+    #[allow(clippy::result_large_err)]
+    pub fn read_gcode<const P: usize>(
+        &mut self,
+        text: &[u8],
+        points: &mut heapless::Vec<GcodePoint, P>,
+        geometry: &ArrowGeometry<f64>,
+        config: &ArrowJobConfig,
+    ) -> Result<(), ArrowJobError> {
         parse(text, points).map_err(|e| ArrowJobError {
             line: e.line,
             kind: ArrowJobErrorKind::Gcode {
@@ -266,7 +282,7 @@ impl<T: Float, const N: usize, const R: usize> ArrowJob<T, N, R> {
                 column: e.column,
             },
         })?;
-        Self::from_points(points, geometry, config)
+        self.plan_points(points, geometry, config)
     }
 
     /// A checked job from parsed points (module docs).
@@ -276,6 +292,21 @@ impl<T: Float, const N: usize, const R: usize> ArrowJob<T, N, R> {
         geometry: &ArrowGeometry<f64>,
         config: &ArrowJobConfig,
     ) -> Result<Self, ArrowJobError> {
+        let mut job = Self::default();
+        job.plan_points(points, geometry, config)?;
+        Ok(job)
+    }
+
+    /// [`ArrowJob::from_points`] built in place (as [`ArrowJob::read_gcode`]).
+    #[allow(clippy::result_large_err)]
+    pub fn plan_points(
+        &mut self,
+        points: &[GcodePoint],
+        geometry: &ArrowGeometry<f64>,
+        config: &ArrowJobConfig,
+    ) -> Result<(), ArrowJobError> {
+        let job = self;
+        job.count = 0;
         let first_line = points.first().map_or(0, |p| p.line);
         let at = |line: u32| move |kind| ArrowJobError { line, kind };
         config
@@ -284,10 +315,7 @@ impl<T: Float, const N: usize, const R: usize> ArrowJob<T, N, R> {
         let Some(first) = points.first() else {
             return Err(at(0)(ArrowJobErrorKind::Empty));
         };
-        let mut job = Self {
-            period_s: config.period_s,
-            ..Self::default()
-        };
+        job.period_s = config.period_s;
         let start = TaskPose::new(
             first.position_m[0],
             first.position_m[1],
@@ -330,7 +358,7 @@ impl<T: Float, const N: usize, const R: usize> ArrowJob<T, N, R> {
         if job.count == 0 {
             return Err(at(first_line)(ArrowJobErrorKind::Empty));
         }
-        Ok(job)
+        Ok(())
     }
 }
 

@@ -77,6 +77,5 @@ pub fn load_job<T: Float>(
         line: 0,
         kind: ArrowJobErrorKind::Config(e),
     })?;
-    *job = Job::<T>::from_gcode(text, points, &geometry, &ArrowJobConfig::ARROW)?;
-    Ok(())
+    job.read_gcode(text, points, &geometry, &ArrowJobConfig::ARROW)
 }

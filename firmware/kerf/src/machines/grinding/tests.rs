@@ -1,4 +1,5 @@
 use super::*;
+use crate::app::jobs::JobSlots;
 use crate::app::supervisor::{Command, Mode, Report, Supervisor};
 use heapless::spsc::Queue;
 use nalgebra::{Matrix6, Vector6};
@@ -40,15 +41,17 @@ fn with_ready_cell(
     f: impl FnOnce(
         &mut Supervisor<'_, GrindingCell<f64>>,
         &mut dyn FnMut(Command<GrindingCell<f64>>),
+        &JobSlots<GrindingJob>,
         &mut dyn FnMut() -> Reports,
     ),
 ) {
+    let jobs = JobSlots::default();
     let mut commands = Queue::<Command<GrindingCell<f64>>, 4>::new();
     let mut reports = Queue::<Report<GrindingCell<f64>>, 64>::new();
     let (mut to, from) = commands.split();
     let (report_to, mut report_from) = reports.split();
     let cell = GrindingCell::<f64>::new(&GrindingConfig::PUBLISHED).unwrap();
-    let mut s = Supervisor::new(cell, from, report_to);
+    let mut s = Supervisor::new(cell, from, report_to, &jobs);
     s.set_telemetry_decimation(0);
     let mut send = |c| assert!(to.enqueue(c).is_ok());
     let mut drain = || core::iter::from_fn(|| report_from.dequeue()).collect::<Vec<_>>();
@@ -69,7 +72,7 @@ fn with_ready_cell(
         assert!((b - e).abs() < 1e-12);
     }
     drain();
-    f(&mut s, &mut send, &mut drain);
+    f(&mut s, &mut send, &jobs, &mut drain);
 }
 
 /// A job before the bias is captured is refused with its reason; bad fields are named.
@@ -102,8 +105,8 @@ fn jobs_are_checked() {
 #[test]
 fn a_pass_runs_and_a_stop_retracts() {
     for law in [ForceLawKind::Pid, ForceLawKind::Adrc] {
-        with_ready_cell(|s, send, _| {
-            send(Command::LoadJob(job(law)));
+        with_ready_cell(|s, send, jobs, _| {
+            send(Command::LoadJob(jobs.place(job(law)).unwrap()));
             send(Command::Start);
             // Out of contact: the piezo moves toward the surface, the hexapod feeds what
             // the piezo leaves of the set feed: V_hex = √(F_R² − V_pzo²).
@@ -144,7 +147,7 @@ fn a_pass_runs_and_a_stop_retracts() {
                     assert_eq!(s.mode(), Mode::Ready);
                 }
             }
-            send(Command::LoadJob(job(law)));
+            send(Command::LoadJob(jobs.place(job(law)).unwrap()));
             send(Command::Start);
             for _ in 0..200 {
                 s.step(&pressing(0.0));
@@ -207,8 +210,10 @@ fn bad_readings_fault_with_safe_outputs() {
         ),
     ];
     for (input, fault) in cases {
-        with_ready_cell(|s, send, _| {
-            send(Command::LoadJob(job(ForceLawKind::Pid)));
+        with_ready_cell(|s, send, jobs, _| {
+            send(Command::LoadJob(
+                jobs.place(job(ForceLawKind::Pid)).unwrap(),
+            ));
             send(Command::Start);
             for _ in 0..50 {
                 s.step(&pressing(5.0));
@@ -222,8 +227,10 @@ fn bad_readings_fault_with_safe_outputs() {
             );
         });
     }
-    with_ready_cell(|s, send, _| {
-        send(Command::LoadJob(job(ForceLawKind::Adrc)));
+    with_ready_cell(|s, send, jobs, _| {
+        send(Command::LoadJob(
+            jobs.place(job(ForceLawKind::Adrc)).unwrap(),
+        ));
         send(Command::Start);
         s.step(&pressing(5.0));
         s.step(&inconsistent);
@@ -243,7 +250,8 @@ fn a_disturbed_bias_capture_faults() {
     let (mut to, from) = commands.split();
     let (report_to, _report_from) = reports.split();
     let cell = GrindingCell::<f64>::new(&GrindingConfig::PUBLISHED).unwrap();
-    let mut s = Supervisor::new(cell, from, report_to);
+    let jobs = JobSlots::default();
+    let mut s = Supervisor::new(cell, from, report_to, &jobs);
     s.set_telemetry_decimation(0);
     assert!(to.enqueue(Command::Calibrate).is_ok());
     for k in 0..GrindingConfig::PUBLISHED.bias.samples {
@@ -261,13 +269,13 @@ fn a_disturbed_bias_capture_faults() {
 /// (500 settling, 1000 averaged); a device fault at rest faults too.
 #[test]
 fn a_drift_at_rest_faults_at_the_end_of_a_window() {
-    with_ready_cell(|s, _, _| {
+    with_ready_cell(|s, _, _, _| {
         for _ in 0..3000 {
             s.step(&pressing(0.29));
         }
         assert_eq!(s.mode(), Mode::Ready);
     });
-    with_ready_cell(|s, _, _| {
+    with_ready_cell(|s, _, _, _| {
         // The first period at rest was the one that took the calibration's fit.
         let mut periods = 1;
         while s.mode() == Mode::Ready && periods < 5000 {
@@ -283,7 +291,7 @@ fn a_drift_at_rest_faults_at_the_end_of_a_window() {
             other => panic!("{other:?}"),
         }
     });
-    with_ready_cell(|s, _, _| {
+    with_ready_cell(|s, _, _, _| {
         s.step(&GrindingInputs {
             device_fault: Some(DeviceFault::Spindle(SpindleFault::Silent { ticks: 5 })),
             ..pressing(0.0)

@@ -81,10 +81,11 @@ fn a_non_finite_output_faults_with_safe_outputs_in_the_same_period() {
         let mut reports: Queue<Report<Passthrough>, 16> = Queue::new();
         let (mut to_machine, from_sender) = commands.split();
         let (to_sender, _) = reports.split();
-        let mut supervisor = Supervisor::new(Passthrough, from_sender, to_sender);
+        let jobs = crate::app::jobs::JobSlots::default();
+        let mut supervisor = Supervisor::new(Passthrough, from_sender, to_sender, &jobs);
         for command in [
             Command::FinishCalibration(()),
-            Command::LoadJob(1),
+            Command::LoadJob(jobs.place(1).expect("a free job buffer")),
             Command::Start,
         ] {
             assert!(to_machine.enqueue(command).is_ok());

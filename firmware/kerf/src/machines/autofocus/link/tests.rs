@@ -1,5 +1,6 @@
 use super::*;
 use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingPath};
+use crate::app::jobs::JobSlots;
 use crate::app::supervisor::{Command, Machine, NonFiniteOutput};
 use crate::codec::job::{write_gcode, write_schedule};
 use crate::codec::link::{
@@ -191,6 +192,7 @@ fn a_sample_has_a_value_per_channel() {
 /// range is taken.
 #[test]
 fn bad_settings_are_refused_and_change_nothing() {
+    let jobs = JobSlots::default();
     let mut commands = Queue::<Command<S>, 2>::new();
     let (mut to_machine, _from_link) = commands.split();
     let config = HostLinkConfig {
@@ -198,7 +200,7 @@ fn bad_settings_are_refused_and_change_nothing() {
         heartbeat_timeout_s: 0.05,
     };
     let before = StageSettings::POWER_UP;
-    let mut link = HostLink::<S, LINK_JOB_BYTES>::new(&config, before, CONFIG).unwrap();
+    let mut link = HostLink::<S, LINK_JOB_BYTES>::new(&config, before, CONFIG, &jobs).unwrap();
     let mut set = |seq: u16, path: &str, value: &[u8]| {
         let mut out = [0u8; MAX_FRAME];
         let request = Request::Set { path, value };

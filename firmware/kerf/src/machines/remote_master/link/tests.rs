@@ -2,6 +2,7 @@ use super::super::product::{config, sample_contour, session, LINK_JOB_BYTES};
 use super::super::RemoteMaster;
 use super::*;
 use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingPath};
+use crate::app::jobs::JobSlots;
 use crate::app::supervisor::{Command, Machine};
 use crate::codec::job::{write_gcode, write_points};
 use crate::codec::link::{
@@ -99,7 +100,7 @@ fn a_contour_loads_and_the_wrong_kind_is_refused_in_words() {
 /// What the host got back at once for one request: the replies' debug forms (a
 /// command queued is answered when the machine reports it carried out).
 fn exchange(
-    link: &mut HostLink<M, LINK_JOB_BYTES>,
+    link: &mut HostLink<'_, M, LINK_JOB_BYTES>,
     commands: &mut heapless::spsc::Producer<'_, Command<M>>,
     request: Request<'_>,
 ) -> Vec<String> {
@@ -122,15 +123,20 @@ fn exchange(
 /// changes the settings nor reaches the machine; a good value does both.
 #[test]
 fn a_bad_setting_is_refused_and_changes_nothing() {
+    let jobs = JobSlots::default();
     let mut queue = Queue::<Command<M>, 4>::new();
     let (mut commands, mut machine) = queue.split();
     let config = HostLinkConfig {
         period_s: PERIOD_S,
         heartbeat_timeout_s: 0.5,
     };
-    let mut link =
-        HostLink::<M, LINK_JOB_BYTES>::new(&config, MasterSettings::MASTER, session().unwrap())
-            .unwrap();
+    let mut link = HostLink::<M, LINK_JOB_BYTES>::new(
+        &config,
+        MasterSettings::MASTER,
+        session().unwrap(),
+        &jobs,
+    )
+    .unwrap();
     let refused = |r: Refusal| format!("{:?}", Reply::Refused(r));
     for (path, value, why) in [
         ("/fixture/normal/stiffness", "1", Refusal::UnknownPath),

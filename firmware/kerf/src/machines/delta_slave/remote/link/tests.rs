@@ -1,5 +1,6 @@
 use super::*;
 use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingPath};
+use crate::app::jobs::JobSlots;
 use crate::app::supervisor::{Command, Machine, Mode, NonFiniteOutput, Report, Supervisor};
 use crate::codec::job::{write_gcode, write_recording};
 use crate::codec::link::{
@@ -196,18 +197,20 @@ fn frame(seq: u16, request: Request<'_>) -> Vec<u8> {
 /// slave's words.
 #[test]
 fn bad_settings_change_nothing_and_a_fault_is_heard_in_words() {
+    let jobs = JobSlots::default();
     let mut commands = Queue::<Command<S>, 2>::new();
     let mut reports = Queue::<Report<S>, 16>::new();
     let (mut to_machine, from_sender) = commands.split();
     let (to_link, mut from_machine) = reports.split();
-    let mut supervisor = Supervisor::new(S::new(&CONFIG).unwrap(), from_sender, to_link);
+    let mut supervisor = Supervisor::new(S::new(&CONFIG).unwrap(), from_sender, to_link, &jobs);
     supervisor.set_telemetry_decimation(0);
     let config = HostLinkConfig {
         period_s: PERIOD_S,
         heartbeat_timeout_s: 1.0,
     };
     let settings = RemoteSlaveSettings::of_product();
-    let mut link = Box::new(HostLink::<S, LINK_JOB_BYTES>::new(&config, settings, ()).unwrap());
+    let mut link =
+        Box::new(HostLink::<S, LINK_JOB_BYTES>::new(&config, settings, (), &jobs).unwrap());
     let mut sent = Vec::new();
     for (seq, path, value, answer) in [
         (
