@@ -2,7 +2,8 @@
 //! runs.
 //!
 //! - Always (host-tested): the parts that are pure functions of their inputs — the
-//!   DAC code of a command, the timer compare value of a PWM duty, and the fault
+//!   DAC code of a command, the timer compare value of a PWM duty, a CAN frame as
+//!   the FDCAN's message RAM holds it, and the fault
 //!   record that survives a reset with the decision of what ended the last run.
 //! - With the `stm32` feature (the board target only): [`stm32`], the layer the
 //!   images are written on — clocks, ADC sampling by DMA, DAC and timer outputs
@@ -13,6 +14,7 @@
 #![no_std]
 #![cfg_attr(not(feature = "stm32"), forbid(unsafe_code))]
 
+pub mod can_element;
 pub mod fault_record;
 pub mod input_codes;
 pub mod output_codes;

@@ -11,7 +11,7 @@ use super::fault::{self, Cause, ResetCause};
 use super::link::{LinkTask, SweepFit};
 use super::period::{self, BoardHal, Control, Handoff, Leds};
 use super::pins::PinId;
-use super::timer::{self, Tim1Pins, TimerError};
+use super::timer::{self, Tim1Pins, TimerError, TimerInterrupts};
 use super::timing::KERF_STATUS;
 use core::sync::atomic::Ordering;
 use embassy_stm32::mode::Async;
@@ -29,6 +29,13 @@ pub enum Trigger<'a, const A: usize, const C: usize> {
     /// ADC1…A convert on TIM1's update into the buffer; DMA1 channel 1's
     /// transfer-complete runs the period.
     Adc(&'a [AdcRow<C>; A], &'static DmaBuffer<A, C>),
+    /// The inputs come from a bus: TIM1's update opens the bus cycle, and its
+    /// channel 3 compare `step_at_ticks` timer ticks later runs the period.
+    Bus {
+        /// Where the step starts in the period, timer ticks (after the bus's
+        /// inputs have arrived).
+        step_at_ticks: u16,
+    },
 }
 
 /// What [`start`] is given.
@@ -158,17 +165,26 @@ where
         button: image.button,
         control_hz: image.control_hz,
     });
-    let control_interrupt = match image.trigger {
+    let interrupts = match image.trigger {
         Trigger::Adc(rows, buffer) => {
             if let Err(e) = adc::start(rows, buffer) {
                 defmt::error!("sampling: {}", e);
                 fault::fail(Cause::Startup, 10)
             }
-            pac::Interrupt::DMA1_CHANNEL1
+            period::enable(nvic, &[pac::Interrupt::DMA1_CHANNEL1]);
+            TimerInterrupts::None
+        }
+        Trigger::Bus { step_at_ticks } => {
+            period::enable(
+                nvic,
+                &[pac::Interrupt::TIM1_UP_TIM16, pac::Interrupt::TIM1_CC],
+            );
+            TimerInterrupts::UpdateAndCompare {
+                at_ticks: step_at_ticks,
+            }
         }
     };
-    period::enable(nvic, control_interrupt);
-    match timer::start(&image.tim1, period) {
+    match timer::start(&image.tim1, period, interrupts) {
         Ok(()) => {}
         Err(TimerError::BreakActive) => {
             defmt::error!("break input active: outputs held off until reset");

@@ -9,6 +9,7 @@
 //! | outputs | [`timer`] | TIM1: the period's trigger, a PWM channel, the enable line, the break (the DACs are embassy's typed channels) |
 //! | control period | [`period`] | the supervisor step in the control interrupt, its deadline, the watchdog's refresh |
 //! | host link | [`link`] | LPUART1 with DMA, the link task, the calibration sweep from the button |
+//! | drive buses | [`can`] | a CAN FD bus carrying kerf's frames, its message RAM read and written by the control interrupts |
 //! | devices | [`serial`] | a device's request/reply exchange on a polled UART |
 //! | start-up | [`image`] | the machine handed to the control interrupt, the link built, sampling and outputs started |
 //! | fault path | [`fault`] | outputs safe in hardware and software, the cause kept across a reset |
@@ -22,6 +23,7 @@
 //! the image's HardFault and link-tick handlers).
 
 pub mod adc;
+pub mod can;
 pub mod clocks;
 pub mod cordic;
 pub mod fault;

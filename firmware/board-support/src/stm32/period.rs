@@ -4,8 +4,11 @@
 //! watchdog's refresh, the link task's tick and the status LED.
 //!
 //! The image binds the interrupt that starts its period (DMA1 channel 1's
-//! transfer-complete: the period's samples come from the ADCs) and calls
-//! [`on_samples`] from it with its [`Handoff`] and a [`Watch`] of its own.
+//! transfer-complete when the period's samples come from the ADCs) and calls
+//! [`on_samples`] from it with its [`Handoff`] and a [`Watch`] of its own. An image
+//! whose inputs come from a bus binds two: TIM1's update opens the bus cycle
+//! ([`on_tick`]), and TIM1's channel 3 compare, placed after the inputs have
+//! arrived, runs the step ([`on_compare`]).
 
 use super::adc::{self, Arrival};
 use super::clocks::{CONTROL_PRIORITY, LINK_PRIORITY};
@@ -84,9 +87,10 @@ impl<T> Handoff<T> {
     ///
     /// # Safety
     ///
-    /// Only the control interrupt may call this, once per entry: `hand_over` stored
-    /// a `&'static mut` whose owner gave it up, and the interrupt does not nest in
-    /// itself, so the reference returned is then the only live one.
+    /// Only the control interrupt, or an interrupt of the same priority (which
+    /// neither preempts it nor is preempted by it), may call this, once per entry:
+    /// `hand_over` stored a `&'static mut` whose owner gave it up, so the reference
+    /// returned is then the only live one.
     #[allow(clippy::mut_from_ref)]
     unsafe fn get(&self) -> Option<&mut T> {
         // SAFETY: see the function's contract.
@@ -176,20 +180,50 @@ pub fn on_samples<const A: usize, M: Machine + 'static, H: BoardHal<M>>(
     run(handoff, watch, entry);
 }
 
+/// The period's start of an image whose inputs come from a bus: call from TIM1's
+/// update interrupt, at the control interrupt's priority (so that neither preempts
+/// the other). `tick` gets the board (to send what opens the bus cycle, a SYNC).
+#[inline(always)]
+pub fn on_tick<M: Machine + 'static, H: BoardHal<M>>(
+    handoff: &Handoff<Control<M, H>>,
+    tick: impl FnOnce(&mut H),
+) {
+    timer::clear_update();
+    // SAFETY: the tick and the control interrupt share the highest priority, so
+    // neither preempts the other: this is then the only live reference.
+    if let Some(control) = unsafe { handoff.get() } {
+        tick(&mut control.hal);
+    }
+}
+
+/// The period of an image whose inputs come from a bus: call from TIM1's channel 3
+/// compare interrupt, placed in the period after the inputs have arrived. The
+/// deadline is the period's end, as for [`on_samples`].
+#[inline(always)]
+pub fn on_compare<M: Machine + 'static, H: BoardHal<M>>(
+    handoff: &Handoff<Control<M, H>>,
+    watch: &mut Watch,
+) {
+    let entry = timing::cycles();
+    timer::clear_compare();
+    run(handoff, watch, entry);
+}
+
 #[inline(always)]
 fn run<M: Machine + 'static, H: BoardHal<M>>(
     handoff: &Handoff<Control<M, H>>,
     watch: &mut Watch,
     entry: u32,
 ) {
-    // SAFETY: `run` is reached only from the control interrupt ([`on_samples`]), once
-    // per entry.
+    // SAFETY: `run` is reached only from the control interrupt ([`on_samples`],
+    // [`on_compare`]), once per entry.
     let Some(control) = (unsafe { handoff.get() }) else {
-        timer::clear_update();
         return;
     };
     // Cycles since the period's start: TIM1 counts from its update.
     let since_start = timer::cycles_into_period(&control.period);
+    // The update flag marks a period that began during the step. An image whose
+    // period starts with the DMA clears it here; one with a tick cleared it there.
     timer::clear_update();
     step(control);
     let step_cycles = timing::cycles().wrapping_sub(entry);
@@ -263,15 +297,17 @@ pub fn on_tick_interrupt() {
     DEVICE_TICK.signal(());
 }
 
-/// Enables the control interrupt `control` at the highest priority and the link's
-/// tick interrupt below it.
-pub fn enable(nvic: &mut cortex_m::peripheral::NVIC, control: pac::Interrupt) {
-    // SAFETY: the control state is in place before the interrupt is unmasked, and no
-    // priority-based critical section in the images depends on these lines' levels.
+/// Enables the control interrupts `control` (one, or the tick and the step of a
+/// bus image) at the highest priority and the link's tick interrupt below it.
+pub fn enable(nvic: &mut cortex_m::peripheral::NVIC, control: &[pac::Interrupt]) {
+    // SAFETY: the control state is in place before the interrupts are unmasked, and
+    // no priority-based critical section in the images depends on these lines' levels.
     unsafe {
         nvic.set_priority(TICK_INTERRUPT, LINK_PRIORITY);
         cortex_m::peripheral::NVIC::unmask(TICK_INTERRUPT);
-        nvic.set_priority(control, CONTROL_PRIORITY);
-        cortex_m::peripheral::NVIC::unmask(control);
+        for &line in control {
+            nvic.set_priority(line, CONTROL_PRIORITY);
+            cortex_m::peripheral::NVIC::unmask(line);
+        }
     }
 }

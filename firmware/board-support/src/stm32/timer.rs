@@ -80,10 +80,28 @@ pub enum TimerError {
     BreakActive,
 }
 
-/// TIM1 counting periods of `period` (update = the period's start, TRGO on update:
-/// the ADCs' trigger), the PWM at 0 and the enable line low, the break armed;
+/// Which of TIM1's interrupts an image takes.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum TimerInterrupts {
+    /// None: the period is the ADC DMA's interrupt.
+    None,
+    /// The update (the period's start), and channel 3's compare `at_ticks` timer
+    /// ticks into the period (a step that must wait for the period's inputs to
+    /// arrive on a bus).
+    UpdateAndCompare {
+        /// The compare's place in the period, timer ticks.
+        at_ticks: u16,
+    },
+}
+
+/// TIM1 counting periods of `period` (update = the period's start, TRGO on update),
+/// its `interrupts` enabled, the PWM at 0 and the enable line low, the break armed;
 /// started.
-pub fn start(pins: &Tim1Pins, period: TimerPeriod) -> Result<(), TimerError> {
+pub fn start(
+    pins: &Tim1Pins,
+    period: TimerPeriod,
+    interrupts: TimerInterrupts,
+) -> Result<(), TimerError> {
     pac::RCC.apb2enr().modify(|w| {
         w.set_tim1en(true);
         w.set_syscfgen(true);
@@ -123,6 +141,14 @@ pub fn start(pins: &Tim1Pins, period: TimerPeriod) -> Result<(), TimerError> {
     });
     tim.egr().write(|w| w.set_ug(true));
     tim.sr().write_value(pac::timer::regs::SrAdv(0));
+    if let TimerInterrupts::UpdateAndCompare { at_ticks } = interrupts {
+        // Channel 3 frozen (no pin): its compare only raises CC3IF.
+        tim.ccr(2).write(|w| w.set_ccr(at_ticks));
+        tim.dier().write(|w| {
+            w.set_uie(true);
+            w.set_ccie(2, true);
+        });
+    }
     // The pins go to the timer only now that its outputs are defined and off; the
     // break line is pulled down inside too, so an unconnected one holds them off.
     if let Some((pwm, af)) = pins.pwm {
@@ -162,6 +188,14 @@ pub fn cycles_into_period(period: &TimerPeriod) -> u32 {
 #[inline]
 pub fn clear_update() {
     pac::TIM1.sr().write_value(pac::timer::regs::SrAdv(!1));
+}
+
+/// Clears channel 3's compare flag (the compare interrupt's own).
+#[inline]
+pub fn clear_compare() {
+    pac::TIM1
+        .sr()
+        .write_value(pac::timer::regs::SrAdv(!(1 << 3)));
 }
 
 /// True when the timer updated again since [`clear_update`].

@@ -396,8 +396,10 @@ impl<T: Float, const N: usize> DriveSet<T, N> {
     /// The period's tick: bring-up's frames (at most one a drive), or per bus the
     /// SYNC and the RPDO with the commands set by [`Self::command`] in the period
     /// before (or Quick stop and zero torque after a fault). `tx(bus, frame)` queues
-    /// a frame for sending; at most two a bus come in a period.
-    pub fn start_period(&mut self, tx: &mut dyn FnMut(u8, &CanFrame)) {
+    /// a frame for sending; at most two a bus come in a period. (`tx` is generic, not
+    /// `dyn`: a board calls this in its control interrupt, whose stack is bounded
+    /// statically through direct calls only.)
+    pub fn start_period(&mut self, tx: &mut impl FnMut(u8, &CanFrame)) {
         // A period carries bring-up frames or cyclic ones, never both: at most one
         // frame a drive, two a bus, within the FDCAN's three transmit buffers.
         let mut bring_up_frames = 0u32;
@@ -417,7 +419,7 @@ impl<T: Float, const N: usize> DriveSet<T, N> {
         }
     }
 
-    fn cyclic_frames(&mut self, tx: &mut dyn FnMut(u8, &CanFrame)) {
+    fn cyclic_frames(&mut self, tx: &mut impl FnMut(u8, &CanFrame)) {
         let counter = self.sync_counter;
         self.sync_counter = crate::codec::canopen::next_sync_counter(counter, SYNC_COUNTER_MAX);
         for bus in 0..MAX_BUSES as u8 {

@@ -174,7 +174,7 @@ pub fn read<const N: usize>(
     text: &[u8],
     config: &ReaderConfig,
     points: &mut Vec<GcodePoint, N>,
-    sink: &mut dyn FnMut(&Diagnostic),
+    sink: &mut (impl FnMut(&Diagnostic) + ?Sized),
 ) -> Result<Program, ConfigError> {
     points.clear();
     let mut parser = Parser::with_config(config)?;

@@ -81,7 +81,7 @@ impl<T: Float, const N: usize> DriveSet<T, N> {
     pub(super) fn bring_up_period(
         &mut self,
         step: BringUpStep,
-        tx: &mut dyn FnMut(u8, &crate::codec::canopen::CanFrame),
+        tx: &mut impl FnMut(u8, &crate::codec::canopen::CanFrame),
     ) {
         match step {
             BringUpStep::BootUp => self.boot_up(tx),
@@ -90,7 +90,7 @@ impl<T: Float, const N: usize> DriveSet<T, N> {
         }
     }
 
-    fn boot_up(&mut self, tx: &mut dyn FnMut(u8, &crate::codec::canopen::CanFrame)) {
+    fn boot_up(&mut self, tx: &mut impl FnMut(u8, &crate::codec::canopen::CanFrame)) {
         if !self.bring_up.reset_sent {
             for a in self.drives.iter().filter_map(|d| d.address) {
                 tx(a.bus, &NmtCommand::ResetNode.frame(a.node));
@@ -143,7 +143,7 @@ impl<T: Float, const N: usize> DriveSet<T, N> {
         })
     }
 
-    fn configure(&mut self, tx: &mut dyn FnMut(u8, &crate::codec::canopen::CanFrame)) {
+    fn configure(&mut self, tx: &mut impl FnMut(u8, &crate::codec::canopen::CanFrame)) {
         let timeout = self.config().sdo_timeout_periods;
         let mut least = None;
         for i in 0..N {

@@ -40,7 +40,7 @@ fn blank(b: u8) -> bool {
 /// the first error ends the line and is returned with its column.
 pub(super) fn words(
     line: &[u8],
-    warn: &mut dyn FnMut(u32, GcodeErrorKind),
+    warn: &mut (impl FnMut(u32, GcodeErrorKind) + ?Sized),
 ) -> Result<Vec<Word, MAX_WORDS>, (u32, GcodeErrorKind)> {
     let mut words: Vec<Word, MAX_WORDS> = Vec::new();
     let at = |k: usize| line.get(k).copied();

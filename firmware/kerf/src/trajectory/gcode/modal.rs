@@ -199,8 +199,8 @@ impl Parser {
     pub fn read_line(
         &mut self,
         line: &[u8],
-        emit: &mut dyn FnMut(&GcodePoint) -> bool,
-        sink: &mut dyn FnMut(&Diagnostic),
+        emit: &mut (impl FnMut(&GcodePoint) -> bool + ?Sized),
+        sink: &mut (impl FnMut(&Diagnostic) + ?Sized),
     ) {
         self.line = self.line.saturating_add(1);
         let line_no = self.line;

@@ -31,14 +31,20 @@ fn shown_x10(value: f64) -> u32 {
 
 impl Parser {
     /// Sorts the words of a line, reporting the unknown and the repeated.
-    fn sort(&self, words: &[Word], report: &mut dyn FnMut(u32, Kind)) -> Line {
+    fn sort(&self, words: &[Word], report: &mut impl FnMut(u32, Kind)) -> Line {
         let mut l = Line::default();
         for w in words {
             let column = w.column;
             let slot = match w.letter {
                 letter @ (b'G' | b'M') => {
                     let code = code_x10(w.value);
-                    let group = code.and_then(if letter == b'G' { g_group } else { m_group });
+                    let group = code.and_then(|c| {
+                        if letter == b'G' {
+                            g_group(c)
+                        } else {
+                            m_group(c)
+                        }
+                    });
                     let (Some(code), Some(group)) = (code, group) else {
                         let code_x10 = shown_x10(w.value);
                         report(column, Kind::Unsupported { letter, code_x10 });
@@ -94,7 +100,7 @@ impl Parser {
     /// Applies one line's words to the state in RS-274's order and returns its move.
     /// Problems go to `report`; the caller keeps the new state only when none is an
     /// error.
-    pub(super) fn apply(&mut self, words: &[Word], report: &mut dyn FnMut(u32, Kind)) -> Plan {
+    pub(super) fn apply(&mut self, words: &[Word], report: &mut impl FnMut(u32, Kind)) -> Plan {
         let l = self.sort(words, report);
         let g = |group: usize| l.g.get(group).copied().flatten();
         let m = |group: usize| l.m.get(group).copied().flatten();
@@ -330,7 +336,7 @@ impl Parser {
         machine: bool,
         column: u32,
         arc_used: &mut bool,
-        say: &mut dyn FnMut((u32, Kind)),
+        say: &mut impl FnMut((u32, Kind)),
     ) -> Option<Plan> {
         let Some(motion) = self.motion else {
             say((column, Kind::NoMotionMode));
@@ -458,8 +464,8 @@ impl Parser {
         &mut self,
         line: u32,
         plan: Plan,
-        emit: &mut dyn FnMut(&GcodePoint) -> bool,
-        report: &mut dyn FnMut(u32, Kind),
+        emit: &mut (impl FnMut(&GcodePoint) -> bool + ?Sized),
+        report: &mut impl FnMut(u32, Kind),
     ) {
         let (spindle, spindle_s) = (self.spindle, self.spindle_s);
         let point = |p: [f64; 5], kind, feed_m_s, dwell_s| {
