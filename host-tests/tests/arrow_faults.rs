@@ -174,3 +174,56 @@ fn encoder_faults_stop_the_machine_with_zero_force_in_the_same_period() {
         run.samples.len() - 1000
     );
 }
+
+/// A job read in place over another (as the link builds it in a job buffer that held
+/// the job before) is the job read fresh: the earlier job's moves do not survive, in
+/// count, plan or line; and a refused program leaves no job to mistake for a good one
+/// (the next good one read over it is again the fresh one).
+#[test]
+fn a_job_read_over_another_is_the_job_read_fresh() {
+    let short = format!("{HEAD}G1 X10 Y500 Z0 F600\n");
+    let fresh = job_from_gcode(&short).unwrap();
+    let geometry = ArrowGeometry::<f64>::new(&ArrowConfig::ARROW).unwrap();
+    let mut points = Box::new(heapless::Vec::<GcodePoint, 256>::new());
+    let mut reused = job_from_gcode(PYRAMID_GCODE).unwrap();
+    assert_eq!(
+        reused.moves().len(),
+        3,
+        "the pyramid: plunge, contour, retract"
+    );
+    for bad_first in [false, true] {
+        if bad_first {
+            let bad = format!("{HEAD}G1 X10 Q3\n");
+            assert!(reused
+                .read_gcode(
+                    bad.as_bytes(),
+                    &mut points,
+                    &geometry,
+                    &ArrowJobConfig::ARROW
+                )
+                .is_err());
+        }
+        reused
+            .read_gcode(
+                short.as_bytes(),
+                &mut points,
+                &geometry,
+                &ArrowJobConfig::ARROW,
+            )
+            .unwrap();
+        assert_eq!(reused.moves().len(), fresh.moves().len());
+        assert_eq!(reused.periods(), fresh.periods());
+        assert_eq!(reused.start(), fresh.start());
+        for (a, b) in reused.moves().iter().zip(fresh.moves()) {
+            assert_eq!((a.line, a.plan), (b.line, b.plan));
+            assert_eq!(a.spline.points(), b.spline.points());
+        }
+    }
+    // The same through the points the reader gave (`plan_points`).
+    let mut again = job_from_gcode(PYRAMID_GCODE).unwrap();
+    again
+        .plan_points(&points, &geometry, &ArrowJobConfig::ARROW)
+        .unwrap();
+    assert_eq!(again.periods(), fresh.periods());
+    assert_eq!(again.moves().len(), fresh.moves().len());
+}

@@ -5,7 +5,7 @@
 use kerf::codec::link::{ModeCode, Refusal, TelemetrySample};
 use kerf::trajectory::gcode::GcodeErrorKind;
 use kerf_host::description::{ChannelInfo, Item, MachineDescription};
-use kerf_host::gcode::describe_gcode;
+use kerf_host::gcode::{describe_gcode, diagnose, format_diagnostic, has_errors};
 use kerf_host::mask::{Mask, Px};
 use kerf_host::telemetry::TelemetryLog;
 use std::collections::BTreeSet;
@@ -121,6 +121,33 @@ fn keops_slave() -> MachineDescription {
         }
     }
     d
+}
+
+/// Every problem of a program in one pass, in file order, each as
+/// `FILE:LINE:COLUMN: severity: message`; a program with warnings only has no errors.
+#[test]
+fn a_program_is_diagnosed_whole_and_printed_as_compilers_print() {
+    // Line 2: a tool change (a warning: nothing to change on ARROW); line 3: an
+    // unknown word at column 8 (an error); line 4: a good move.
+    let text = b"G21 G90\nT1 M6\nG1 X10 Q3 F600\nG1 X20 F600\n";
+    let found = diagnose(text);
+    let printed: Vec<String> = found
+        .iter()
+        .map(|d| format_diagnostic("part.nc", d))
+        .collect();
+    assert!(printed.len() >= 2, "{printed:?}");
+    assert!(printed[0].starts_with("part.nc:2:"), "{printed:?}");
+    assert!(printed[0].contains("warning"), "{printed:?}");
+    let error = printed
+        .iter()
+        .find(|p| p.contains("error"))
+        .expect("the error");
+    assert!(error.starts_with("part.nc:3:8:"), "{error}");
+    assert!(error.contains("'Q'"), "{error}");
+    assert!(has_errors(&found));
+    let warnings_only = diagnose(b"G21 G90\nT1 M6\nG1 X10 F600\n");
+    assert!(!warnings_only.is_empty());
+    assert!(!has_errors(&warnings_only));
 }
 
 #[test]
