@@ -10,7 +10,9 @@
 //! [`constraint`] (circle/line motion constraints for manual machining), [`shapes`]
 //! (the test contours of T fig. 8.1, 8.2 and 8.4), and the G-code path of A §4:
 //! [`gcode`] (the file), [`task_spline`] (a natural cubic spline through its points in
-//! task space) and [`feed`] (constant feed along it with S-curve start and stop).
+//! task space) and [`feed`] (constant feed along it with S-curve start and stop);
+//! [`planner`] plans programs of straight moves as CNC controllers do (look-ahead over
+//! a buffer, corners at a junction-deviation speed).
 
 mod arc;
 pub mod constraint;
@@ -19,6 +21,7 @@ pub mod efd;
 pub mod feed;
 pub mod gcode;
 pub mod open_path;
+pub mod planner;
 mod quadrature;
 pub mod quintic;
 pub mod resample;

@@ -1,0 +1,355 @@
+//! Look-ahead planning of straight moves, as CNC controllers plan them (grbl's planner
+//! buffer, Klipper's look-ahead): each move at its own feed, corners passed at the
+//! speed a junction-deviation limit allows instead of stopping or rounding them, and
+//! every speed change within the machine's acceleration. Programs of any length go
+//! through a buffer of `N` moves: a move is planned as it is added, and the executor
+//! takes moves from the front while the rest are re-planned.
+//!
+//! # Corners (junction deviation)
+//!
+//! A corner between two moves is passed at the speed at which a circle tangent to both
+//! moves, whose nearest point lies `δ` ([`PlannerLimits::junction_deviation_m`]) from
+//! the corner, could be followed at the machine's acceleration `a`: with `α` half the
+//! angle between the two legs (from the corner back along the first move and along
+//! the second), the circle's radius is `r = δ sin α / (1 − sin α)` and the speed
+//! `v = √(a r)`. A straight continuation (`α` = 90°) sets no limit; a full reversal
+//! (`α` = 0) stops. The path itself stays the programmed polyline: `δ` only chooses a
+//! corner's speed. (grbl's `junction_deviation`; Klipper sets the same from a square
+//! corner's speed, `δ = v²(√2 − 1)/a`.)
+//!
+//! # Speeds along the buffer
+//!
+//! Each move `i` of length `L_i` has a nominal speed (its feed, at most the machine's
+//! largest) and an entry limit (the corner before it; the first move of a program
+//! starts from rest). The plan is the fastest under these limits with constant
+//! acceleration `±a`: a backward pass from the last move, which must be able to stop
+//! (nothing is known after it), gives each entry `v_i ≤ √(v_{i+1}² + 2 a L_i)`; a
+//! forward pass from the first, whose entry is fixed (the executor is already at
+//! it), gives `v_{i+1} ≤ √(v_i² + 2 a L_i)`. Each move is then a trapezoid (a
+//! triangle when it is too short to cruise): accelerate from its entry, cruise at
+//! `min(nominal, √((2 a L + v_in² + v_out²)/2))`, decelerate to its exit. With
+//! acceleration bounded and speed limits along the path, this bang–bang profile is
+//! the time-optimal one.
+
+use crate::error::{positive, ConfigError};
+use heapless::Deque;
+
+/// The machine's limits for the planner.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct PlannerLimits {
+    /// The largest speed along the path, m/s (a move's feed above it is lowered).
+    pub max_speed_m_s: f64,
+    /// Acceleration along the path, m/s².
+    pub accel_m_s2: f64,
+    /// How far from a corner the circle that sets its speed passes, m (module docs).
+    pub junction_deviation_m: f64,
+}
+
+impl PlannerLimits {
+    /// Checked: every limit finite and positive.
+    ///
+    /// Errors: the field that is not.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        positive("max_speed_m_s", self.max_speed_m_s)?;
+        positive("accel_m_s2", self.accel_m_s2)?;
+        positive("junction_deviation_m", self.junction_deviation_m)?;
+        Ok(())
+    }
+
+    /// The speed at which a corner between moves in the unit directions `from` and
+    /// `to` is passed, m/s (`f64::INFINITY` for a straight continuation).
+    pub fn corner_speed_m_s<const D: usize>(&self, from: &[f64; D], to: &[f64; D]) -> f64 {
+        // cos of the angle between the legs: from the corner back along `from`, and
+        // along `to`; sin α = sin(angle / 2) = √((1 − cos) / 2).
+        let cos_legs = -dot(from, to);
+        if cos_legs <= -1.0 + 1e-12 {
+            return f64::INFINITY;
+        }
+        let sin_half = libm::sqrt(0.5 * (1.0 - cos_legs).max(0.0));
+        if sin_half <= 1e-12 {
+            return 0.0;
+        }
+        let radius_m = self.junction_deviation_m * sin_half / (1.0 - sin_half);
+        libm::sqrt(self.accel_m_s2 * radius_m)
+    }
+}
+
+/// Why a move is not taken.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PlanError {
+    /// The buffer is full: take a move from the front first.
+    Full,
+    /// A coordinate or the feed is not finite.
+    NotFinite,
+    /// The feed is not positive.
+    NoFeed,
+}
+
+/// A move's speed profile: accelerate, cruise, decelerate.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Trapezoid {
+    /// Speed at the start, m/s.
+    pub entry_m_s: f64,
+    /// Speed of the flat part (the peak of a triangle), m/s.
+    pub cruise_m_s: f64,
+    /// Speed at the end, m/s.
+    pub exit_m_s: f64,
+    /// Length of the acceleration, m.
+    pub accel_m: f64,
+    /// Length at the cruise speed, m.
+    pub cruise_m: f64,
+    /// Length of the deceleration, m.
+    pub decel_m: f64,
+    /// The acceleration, m/s².
+    pub accel_m_s2: f64,
+}
+
+impl Trapezoid {
+    /// The profile over `length_m` from `entry` to `exit` with at most `nominal`,
+    /// at acceleration `accel` (the entry and exit reachable from each other).
+    pub fn new(length_m: f64, entry_m_s: f64, exit_m_s: f64, nominal_m_s: f64, accel: f64) -> Self {
+        let peak_sq = accel * length_m + 0.5 * (entry_m_s * entry_m_s + exit_m_s * exit_m_s);
+        let cruise = libm::sqrt(peak_sq.max(0.0))
+            .min(nominal_m_s)
+            .max(entry_m_s)
+            .max(exit_m_s);
+        let accel_m = ((cruise * cruise - entry_m_s * entry_m_s) / (2.0 * accel)).max(0.0);
+        let decel_m = ((cruise * cruise - exit_m_s * exit_m_s) / (2.0 * accel)).max(0.0);
+        Self {
+            entry_m_s,
+            cruise_m_s: cruise,
+            exit_m_s,
+            accel_m,
+            cruise_m: (length_m - accel_m - decel_m).max(0.0),
+            decel_m,
+            accel_m_s2: accel,
+        }
+    }
+
+    /// Time of the three parts, s.
+    pub fn times_s(&self) -> [f64; 3] {
+        let ramp = |from: f64| (self.cruise_m_s - from) / self.accel_m_s2;
+        let cruise = if self.cruise_m > 0.0 {
+            self.cruise_m / self.cruise_m_s
+        } else {
+            0.0
+        };
+        [ramp(self.entry_m_s), cruise, ramp(self.exit_m_s)]
+    }
+
+    /// Duration, s.
+    pub fn duration_s(&self) -> f64 {
+        self.times_s().iter().sum()
+    }
+
+    /// Distance travelled and speed at `t_s` after the start (held at the end past
+    /// it), m and m/s.
+    pub fn at(&self, t_s: f64) -> (f64, f64) {
+        let [ta, tc, td] = self.times_s();
+        let a = self.accel_m_s2;
+        let t = t_s.max(0.0);
+        if t < ta {
+            return (self.entry_m_s * t + 0.5 * a * t * t, self.entry_m_s + a * t);
+        }
+        let t = t - ta;
+        if t < tc {
+            return (self.accel_m + self.cruise_m_s * t, self.cruise_m_s);
+        }
+        let t = (t - tc).min(td);
+        (
+            self.accel_m + self.cruise_m + self.cruise_m_s * t - 0.5 * a * t * t,
+            self.cruise_m_s - a * t,
+        )
+    }
+}
+
+/// One straight move in `D` axes, planned.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Block<const D: usize> {
+    /// Where it starts, m.
+    pub start_m: [f64; D],
+    /// Where it ends, m.
+    pub end_m: [f64; D],
+    /// Its length, m.
+    pub length_m: f64,
+    /// Its direction (unit).
+    pub unit: [f64; D],
+    /// Its feed, at most the machine's largest speed, m/s.
+    pub nominal_m_s: f64,
+    /// The corner before it allows at most this entry speed, m/s.
+    pub max_entry_m_s: f64,
+    /// Planned entry speed, m/s.
+    pub entry_m_s: f64,
+    /// Planned exit speed (the next move's entry), m/s.
+    pub exit_m_s: f64,
+}
+
+impl<const D: usize> Block<D> {
+    /// Its speed profile at acceleration `accel_m_s2`.
+    pub fn profile(&self, accel_m_s2: f64) -> Trapezoid {
+        Trapezoid::new(
+            self.length_m,
+            self.entry_m_s,
+            self.exit_m_s,
+            self.nominal_m_s,
+            accel_m_s2,
+        )
+    }
+
+    /// The point `s_m` along it (clamped to its ends), m.
+    pub fn point_at(&self, s_m: f64) -> [f64; D] {
+        let s = s_m.clamp(0.0, self.length_m);
+        let mut point = self.start_m;
+        for (x, u) in point.iter_mut().zip(&self.unit) {
+            *x += u * s;
+        }
+        point
+    }
+}
+
+/// The look-ahead planner over a buffer of `N` moves in `D` axes (module docs).
+pub struct Planner<const D: usize, const N: usize> {
+    limits: PlannerLimits,
+    blocks: Deque<Block<D>, N>,
+    /// Where the last move added ends (the next one starts there), m.
+    position_m: [f64; D],
+    /// The entry speed of the front move, fixed once the move before it was taken.
+    front_entry_m_s: f64,
+}
+
+impl<const D: usize, const N: usize> Planner<D, N> {
+    /// An empty buffer at rest at `start_m`.
+    ///
+    /// Errors: a limit that is not finite and positive; a start not finite.
+    pub fn new(limits: &PlannerLimits, start_m: [f64; D]) -> Result<Self, ConfigError> {
+        limits.check()?;
+        if !start_m.iter().all(|v| v.is_finite()) {
+            return Err(ConfigError::not_finite("start_m"));
+        }
+        Ok(Self {
+            limits: *limits,
+            blocks: Deque::new(),
+            position_m: start_m,
+            front_entry_m_s: 0.0,
+        })
+    }
+
+    /// The limits it plans with.
+    pub fn limits(&self) -> &PlannerLimits {
+        &self.limits
+    }
+
+    /// Adds a straight move to `target_m` at `feed_m_s` and re-plans the buffer. A move
+    /// of no length is taken and adds nothing.
+    ///
+    /// Errors: the buffer is full; a coordinate or the feed is not finite; the feed
+    /// is not positive. Nothing changes.
+    pub fn push(&mut self, target_m: [f64; D], feed_m_s: f64) -> Result<(), PlanError> {
+        if !feed_m_s.is_finite() || !target_m.iter().all(|v| v.is_finite()) {
+            return Err(PlanError::NotFinite);
+        }
+        if feed_m_s <= 0.0 {
+            return Err(PlanError::NoFeed);
+        }
+        let mut delta = target_m;
+        for (d, from) in delta.iter_mut().zip(&self.position_m) {
+            *d -= from;
+        }
+        let length_m = libm::sqrt(dot(&delta, &delta));
+        if length_m <= 0.0 {
+            return Ok(());
+        }
+        if self.blocks.is_full() {
+            return Err(PlanError::Full);
+        }
+        let unit = delta.map(|d| d / length_m);
+        let nominal_m_s = feed_m_s.min(self.limits.max_speed_m_s);
+        let max_entry_m_s = match self.blocks.back() {
+            Some(prev) => self
+                .limits
+                .corner_speed_m_s(&prev.unit, &unit)
+                .min(prev.nominal_m_s)
+                .min(nominal_m_s),
+            // After the buffer ran empty the machine is at rest.
+            None => 0.0,
+        };
+        let block = Block {
+            start_m: self.position_m,
+            end_m: target_m,
+            length_m,
+            unit,
+            nominal_m_s,
+            max_entry_m_s,
+            entry_m_s: 0.0,
+            exit_m_s: 0.0,
+        };
+        if self.blocks.push_back(block).is_err() {
+            return Err(PlanError::Full);
+        }
+        if self.blocks.len() == 1 {
+            self.front_entry_m_s = 0.0;
+        }
+        self.position_m = target_m;
+        self.replan();
+        Ok(())
+    }
+
+    /// Takes the front move for execution, planned; the next one's entry is then
+    /// fixed at its exit.
+    pub fn pop(&mut self) -> Option<Block<D>> {
+        let block = self.blocks.pop_front()?;
+        self.front_entry_m_s = block.exit_m_s;
+        Some(block)
+    }
+
+    /// The moves in the buffer, planned, front first.
+    pub fn blocks(&self) -> impl Iterator<Item = &Block<D>> {
+        self.blocks.iter()
+    }
+
+    /// Moves in the buffer.
+    pub fn len(&self) -> usize {
+        self.blocks.len()
+    }
+
+    /// Whether the buffer is empty.
+    pub fn is_empty(&self) -> bool {
+        self.blocks.is_empty()
+    }
+
+    /// Whether another move fits.
+    pub fn is_full(&self) -> bool {
+        self.blocks.is_full()
+    }
+
+    /// Duration of the moves in the buffer as planned, s.
+    pub fn duration_s(&self) -> f64 {
+        let a = self.limits.accel_m_s2;
+        self.blocks.iter().map(|b| b.profile(a).duration_s()).sum()
+    }
+
+    /// The backward pass (the last move stops), then the forward pass from the
+    /// front's fixed entry (module docs).
+    fn replan(&mut self) {
+        let a2 = 2.0 * self.limits.accel_m_s2;
+        let mut exit = 0.0f64;
+        for b in self.blocks.iter_mut().rev() {
+            b.exit_m_s = exit;
+            b.entry_m_s = b
+                .max_entry_m_s
+                .min(libm::sqrt(exit * exit + a2 * b.length_m));
+            exit = b.entry_m_s;
+        }
+        let mut entry = self.front_entry_m_s;
+        for b in self.blocks.iter_mut() {
+            b.entry_m_s = entry;
+            b.exit_m_s = b.exit_m_s.min(libm::sqrt(entry * entry + a2 * b.length_m));
+            entry = b.exit_m_s;
+        }
+    }
+}
+
+fn dot<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}

@@ -1,0 +1,336 @@
+//! The look-ahead planner (`kerf::trajectory::planner`) against references computed
+//! another way: the corner speed from the inscribed circle's construction (angles
+//! by atan2, not the dot-product identity), and the whole plan's duration against the
+//! time-optimal profile found on a dense grid of arc length (forward and backward
+//! passes of v² ≤ v₀² + 2aΔs on 0.1 mm steps, with the corner speeds and feeds as
+//! limits), which converges to the same optimum by a different route.
+
+use kerf::trajectory::planner::{Block, PlanError, Planner, PlannerLimits, Trapezoid};
+use proptest::prelude::*;
+
+const LIMITS: PlannerLimits = PlannerLimits {
+    max_speed_m_s: 0.05,
+    accel_m_s2: 0.5,
+    junction_deviation_m: 0.02e-3,
+};
+
+/// The speed of a corner from its geometry: the legs' directions by atan2, the
+/// circle tangent to both legs whose nearest point is δ from the corner (centre on
+/// the bisector at d = δ / (1 − sin α), radius d sin α), and v = √(a r).
+fn corner_by_construction(from: [f64; 2], to: [f64; 2], limits: &PlannerLimits) -> f64 {
+    let back = (-from[1]).atan2(-from[0]);
+    let ahead = to[1].atan2(to[0]);
+    let mut between = (ahead - back).abs();
+    if between > std::f64::consts::PI {
+        between = 2.0 * std::f64::consts::PI - between;
+    }
+    let half = 0.5 * between;
+    let d = limits.junction_deviation_m / (1.0 - half.sin());
+    let r = d * half.sin();
+    (limits.accel_m_s2 * r).sqrt()
+}
+
+#[test]
+fn a_corner_is_passed_at_the_speed_of_its_inscribed_circle() {
+    for turn_deg in [5.0f64, 30.0, 45.0, 90.0, 120.0, 150.0, 175.0] {
+        let t = turn_deg.to_radians();
+        let from = [1.0, 0.0];
+        let to = [t.cos(), t.sin()];
+        let got = LIMITS.corner_speed_m_s(&from, &to);
+        let want = corner_by_construction(from, to, &LIMITS);
+        assert!(
+            (got - want).abs() <= 1e-12 * want.max(1e-6),
+            "{turn_deg}°: {got} vs {want}"
+        );
+    }
+    // The 90° corner: r = δ (√2/2)/(1 − √2/2) = 2.414 δ, v = √(a r).
+    let square = LIMITS.corner_speed_m_s(&[1.0, 0.0], &[0.0, 1.0]);
+    let r = LIMITS.junction_deviation_m * 2f64.sqrt() / (2.0 - 2f64.sqrt());
+    assert!((square - (LIMITS.accel_m_s2 * r).sqrt()).abs() < 1e-15);
+    assert_eq!(
+        LIMITS.corner_speed_m_s(&[1.0, 0.0], &[1.0, 0.0]),
+        f64::INFINITY
+    );
+    assert_eq!(LIMITS.corner_speed_m_s(&[1.0, 0.0], &[-1.0, 0.0]), 0.0);
+}
+
+/// A trapezoid covers its length, starts and ends at its speeds, and its distance
+/// and speed over time agree with integrating its speed numerically.
+#[test]
+fn a_trapezoid_covers_its_length_at_its_speeds() {
+    for (length, entry, exit, nominal) in [
+        (0.01, 0.0, 0.0, 0.05),   // accelerates, cruises, stops
+        (0.001, 0.0, 0.0, 0.05),  // too short to cruise: a triangle
+        (0.01, 0.02, 0.01, 0.05), // enters and leaves moving
+        (0.002, 0.03, 0.03, 0.03),
+    ] {
+        let p = Trapezoid::new(length, entry, exit, nominal, 0.5);
+        assert!(p.cruise_m_s <= nominal + 1e-15);
+        assert!((p.accel_m + p.cruise_m + p.decel_m - length).abs() < 1e-15);
+        let duration = p.duration_s();
+        assert!((p.at(0.0).1 - entry).abs() < 1e-12);
+        assert!(
+            (p.at(duration).1 - exit).abs() < 1e-9,
+            "{:?}",
+            p.at(duration)
+        );
+        assert!((p.at(duration).0 - length).abs() < 1e-12);
+        // ∫ v dt by the midpoint rule over 10⁴ steps.
+        let n = 10_000;
+        let dt = duration / n as f64;
+        let integral: f64 = (0..n).map(|k| p.at((k as f64 + 0.5) * dt).1 * dt).sum();
+        assert!(
+            (integral - length).abs() < 1e-9 * length.max(1.0),
+            "{integral} vs {length}"
+        );
+    }
+}
+
+/// The time-optimal duration of a polyline on a dense grid of arc length (module
+/// docs): limits per grid point (feed of its move; at a vertex, the corner speed of
+/// the construction above), then the forward and backward passes, then Σ Δs / v̄.
+fn grid_duration(
+    start: [f64; 2],
+    moves: &[([f64; 2], f64)],
+    limits: &PlannerLimits,
+    ds: f64,
+) -> f64 {
+    let mut cap = vec![0.0f64];
+    let mut steps = Vec::new();
+    let mut at = start;
+    let mut last_unit: Option<[f64; 2]> = None;
+    for &(target, feed) in moves {
+        let d = [target[0] - at[0], target[1] - at[1]];
+        let len = d[0].hypot(d[1]);
+        if len == 0.0 {
+            continue;
+        }
+        let unit = [d[0] / len, d[1] / len];
+        let nominal = feed.min(limits.max_speed_m_s);
+        if let Some(prev) = last_unit {
+            let corner = corner_by_construction(prev, unit, limits);
+            let last = cap.len() - 1;
+            cap[last] = cap[last].min(corner).min(nominal);
+        }
+        let n = (len / ds).ceil() as usize;
+        for _ in 0..n {
+            steps.push(len / n as f64);
+            cap.push(nominal);
+        }
+        last_unit = Some(unit);
+        at = target;
+    }
+    let last = cap.len() - 1;
+    cap[last] = 0.0;
+    let a2 = 2.0 * limits.accel_m_s2;
+    let mut v = cap.clone();
+    for i in 1..v.len() {
+        v[i] = v[i].min((v[i - 1] * v[i - 1] + a2 * steps[i - 1]).sqrt());
+    }
+    for i in (0..v.len() - 1).rev() {
+        v[i] = v[i].min((v[i + 1] * v[i + 1] + a2 * steps[i]).sqrt());
+    }
+    steps
+        .iter()
+        .enumerate()
+        .map(|(i, s)| 2.0 * s / (v[i] + v[i + 1]))
+        .sum()
+}
+
+/// The grid's durations at 0.1 mm and 25 µm: its error is first order in the step
+/// (a step where the speed reaches its cap is taken at constant acceleration), so
+/// the finer one is within a third of their difference of the optimum, and a plan
+/// must be at least that close to it.
+fn grids(moves: &[([f64; 2], f64)]) -> (f64, f64) {
+    (
+        grid_duration([0.0, 0.0], moves, &LIMITS, 1e-4),
+        grid_duration([0.0, 0.0], moves, &LIMITS, 2.5e-5),
+    )
+}
+
+fn planned(start: [f64; 2], moves: &[([f64; 2], f64)]) -> Vec<Block<2>> {
+    let mut planner = Planner::<2, 64>::new(&LIMITS, start).unwrap();
+    for &(target, feed) in moves {
+        planner.push(target, feed).unwrap();
+    }
+    planner.blocks().copied().collect()
+}
+
+fn total(blocks: &[Block<2>]) -> f64 {
+    blocks
+        .iter()
+        .map(|b| b.profile(LIMITS.accel_m_s2).duration_s())
+        .sum()
+}
+
+/// A square of 10 mm at 30 mm/s with one slow side: the plan's duration is the grid's
+/// to the grid's own error, every corner passed at its circle's speed, and the move
+/// ends at rest.
+#[test]
+fn a_square_takes_the_time_optimal_duration() {
+    let moves = [
+        ([0.01, 0.0], 0.03),
+        ([0.01, 0.01], 0.03),
+        ([0.0, 0.01], 0.01),
+        ([0.0, 0.0], 0.03),
+    ];
+    let blocks = planned([0.0, 0.0], &moves);
+    let got = total(&blocks);
+    let (coarse, fine) = grids(&moves);
+    assert!(
+        (got - fine).abs() <= (coarse - fine).abs(),
+        "{got} s vs the grid's {fine} s (and {coarse} s on a grid 4 times coarser)"
+    );
+    let corner = LIMITS.corner_speed_m_s(&[1.0, 0.0], &[0.0, 1.0]);
+    assert!((blocks[1].entry_m_s - corner).abs() < 1e-12);
+    assert_eq!(blocks[0].entry_m_s, 0.0);
+    assert_eq!(blocks[3].exit_m_s, 0.0);
+}
+
+/// Random programs as a machinist's would run: a heading that mostly turns a little
+/// (gentle corners, where the speeds are highest and the braking binds) and now and
+/// then sharply, moves from 0.2 to 20 mm, feeds from 2 to 80 mm/s.
+fn polyline() -> impl Strategy<Value = Vec<([f64; 2], f64)>> {
+    prop::collection::vec(
+        (
+            prop_oneof![4 => -0.3f64..0.3, 1 => -3.1f64..3.1],
+            0.0002f64..0.02,
+            0.002f64..0.08,
+        ),
+        1..12,
+    )
+    .prop_map(|v| {
+        let (mut heading, mut at) = (0.0f64, [0.0f64, 0.0]);
+        v.into_iter()
+            .map(|(turn, length, feed)| {
+                heading += turn;
+                at = [
+                    at[0] + length * heading.cos(),
+                    at[1] + length * heading.sin(),
+                ];
+                (at, feed)
+            })
+            .collect()
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// Random polylines: speeds continuous across moves, within every limit (feed,
+    /// corner, reachable by the acceleration within each move), from and to rest, and
+    /// the duration the grid's time-optimal one.
+    #[test]
+    fn random_programs_are_planned_within_every_limit(moves in polyline()) {
+        let blocks = planned([0.0, 0.0], &moves);
+        prop_assume!(!blocks.is_empty());
+        let a2 = 2.0 * LIMITS.accel_m_s2;
+        prop_assert_eq!(blocks[0].entry_m_s, 0.0);
+        prop_assert_eq!(blocks[blocks.len() - 1].exit_m_s, 0.0);
+        for pair in blocks.windows(2) {
+            prop_assert_eq!(pair[0].exit_m_s, pair[1].entry_m_s);
+        }
+        for b in &blocks {
+            prop_assert!(b.entry_m_s <= b.max_entry_m_s + 1e-12);
+            let p = b.profile(LIMITS.accel_m_s2);
+            prop_assert!(p.cruise_m_s <= b.nominal_m_s + 1e-12);
+            let dv2 = (b.exit_m_s * b.exit_m_s - b.entry_m_s * b.entry_m_s).abs();
+            prop_assert!(dv2 <= a2 * b.length_m * (1.0 + 1e-9) + 1e-15);
+        }
+        let got = total(&blocks);
+        let (coarse, fine) = grids(&moves);
+        prop_assert!(
+            (got - fine).abs() <= (coarse - fine).abs() + 1e-9,
+            "{} s vs the grid's {} s ({} s on the coarse grid)", got, fine, coarse
+        );
+    }
+
+    /// Through a buffer of 4 moves (taken from the front whenever it is full), the
+    /// program is never faster than with the whole program in view, and never leaves
+    /// a limit; with the buffer at least the program's length it is the same plan.
+    #[test]
+    fn a_short_buffer_plans_safely_and_a_long_one_plans_the_whole(moves in polyline()) {
+        let whole = planned([0.0, 0.0], &moves);
+        prop_assume!(!whole.is_empty());
+        let mut short = Planner::<2, 4>::new(&LIMITS, [0.0, 0.0]).unwrap();
+        let mut taken = Vec::new();
+        for &(target, feed) in &moves {
+            if short.is_full() {
+                taken.push(short.pop().unwrap());
+            }
+            short.push(target, feed).unwrap();
+        }
+        while let Some(b) = short.pop() {
+            taken.push(b);
+        }
+        prop_assert_eq!(taken.len(), whole.len());
+        for pair in taken.windows(2) {
+            prop_assert!((pair[0].exit_m_s - pair[1].entry_m_s).abs() < 1e-12);
+        }
+        prop_assert_eq!(taken[taken.len() - 1].exit_m_s, 0.0);
+        prop_assert!(total(&taken) >= total(&whole) - 1e-12);
+        if moves.len() <= 4 {
+            prop_assert!((total(&taken) - total(&whole)).abs() < 1e-12);
+        }
+    }
+}
+
+#[test]
+fn bad_moves_and_limits_are_refused_and_change_nothing() {
+    let mut p = Planner::<2, 2>::new(&LIMITS, [0.0, 0.0]).unwrap();
+    assert_eq!(p.push([f64::NAN, 0.0], 0.01), Err(PlanError::NotFinite));
+    assert_eq!(p.push([0.01, 0.0], 0.0), Err(PlanError::NoFeed));
+    assert_eq!(
+        p.push([0.01, 0.0], f64::INFINITY),
+        Err(PlanError::NotFinite)
+    );
+    assert!(p.is_empty());
+    // A move of no length is taken and adds nothing.
+    assert_eq!(p.push([0.0, 0.0], 0.01), Ok(()));
+    assert!(p.is_empty());
+    p.push([0.01, 0.0], 0.01).unwrap();
+    p.push([0.02, 0.0], 0.01).unwrap();
+    assert_eq!(p.push([0.03, 0.0], 0.01), Err(PlanError::Full));
+    assert_eq!(p.len(), 2);
+    assert_eq!(p.blocks().last().unwrap().end_m, [0.02, 0.0]);
+    assert!(p.duration_s() > 0.0);
+    for bad in [
+        PlannerLimits {
+            accel_m_s2: 0.0,
+            ..LIMITS
+        },
+        PlannerLimits {
+            max_speed_m_s: f64::NAN,
+            ..LIMITS
+        },
+        PlannerLimits {
+            junction_deviation_m: -1.0,
+            ..LIMITS
+        },
+    ] {
+        assert!(Planner::<2, 2>::new(&bad, [0.0, 0.0]).is_err());
+    }
+    assert!(Planner::<2, 2>::new(&LIMITS, [f64::INFINITY, 0.0]).is_err());
+    assert_eq!(p.limits(), &LIMITS);
+    let b = p.pop().unwrap();
+    assert_eq!(b.point_at(0.005), [0.005, 0.0]);
+    assert_eq!(b.point_at(1.0), [0.01, 0.0]);
+}
+
+/// A fast move straight into a short last one: the speed where they meet is what the
+/// last millimetre can brake from, √(2 a L), and the profile's lengths add up to the
+/// moves' (a plan that brakes harder than the machine can would not).
+#[test]
+fn the_speed_before_a_short_last_move_is_what_it_can_brake_from() {
+    let blocks = planned([0.0, 0.0], &[([0.04, 0.0], 0.05), ([0.041, 0.0], 0.05)]);
+    let brake = (2.0 * LIMITS.accel_m_s2 * 0.001f64).sqrt();
+    assert!(
+        (blocks[1].entry_m_s - brake).abs() < 1e-12,
+        "{}",
+        blocks[1].entry_m_s
+    );
+    for b in &blocks {
+        let p = b.profile(LIMITS.accel_m_s2);
+        assert!((p.accel_m + p.cruise_m + p.decel_m - b.length_m).abs() < 1e-12);
+    }
+}
