@@ -278,3 +278,78 @@ proptest::proptest! {
         proptest::prop_assert_eq!(again, points);
     }
 }
+
+/// A small mill's limits for planning the corpus: rapids and the largest feed at
+/// 100 mm/s, 1 m/s² along the path, corners with grbl's default junction deviation
+/// (0.01 mm).
+const MILL: kerf::trajectory::planner::PlannerLimits = kerf::trajectory::planner::PlannerLimits {
+    max_speed_m_s: 0.1,
+    accel_m_s2: 1.0,
+    junction_deviation_m: 0.01e-3,
+};
+
+/// Every program through the look-ahead planner, streamed through 16 moves as a
+/// controller's buffer holds them, and with the whole program in view: both end at
+/// rest, pass every corner within its junction speed, take at least the time the
+/// feeds alone allow (each move at its feed, acceleration unbounded), and the stream
+/// takes at least the time of the whole view. Printed: the three durations.
+#[test]
+fn every_corpus_program_is_planned_within_the_machines_limits() {
+    use kerf::trajectory::gcode::MoveKind;
+    use kerf::trajectory::planner::{Block, Planner};
+    let feed_of = |p: &GcodePoint| match p.kind {
+        MoveKind::Rapid => MILL.max_speed_m_s,
+        MoveKind::Feed => p.feed_m_s,
+    };
+    for path in corpus() {
+        let text = std::fs::read(&path).unwrap();
+        let (points, _) = read(&text);
+        let name = path.file_name().unwrap().to_string_lossy();
+        let start = [0.0; 3];
+        let mut streamed = Planner::<3, 16>::new(&MILL, start).unwrap();
+        let mut whole = Box::new(Planner::<3, 8192>::new(&MILL, start).unwrap());
+        let mut taken: Vec<Block<3>> = Vec::new();
+        let mut feed_bound_s = 0.0;
+        let mut at = start;
+        for p in &points {
+            let feed = feed_of(p);
+            let d: f64 = (0..3)
+                .map(|k| (p.position_m[k] - at[k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            feed_bound_s += d / feed.min(MILL.max_speed_m_s);
+            at = p.position_m;
+            if streamed.is_full() {
+                taken.extend(streamed.pop());
+            }
+            streamed.push(p.position_m, feed).unwrap();
+            whole.push(p.position_m, feed).unwrap();
+        }
+        while let Some(b) = streamed.pop() {
+            taken.push(b);
+        }
+        let duration = |blocks: &[Block<3>]| -> f64 {
+            blocks
+                .iter()
+                .map(|b| b.profile(MILL.accel_m_s2).duration_s())
+                .sum()
+        };
+        let streamed_s = duration(&taken);
+        let whole_s = whole.duration_s();
+        println!(
+            "{name}: {} moves, planned {streamed_s:.2} s through 16 (whole program in view {whole_s:.2} s), feeds alone {feed_bound_s:.2} s",
+            taken.len()
+        );
+        assert!(whole_s >= feed_bound_s * (1.0 - 1e-9), "{name}");
+        assert!(streamed_s >= whole_s * (1.0 - 1e-9), "{name}");
+        assert_eq!(taken.last().map(|b| b.exit_m_s), Some(0.0), "{name}");
+        for pair in taken.windows(2) {
+            assert!(
+                (pair[0].exit_m_s - pair[1].entry_m_s).abs() < 1e-12,
+                "{name}"
+            );
+            let corner = MILL.corner_speed_m_s(&pair[0].unit, &pair[1].unit);
+            assert!(pair[1].entry_m_s <= corner + 1e-12, "{name}");
+        }
+    }
+}
