@@ -1,6 +1,7 @@
 //! The image-to-contour planner of T 3.1, ending in a job file.
 //!
-//! 1. T 3.1.1: the image in grey levels, smoothed by a Gaussian of [`PlanConfig::sigma_px`]
+//! 1. T 3.1.1: the image in grey levels (its transparent parts as background:
+//!    [`grey_on_background`]), smoothed by a Gaussian of [`PlanConfig::sigma_px`]
 //!    (the noise model of T: white noise), edges by Canny ([`imageproc::edges::canny`],
 //!    which smooths once more with σ = 1.4 px before its Sobel gradients), then gap
 //!    closing by dilation followed by erosion with a square of radius
@@ -360,9 +361,32 @@ pub fn plan_file(
         .with_guessed_format()
         .map_err(image::ImageError::IoError)?
         .decode()?;
-    let gray = image.to_luma8();
+    let gray = grey_on_background(&image);
     let plan = plan_image(&gray, config, stage)?;
     Ok((gray, plan))
+}
+
+/// The image in grey levels with its transparent parts as background: a pixel of
+/// opacity α and grey level g becomes α g + (1 − α) b, where the background b is
+/// white, or black when the opaque pixels are mostly light (a white logo on a
+/// transparent sheet). Without it a transparent background, stored as transparent
+/// black, reads as black, and a dark shape on it has no edge to trace.
+pub fn grey_on_background(image: &DynamicImage) -> GrayImage {
+    let la = image.to_luma_alpha8();
+    let (mut weighted, mut opacity) = (0.0f64, 0.0f64);
+    for p in la.pixels() {
+        let [g, a] = p.0;
+        weighted += f64::from(g) * f64::from(a);
+        opacity += f64::from(a);
+    }
+    let light_shapes = opacity > 0.0 && weighted / opacity > 127.5;
+    let background = if light_shapes { 0u32 } else { 255 };
+    GrayImage::from_fn(la.width(), la.height(), |x, y| {
+        let [g, a] = la.get_pixel(x, y).0;
+        let (g, a) = (u32::from(g), u32::from(a));
+        // Rounded to the nearest level: (α g + (255 − α) b + 127) / 255 ≤ 255.
+        image::Luma([((a * g + (255 - a) * background + 127) / 255) as u8])
+    })
 }
 
 /// Plans the job of a grey image (module docs); `stage` is told each step's name.

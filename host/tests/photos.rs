@@ -71,3 +71,59 @@ fn coins_give_the_outline_of_one_coin() {
     };
     check("coins.png", &config, 150.0..290.0, "one coin's rim");
 }
+
+/// A transparent PNG as drawing programs save one: transparent black all round, an
+/// opaque 30 px square. Read with its transparency as background, the square's
+/// outline is traced (about 4 × 30 px); read as the grey levels alone it would be
+/// black on black, with nothing to trace. The same square in white on the
+/// transparent sheet gives the same outline (the background then black).
+#[test]
+fn a_transparent_background_is_background() {
+    use image::{Rgba, RgbaImage};
+    let dir = common::plot_dir();
+    for (shade, name) in [
+        (0u8, "square_black_on_transparent.png"),
+        (255, "square_white_on_transparent.png"),
+    ] {
+        let img = RgbaImage::from_fn(80, 80, |x, y| {
+            if (25..55).contains(&x) && (25..55).contains(&y) {
+                Rgba([shade, shade, shade, 255])
+            } else {
+                Rgba([0, 0, 0, 0])
+            }
+        });
+        let path = dir.join(name);
+        img.save(&path).unwrap();
+        let (gray, plan) = plan_file(&path, &PlanConfig::default(), &mut |_| {}).expect(name);
+        let length = plan.length_mm() / plan.mm_per_px;
+        println!("{name}: closed contour {length:.0} px long");
+        assert!(plan.closed, "{name}");
+        assert!((100.0..130.0).contains(&length), "{name}: {length} px");
+        // Inside and outside are the two levels, as far apart as they go.
+        let (inside, outside) = (gray.get_pixel(40, 40).0[0], gray.get_pixel(5, 5).0[0]);
+        assert_eq!(u8::abs_diff(inside, outside), 255, "{name}");
+    }
+}
+
+/// Half-transparent pixels blend with the background: α g + (1 − α) b, rounded.
+#[test]
+fn partly_transparent_pixels_blend_with_the_background() {
+    use image::{DynamicImage, LumaA};
+    use kerf_host::plan::grey_on_background;
+    let img = image::ImageBuffer::from_fn(4, 1, |x, _| match x {
+        0 => LumaA([0u8, 255]),
+        1 => LumaA([0, 128]),
+        2 => LumaA([100, 64]),
+        _ => LumaA([0, 0]),
+    });
+    let grey = grey_on_background(&DynamicImage::ImageLumaA8(img));
+    let blend = |g: f64, a: f64| (a / 255.0 * g + (1.0 - a / 255.0) * 255.0).round() as u8;
+    let want = [
+        blend(0.0, 255.0),
+        blend(0.0, 128.0),
+        blend(100.0, 64.0),
+        255,
+    ];
+    let got: Vec<u8> = grey.pixels().map(|p| p.0[0]).collect();
+    assert_eq!(got, want);
+}
