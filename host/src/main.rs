@@ -185,6 +185,10 @@ struct PlanArgs {
     /// Also draw the image, the traced contour and the fit into this SVG file.
     #[arg(long, value_name = "SVG")]
     svg: Option<PathBuf>,
+    /// Which closed contour to cut, 1 for the largest, 2 for the next, ... (a job
+    /// carries one; the report says how many the image has).
+    #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..))]
+    contour: u16,
 }
 
 #[derive(Debug, clap::Args)]
@@ -242,6 +246,7 @@ fn run_plan(args: &PlanArgs, report: &mut Report) -> Result<(), Failure> {
         width_mm: args.width_mm,
         harmonics: args.harmonics,
         start_px: args.start.map(|p| [p.0, p.1]),
+        contour: usize::from(args.contour) - 1,
         format: args.format.map(|f| match f {
             FormatArg::Efd => Format::Efd,
             FormatArg::Points => Format::Points,
@@ -278,6 +283,16 @@ fn run_plan(args: &PlanArgs, report: &mut Report) -> Result<(), Failure> {
         p.chain_px[0][0],
         p.chain_px[0][1]
     );
+    if p.contours > 1 {
+        say!(
+            report,
+            "note       the image has {} closed contours: this job cuts contour {} of them (largest first); \
+             the others are not in it (--contour 1 to {} chooses)",
+            p.contours,
+            args.contour,
+            p.contours
+        );
+    }
     say!(
         report,
         "workspace  {:.4} mm/px, centroid at pixel ({:.1}, {:.1}) -> origin, length {:.2} mm",

@@ -72,11 +72,13 @@ pub struct PlanConfig {
     pub start_px: Option<[f64; 2]>,
     /// The job's payload; `None`: EFD for closed contours, points for open ones.
     pub format: Option<Format>,
+    /// Which closed contour the job cuts, 0-based, largest first (a job carries one).
+    pub contour: usize,
 }
 
 impl Default for PlanConfig {
     /// σ 1 px, Canny (40, 100), closing radius 3 px, spurs under 10 px, 12 mm wide, 30
-    /// harmonics, automatic start, EFD or points by the contour.
+    /// harmonics, automatic start, EFD or points by the contour, the largest contour.
     fn default() -> Self {
         Self {
             sigma_px: 1.0,
@@ -87,6 +89,7 @@ impl Default for PlanConfig {
             harmonics: CONTOUR_HARMONICS,
             start_px: None,
             format: None,
+            contour: 0,
         }
     }
 }
@@ -193,6 +196,9 @@ impl Fit {
 pub struct Plan {
     /// Whether the contour is closed.
     pub closed: bool,
+    /// Closed contours the image has (the job cuts one: [`PlanConfig::contour`]); 1
+    /// for an open contour.
+    pub contours: usize,
     /// The traced chain in image pixels (x right, y down), in cutting order.
     pub chain_px: Vec<[f64; 2]>,
     /// Workspace mm per image pixel.
@@ -402,9 +408,16 @@ pub fn plan_image(
     let band = band(&closed_edges);
     let skel = band.thinned();
     stage("tracing the contour");
-    let (closed, chain_px) = match config.start_px {
-        None => (true, trace::closed_chain(&skel)?),
-        Some(s) => (false, trace::open_chain(&skel, &band, s, config.prune_px)?),
+    let (closed, chain_px, contours) = match config.start_px {
+        None => {
+            let (chain, found) = trace::closed_chain(&skel, config.contour)?;
+            (true, chain, found)
+        }
+        Some(s) => (
+            false,
+            trace::open_chain(&skel, &band, s, config.prune_px)?,
+            1,
+        ),
     };
     let (min, max) = chain_px.iter().fold(
         ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
@@ -436,6 +449,7 @@ pub fn plan_image(
     };
     Ok(Plan {
         closed,
+        contours,
         chain_px,
         mm_per_px,
         centroid_px,

@@ -368,21 +368,37 @@ pub enum TraceError {
     /// The largest edge chain has no free end, but an open contour was asked for.
     #[error("the contour is closed (it has no ends): leave out --start")]
     NoFreeEnd,
+    /// A closed contour past the number found was asked for (1-based, largest first).
+    #[error("contour {asked} asked for, but the image has {found} closed contours (--contour 1 to {found}, largest first)")]
+    NoSuchContour {
+        /// The contour asked for, 1-based.
+        asked: usize,
+        /// Closed contours found.
+        found: usize,
+    },
 }
 
-/// The closed contour (module docs): pixel positions in walking order, starting at the
-/// rightmost pixel (top-most of those), counter-clockwise in the workspace; the first
-/// point is not repeated at the end.
-pub fn closed_chain(skeleton: &Mask) -> Result<Vec<[f64; 2]>, TraceError> {
+/// Closed contour `index` (0: the largest; the contours are the cycles' connected
+/// parts, largest first) and how many closed contours there are (module docs): pixel
+/// positions in walking order, starting at the rightmost pixel (top-most of those),
+/// counter-clockwise in the workspace; the first point is not repeated at the end.
+pub fn closed_chain(skeleton: &Mask, index: usize) -> Result<(Vec<[f64; 2]>, usize), TraceError> {
     if skeleton.count() == 0 {
         return Err(TraceError::NoEdges);
     }
     let core = skeleton.pruned_to_cycles();
-    let component = core
-        .components()
+    let components = core.components();
+    let found = components.len();
+    if found == 0 {
+        return Err(TraceError::NoClosedContour);
+    }
+    let component = components
         .into_iter()
-        .next()
-        .ok_or(TraceError::NoClosedContour)?;
+        .nth(index)
+        .ok_or(TraceError::NoSuchContour {
+            asked: index.saturating_add(1),
+            found,
+        })?;
     let start = component
         .pixels()
         .max_by_key(|p| (p.0, std::cmp::Reverse(p.1)))
@@ -434,7 +450,7 @@ pub fn closed_chain(skeleton: &Mask) -> Result<Vec<[f64; 2]>, TraceError> {
             if chain.len() >= 2 && chain.first() == chain.last() {
                 chain.pop();
             }
-            return Ok(chain);
+            return Ok((chain, found));
         }
         chain.push(graph.nodes[v].at);
         cur = next;
@@ -608,7 +624,8 @@ mod tests {
     #[test]
     fn a_thick_ring_thins_to_one_closed_chain_counter_clockwise() {
         let skel = ring(20.0).thinned();
-        let chain = closed_chain(&skel).unwrap();
+        let (chain, found) = closed_chain(&skel, 0).unwrap();
+        assert_eq!(found, 1);
         assert!(chain.len() > 100, "{}", chain.len());
         // Starts at the rightmost pixel and goes up (image y decreasing).
         assert!((chain[0][0] - 52.0).abs() <= 1.0, "{:?}", chain[0]);
@@ -634,6 +651,6 @@ mod tests {
             Err(TraceError::NoFreeEnd)
         );
         let line = Mask::from_fn(20, 20, |x, y| y == 3 && x > 2);
-        assert_eq!(closed_chain(&line), Err(TraceError::NoClosedContour));
+        assert_eq!(closed_chain(&line, 0), Err(TraceError::NoClosedContour));
     }
 }

@@ -220,6 +220,27 @@ fn every_subcommand_at_its_edges_ends_in_a_message_and_its_exit_code() {
             plan(&["--canny", "1,x"]),
             Fails(2, "not a finite number"),
         ),
+        ("plan-contour-1", plan(&["--contour", "1"]), Done(planned)),
+        (
+            "plan-contour-0",
+            plan(&["--contour", "0"]),
+            Fails(2, "--contour"),
+        ),
+        (
+            "plan-contour-past",
+            plan(&["--contour", "9"]),
+            Fails(1, "closed contours (--contour 1 to"),
+        ),
+        (
+            "plan-contour-huge",
+            plan(&["--contour", "99999999999"]),
+            Fails(2, "--contour"),
+        ),
+        (
+            "plan-contour-type",
+            plan(&["--contour", "x"]),
+            Fails(2, "--contour"),
+        ),
         ("plan-sigma-0", plan(&["--sigma", "0"]), Done(planned)),
         (
             "plan-sigma-neg",

@@ -127,3 +127,52 @@ fn partly_transparent_pixels_blend_with_the_background() {
     let got: Vec<u8> = grey.pixels().map(|p| p.0[0]).collect();
     assert_eq!(got, want);
 }
+
+/// A picture of three closed contours (a 50 px square; a ring whose outer and inner
+/// edges are circles of radius 35 and 15 px): the report says there are three, the
+/// job cuts the largest (the outer circle, 70 px across) unless another is chosen
+/// (the square, 50 px; the inner circle, 30 px: each within 3 px, an edge pixel's
+/// placement on each side and the rounding of the drawing), and one past them is
+/// refused in words.
+#[test]
+fn every_closed_contour_is_counted_and_each_can_be_chosen() {
+    use kerf_host::plan::{plan_image, PlanError};
+    use kerf_host::trace::TraceError;
+    let gray = image::GrayImage::from_fn(220, 130, |x, y| {
+        let (x, y) = (f64::from(x), f64::from(y));
+        let square = (20.0..70.0).contains(&x) && (40.0..90.0).contains(&y);
+        let r = (x - 150.0).hypot(y - 65.0);
+        image::Luma([if square || (15.0..35.0).contains(&r) {
+            0
+        } else {
+            255
+        }])
+    });
+    let mut extents = Vec::new();
+    for contour in 0..3 {
+        let config = PlanConfig {
+            contour,
+            ..PlanConfig::default()
+        };
+        let plan = plan_image(&gray, &config, &mut |_| {}).unwrap();
+        assert_eq!(plan.contours, 3);
+        assert!(plan.closed);
+        let xs = plan.chain_px.iter().map(|p| p[0]);
+        let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| {
+            (l.min(x), h.max(x))
+        });
+        extents.push(hi - lo);
+    }
+    println!("contours, largest first: {extents:.0?} px across");
+    for (got, want) in extents.iter().zip([70.0, 50.0, 30.0]) {
+        assert!((got - want).abs() <= 3.0, "{extents:?}");
+    }
+    let past = PlanConfig {
+        contour: 3,
+        ..PlanConfig::default()
+    };
+    match plan_image(&gray, &past, &mut |_| {}) {
+        Err(PlanError::Trace(TraceError::NoSuchContour { asked: 4, found: 3 })) => {}
+        other => panic!("{:?}", other.map(|p| p.contours)),
+    }
+}

@@ -289,6 +289,8 @@ fn config(b: &[u8]) -> PlanConfig {
             4 => Some(Format::Points),
             _ => None,
         },
+        // Mostly the largest; now and then one past those a small image has.
+        contour: usize::from(b[6] >> 6),
     }
 }
 
