@@ -334,3 +334,91 @@ fn the_speed_before_a_short_last_move_is_what_it_can_brake_from() {
         assert!((p.accel_m + p.cruise_m + p.decel_m - b.length_m).abs() < 1e-12);
     }
 }
+
+/// The square followed at 1 kHz with the program fed into an 8-move buffer as it
+/// runs: each period's step no longer than the fastest feed allows, the speed along
+/// each move changing by at most a·T a period, the path from the first point to the
+/// last, as long as the polyline less what the corners' chords cut (at most a step a
+/// corner), in the planned number of periods.
+#[test]
+fn a_followed_plan_moves_within_its_limits_from_start_to_end() {
+    use kerf::trajectory::planner::PlanFollower;
+    let square = [
+        ([0.01, 0.0], 0.03),
+        ([0.01, 0.01], 0.03),
+        ([0.0, 0.01], 0.01),
+        ([0.0, 0.0], 0.03),
+    ];
+    let moves: Vec<([f64; 2], f64)> = (0..3).flat_map(|_| square).collect();
+    let period = 1e-3;
+    let mut planner = Planner::<2, 8>::new(&LIMITS, [0.0, 0.0]).unwrap();
+    let mut follower = PlanFollower::new(period, [0.0, 0.0]).unwrap();
+    let mut pending = moves.iter();
+    let mut samples = Vec::new();
+    for _ in 0..100_000 {
+        while !planner.is_full() {
+            match pending.next() {
+                Some(&(target, feed)) => planner.push(target, feed).unwrap(),
+                None => break,
+            }
+        }
+        let s = follower.step(&mut planner);
+        samples.push(s);
+        if !follower.is_moving() && planner.is_empty() && pending.len() == 0 {
+            break;
+        }
+    }
+    let last = samples.last().unwrap();
+    assert_eq!(last.position_m, [0.0, 0.0]);
+    assert_eq!(last.speed_m_s, 0.0);
+    let mut path = 0.0;
+    for pair in samples.windows(2) {
+        let d = (pair[1].position_m[0] - pair[0].position_m[0])
+            .hypot(pair[1].position_m[1] - pair[0].position_m[1]);
+        assert!(d <= 0.03 * period + 1e-12, "a step of {d} m");
+        if pair[0].unit == pair[1].unit {
+            let dv = (pair[1].speed_m_s - pair[0].speed_m_s).abs();
+            assert!(dv <= LIMITS.accel_m_s2 * period * (1.0 + 1e-9), "dv {dv}");
+        }
+        path += d;
+    }
+    let polyline = 12.0 * 0.01;
+    let corners = 11.0;
+    assert!(
+        path <= polyline + 1e-12 && path >= polyline - corners * 0.03 * period,
+        "{path}"
+    );
+    let planned = total(&planned([0.0, 0.0], &moves));
+    let periods = samples.len() as f64;
+    assert!(
+        (periods * period - planned).abs() < 0.02 * planned,
+        "{periods} periods for {planned} s"
+    );
+}
+
+/// Straight on through a junction at cruise: every period's step is the feed times the
+/// period, the one that crosses from one move into the next included (the time left of
+/// the first move is carried into the second).
+#[test]
+fn time_is_carried_across_a_junction() {
+    use kerf::trajectory::planner::PlanFollower;
+    let period = 1e-3;
+    let mut planner = Planner::<2, 4>::new(&LIMITS, [0.0, 0.0]).unwrap();
+    // The junction at 5.0037 mm falls between two periods' points.
+    planner.push([0.0050037, 0.0], 0.01).unwrap();
+    planner.push([0.0102345, 0.0], 0.01).unwrap();
+    let mut follower = PlanFollower::new(period, [0.0, 0.0]).unwrap();
+    let xs: Vec<f64> = (0..1100)
+        .map(|_| follower.step(&mut planner).position_m[0])
+        .collect();
+    // Cruising from 0.1 mm (the ramp to 10 mm/s takes 0.1 mm) to 0.1 mm before the end.
+    let cruise: Vec<f64> = xs
+        .windows(2)
+        .filter(|w| w[0] > 0.0002 && w[1] < 0.0101)
+        .map(|w| w[1] - w[0])
+        .collect();
+    assert!(cruise.len() > 900);
+    for d in cruise {
+        assert!((d - 0.01 * period).abs() < 1e-12, "a step of {d} m");
+    }
+}

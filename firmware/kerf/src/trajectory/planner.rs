@@ -30,6 +30,15 @@
 //! `min(nominal, √((2 a L + v_in² + v_out²)/2))`, decelerate to its exit. With
 //! acceleration bounded and speed limits along the path, this bang–bang profile is
 //! the time-optimal one.
+//!
+//! # Following the plan
+//!
+//! [`PlanFollower`] samples the plan once per control period: the point along the
+//! current move at the time since it began (its trapezoid's distance), carrying the
+//! time left over at a move's end into the next, which it takes from the planner only
+//! then (so the planner looks as far ahead as it can). A move taken while it was the
+//! last one planned ends at rest, as it was planned to: when the program is fed more
+//! slowly than it runs, the machine stops and starts again rather than overrun.
 
 use crate::error::{positive, ConfigError};
 use heapless::Deque;
@@ -346,6 +355,89 @@ impl<const D: usize, const N: usize> Planner<D, N> {
             b.entry_m_s = entry;
             b.exit_m_s = b.exit_m_s.min(libm::sqrt(entry * entry + a2 * b.length_m));
             entry = b.exit_m_s;
+        }
+    }
+}
+
+/// One period's point of a followed plan.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct PlanSample<const D: usize> {
+    /// Where the tool is, m.
+    pub position_m: [f64; D],
+    /// Its speed along the path, m/s.
+    pub speed_m_s: f64,
+    /// The move's direction (unit).
+    pub unit: [f64; D],
+}
+
+/// Follows a [`Planner`]'s moves at a fixed period (module docs).
+pub struct PlanFollower<const D: usize> {
+    period_s: f64,
+    /// The move being followed, its profile and the time since it began, s.
+    current: Option<(Block<D>, Trapezoid, f64)>,
+    /// Where the last move ended (held when there is none), m.
+    rest_m: [f64; D],
+}
+
+impl<const D: usize> PlanFollower<D> {
+    /// A follower at rest at `start_m`, stepping every `period_s`.
+    ///
+    /// Errors: a period that is not finite and positive, a start not finite.
+    pub fn new(period_s: f64, start_m: [f64; D]) -> Result<Self, ConfigError> {
+        positive("period_s", period_s)?;
+        if !start_m.iter().all(|v| v.is_finite()) {
+            return Err(ConfigError::not_finite("start_m"));
+        }
+        Ok(Self {
+            period_s,
+            current: None,
+            rest_m: start_m,
+        })
+    }
+
+    /// Whether a move is being followed (false: at rest, waiting for one).
+    pub fn is_moving(&self) -> bool {
+        self.current.is_some()
+    }
+
+    /// One period: the point a period further along the plan, taking moves from
+    /// `planner` as the current one ends; at rest where the last one ended when there
+    /// is none (a move taken at rest starts at its first point).
+    pub fn step<const N: usize>(&mut self, planner: &mut Planner<D, N>) -> PlanSample<D> {
+        let accel = planner.limits().accel_m_s2;
+        let mut t = match self.current {
+            Some((_, _, t)) => t + self.period_s,
+            None => 0.0,
+        };
+        // Each pass ends in a move or crosses one whole: bounded by the buffer.
+        for _ in 0..=N {
+            let (block, profile) = match self.current {
+                Some((block, profile, _)) => (block, profile),
+                None => match planner.pop() {
+                    Some(block) => (block, block.profile(accel)),
+                    None => break,
+                },
+            };
+            let duration = profile.duration_s();
+            if t < duration {
+                self.current = Some((block, profile, t));
+                let (s, v) = profile.at(t);
+                return PlanSample {
+                    position_m: block.point_at(s),
+                    speed_m_s: v,
+                    unit: block.unit,
+                };
+            }
+            // Past its end: the time left goes into the next move.
+            t -= duration;
+            self.rest_m = block.end_m;
+            self.current = None;
+        }
+        self.current = None;
+        PlanSample {
+            position_m: self.rest_m,
+            speed_m_s: 0.0,
+            unit: [0.0; D],
         }
     }
 }
