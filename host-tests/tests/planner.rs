@@ -68,6 +68,12 @@ fn a_trapezoid_covers_its_length_at_its_speeds() {
         assert!(p.cruise_m_s <= nominal + 1e-15);
         assert!((p.accel_m + p.cruise_m + p.decel_m - length).abs() < 1e-15);
         let duration = p.duration_s();
+        // The phases end where their lengths say: the ramp up at the accelerating
+        // length, the cruise at the length before the ramp down.
+        let [ta, tc, td] = p.times_s();
+        assert!((ta + tc + td - duration).abs() < 1e-15);
+        assert!((p.at(ta).0 - p.accel_m).abs() < 1e-12);
+        assert!((p.at(ta + tc).0 - (p.accel_m + p.cruise_m)).abs() < 1e-12);
         assert!((p.at(0.0).1 - entry).abs() < 1e-12);
         assert!(
             (p.at(duration).1 - exit).abs() < 1e-9,
