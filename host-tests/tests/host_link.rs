@@ -2,7 +2,8 @@
 //! (in simulation): a host that speaks only frames uploads the
 //! octagon as an EFD job file in chunks, starts it, streams telemetry, changes a
 //! setting during the cut, and hears the end; a sensor fault reaches it as an event;
-//! a host that goes silent gets its job stopped.
+//! a host that goes silent gets its job stopped. An open path (a points file) is cut
+//! once from its first point to its last.
 
 use host_tests::link::{crc32, heard, octagon_job_file, request_frame, Heard};
 use kerf::codec::link::{Event, JobKind, ModeCode, Request, TelemetrySample, MAX_CHUNK};
@@ -63,9 +64,14 @@ impl Host {
     }
 
     fn upload(&mut self, slave: &mut LinkedSlave<'_, f64>, job: &[u8]) {
+        assert_eq!(self.upload_as(slave, JobKind::Efd, job), "Ack");
+    }
+
+    /// Uploads `job` as a `kind` file; the commit's reply.
+    fn upload_as(&mut self, slave: &mut LinkedSlave<'_, f64>, kind: JobKind, job: &[u8]) -> String {
         let crc = crc32(job);
         let begin = Request::JobBegin {
-            kind: JobKind::Efd,
+            kind,
             total_bytes: job.len() as u32,
             crc32: crc,
         };
@@ -81,7 +87,7 @@ impl Host {
             );
             assert!(r.starts_with("JobProgress"), "{r}");
         }
-        assert_eq!(self.ask(slave, Request::JobCommit, 5), "Ack");
+        self.ask(slave, Request::JobCommit, 5)
     }
 
     fn events(&self) -> Vec<Event> {
@@ -253,6 +259,86 @@ fn a_sensor_fault_reaches_the_host_and_a_silent_host_stops_the_job() {
         println!("host silent: stopped {lost} periods into the silence (timeout 500 periods after the last frame)");
         assert!((398..=402).contains(&lost), "{lost}");
         assert!(host.events().contains(&Event::Mode { from: ModeCode::Running, to: ModeCode::Stopping }));
+    })
+    .unwrap();
+}
+
+/// A points file is an open path: the slave cuts it once, from its first point to its
+/// last (the points' centroid at the cut's centre), within the contour bound, the beam
+/// on along the cut and off at its end; one repeated point or a 33rd point is refused
+/// by its own code.
+#[test]
+fn an_open_path_is_cut_from_its_first_point_to_its_last() {
+    use kerf::codec::job::write_points;
+    use kerf::machines::delta_slave::link::load_codes;
+    use kerf::trajectory::shapes::letter_s;
+    let points = letter_s();
+    let file = |points: &[[f64; 2]]| {
+        let mut buf = [0u8; 1024];
+        let n = write_points(points, &mut buf).expect("room for 33 points");
+        buf[..n].to_vec()
+    };
+    let n = points.len() as f64;
+    let centroid = [0, 1].map(|k| points.iter().map(|p| p[k]).sum::<f64>() / n);
+    let at = |p: [f64; 2]| [p[0] - centroid[0], p[1] - centroid[1]];
+    let (first, last) = (at(points[0]), at(points[points.len() - 1]));
+    let mut host = Host::default();
+    with_linked_slave::<f64, _>(&scenario(), 1.0, |slave| {
+        for _ in 0..3 {
+            host.period(slave, &[]);
+        }
+        // Refused, each in its own words, before anything is planned.
+        let mut repeated = points.to_vec();
+        repeated[5] = repeated[4];
+        let mut long = points.to_vec();
+        long.extend((0..8).map(|k| [0.02, 1e-3 * k as f64]));
+        for (bad, code) in [(repeated, load_codes::BAD_PATH), (long, load_codes::TOO_MANY_POINTS)] {
+            let reply = host.upload_as(slave, JobKind::Points, &file(&bad));
+            assert!(reply.contains(&format!("{code}")), "{reply}");
+        }
+        assert_eq!(host.upload_as(slave, JobKind::Points, &file(&points)), "Ack");
+        assert_eq!(host.ask(slave, Request::Telemetry { every_periods: 10 }, 2), "Ack");
+        assert_eq!(host.ask(slave, Request::Start, 5), "Ack");
+        for k in 0..100_000u32 {
+            let bytes = if k % 100 == 0 { host.frame(Request::Heartbeat).1 } else { Vec::new() };
+            host.period(slave, &bytes);
+            if host.events().contains(&Event::Mode { from: ModeCode::Running, to: ModeCode::Ready }) {
+                break;
+            }
+        }
+        let events = host.events();
+        assert!(events.contains(&Event::Mode { from: ModeCode::Running, to: ModeCode::Ready }), "{events:?}");
+        let samples = host.samples();
+        let running: Vec<&TelemetrySample> =
+            samples.iter().filter(|s| s.mode == ModeCode::Running).collect();
+        // The cut: the samples with the beam on.
+        let cutting: Vec<&&TelemetrySample> = running.iter().filter(|s| channel(s, "laser") > 0.0).collect();
+        let reference = |s: &TelemetrySample| [channel(s, "x_ref"), channel(s, "y_ref")].map(f64::from);
+        let distance = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+        // At rest after the job: the reference stopped at the path's end, the beam off.
+        for _ in 0..100 {
+            host.period(slave, &[]);
+        }
+        let samples = host.samples();
+        let rest = samples.last().expect("a sample after the job");
+        let (start, end) = (reference(cutting[0]), reference(rest));
+        let worst = running.iter().map(|s| channel(s, "error")).fold(0.0f32, f32::max);
+        println!(
+            "open path: {} samples cutting, the beam on {:.3} µm from the path's start; at rest {:.3} µm from its end; contour error ≤ {:.2} µm",
+            cutting.len(),
+            distance(start, first) * 1e6,
+            distance(end, last) * 1e6,
+            worst * 1e6
+        );
+        // The beam comes on within a few periods of the ramp's start, where the speed
+        // is near zero (jerk 10 m/s³: within 3 ms of the start the reference has moved
+        // at most 10·(3 ms)³/6 = 45 nm). The stop ramp starts at a whole period, so the
+        // reference comes to rest within half a period's step of the end (8 mm/s ·
+        // 0.1 ms / 2 = 0.4 µm), beside a few nm of the f32 telemetry's rounding.
+        assert!(distance(start, first) < 50e-9, "{start:?} {first:?}");
+        assert!(distance(end, last) < 0.41e-6, "{end:?} {last:?}");
+        assert!(worst < 5e-6, "{worst}");
+        assert_eq!((rest.mode, channel(rest, "laser")), (ModeCode::Ready, 0.0));
     })
     .unwrap();
 }

@@ -221,14 +221,21 @@ fn a_damaged_upload_is_refused_at_the_commit_and_nothing_is_loaded() {
         }) => {}
         other => panic!("{other:?}"),
     }
-    // A job file the machine reads but cannot cut (an open path) is refused with the
-    // machine's own reason.
+    // A job file the machine reads but does not cut (G-code) is refused with the
+    // machine's own reason, and so is an open path too short for its speed ramps.
     let mut buf = [0u8; 256];
+    let n = kerf::codec::job::write_gcode(b"G1 X1 F100\n", &mut buf).unwrap();
+    match rig.machine.upload(JobKind::Gcode, &buf[..n], &mut |_| {}) {
+        Err(LinkError::Refused { reason, .. }) => {
+            assert!(reason.contains("contours only"), "{reason}")
+        }
+        other => panic!("{other:?}"),
+    }
     let n =
-        kerf::codec::job::write_points(&[[0.0, 0.0], [1e-3, 0.0], [1e-3, 1e-3]], &mut buf).unwrap();
+        kerf::codec::job::write_points(&[[0.0, 0.0], [1e-4, 0.0], [1e-4, 1e-4]], &mut buf).unwrap();
     match rig.machine.upload(JobKind::Points, &buf[..n], &mut |_| {}) {
         Err(LinkError::Refused { reason, .. }) => {
-            assert!(reason.contains("contours (EFD jobs) only"), "{reason}")
+            assert!(reason.contains("too short"), "{reason}")
         }
         other => panic!("{other:?}"),
     }

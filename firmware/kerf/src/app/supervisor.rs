@@ -465,8 +465,11 @@ impl<M: Machine> Core<'_, M> {
             }
             // `Start` needs a loaded job, and no `LoadJob` replaces it while it runs (with
             // none, which no command sequence leaves, the job is over).
-            Mode::Running | Mode::Stopping => match self.job.as_deref() {
-                Some(job) if self.mode == Mode::Running => self.machine.run(job, inputs),
+            Mode::Running => match self.job.as_deref() {
+                Some(job) => self.machine.run(job, inputs),
+                None => Ok(Step::Done(self.machine.safe_outputs())),
+            },
+            Mode::Stopping => match self.job.as_deref() {
                 Some(job) => self.machine.stop(job, inputs),
                 None => Ok(Step::Done(self.machine.safe_outputs())),
             },

@@ -285,19 +285,8 @@ impl<T: Float, const N: usize, const R: usize> ArrowJob<T, N, R> {
         self.plan_points(points, geometry, config)
     }
 
-    /// A checked job from parsed points (module docs).
-    #[allow(clippy::result_large_err)]
-    pub fn from_points(
-        points: &[GcodePoint],
-        geometry: &ArrowGeometry<f64>,
-        config: &ArrowJobConfig,
-    ) -> Result<Self, ArrowJobError> {
-        let mut job = Self::default();
-        job.plan_points(points, geometry, config)?;
-        Ok(job)
-    }
-
-    /// [`ArrowJob::from_points`] built in place (as [`ArrowJob::read_gcode`]).
+    /// A checked job from parsed points (module docs), built in place (as
+    /// [`ArrowJob::read_gcode`]).
     #[allow(clippy::result_large_err)]
     pub fn plan_points(
         &mut self,

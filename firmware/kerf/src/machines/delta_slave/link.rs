@@ -1,6 +1,7 @@
 //! The Keops slave on the host link ([`crate::app::host_link`]): its settings tree,
-//! how an uploaded EFD job file becomes a contour job, and its telemetry and faults on
-//! the wire.
+//! how an uploaded job file becomes a contour job (an EFD file a closed contour cut
+//! for [`ContourDefaults::laps`] laps from θ = 0, a points file an open path cut once
+//! from its first point to its last), and its telemetry and faults on the wire.
 //!
 //! Settings (JSON values, SI units and Hz):
 //!
@@ -18,7 +19,7 @@
 
 use super::{
     ContourCurve, ContourLaw, DeltaFault, DeltaJob, DeltaJobError, DeltaSlave, DeltaSlaveConfig,
-    DeltaTelemetry, CONTOUR_HARMONICS,
+    DeltaTelemetry, CONTOUR_HARMONICS, OPEN_PATH_POINTS,
 };
 pub use crate::app::axis::settings::{AxisSettings, DobSettings, PdSettings, VelocitySettings};
 use crate::app::axis::{AxisConfig, AxisLaw};
@@ -30,6 +31,7 @@ use crate::codec::link::{Channel, ChannelValues, CodeWords, JobKind, JOB_NOT_AT_
 use crate::error::ConfigError;
 use crate::scalar::{to_f64, Float};
 use crate::trajectory::efd::Efd;
+use crate::trajectory::open_path::OpenPath;
 use miniconf::Tree;
 
 /// The slave's settings tree.
@@ -84,8 +86,12 @@ pub mod load_codes {
     pub const TOO_MANY_HARMONICS: u16 = 0x201;
     /// The coefficients do not make a curve.
     pub const BAD_CURVE: u16 = 0x202;
-    /// A kind of job this machine does not cut (points, G-code).
+    /// A kind of job this machine does not cut (G-code, schedules, recordings).
     pub const KIND: u16 = 0x203;
+    /// More points than an open path holds.
+    pub const TOO_MANY_POINTS: u16 = 0x204;
+    /// The points do not make a path: fewer than three, or one repeated.
+    pub const BAD_PATH: u16 = 0x205;
 }
 
 /// What the fault codes of [`LinkMachine::fault_code`] mean.
@@ -125,7 +131,7 @@ const FAULTS: [CodeWords; 7] = [
 
 /// What the job refusal codes of the planner ([`LinkMachine::job_error_code`]) and
 /// the loader ([`load_codes`]) mean.
-const JOB_REFUSALS: [CodeWords; 14] = [
+const JOB_REFUSALS: [CodeWords; 16] = [
     words(
         1,
         "the job has no move, or more moves than the machine holds",
@@ -177,7 +183,17 @@ const JOB_REFUSALS: [CodeWords; 14] = [
     ),
     words(
         load_codes::KIND,
-        "this machine cuts contours (EFD jobs) only",
+        "this machine cuts contours only (EFD jobs closed, points jobs open)",
+        "",
+    ),
+    words(
+        load_codes::TOO_MANY_POINTS,
+        "more points than an open path holds (32)",
+        "",
+    ),
+    words(
+        load_codes::BAD_PATH,
+        "the points do not make a path (fewer than 3, or a point repeated)",
         "",
     ),
 ];
@@ -236,7 +252,7 @@ impl<T: Float> LinkMachine for DeltaSlave<T> {
     type JobContext = ContourDefaults;
     const NAME: &'static str = "keops-slave";
     const CHANNELS: &'static [Channel] = &CHANNELS;
-    const JOB_KINDS: &'static [JobKind] = &[JobKind::Efd];
+    const JOB_KINDS: &'static [JobKind] = &[JobKind::Efd, JobKind::Points];
     const FAULTS: &'static [CodeWords] = &FAULTS;
     const JOB_REFUSALS: &'static [CodeWords] = &JOB_REFUSALS;
 
@@ -249,49 +265,15 @@ impl<T: Float> LinkMachine for DeltaSlave<T> {
         file: &JobFile<'_>,
         job: &mut DeltaJob,
     ) -> Result<(), u16> {
-        let JobFile::Efd { centre_m, .. } = file else {
-            return Err(load_codes::KIND);
-        };
-        let n = file.count();
-        if n > CONTOUR_HARMONICS {
-            return Err(load_codes::TOO_MANY_HARMONICS);
+        match file {
+            JobFile::Efd { centre_m, .. } => load_closed(context, file, *centre_m, job),
+            JobFile::Points { .. } => load_open(context, file, job),
+            _ => Err(load_codes::KIND),
         }
-        let mut coefficients = [[0.0f64; 4]; CONTOUR_HARMONICS];
-        for (k, row) in coefficients.iter_mut().enumerate().take(n) {
-            let h = file.harmonic(k).ok_or(load_codes::BAD_CURVE)?;
-            *row = h.map(f64::from);
-        }
-        let centre = [f64::from(centre_m[0]), f64::from(centre_m[1])];
-        let efd = Efd::<f64, CONTOUR_HARMONICS>::from_coefficients(
-            centre,
-            coefficients.get(..n).unwrap_or(&[]),
-        )
-        .map_err(|_| load_codes::BAD_CURVE)?;
-        let plan = context.plan(ContourCurve::Closed {
-            efd: &efd,
-            theta0_rad: 0.0,
-            laps: context.laps,
-        });
-        *job = DeltaJob::plan_contour(&context.machine, &plan)
-            .map_err(|e| <Self as LinkMachine>::job_error_code(&e))?;
-        Ok(())
     }
 
     fn job_error_code(error: &DeltaJobError) -> u16 {
-        match error {
-            DeltaJobError::Size => 1,
-            DeltaJobError::NotFinite { .. } => 2,
-            DeltaJobError::Unreachable { .. } => 3,
-            DeltaJobError::TooFast { .. } => 4,
-            DeltaJobError::OtherMachine => 5,
-            DeltaJobError::Approach(JobError::Moving { .. }) => JOB_NOT_AT_REST,
-            DeltaJobError::Approach(_) => 6,
-            DeltaJobError::TooLong { .. } => 7,
-            DeltaJobError::Contour(_) => 8,
-            DeltaJobError::ContourUnreachable { .. } => 9,
-            DeltaJobError::ContourTooFast { .. } => 10,
-            DeltaJobError::Laser(_) => 11,
-        }
+        refusal_code(error)
     }
 
     fn fault_code(fault: &DeltaFault) -> (u16, u16) {
@@ -332,6 +314,85 @@ impl<T: Float> LinkMachine for DeltaSlave<T> {
         // Within the capacity: checked at compile time below.
         let _ = values.extend_from_slice(&row);
     }
+}
+
+/// The refusal code of a planner error (the words are [`JOB_REFUSALS`]').
+fn refusal_code(error: &DeltaJobError) -> u16 {
+    match error {
+        DeltaJobError::Size => 1,
+        DeltaJobError::NotFinite { .. } => 2,
+        DeltaJobError::Unreachable { .. } => 3,
+        DeltaJobError::TooFast { .. } => 4,
+        DeltaJobError::OtherMachine => 5,
+        DeltaJobError::Approach(JobError::Moving { .. }) => JOB_NOT_AT_REST,
+        DeltaJobError::Approach(_) => 6,
+        DeltaJobError::TooLong { .. } => 7,
+        DeltaJobError::Contour(_) => 8,
+        DeltaJobError::ContourUnreachable { .. } => 9,
+        DeltaJobError::ContourTooFast { .. } => 10,
+        DeltaJobError::Laser(_) => 11,
+    }
+}
+
+/// An EFD file as a closed contour, cut for the context's laps from θ = 0.
+fn load_closed(
+    context: &ContourDefaults,
+    file: &JobFile<'_>,
+    centre_m: [f32; 2],
+    job: &mut DeltaJob,
+) -> Result<(), u16> {
+    let n = file.count();
+    if n > CONTOUR_HARMONICS {
+        return Err(load_codes::TOO_MANY_HARMONICS);
+    }
+    let mut coefficients = [[0.0f64; 4]; CONTOUR_HARMONICS];
+    for (k, row) in coefficients.iter_mut().enumerate().take(n) {
+        let h = file.harmonic(k).ok_or(load_codes::BAD_CURVE)?;
+        *row = h.map(f64::from);
+    }
+    let centre = [f64::from(centre_m[0]), f64::from(centre_m[1])];
+    let efd = Efd::<f64, CONTOUR_HARMONICS>::from_coefficients(
+        centre,
+        coefficients.get(..n).unwrap_or(&[]),
+    )
+    .map_err(|_| load_codes::BAD_CURVE)?;
+    plan_into(
+        context,
+        ContourCurve::Closed {
+            efd: &efd,
+            theta0_rad: 0.0,
+            laps: context.laps,
+        },
+        job,
+    )
+}
+
+/// A points file as an open path, cut once from its first point to its last, its
+/// points' centroid at the context's centre.
+fn load_open(context: &ContourDefaults, file: &JobFile<'_>, job: &mut DeltaJob) -> Result<(), u16> {
+    let n = file.count();
+    if n > OPEN_PATH_POINTS {
+        return Err(load_codes::TOO_MANY_POINTS);
+    }
+    let mut points = [[0.0f64; 2]; OPEN_PATH_POINTS];
+    for (k, point) in points.iter_mut().enumerate().take(n) {
+        let p = file.point(k).ok_or(load_codes::BAD_PATH)?;
+        *point = p.map(f64::from);
+    }
+    let path = OpenPath::<f64, OPEN_PATH_POINTS>::from_points(points.get(..n).unwrap_or(&[]))
+        .map_err(|_| load_codes::BAD_PATH)?;
+    plan_into(context, ContourCurve::Open(&path), job)
+}
+
+/// Plans `curve` with the context's speed, ramps, law and laser into `job`.
+fn plan_into(
+    context: &ContourDefaults,
+    curve: ContourCurve<'_>,
+    job: &mut DeltaJob,
+) -> Result<(), u16> {
+    *job = DeltaJob::plan_contour(&context.machine, &context.plan(curve))
+        .map_err(|e| refusal_code(&e))?;
+    Ok(())
 }
 
 #[cfg(test)]
@@ -401,9 +462,10 @@ mod tests {
         assert!(items.contains(&"setting /slave/dob/compensate  true or false".into()));
         assert_eq!(
             items.len(),
-            CHANNELS.len() + 1 + 6 + FAULTS.len() + JOB_REFUSALS.len()
+            CHANNELS.len() + 2 + 6 + FAULTS.len() + JOB_REFUSALS.len()
         );
         assert!(items[0].contains("\"x\"") && items[CHANNELS.len()] == "JobKind(Efd)");
+        assert_eq!(items[CHANNELS.len() + 1], "JobKind(Points)");
         // The bound announced for the observers' bandwidths, at the Keops period.
         let mut settings = SlaveSettings::of(&AxisConfig::LM1247_SLAVE);
         for (path, ok) in [
