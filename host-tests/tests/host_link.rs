@@ -339,6 +339,39 @@ fn an_open_path_is_cut_from_its_first_point_to_its_last() {
         assert!(distance(end, last) < 0.41e-6, "{end:?} {last:?}");
         assert!(worst < 5e-6, "{worst}");
         assert_eq!((rest.mode, channel(rest, "laser")), (ModeCode::Ready, 0.0));
+        // The job's duration as planned (approach, ramps, cruise) is the time the
+        // machine ran it: from the first sample running to the first at rest, to the
+        // telemetry's ten periods (1 ms).
+        let planned = planned_open_path_s(&points);
+        let first_running = running[0].period;
+        let first_ready = samples
+            .iter()
+            .find(|s| s.mode == ModeCode::Ready && s.period > first_running)
+            .expect("a sample after the run")
+            .period;
+        let ran = f64::from(first_ready - first_running) * 1e-4;
+        println!("open path: planned {planned:.4} s, ran {ran:.4} s");
+        assert!((ran - planned).abs() <= 1.1e-3, "planned {planned} s, ran {ran} s");
     })
     .unwrap();
+}
+
+/// The duration of `points` cut as an open path on the Keops slave with the link's
+/// contour defaults (one lap), as its job reports it.
+fn planned_open_path_s(points: &[[f64; 2]]) -> f64 {
+    use kerf::machines::delta_slave::product::contour_defaults;
+    use kerf::machines::delta_slave::{ContourCurve, DeltaJob, DeltaSlaveConfig, OPEN_PATH_POINTS};
+    use kerf::trajectory::open_path::OpenPath;
+    let path = OpenPath::<f64, OPEN_PATH_POINTS>::from_points(points).unwrap();
+    let defaults = contour_defaults(&DeltaSlaveConfig::KEOPS, 1.0);
+    let job = DeltaJob::plan_contour(&defaults.machine, &defaults.plan(ContourCurve::Open(&path)))
+        .unwrap();
+    assert_eq!(job.contour_is_closed(), Some(false));
+    let end = job.contour_point_m(1.0).unwrap();
+    let last = points[points.len() - 1];
+    let n = points.len() as f64;
+    let centroid = [0, 1].map(|k| points.iter().map(|p| p[k]).sum::<f64>() / n);
+    assert!((end[0] - (last[0] - centroid[0])).hypot(end[1] - (last[1] - centroid[1])) < 1e-12);
+    assert_eq!(job.contour_point_m(1.5), None);
+    job.duration_s()
 }

@@ -346,12 +346,6 @@ impl DeltaJob {
     pub fn moves(&self) -> &[Segment<3>] {
         &self.moves
     }
-
-    /// Time from `Start` to the end of the last move, s (straight moves only; a
-    /// contour's end depends on its ramps and is not counted).
-    pub fn duration_s(&self) -> f64 {
-        self.approach_s + self.moves.iter().map(|m| m.duration_s).sum::<f64>()
-    }
 }
 
 /// Why the slave stopped.

@@ -377,6 +377,52 @@ impl ContourJob {
     pub(super) fn law(&self) -> ContourLaw {
         self.law
     }
+
+    /// Periods from the start of the speed ramp until the stop ramp is at rest.
+    fn periods(&self) -> u32 {
+        // Checked when the job was planned.
+        let ramp_periods =
+            SpeedRamp::<f64>::new(&self.follower.ramp).map_or(0, |r| r.ramp_periods());
+        self.stop_after_periods.saturating_add(ramp_periods)
+    }
+
+    /// The cut's point at `fraction` of one lap (a closed curve, from θ0) or of the
+    /// open path, m.
+    fn point_m(&self, fraction: f64) -> [f64; 3] {
+        let theta = self.theta0_rad + self.curve.span() * fraction;
+        let p = self.curve.evaluate(theta).position;
+        let [x, y, z] = self.centre_m;
+        [x + p.x, y + p.y, z]
+    }
+}
+
+impl super::DeltaJob {
+    /// Time from `Start` until the job is over, s: the approach, then the straight
+    /// moves, or the contour's two speed ramps and its cruise between (in whole
+    /// control periods, as the machine counts them).
+    pub fn duration_s(&self) -> f64 {
+        let moves_s: f64 = self.moves.iter().map(|m| m.duration_s).sum();
+        let contour_s = self
+            .contour
+            .as_ref()
+            .map_or(0.0, |c| f64::from(c.periods()) * c.follower.ramp.ts_s);
+        self.approach_s + moves_s + contour_s
+    }
+
+    /// Where a contour job cuts: the point at `fraction` (0 at the start, 1 at the end)
+    /// of one lap of a closed contour or of an open path, m (what a preview draws).
+    /// `None` for straight moves, or a fraction outside [0, 1].
+    pub fn contour_point_m(&self, fraction: f64) -> Option<[f64; 3]> {
+        let contour = self.contour.as_ref()?;
+        (0.0..=1.0)
+            .contains(&fraction)
+            .then(|| contour.point_m(fraction))
+    }
+
+    /// Whether a contour job's curve is closed (`None` for straight moves).
+    pub fn contour_is_closed(&self) -> Option<bool> {
+        self.contour.as_ref().map(|c| c.curve.is_closed())
+    }
 }
 
 /// A contour in progress.
