@@ -302,3 +302,76 @@ fn reply_to_matches_the_request_number() {
         Ok(OwnedReply::Ack)
     ));
 }
+
+/// `kerf check` on the host says what the machine says after the upload: the same
+/// jobs accepted, the same refused with the same code and words (a contour out of the
+/// workspace, one too small for its ramps, an open path of 33 points, one with a
+/// repeated point, G-code), and an accepted job's planned duration and cut are
+/// those of the machine's presets.
+#[test]
+fn the_hosts_check_says_what_the_machine_says() {
+    use kerf::codec::job::{write_efd, write_gcode, write_points};
+    use kerf::machines::delta_slave::CONTOUR_HARMONICS;
+    use kerf::trajectory::efd::Efd;
+    use kerf_host::check::{check, CheckError, Machine};
+    let efd_file = |scale: f64| {
+        let points: Vec<[f64; 2]> = kerf::trajectory::shapes::octagon()
+            .iter()
+            .map(|p| [p[0] * scale, p[1] * scale])
+            .collect();
+        let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&points, 30).unwrap();
+        let mut buf = [0u8; 1024];
+        let n = write_efd([0.0, 0.0], efd.coefficients(), &mut buf).unwrap();
+        buf[..n].to_vec()
+    };
+    let points_file = |points: &[[f64; 2]]| {
+        let mut buf = [0u8; 1024];
+        let n = write_points(points, &mut buf).unwrap();
+        buf[..n].to_vec()
+    };
+    let letter = kerf::trajectory::shapes::letter_s();
+    let mut repeated = letter.to_vec();
+    repeated[3] = repeated[2];
+    let long: Vec<[f64; 2]> = (0..33).map(|k| [1e-3 * k as f64, 0.0]).collect();
+    let mut buf = [0u8; 64];
+    let n = write_gcode(b"G1 X1 F100\n", &mut buf).unwrap();
+    let gcode = buf[..n].to_vec();
+    let jobs: [(&str, JobKind, Vec<u8>); 7] = [
+        ("octagon ±10 mm", JobKind::Efd, efd_file(1.0)),
+        ("octagon ±60 mm", JobKind::Efd, efd_file(6.0)),
+        ("octagon ±0.02 mm", JobKind::Efd, efd_file(0.002)),
+        ("letter s", JobKind::Points, points_file(&letter)),
+        ("33 points", JobKind::Points, points_file(&long)),
+        ("a repeated point", JobKind::Points, points_file(&repeated)),
+        ("G-code", JobKind::Gcode, gcode),
+    ];
+    let mut rig = rig(None, Vec::new());
+    let mut accepted = 0;
+    for (what, kind, bytes) in &jobs {
+        let here = check(bytes, Some(Machine::KeopsSlave));
+        let there = rig.machine.upload(*kind, bytes, &mut |_| {});
+        println!("{what}: here {here:?}, there {there:?}");
+        match (&here, &there) {
+            (Ok(checked), Ok(())) => {
+                accepted += 1;
+                // The preset's speed bounds the cut's time from below.
+                assert!(checked.duration_s > checked.cut_length_m / 8e-3, "{what}");
+            }
+            (
+                Err(CheckError::Refused { code, words, .. }),
+                Err(LinkError::Refused { reason, .. }),
+            ) => {
+                let said = format!("job code {code:#06x}: {words}");
+                assert!(
+                    reason.contains(&said),
+                    "{what}: here {said:?}, there {reason:?}"
+                );
+            }
+            (Err(CheckError::Kind { .. }), Err(LinkError::Refused { reason, .. })) => {
+                assert!(reason.contains("contours only"), "{what}: {reason}");
+            }
+            _ => panic!("{what}: the host says {here:?}, the machine {there:?}"),
+        }
+    }
+    assert_eq!(accepted, 2);
+}

@@ -293,6 +293,16 @@ pub fn run(args: &RunArgs, report: &mut Report) -> Result<(), Failure> {
         hello.version,
         hello.period_s * 1e6
     );
+    // A job the machine would refuse is refused before the upload, in its words.
+    if let Some(machine) = kerf_host::check::Machine::from_name(&hello.machine) {
+        kerf_host::check::check(&bytes, Some(machine))
+            .map_err(|e| Failure::Refused(format!("{name}: {e}")))?;
+        say!(
+            report,
+            "checked    {} accepts it (its own load check, here)",
+            hello.machine
+        );
+    }
     let bar = ProgressBar::new(bytes.len() as u64);
     if let Ok(style) = ProgressStyle::with_template("{msg:12} {bar:30} {pos}/{len}") {
         bar.set_style(style);

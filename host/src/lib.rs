@@ -5,6 +5,8 @@
 //!   (T 3.2.2) or a point list (T 3.1.5) fitted with the firmware's own code;
 //! - [`gcode`]: a G-code program checked with ARROW's own parser and job loader;
 //! - [`job`]: the versioned job file both write and the firmware loads;
+//! - [`check`]: a job file checked as the machine checks it at load, with its
+//!   duration; [`preview`]: its picture (workspace, travel, cut, start);
 //! - [`trace`]: the edge skeleton walked into one ordered chain ([`mask`]: the
 //!   binary images it works on);
 //! - [`plot`]: an SVG picture of a plan;
@@ -18,6 +20,7 @@
 //! Redundant Parallel Robotic Machining Tool: Design, Control and Real-Time
 //! Experiments", 2019), as the repository's docs/equations.md names them.
 
+pub mod check;
 pub mod description;
 pub mod gcode;
 pub mod job;
@@ -26,6 +29,7 @@ pub mod mask;
 pub mod output;
 pub mod plan;
 pub mod plot;
+pub mod preview;
 pub mod qemu;
 pub mod session;
 pub mod telemetry;

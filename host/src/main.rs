@@ -13,6 +13,7 @@ use kerf_host::output::{io_words, OutputError, OutputFile};
 use kerf_host::plan::{self, Fit, Format, PlanConfig};
 use kerf_host::plot;
 use report::{say, Report};
+mod cli_check;
 mod cli_machine;
 mod report;
 
@@ -42,6 +43,12 @@ enum Command {
     /// Check a G-code program with ARROW's parser and job loader (A §4) and pack it
     /// as a job. Errors are printed as FILE:LINE:COLUMN: message.
     Gcode(GcodeArgs),
+    /// Check a job file as the machine will check it at load (its own loader and
+    /// presets: workspace, carriage limits, curvature, length, capacity), with its
+    /// duration and a preview; a job it would refuse is refused here, in its words.
+    ///
+    /// Exit 0 when the machine would accept the job, 1 when it would refuse it.
+    Check(cli_check::CheckArgs),
     /// Upload a job to the machine, run it and follow it: telemetry (with a heartbeat
     /// per sample), settings changed at given times or typed during the run (set
     /// PATH VALUE, get PATH, stop), the summary, CSV and plot at the end.
@@ -208,6 +215,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Plan(args) => run_plan(&args, r),
         Command::Gcode(args) => run_gcode(&args, r),
+        Command::Check(args) => cli_check::run(&args, r),
         Command::Run(args) => cli_machine::run(&args, r),
         Command::Get { path, machine } => cli_machine::get(&path, &machine, r),
         Command::Set {

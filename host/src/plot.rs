@@ -37,6 +37,13 @@ pub struct Overlay<'a> {
 #[error("{0}")]
 pub struct PlotError(String);
 
+impl PlotError {
+    /// A picture not drawn, for the reason `words`.
+    pub(crate) fn from_words(words: &str) -> Self {
+        PlotError(format!("cannot draw the picture: {words}"))
+    }
+}
+
 pub(crate) fn err<E: std::fmt::Display>(e: E) -> PlotError {
     PlotError(format!("cannot draw the picture: {e}"))
 }

@@ -413,6 +413,32 @@ fn every_subcommand_at_its_edges_ends_in_a_message_and_its_exit_code() {
             vec!["gcode", gcode, "--out="],
             Fails(2, "a value is required"),
         ),
+        (
+            "check",
+            vec!["check", job, "--preview", "{}/c.svg"],
+            Done(&["c.svg"]),
+        ),
+        ("check-text", vec!["check", text], Fails(1, "bad magic")),
+        (
+            "check-folder",
+            vec!["check", folder],
+            Fails(1, "cannot read the job file"),
+        ),
+        (
+            "check-preview-missing",
+            vec!["check", "/nonexistent/j", "--preview", "/nonexistent/c.svg"],
+            Fails(1, "cannot write the preview there"),
+        ),
+        (
+            "check-machine",
+            vec!["check", job, "--machine", "arrow"],
+            Fails(1, "does not take"),
+        ),
+        (
+            "check-machine-empty",
+            vec!["check", job, "--machine="],
+            Fails(2, "a value is required"),
+        ),
     ];
     if Path::new(full).exists() {
         cases.push((
@@ -423,6 +449,11 @@ fn every_subcommand_at_its_edges_ends_in_a_message_and_its_exit_code() {
         cases.push((
             "plan-svg-full",
             vec!["plan", png, "--svg", full, "--out", "{}/p.kjob"],
+            Fails(1, "the disk is full"),
+        ));
+        cases.push((
+            "check-preview-full",
+            vec!["check", job, "--preview", full],
             Fails(1, "the disk is full"),
         ));
         cases.push((

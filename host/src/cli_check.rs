@@ -1,0 +1,93 @@
+//! `kerf check JOB`: the job checked on the host as the machine checks it at load
+//! ([`kerf_host::check`]), with its duration and a preview.
+
+use crate::report::{say, Report};
+use crate::{prepare, Failure};
+use clap::ValueEnum;
+use kerf_host::check::{self, kind_words, Machine};
+use kerf_host::output::io_words;
+use kerf_host::preview;
+use std::path::PathBuf;
+
+/// A machine to check for, as it announces itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum MachineArg {
+    /// The Keops slave (laser delta): EFD and points jobs.
+    KeopsSlave,
+    /// ARROW: G-code jobs.
+    Arrow,
+}
+
+impl MachineArg {
+    /// The machine it names.
+    pub fn machine(self) -> Machine {
+        match self {
+            MachineArg::KeopsSlave => Machine::KeopsSlave,
+            MachineArg::Arrow => Machine::Arrow,
+        }
+    }
+}
+
+#[derive(Debug, clap::Args)]
+pub struct CheckArgs {
+    /// The job file (`kerf plan --out`, `kerf gcode --out`).
+    job: PathBuf,
+    /// The machine to check for [default: the one that takes the job's kind].
+    #[arg(long, value_enum)]
+    machine: Option<MachineArg>,
+    /// Draw the workspace, the travel, the cut and its start into this SVG file.
+    #[arg(long, value_name = "SVG")]
+    preview: Option<PathBuf>,
+}
+
+/// `kerf check JOB`.
+pub fn run(args: &CheckArgs, report: &mut Report) -> Result<(), Failure> {
+    let name = args.job.display().to_string();
+    let svg = prepare(args.preview.as_deref(), "preview")?;
+    let bytes = std::fs::read(&args.job).map_err(|e| {
+        Failure::Input(format!(
+            "{name}: cannot read the job file: {}",
+            io_words(&e)
+        ))
+    })?;
+    let checked = check::check(&bytes, args.machine.map(MachineArg::machine))
+        .map_err(|e| Failure::Refused(format!("{name}: {e}")))?;
+    say!(
+        report,
+        "job        {name}: {} job, {} bytes",
+        kind_words(checked.kind),
+        bytes.len()
+    );
+    say!(
+        report,
+        "machine    {} accepts it (its own load check, with the presets it is flashed with)",
+        checked.machine.name()
+    );
+    say!(
+        report,
+        "duration   about {:.2} s from start to end; cut {:.1} mm",
+        checked.duration_s,
+        checked.cut_length_m * 1e3
+    );
+    if let Some(svg) = &svg {
+        let title = args
+            .job
+            .file_name()
+            .map_or(name.clone(), |n| n.to_string_lossy().into_owned());
+        match preview::svg(&title, &checked)
+            .map_err(|e| Failure::Output(format!("{}: {e}", svg.shown())))?
+        {
+            Some(text) => {
+                svg.write_bytes(text.as_bytes())?;
+                say!(report, "wrote      {}", svg.shown());
+            }
+            None => say!(
+                report,
+                "note       {} has no preview yet; {} not written",
+                checked.machine.name(),
+                svg.shown()
+            ),
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,134 @@
+//! The picture of a checked job ([`crate::check`]) as SVG, before it is sent: the
+//! workspace's edge at the cutting height, the travel to the start with the beam off
+//! (dashed), the cut with the beam on, the start point, and the estimated duration in
+//! the title. Workspace millimetres, x right and y up.
+
+use crate::check::{Checked, Preview};
+use crate::output::OutputFile;
+use crate::plot::{err, legend, line, PlotError};
+use plotters::prelude::*;
+use std::path::Path;
+
+/// Picture size, px (the plotting area is square).
+const SIZE: (u32, u32) = (820, 860);
+
+/// The preview of `checked` titled `title`, as SVG text; `None` when the machine has
+/// no preview.
+pub fn svg(title: &str, checked: &Checked) -> Result<Option<String>, PlotError> {
+    let Some(preview) = &checked.preview else {
+        return Ok(None);
+    };
+    let mut text = String::new();
+    let caption = format!(
+        "{title}: {} on {}, about {:.1} s",
+        if preview.closed {
+            "closed contour"
+        } else {
+            "open path"
+        },
+        checked.machine.name(),
+        checked.duration_s
+    );
+    draw(
+        SVGBackend::with_string(&mut text, SIZE).into_drawing_area(),
+        &caption,
+        preview,
+    )?;
+    Ok(Some(text))
+}
+
+/// Writes the preview of `checked` to `path`, whole or not at all; `false` (nothing
+/// written) when the machine has no preview.
+pub fn write_svg(path: &Path, title: &str, checked: &Checked) -> Result<bool, PlotError> {
+    let Some(text) = svg(title, checked)? else {
+        return Ok(false);
+    };
+    OutputFile::prepare(path, "preview")
+        .and_then(|f| f.write_bytes(text.as_bytes()))
+        .map_err(PlotError::from)?;
+    Ok(true)
+}
+
+fn mm(points: &[[f64; 2]]) -> impl Iterator<Item = (f64, f64)> + Clone + '_ {
+    points.iter().map(|p| (p[0] * 1e3, p[1] * 1e3))
+}
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    caption: &str,
+    preview: &Preview,
+) -> Result<(), PlotError> {
+    let all = preview
+        .workspace_m
+        .iter()
+        .chain(&preview.cut_m)
+        .chain(&preview.travel_m);
+    let (lo, hi) = all.fold(
+        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+        |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        },
+    );
+    if !(lo[0].is_finite() && hi[0].is_finite()) {
+        return Err(PlotError::from_words("nothing to draw"));
+    }
+    let half = ((hi[0] - lo[0]).max(hi[1] - lo[1]) / 2.0 * 1.05 * 1e3).max(1e-3);
+    let mid = [(lo[0] + hi[0]) / 2.0 * 1e3, (lo[1] + hi[1]) / 2.0 * 1e3];
+    root.fill(&WHITE).map_err(err)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(caption, ("sans-serif", 20))
+        .margin(10)
+        .x_label_area_size(45)
+        .y_label_area_size(45)
+        .build_cartesian_2d(mid[0] - half..mid[0] + half, mid[1] - half..mid[1] + half)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("x, mm")
+        .y_desc("y, mm")
+        .light_line_style(WHITE.mix(0.0))
+        .draw()
+        .map_err(err)?;
+    let grey = RGBColor(120, 120, 120);
+    let mut edge: Vec<[f64; 2]> = preview.workspace_m.clone();
+    if let Some(&first) = edge.first() {
+        edge.push(first);
+    }
+    let label = format!("workspace at z = {:.1} mm", preview.height_m * 1e3);
+    line(&mut chart, mm(&edge), &label, grey, 1)?;
+    let travel = RGBColor(0, 114, 178);
+    chart
+        .draw_series(DashedLineSeries::new(
+            mm(&preview.travel_m),
+            8,
+            6,
+            travel.stroke_width(2),
+        ))
+        .map_err(err)?
+        .label("travel, beam off")
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], travel.stroke_width(2)));
+    line(
+        &mut chart,
+        mm(&preview.cut_m),
+        "cut, beam on",
+        RGBColor(213, 94, 0),
+        2,
+    )?;
+    if let Some(s) = preview.cut_m.first() {
+        chart
+            .draw_series(std::iter::once(Circle::new(
+                (s[0] * 1e3, s[1] * 1e3),
+                6,
+                BLACK.filled(),
+            )))
+            .map_err(err)?
+            .label("start")
+            .legend(|(x, y)| Circle::new((x + 10, y), 5, BLACK.filled()));
+    }
+    legend(&mut chart)?;
+    root.present().map_err(err)?;
+    Ok(())
+}

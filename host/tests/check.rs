@@ -1,0 +1,203 @@
+//! `kerf check` and its library (`kerf_host::check`, `kerf_host::preview`): the
+//! workspace's edge found where the inverse kinematics stops, the preview of an
+//! accepted job, the machine chosen by the job's kind or by name, and the command's
+//! exit codes with nothing written for a refused job.
+
+use kerf::kinematics::delta::DeltaGeometry;
+use kerf::machines::delta_slave::product::CUT_HEIGHT_M;
+use kerf::machines::delta_slave::DeltaSlaveConfig;
+use kerf_host::check::{check, workspace_outline, CheckError, Machine, OUTLINE_DIRECTIONS};
+use kerf_host::job::Job;
+use nalgebra::Vector3;
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn kerf(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_kerf"))
+        .args(args)
+        .output()
+        .expect("run kerf")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name)
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+/// The letter 's' (25 points, 16 mm tall) as a points job, scaled by `scale`.
+fn letter_job(scale: f32) -> Vec<u8> {
+    let points_m = kerf::trajectory::shapes::letter_s()
+        .iter()
+        .map(|p| [p[0] as f32 * scale, p[1] as f32 * scale])
+        .collect();
+    Job::Path { points_m }.to_bytes().unwrap()
+}
+
+/// Each point of the outline is reached, and one 2 µm farther out in its direction is
+/// not (the search stops within 1 µm of the edge); the outline goes all the way round.
+#[test]
+fn the_workspace_edge_is_where_the_inverse_kinematics_stops() {
+    let machine = DeltaSlaveConfig::KEOPS;
+    let geometry = DeltaGeometry::<f64>::new(&machine.delta).unwrap();
+    let reaches = |p: [f64; 2]| {
+        geometry
+            .inverse(&Vector3::new(p[0], p[1], CUT_HEIGHT_M))
+            .is_ok()
+    };
+    let outline = workspace_outline(&machine, [0.0, 0.0], CUT_HEIGHT_M);
+    assert_eq!(outline.len(), OUTLINE_DIRECTIONS);
+    let (mut nearest, mut farthest) = (f64::INFINITY, 0.0f64);
+    for (k, p) in outline.iter().enumerate() {
+        let r = p[0].hypot(p[1]);
+        let phi = std::f64::consts::TAU * k as f64 / OUTLINE_DIRECTIONS as f64;
+        assert!((p[1].atan2(p[0]) - phi).sin().abs() < 1e-9, "direction {k}");
+        let out = [(r + 2e-6) * phi.cos(), (r + 2e-6) * phi.sin()];
+        assert!(reaches(*p) && !reaches(out), "direction {k}: r = {r}");
+        nearest = nearest.min(r);
+        farthest = farthest.max(r);
+    }
+    println!(
+        "Keops workspace at z = 50 mm: {:.2} to {:.2} mm from the axis",
+        nearest * 1e3,
+        farthest * 1e3
+    );
+    // The three-fold shape of the picture: well inside 100 mm, well outside 5 mm.
+    assert!(nearest > 5e-3 && farthest < 0.1 && farthest > 1.5 * nearest);
+    // A centre out of reach has no outline.
+    assert!(workspace_outline(&machine, [1.0, 0.0], CUT_HEIGHT_M).is_empty());
+}
+
+/// An accepted job's preview: the cut from the job's start, the travel from the
+/// centre to it, all inside the workspace's edge; an open path's cut ends at its last
+/// point; the SVG names what it draws.
+#[test]
+fn an_accepted_job_has_a_preview_inside_the_workspace() {
+    let checked = check(&letter_job(1.0), None).expect("the letter fits");
+    assert_eq!(checked.machine, Machine::KeopsSlave);
+    let preview = checked.preview.clone().expect("the laser delta draws one");
+    assert!(!preview.closed);
+    assert_eq!(preview.travel_m.first(), Some(&[0.0, 0.0]));
+    assert_eq!(preview.travel_m.last(), preview.cut_m.first());
+    // The letter's last point, relative to its points' mean (f32 as the file holds it).
+    let letter = kerf::trajectory::shapes::letter_s().map(|p| p.map(|v| f64::from(v as f32)));
+    let n = letter.len() as f64;
+    let mean = [0, 1].map(|k| letter.iter().map(|p| p[k]).sum::<f64>() / n);
+    let end = preview.cut_m.last().unwrap();
+    let last = letter[letter.len() - 1];
+    assert!((end[0] - (last[0] - mean[0])).hypot(end[1] - (last[1] - mean[1])) < 1e-9);
+    // Every point of the cut is inside the edge: nearer the centre than the edge in
+    // its direction (the edge is star-shaped about the centre).
+    let edge = &preview.workspace_m;
+    for p in &preview.cut_m {
+        let k = (p[1].atan2(p[0]).rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU
+            * OUTLINE_DIRECTIONS as f64)
+            .round() as usize
+            % OUTLINE_DIRECTIONS;
+        assert!(p[0].hypot(p[1]) < edge[k][0].hypot(edge[k][1]));
+    }
+    let svg = kerf_host::preview::svg("letter", &checked)
+        .unwrap()
+        .unwrap();
+    for words in [
+        "workspace at z = 50.0 mm",
+        "travel, beam off",
+        "cut, beam on",
+        "start",
+        "open path on keops-slave",
+    ] {
+        assert!(svg.contains(words), "{words}");
+    }
+}
+
+/// The machine follows the job's kind unless named; a machine named for a kind it
+/// does not take says what it takes.
+#[test]
+fn the_machine_is_the_one_that_takes_the_kind_or_the_one_named() {
+    let pyramid =
+        std::fs::read(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/pyramid.gcode"))
+            .unwrap();
+    let gcode = Job::Gcode { text: pyramid }.to_bytes().unwrap();
+    let arrow = check(&gcode, None).expect("ARROW takes its pyramid");
+    assert_eq!((arrow.machine, arrow.preview), (Machine::Arrow, None));
+    assert!(arrow.duration_s > 0.0 && arrow.cut_length_m > 0.0);
+    match check(&gcode, Some(Machine::KeopsSlave)) {
+        Err(e @ CheckError::Kind { .. }) => {
+            assert_eq!(e.to_string(), "keops-slave does not take G-code jobs (it takes EFD (closed contour), points (open path))")
+        }
+        other => panic!("{other:?}"),
+    }
+    let schedule = Job::Schedule {
+        steps: vec![[0.0, 1.0]],
+    }
+    .to_bytes()
+    .unwrap();
+    assert!(matches!(
+        check(&schedule, None),
+        Err(CheckError::NoMachineFor(_))
+    ));
+    assert!(matches!(
+        check(b"not a job", None),
+        Err(CheckError::File(_))
+    ));
+    for m in kerf_host::check::MACHINES {
+        assert_eq!(Machine::from_name(m.name()), Some(m));
+    }
+}
+
+/// `kerf check`: exit 0 with the duration and the preview written; exit 1 for a job
+/// the machine would refuse, in its words, and no preview left behind; a machine
+/// named by `--machine` is the one checked.
+#[test]
+fn kerf_check_exits_by_the_machines_verdict_and_writes_nothing_for_a_refusal() {
+    let good = tmp("check-letter.kjob");
+    let big = tmp("check-letter-x8.kjob");
+    std::fs::write(&good, letter_job(1.0)).unwrap();
+    std::fs::write(&big, letter_job(8.0)).unwrap();
+    let svg = tmp("check-letter.svg");
+    let _ = std::fs::remove_file(&svg);
+    let out = kerf(&[
+        "check",
+        good.to_str().unwrap(),
+        "--preview",
+        svg.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let said = text(&out.stdout);
+    assert!(
+        said.contains("keops-slave accepts it") && said.contains("about 4.58 s"),
+        "{said}"
+    );
+    assert!(std::fs::read_to_string(&svg)
+        .unwrap()
+        .contains("cut, beam on"));
+
+    let refused = tmp("check-refused.svg");
+    let _ = std::fs::remove_file(&refused);
+    let out = kerf(&[
+        "check",
+        big.to_str().unwrap(),
+        "--preview",
+        refused.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = text(&out.stderr);
+    assert!(err.contains("keops-slave would refuse this job: job code 0x0009: a point of the contour leaves the workspace"), "{err}");
+    assert!(!refused.exists());
+
+    let out = kerf(&["check", good.to_str().unwrap(), "--machine", "arrow"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stderr).contains("arrow does not take points (open path) jobs"),
+        "{}",
+        text(&out.stderr)
+    );
+    for args in [&["check"][..], &["check", "x", "--machine", "lathe"]] {
+        assert_eq!(kerf(args).status.code(), Some(2), "{args:?}");
+    }
+    let out = kerf(&["check", "/nonexistent/job"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("cannot read the job file"));
+}
