@@ -57,6 +57,16 @@ pub enum SessionError {
     /// The machine stopped the job (an operator's stop).
     #[error("the job was stopped before its end")]
     Stopped,
+    /// A part of the job after the first could not be given to the machine.
+    #[error("part {part} of {of}: {error}")]
+    Part {
+        /// Which part, from 1.
+        part: usize,
+        /// Of how many.
+        of: usize,
+        /// What the link or the machine said.
+        error: LinkError,
+    },
 }
 
 /// An open session; the emulated machine ends with it.
@@ -242,13 +252,57 @@ fn console(
     stopped
 }
 
+/// The parts of a run: how many the machine has been given and has begun.
+struct Parts<'j> {
+    parts: &'j [(JobKind, &'j [u8])],
+    /// Committed to the machine (loaded, or queued behind the running part).
+    committed: usize,
+    /// Begun (by `Start` or as the queued part, [`Event::NextJob`]).
+    begun: usize,
+    /// The next part is uploaded but its commit found the machine's buffers busy.
+    commit_pending: bool,
+}
+
+impl Parts<'_> {
+    /// Gives the machine the next part if it has room for it (one part queued behind
+    /// the running one at most); a commit the machine finds busy is tried again.
+    fn feed(&mut self, m: &mut MachineLink) -> Result<(), SessionError> {
+        let Some(&(kind, bytes)) = self.parts.get(self.committed) else {
+            return Ok(());
+        };
+        if self.committed > self.begun {
+            return Ok(());
+        }
+        let committed = if self.commit_pending {
+            m.command(Request::JobCommit)
+        } else {
+            m.upload(kind, bytes, &mut |_| {})
+        };
+        match committed {
+            Ok(()) => {
+                self.committed += 1;
+                self.commit_pending = false;
+                Ok(())
+            }
+            Err(LinkError::Refused {
+                refusal: Refusal::Busy,
+                ..
+            }) => {
+                self.commit_pending = true;
+                Ok(())
+            }
+            Err(e) => Err(SessionError::Part {
+                part: self.committed + 1,
+                of: self.parts.len(),
+                error: e,
+            }),
+        }
+    }
+}
+
 impl Session {
-    /// Uploads `job`, starts it and follows it to its end, changing settings as
-    /// `plan` says and as the operator types on `console_lines`, telling `progress`
-    /// as it goes. The telemetry goes into `log` whatever the end.
-    ///
-    /// Errors: the link; the machine refusing the job; a fault, a stop or a lost host
-    /// before the end (the log holds what came until then).
+    /// Uploads `job`, starts it and follows it to its end ([`Session::run_parts`]
+    /// with one part).
     pub fn run_job(
         &mut self,
         kind: JobKind,
@@ -258,7 +312,32 @@ impl Session {
         console_lines: Option<&Receiver<String>>,
         progress: &mut dyn FnMut(Progress<'_>),
     ) -> Result<(), SessionError> {
+        self.run_parts(&[(kind, job)], plan, log, console_lines, progress)
+    }
+
+    /// Uploads the first of `parts` (job files of their kinds), starts it and follows
+    /// the run to the end of the last, changing settings as `plan` says and as the
+    /// operator types on `console_lines`, telling `progress` as it goes. Each further
+    /// part is uploaded while the one before runs and queued behind it, so the machine
+    /// goes on to it without stopping (its approach, tool off, leads from where the
+    /// part before ended); a part that ends before the next is queued, or whose start
+    /// the machine refuses at that moment, is followed by a `Start` of the next. The
+    /// telemetry goes into `log` whatever the end.
+    ///
+    /// Errors: the link; the machine refusing a part; a fault, a stop or a lost host
+    /// before the end (the log holds what came until then).
+    pub fn run_parts(
+        &mut self,
+        parts: &[(JobKind, &[u8])],
+        plan: &RunPlan,
+        log: &mut TelemetryLog,
+        console_lines: Option<&Receiver<String>>,
+        progress: &mut dyn FnMut(Progress<'_>),
+    ) -> Result<(), SessionError> {
         let m = &mut self.machine;
+        let Some(&(kind, job)) = parts.first() else {
+            return Ok(());
+        };
         let status = m.status()?;
         let mode = wait_calibrated(m, status.mode, progress)?;
         if mode == ModeCode::Fault {
@@ -268,6 +347,12 @@ impl Session {
         m.upload(kind, job, &mut |n| progress(Progress::Uploaded(n)))?;
         m.telemetry(plan.telemetry_hz)?;
         start_at_rest(m, progress)?;
+        let mut parts = Parts {
+            parts,
+            committed: 1,
+            begun: 1,
+            commit_pending: false,
+        };
         let description = m.description().clone();
         let mut changes = plan.changes.iter().peekable();
         let mut last_heartbeat = Instant::now();
@@ -310,6 +395,7 @@ impl Session {
                             format!("fault {code}: {}", fault.as_deref().unwrap_or_default())
                         }
                         Event::HostLost => "the machine lost the host".to_owned(),
+                        Event::NextJob => "the next part begins (its approach)".to_owned(),
                         Event::VersionRefused { version } => format!(
                             "the machine refused a frame of link version {version} (it speaks {})",
                             kerf::codec::link::VERSION
@@ -328,11 +414,28 @@ impl Session {
                             from: ModeCode::Running | ModeCode::Stopping,
                             to: ModeCode::Ready,
                         } if running => {
-                            return if stopped {
-                                Err(SessionError::Stopped)
-                            } else {
-                                Ok(())
-                            };
+                            if stopped {
+                                return Err(SessionError::Stopped);
+                            }
+                            if parts.begun == parts.parts.len() {
+                                return Ok(());
+                            }
+                            // The machine rests between parts: the next one is given
+                            // (if it was not yet) and started.
+                            while parts.committed == parts.begun {
+                                parts.feed(m)?;
+                            }
+                            start_at_rest(m, progress)?;
+                            parts.begun += 1;
+                            let text =
+                                format!("part {} of {} started", parts.begun, parts.parts.len());
+                            progress(Progress::Line(now, &text));
+                        }
+                        Event::NextJob => {
+                            parts.begun += 1;
+                            let text =
+                                format!("part {} of {} begun", parts.begun, parts.parts.len());
+                            progress(Progress::Line(now, &text));
                         }
                         // The fault's reason follows its mode change: the run ends
                         // when it has come.
@@ -361,6 +464,9 @@ impl Session {
                     let now = log.since_cut_s();
                     stopped |= console(m, &line, now, log, progress);
                 }
+            }
+            if running && !stopped {
+                parts.feed(m)?;
             }
             // Between samples (slow telemetry, a slow link), at least every 100 ms.
             if last_heartbeat.elapsed() > Duration::from_millis(100) {

@@ -81,13 +81,12 @@ fn an_accepted_job_has_a_preview_inside_the_workspace() {
     assert!(!preview.closed);
     assert_eq!(preview.travel_m.first(), Some(&[0.0, 0.0]));
     assert_eq!(preview.travel_m.last(), preview.cut_m.first());
-    // The letter's last point, relative to its points' mean (f32 as the file holds it).
+    // The letter's first and last points, where the file puts them (f32).
     let letter = kerf::trajectory::shapes::letter_s().map(|p| p.map(|v| f64::from(v as f32)));
-    let n = letter.len() as f64;
-    let mean = [0, 1].map(|k| letter.iter().map(|p| p[k]).sum::<f64>() / n);
-    let end = preview.cut_m.last().unwrap();
+    let (start, end) = (preview.cut_m[0], *preview.cut_m.last().unwrap());
     let last = letter[letter.len() - 1];
-    assert!((end[0] - (last[0] - mean[0])).hypot(end[1] - (last[1] - mean[1])) < 1e-9);
+    assert!((start[0] - letter[0][0]).hypot(start[1] - letter[0][1]) < 1e-12);
+    assert!((end[0] - last[0]).hypot(end[1] - last[1]) < 1e-12);
     // Every point of the cut is inside the edge: nearer the centre than the edge in
     // its direction (the edge is star-shaped about the centre).
     let edge = &preview.workspace_m;

@@ -571,6 +571,7 @@ impl<'q, M: LinkMachine, const J: usize> HostLink<'q, M, J> {
                     self.send(&MachineMessage::Telemetry(sample), send);
                 }
             }
+            Report::NextJob => self.send(&MachineMessage::Event(Event::NextJob), send),
             Report::CalibrationSample { .. } | Report::SweepDone => {}
         }
     }

@@ -32,10 +32,13 @@
 //! | 5 | Calibrating | `Stop` | Idle | safe |
 //! | 6 | Idle, Ready | `LoadJob(buffer)` whose job fits the machine | unchanged, job loaded (its buffer held, the replaced job's released) | safe |
 //! | 7 | Ready | `Start` with a job loaded | Running | job |
+//! | 6b | Running | `LoadJob(buffer)` whose job fits the machine, none queued yet | Running, the job queued to follow (its buffer held) | job |
 //! | 8 | Running | job done | Ready | safe |
-//! | 9 | Running | `Stop` | Stopping | ramp to rest |
+//! | 8b | Running | job done, a job queued whose start the machine takes (from where the last one ended) | Running, the queued job loaded and begun ([`Report::NextJob`]; the finished job's buffer released) | job |
+//! | 8c | Running | job done, a job queued whose start the machine refuses | Ready, the queued job loaded, the refusal reported as `Start`'s | safe |
+//! | 9 | Running | `Stop` | Stopping (a queued job dropped) | ramp to rest |
 //! | 10 | Stopping | at rest | Ready | safe |
-//! | 11 | any but Fault | machine fault (sensor, non-finite value, …), or a NaN or infinite output ([`NonFiniteOutput`]) | Fault(reason) | safe in the same period |
+//! | 11 | any but Fault | machine fault (sensor, non-finite value, …), or a NaN or infinite output ([`NonFiniteOutput`]) | Fault(reason) (a queued job dropped) | safe in the same period |
 //! | 12 | Fault | `ResetFault` | Idle | safe |
 //! | 13 | any | `ChangeSettings(coefficients)` | unchanged, coefficients replaced (state kept: bumpless) | as the mode |
 //! | 14 | any | any other command | unchanged, refused with [`CommandError::InvalidInMode`] | as the mode |
@@ -45,6 +48,13 @@
 //! [`CommandError::JobBufferBusy`], a `Start`
 //! without a job with [`CommandError::NoJob`], a `FinishCalibration` before the sweep
 //! is over with [`CommandError::InvalidInMode`]; none of them changes anything.
+//!
+//! A queue of one job behind the running one is how a program of many parts runs as
+//! one: the sender builds the next part in the buffer the running job does not hold
+//! while it runs, and the part begins in the period the running one ends, its
+//! approach (tool off) leading from where that one stopped. With both buffers held, a
+//! third `LoadJob` is refused with [`CommandError::JobBufferBusy`] until the running
+//! part ends.
 //!
 //! ```
 //! use heapless::spsc::Queue;
@@ -321,6 +331,8 @@ pub enum Report<M: Machine> {
     CalibrationSample(M::SweepSample),
     /// The calibration sweep is over: every sample has been sent, the fit can run.
     SweepDone,
+    /// The job queued behind the running one has begun (the one before ended).
+    NextJob,
     /// One period's telemetry.
     Telemetry {
         /// Control period count.
@@ -350,6 +362,8 @@ struct Core<'q, M: Machine> {
     /// The loaded job, held in its buffer (lent to the machine each period while it
     /// runs; released when another is loaded).
     job: Option<HeldJob<'q, M::Job>>,
+    /// The job queued behind the running one, held in the other buffer.
+    next: Option<HeldJob<'q, M::Job>>,
     reports: Producer<'q, Report<M>>,
     period: u64,
     dropped_reports: u32,
@@ -377,6 +391,7 @@ impl<'q, M: Machine> Supervisor<'q, M> {
                 swept: false,
                 jobs,
                 job: None,
+                next: None,
                 reports,
                 period: 0,
                 dropped_reports: 0,
@@ -494,7 +509,8 @@ impl<M: Machine> Core<'_, M> {
                                 self.swept = true;
                                 self.report(Report::SweepDone);
                             }
-                            Mode::Running | Mode::Stopping => self.enter(Mode::Ready),
+                            Mode::Running => self.begin_next_or_rest(),
+                            Mode::Stopping => self.enter(Mode::Ready),
                             _ => {}
                         }
                     }
@@ -570,6 +586,12 @@ impl<M: Machine> Core<'_, M> {
                 self.enter(Mode::Running);
                 Ok(())
             }
+            (Mode::Running, Command::LoadJob(slot)) if self.next.is_none() => {
+                let job = self.jobs.take(*slot).ok_or(CommandError::JobBufferBusy)?;
+                self.machine.check_job(&job).map_err(CommandError::Job)?;
+                self.next = Some(job);
+                Ok(())
+            }
             (Mode::Running, Command::Stop) => {
                 self.machine.begin_stop();
                 self.enter(Mode::Stopping);
@@ -588,7 +610,29 @@ impl<M: Machine> Core<'_, M> {
         }
     }
 
+    /// The running job is done: the queued one begins where it ended, or the machine
+    /// rests (transitions 8, 8b, 8c).
+    fn begin_next_or_rest(&mut self) {
+        if let Some(next) = self.next.take() {
+            let begun = self.machine.begin_job(&next);
+            // Releases the finished job's buffer.
+            self.job = Some(next);
+            match begun {
+                Ok(()) => return self.report(Report::NextJob),
+                Err(error) => self.report(Report::Refused {
+                    command: CommandKind::Start,
+                    error: CommandError::Job(error),
+                }),
+            }
+        }
+        self.enter(Mode::Ready);
+    }
+
     fn enter(&mut self, mode: Mode<M::Fault>) {
+        if mode != Mode::Running {
+            // Only a running job has a successor.
+            self.next = None;
+        }
         if mode != self.mode {
             self.mode = mode;
             self.report(Report::ModeChanged {

@@ -48,8 +48,8 @@ use serde::{Deserialize, Serialize};
 
 /// Version of the frame and the messages in it (2: `Hello` carries the control
 /// period, `Status`; 3: the machine describes itself, telemetry carries its own
-/// channels).
-pub const VERSION: u8 = 3;
+/// channels; 4: a job loaded while one runs is queued behind it, [`Event::NextJob`]).
+pub const VERSION: u8 = 4;
 
 /// Most values a telemetry sample carries.
 pub const MAX_CHANNELS: usize = 16;
@@ -474,6 +474,9 @@ pub enum Event {
     },
     /// The host's heartbeats stopped while a job ran: the machine stopped it.
     HostLost,
+    /// The job queued behind the running one has begun: the one before ended (a
+    /// program of several parts runs on without leaving `Running`).
+    NextJob,
     /// The machine received a frame of link version `version`, which it does not
     /// read (it speaks [`VERSION`]).
     VersionRefused {

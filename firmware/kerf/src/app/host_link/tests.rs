@@ -301,7 +301,10 @@ fn hello_and_a_job_uploaded_in_chunks_runs_with_telemetry_and_events() {
             hello,
             [reply(
                 1,
-                "Hello { version: 3, machine: \"toy\", max_chunk: 192, period_ns: 1000000 }"
+                &std::format!(
+                    "Hello {{ version: {}, machine: \"toy\", max_chunk: 192, period_ns: 1000000 }}",
+                    crate::codec::link::VERSION
+                )
             )]
         );
         let job = points_job(20); // 12 + 160 + 4 = 176 bytes: five chunks

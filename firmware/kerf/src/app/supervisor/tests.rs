@@ -81,7 +81,11 @@ impl Machine for Toy {
             Ok(())
         }
     }
+    /// Job 99 fits but never begins (a start the machine refuses where it stands).
     fn begin_job(&mut self, job: &u32) -> Result<(), &'static str> {
+        if *job == 99 {
+            return Err("cannot begin here");
+        }
         self.left = *job;
         Ok(())
     }
@@ -471,7 +475,7 @@ fn row_14_commands_invalid_in_the_mode_are_refused_and_change_nothing() {
             assert_eq!(refusals(&drain()), [(kind, CommandError::InvalidInMode)]);
         }
         assert_eq!(s.machine().calibrated, None);
-        // Running: Calibrate, LoadJob, Start, ResetFault.
+        // Running: Calibrate, Start, ResetFault (a `LoadJob` queues: rows 6b, 8b).
         to_ready(s, to);
         load(to, 100);
         send(to, Command::Start);
@@ -479,7 +483,6 @@ fn row_14_commands_invalid_in_the_mode_are_refused_and_change_nothing() {
         drain();
         for (command, kind) in [
             (Command::Calibrate, K::Calibrate),
-            (load_command(to, 3), K::LoadJob),
             (Command::Start, K::Start),
             (Command::ResetFault, K::ResetFault),
         ] {
@@ -561,4 +564,111 @@ fn telemetry_comes_every_decimation_periods() {
             .iter()
             .any(|r| matches!(r, Report::Telemetry { .. })));
     });
+}
+
+/// Whether `reports` holds a mode change.
+fn changed_mode(reports: &[Report<Toy>]) -> bool {
+    reports
+        .iter()
+        .any(|r| matches!(r, Report::ModeChanged { .. }))
+}
+
+#[test]
+fn rows_6b_and_8b_a_job_loaded_while_one_runs_follows_it_without_rest() {
+    with_supervisor(|s, to, drain| {
+        to_ready(s, to);
+        load(to, 2);
+        send(to, Command::Start);
+        assert_eq!(s.step(&OK), JOB);
+        drain();
+        // Queued behind the running job, in the other buffer; the first ends in this
+        // period and the queued one begins in it.
+        load(to, 3);
+        assert_eq!(s.step(&OK), JOB);
+        assert_eq!((s.mode(), s.machine().left), (Mode::Running, 3));
+        let reports = drain();
+        assert!(reports
+            .iter()
+            .any(|r| matches!(r, Report::Accepted(CommandKind::LoadJob))));
+        assert!(reports.iter().any(|r| matches!(r, Report::NextJob)));
+        assert!(!changed_mode(&reports));
+        // The finished job's buffer is free again: a third part can be queued, and
+        // then both buffers are held.
+        load(to, 1);
+        assert_eq!(s.step(&OK), JOB);
+        assert_eq!(to.jobs.place(5), None);
+        for _ in 0..2 {
+            assert_eq!(s.step(&OK), JOB);
+        }
+        assert_eq!((s.mode(), s.machine().left), (Mode::Running, 1));
+        assert!(
+            drain()
+                .iter()
+                .filter(|r| matches!(r, Report::NextJob))
+                .count()
+                == 1
+        );
+        assert_eq!(s.step(&OK), JOB);
+        assert_eq!(s.mode(), Mode::Ready);
+        assert_eq!(s.step(&OK), SAFE);
+        // Only the last job stays loaded: one buffer free, and only one.
+        let free = to.jobs.take_free();
+        assert!(free.is_some());
+        assert!(to.jobs.take_free().is_none());
+    });
+}
+
+#[test]
+fn row_8c_a_queued_job_the_machine_cannot_begin_is_loaded_at_rest_and_refused_as_a_start() {
+    with_supervisor(|s, to, drain| {
+        to_ready(s, to);
+        load(to, 2);
+        send(to, Command::Start);
+        s.step(&OK);
+        load(to, 99);
+        assert_eq!(s.step(&OK), JOB);
+        assert_eq!(s.mode(), Mode::Ready);
+        let reports = drain();
+        assert_eq!(
+            refusals(&reports),
+            [(CommandKind::Start, CommandError::Job("cannot begin here"))]
+        );
+        assert!(!reports.iter().any(|r| matches!(r, Report::NextJob)));
+        // It is the loaded job now: a start is refused for the same reason.
+        send(to, Command::Start);
+        assert_eq!(s.step(&OK), SAFE);
+        assert_eq!(
+            refusals(&drain()),
+            [(CommandKind::Start, CommandError::Job("cannot begin here"))]
+        );
+    });
+}
+
+#[test]
+fn a_stop_or_a_fault_drops_the_queued_job_and_frees_its_buffer() {
+    for fault in [false, true] {
+        with_supervisor(|s, to, drain| {
+            to_ready(s, to);
+            load(to, 50);
+            send(to, Command::Start);
+            s.step(&OK);
+            load(to, 3);
+            s.step(&OK);
+            assert_eq!(to.jobs.place(5), None);
+            if fault {
+                assert_eq!(s.step(&BROKEN), SAFE);
+                assert_eq!(s.mode(), Mode::Fault("sensor"));
+            } else {
+                send(to, Command::Stop);
+                assert_eq!(s.step(&OK), RAMP);
+                assert_eq!(s.step(&OK), RAMP);
+                assert_eq!(s.mode(), Mode::Ready);
+            }
+            // The dropped job's buffer is free; the stopped job is still loaded.
+            let free = to.jobs.take_free();
+            assert!(free.is_some());
+            assert!(to.jobs.take_free().is_none());
+            assert!(!drain().iter().any(|r| matches!(r, Report::NextJob)));
+        });
+    }
 }

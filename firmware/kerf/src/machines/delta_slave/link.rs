@@ -1,7 +1,9 @@
 //! The Keops slave on the host link ([`crate::app::host_link`]): its settings tree,
 //! how an uploaded job file becomes a contour job (an EFD file a closed contour cut
 //! for [`ContourDefaults::laps`] laps from θ = 0, a points file an open path cut once
-//! from its first point to its last), and its telemetry and faults on the wire.
+//! from its first point to its last; the file's x and y are the workspace's, about
+//! [`ContourDefaults::centre_m`], so the parts of a program keep their places), and
+//! its telemetry and faults on the wire.
 //!
 //! Settings (JSON values, SI units and Hz):
 //!
@@ -61,7 +63,7 @@ impl SlaveSettings {
 pub struct ContourDefaults {
     /// The machine.
     pub machine: DeltaSlaveConfig,
-    /// Where the contour's centre goes and the cutting height, m.
+    /// The origin of a job file's x and y in the workspace, and the cutting height, m.
     pub centre_m: [f64; 3],
     /// Tangential speed, m/s.
     pub speed_m_s: f64,
@@ -334,7 +336,8 @@ fn refusal_code(error: &DeltaJobError) -> u16 {
     }
 }
 
-/// An EFD file as a closed contour, cut for the context's laps from θ = 0.
+/// An EFD file as a closed contour, cut for the context's laps from θ = 0, its centre
+/// where the file puts it.
 fn load_closed(
     context: &ContourDefaults,
     file: &JobFile<'_>,
@@ -363,12 +366,13 @@ fn load_closed(
             theta0_rad: 0.0,
             laps: context.laps,
         },
+        centre,
         job,
     )
 }
 
-/// A points file as an open path, cut once from its first point to its last, its
-/// points' centroid at the context's centre.
+/// A points file as an open path, cut once from its first point to its last, each
+/// point where the file puts it.
 fn load_open(context: &ContourDefaults, file: &JobFile<'_>, job: &mut DeltaJob) -> Result<(), u16> {
     let n = file.count();
     if n > OPEN_PATH_POINTS {
@@ -381,17 +385,27 @@ fn load_open(context: &ContourDefaults, file: &JobFile<'_>, job: &mut DeltaJob) 
     }
     let path = OpenPath::<f64, OPEN_PATH_POINTS>::from_points(points.get(..n).unwrap_or(&[]))
         .map_err(|_| load_codes::BAD_PATH)?;
-    plan_into(context, ContourCurve::Open(&path), job)
+    let centre = path.centre();
+    plan_into(
+        context,
+        ContourCurve::Open(&path),
+        [centre.x, centre.y],
+        job,
+    )
 }
 
-/// Plans `curve` with the context's speed, ramps, law and laser into `job`.
+/// Plans `curve` (relative to its centre, at `centre_m` in the file's x and y) with
+/// the context's speed, ramps, law and laser into `job`.
 fn plan_into(
     context: &ContourDefaults,
     curve: ContourCurve<'_>,
+    centre_m: [f64; 2],
     job: &mut DeltaJob,
 ) -> Result<(), u16> {
-    *job = DeltaJob::plan_contour(&context.machine, &context.plan(curve))
-        .map_err(|e| refusal_code(&e))?;
+    let mut plan = context.plan(curve);
+    plan.centre_m[0] += centre_m[0];
+    plan.centre_m[1] += centre_m[1];
+    *job = DeltaJob::plan_contour(&context.machine, &plan).map_err(|e| refusal_code(&e))?;
     Ok(())
 }
 
