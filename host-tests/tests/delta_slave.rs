@@ -9,7 +9,7 @@ use kerf::app::joints::JointFault;
 use kerf::machines::delta_slave::DeltaFault;
 use kerf::sensing::hall::HallFault;
 use kerf_sim::scenario::{MAX_ERROR_BOUND_M, RMS_ERROR_BOUND_M};
-use kerf_sim::slave::{run_slave, SlaveOutcome, SlaveScenario};
+use kerf_sim::slave::{run_slave, run_slave_job, SlaveOutcome, SlaveScenario};
 
 fn square<T: kerf::Float>() -> SlaveOutcome {
     let scenario = SlaveScenario::square();
@@ -72,4 +72,33 @@ fn a_broken_sensor_on_one_carriage_stops_all_three() {
     let at = outcome.fault_at_s.unwrap();
     assert!((at - 1.0).abs() < 1.5e-4, "{at}");
     assert_eq!(outcome.force_after_fault_n, 0.0);
+}
+
+/// A contour job's duration is the periods the machine runs it, to the period: the
+/// approach, the ramps and the cruise, the approach's hand-over period and the
+/// preview window's drain (counted here period by period as the supervisor's mode).
+#[test]
+fn a_contour_jobs_duration_is_the_periods_it_runs() {
+    use kerf::app::supervisor::Mode;
+    use kerf::machines::delta_slave::{ContourLaw, DeltaSlaveConfig};
+    use kerf_sim::contour::octagon_job;
+    let mut scenario = SlaveScenario::square();
+    scenario.sensors = [hal_mock::hall_sensor::HallSensorParams::LM1247_16BIT; 3];
+    scenario.stored_nominal_calibration = true;
+    scenario.substeps = 1;
+    for laps in [0.25, 1.0] {
+        let job = octagon_job(&DeltaSlaveConfig::KEOPS, laps, 30, ContourLaw::Contouring).unwrap();
+        let planned = job.duration_s();
+        let mut running = 0u32;
+        run_slave_job::<f64>(&scenario, job, planned + 0.5, 0, |period, _| {
+            running += u32::from(period.mode == Mode::Running);
+        })
+        .unwrap();
+        let ran = f64::from(running) * 1e-4;
+        println!("{laps} laps: planned {planned:.4} s, ran {running} periods");
+        assert!(
+            (ran - planned).abs() < 1e-9,
+            "planned {planned} s, ran {ran} s"
+        );
+    }
 }

@@ -380,3 +380,144 @@ fn planned_open_path_s(points: &[[f64; 2]]) -> f64 {
     assert_eq!(job.contour_point_m(1.5), None);
     job.duration_s()
 }
+
+/// Three octagons of ±3 mm where the program puts them (left, top, right), as EFD files.
+fn three_parts() -> Vec<Vec<u8>> {
+    use kerf::codec::job::write_efd;
+    use kerf::machines::delta_slave::CONTOUR_HARMONICS;
+    use kerf::trajectory::efd::Efd;
+    [[-6e-3, 0.0], [0.0, 5e-3], [6e-3, 0.0]]
+        .iter()
+        .map(|c| {
+            let points: Vec<[f64; 2]> = kerf::trajectory::shapes::octagon()
+                .iter()
+                .map(|p| [c[0] + 0.3 * p[0], c[1] + 0.3 * p[1]])
+                .collect();
+            let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&points, 30).unwrap();
+            let centre = efd.centre();
+            let mut buf = [0u8; 1024];
+            let n = write_efd([centre.x, centre.y], efd.coefficients(), &mut buf).unwrap();
+            buf[..n].to_vec()
+        })
+        .collect()
+}
+
+/// A program of three parts runs as one job: each part uploaded while the one before
+/// runs is queued (a fourth finds both buffers held: busy), begins in the period the
+/// one before ends ([`Event::NextJob`], no rest between), and its approach leads to
+/// its own start where the file puts it; the whole takes the parts' planned durations
+/// added up, the host's own check's.
+#[test]
+fn the_parts_of_a_program_follow_each_other_without_rest() {
+    let parts = three_parts();
+    let starts: Vec<[f64; 2]> = parts
+        .iter()
+        .map(|p| {
+            kerf_host::check::check(p, None)
+                .unwrap()
+                .preview
+                .unwrap()
+                .cuts_m[0][0]
+        })
+        .collect();
+    let planned: f64 = parts
+        .iter()
+        .map(|p| kerf_host::check::check(p, None).unwrap().duration_s)
+        .sum();
+    let mut host = Host::default();
+    with_linked_slave::<f64, _>(&scenario(), 1.0, |slave| {
+        for _ in 0..3 {
+            host.period(slave, &[]);
+        }
+        host.upload(slave, &parts[0]);
+        assert_eq!(
+            host.ask(slave, Request::Telemetry { every_periods: 10 }, 2),
+            "Ack"
+        );
+        assert_eq!(host.ask(slave, Request::Start, 5), "Ack");
+        let mut given = 1;
+        for k in 0..200_000u32 {
+            let begun = 1 + host
+                .events()
+                .iter()
+                .filter(|e| **e == Event::NextJob)
+                .count();
+            if given < parts.len() && given == begun {
+                assert_eq!(host.upload_as(slave, JobKind::Efd, &parts[given]), "Ack");
+                given += 1;
+                if given < parts.len() {
+                    // Both buffers held (the running part's and the queued one's).
+                    let refused = host.upload_as(slave, JobKind::Efd, &parts[given]);
+                    assert!(refused.contains("Busy"), "{refused}");
+                }
+            }
+            let bytes = if k % 100 == 0 {
+                host.frame(Request::Heartbeat).1
+            } else {
+                Vec::new()
+            };
+            host.period(slave, &bytes);
+            if host.events().contains(&Event::Mode {
+                from: ModeCode::Running,
+                to: ModeCode::Ready,
+            }) {
+                break;
+            }
+        }
+        let events = host.events();
+        let modes: Vec<&Event> = events
+            .iter()
+            .filter(|e| matches!(e, Event::Mode { .. }))
+            .collect();
+        assert_eq!(
+            events.iter().filter(|e| **e == Event::NextJob).count(),
+            2,
+            "{events:?}"
+        );
+        // Idle → Ready at power-up, one start, one end: no rest between the parts.
+        assert_eq!(modes.len(), 3, "{modes:?}");
+        let samples = host.samples();
+        let reference =
+            |s: &TelemetrySample| [channel(s, "x_ref"), channel(s, "y_ref")].map(f64::from);
+        for (k, start) in starts.iter().enumerate() {
+            let nearest = samples
+                .iter()
+                .map(|s| (reference(s)[0] - start[0]).hypot(reference(s)[1] - start[1]))
+                .fold(f64::INFINITY, f64::min);
+            println!(
+                "part {}: the reference passes {:.1} nm from its start",
+                k + 1,
+                nearest * 1e9
+            );
+            assert!(nearest < 10e-9, "part {}: {nearest}", k + 1);
+        }
+        let first = samples
+            .iter()
+            .find(|s| s.mode == ModeCode::Running)
+            .unwrap()
+            .period;
+        for _ in 0..20 {
+            host.period(slave, &[]);
+        }
+        let samples = host.samples();
+        let rest = samples
+            .iter()
+            .find(|s| s.mode == ModeCode::Ready && s.period > first)
+            .unwrap()
+            .period;
+        let ran = f64::from(rest - first) * 1e-4;
+        println!("three parts: planned {planned:.4} s, ran {ran:.4} s");
+        // Each part's periods as planned, to the telemetry's ten periods.
+        assert!(
+            (ran - planned).abs() <= 1.1e-3,
+            "planned {planned} s, ran {ran} s"
+        );
+        let worst = samples
+            .iter()
+            .filter(|s| s.mode == ModeCode::Running)
+            .map(|s| channel(s, "error"))
+            .fold(0.0f32, f32::max);
+        assert!(worst < 5e-6, "{worst}");
+    })
+    .unwrap();
+}

@@ -16,10 +16,16 @@
 //! - ARROW (`arrow`) takes G-code: its check is [`crate::gcode::check`] (line and
 //!   column of the first problem, the job's moves and duration).
 //!
-//! Which machine: the one named, or the one that takes the file's kind
+//! A file of several parts (their job files back to back, [`crate::job::split`]) is
+//! checked part by part, as the machine loads them one after the other: the first
+//! refused part is named; an accepted program's duration is the parts' sum (each
+//! part's approach leads from where the one before ended) and its preview draws
+//! every part and the travels between them.
+//!
+//! Which machine: the one named, or the one that takes the (first) file's kind
 //! ([`Machine::for_kind`]).
 
-use crate::job::{JobFileError, JobKind};
+use crate::job::{split, JobFileError, JobKind};
 use kerf::app::host_link::LinkMachine;
 use kerf::codec::job::JobFile;
 use kerf::codec::link::{CodeWords, LINK_JOB_REFUSALS};
@@ -108,6 +114,16 @@ pub enum CheckError {
     /// ARROW's G-code check (line and column).
     #[error("{0}")]
     Gcode(#[from] crate::gcode::GcodeCheckError),
+    /// A part of a program of several.
+    #[error("part {part} of {of}: {error}")]
+    Part {
+        /// Which part, from 1.
+        part: usize,
+        /// Of how many.
+        of: usize,
+        /// What is wrong with it.
+        error: Box<CheckError>,
+    },
 }
 
 fn known_machines() -> String {
@@ -131,12 +147,13 @@ pub struct Preview {
     /// Where the workspace ends at the cutting height (closed; reach and carriage
     /// travel), m.
     pub workspace_m: Vec<[f64; 2]>,
-    /// The beam-off travel to the cut's start (from the workspace's centre), m.
-    pub travel_m: Vec<[f64; 2]>,
-    /// The cut, beam on, m.
-    pub cut_m: Vec<[f64; 2]>,
-    /// Whether the cut is a closed contour.
-    pub closed: bool,
+    /// The beam-off travels: to the first part's start from the workspace's centre,
+    /// then from each part's end to the next one's start, m.
+    pub travels_m: Vec<[[f64; 2]; 2]>,
+    /// The cuts, beam on, one per part in order, m.
+    pub cuts_m: Vec<Vec<[f64; 2]>>,
+    /// Whether each part is a closed contour.
+    pub closed: Vec<bool>,
     /// The cutting height, m.
     pub height_m: f64,
 }
@@ -146,8 +163,10 @@ pub struct Preview {
 pub struct Checked {
     /// The machine.
     pub machine: Machine,
-    /// The job's kind.
+    /// The (first) part's kind.
     pub kind: JobKind,
+    /// Parts of the program (1: a single job file).
+    pub parts: usize,
     /// From start to the end of the job, s (the approach included).
     pub duration_s: f64,
     /// Length of the cut (one lap of a closed contour), m.
@@ -161,9 +180,57 @@ pub const PREVIEW_POINTS: usize = 1024;
 /// Directions in which the workspace's edge is sought.
 pub const OUTLINE_DIRECTIONS: usize = 180;
 
-/// Checks the job file `bytes` for `machine`, or for the machine that takes its kind
-/// (module docs).
+/// Checks the job file `bytes` (one job, or several parts back to back) for
+/// `machine`, or for the machine that takes its kind (module docs).
 pub fn check(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckError> {
+    let parts = split(bytes).map_err(CheckError::File)?;
+    let of = parts.len();
+    let mut all: Option<Checked> = None;
+    for (k, part) in parts.into_iter().enumerate() {
+        let machine = machine.or(all.as_ref().map(|c| c.machine));
+        let checked = check_part(part, machine).map_err(|error| match of {
+            1 => error,
+            _ => CheckError::Part {
+                part: k + 1,
+                of,
+                error: Box::new(error),
+            },
+        })?;
+        all = Some(match all {
+            None => checked,
+            Some(so_far) => so_far.then(checked),
+        });
+    }
+    // `split` returns at least one part.
+    all.ok_or(CheckError::File(JobFileError::Truncated))
+}
+
+impl Checked {
+    /// This program followed by `next`: durations and lengths added, the previews
+    /// joined by the travel from this one's end to the next one's start.
+    fn then(mut self, next: Checked) -> Checked {
+        self.parts += next.parts;
+        self.duration_s += next.duration_s;
+        self.cut_length_m += next.cut_length_m;
+        self.preview = match (self.preview, next.preview) {
+            (Some(mut a), Some(b)) => {
+                let end = a.cuts_m.last().and_then(|c| c.last()).copied();
+                let start = b.cuts_m.first().and_then(|c| c.first()).copied();
+                if let (Some(end), Some(start)) = (end, start) {
+                    a.travels_m.push([end, start]);
+                }
+                a.cuts_m.extend(b.cuts_m);
+                a.closed.extend(b.closed);
+                Some(a)
+            }
+            _ => None,
+        };
+        self
+    }
+}
+
+/// Checks one job file for `machine`, or for the machine that takes its kind.
+fn check_part(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckError> {
     let file = JobFile::read(bytes).map_err(CheckError::File)?;
     let kind = file.kind();
     let machine = match machine {
@@ -193,6 +260,7 @@ pub fn check(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckErr
             Ok(Checked {
                 machine,
                 kind,
+                parts: 1,
                 duration_s: report.duration_s,
                 cut_length_m: report.length_m,
                 preview: None,
@@ -227,19 +295,20 @@ fn check_keops(file: &JobFile<'_>) -> Result<Checked, CheckError> {
         .sum();
     let height_m = context.centre_m[2];
     let centre = [context.centre_m[0], context.centre_m[1]];
-    let travel_m = cut_m
+    let travels_m = cut_m
         .first()
-        .map_or(Vec::new(), |&start| vec![centre, start]);
+        .map_or(Vec::new(), |&start| vec![[centre, start]]);
     Ok(Checked {
         machine: Machine::KeopsSlave,
         kind: file.kind(),
+        parts: 1,
         duration_s: job.duration_s(),
         cut_length_m,
         preview: Some(Preview {
             workspace_m: workspace_outline(&machine, centre, height_m),
-            travel_m,
-            closed: job.contour_is_closed() == Some(true),
-            cut_m,
+            travels_m,
+            closed: vec![job.contour_is_closed() == Some(true)],
+            cuts_m: vec![cut_m],
             height_m,
         }),
     })

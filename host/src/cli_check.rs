@@ -52,12 +52,20 @@ pub fn run(args: &CheckArgs, report: &mut Report) -> Result<(), Failure> {
     })?;
     let checked = check::check(&bytes, args.machine.map(MachineArg::machine))
         .map_err(|e| Failure::Refused(format!("{name}: {e}")))?;
-    say!(
-        report,
-        "job        {name}: {} job, {} bytes",
-        kind_words(checked.kind),
-        bytes.len()
-    );
+    match checked.parts {
+        1 => say!(
+            report,
+            "job        {name}: {} job, {} bytes",
+            kind_words(checked.kind),
+            bytes.len()
+        ),
+        n => say!(
+            report,
+            "job        {name}: {n} parts ({}), {} bytes",
+            kind_words(checked.kind),
+            bytes.len()
+        ),
+    }
     say!(
         report,
         "machine    {} accepts it (its own load check, with the presets it is flashed with)",
@@ -65,7 +73,7 @@ pub fn run(args: &CheckArgs, report: &mut Report) -> Result<(), Failure> {
     );
     say!(
         report,
-        "duration   about {:.2} s from start to end; cut {:.1} mm",
+        "duration   about {:.2} s from start to end (approaches included); cut {:.1} mm",
         checked.duration_s,
         checked.cut_length_m * 1e3
     );

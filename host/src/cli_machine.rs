@@ -5,7 +5,7 @@ use crate::{distinct, prepare, Failure};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use kerf::codec::link::Request;
-use kerf_host::job::Job;
+use kerf_host::job::{Job, JobKind};
 use kerf_host::link::{Heard, LinkError};
 use kerf_host::output::{io_words, OutputFile};
 use kerf_host::qemu;
@@ -270,7 +270,15 @@ pub fn run(args: &RunArgs, report: &mut Report) -> Result<(), Failure> {
             io_words(&e)
         ))
     })?;
-    let job = Job::from_bytes(&bytes).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    // One job file, or the parts of a program back to back.
+    let parts: Vec<(JobKind, &[u8])> = kerf_host::job::split(&bytes)
+        .and_then(|parts| {
+            parts
+                .into_iter()
+                .map(|p| Job::from_bytes(p).map(|job| (job.kind(), p)))
+                .collect()
+        })
+        .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
     if args.quiet_s == 0 {
         return Err(Failure::Input(
             "--quiet-s 0: give the machine at least 1 s to answer".into(),
@@ -317,36 +325,41 @@ pub fn run(args: &RunArgs, report: &mut Report) -> Result<(), Failure> {
         );
     }
     let mut cutting = false;
-    let ended = session.run_job(
-        job.kind(),
-        &bytes,
-        &plan,
-        &mut log,
-        lines.as_ref(),
-        &mut |p| match p {
-            Progress::Uploaded(n) => bar.set_position(u64::from(n)),
-            Progress::Sample(t) => {
-                if !cutting {
-                    cutting = true;
-                    bar.set_style(
-                        ProgressStyle::with_template("{msg:12} {spinner} machine time {prefix} s")
-                            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-                    );
-                    bar.set_message("running");
-                }
-                bar.set_prefix(format!("{t:.3}"));
-                bar.tick();
+    let ended = session.run_parts(&parts, &plan, &mut log, lines.as_ref(), &mut |p| match p {
+        Progress::Uploaded(n) => bar.set_position(u64::from(n)),
+        Progress::Sample(t) => {
+            if !cutting {
+                cutting = true;
+                bar.set_style(
+                    ProgressStyle::with_template("{msg:12} {spinner} machine time {prefix} s")
+                        .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+                );
+                bar.set_message("running");
             }
-            Progress::Line(t, text) => bar.suspend(|| say!(report, "{t:9.4} s   {text}")),
-        },
-    );
+            bar.set_prefix(format!("{t:.3}"));
+            bar.tick();
+        }
+        Progress::Line(t, text) => bar.suspend(|| say!(report, "{t:9.4} s   {text}")),
+    });
     bar.finish_and_clear();
-    say!(
-        report,
-        "uploaded   {name}: {} bytes, {:?} job",
-        bytes.len(),
-        job.kind()
-    );
+    let kinds: Vec<&str> = parts
+        .iter()
+        .map(|&(k, _)| kerf_host::check::kind_words(k))
+        .collect();
+    match kinds.as_slice() {
+        [one] => say!(
+            report,
+            "uploaded   {name}: {} bytes, {one} job",
+            bytes.len()
+        ),
+        many => say!(
+            report,
+            "uploaded   {name}: {} bytes, {} parts ({})",
+            bytes.len(),
+            many.len(),
+            kinds[0]
+        ),
+    }
     say!(report, "summary    {}", log.summary());
     outputs.write(
         &log,

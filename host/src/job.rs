@@ -16,7 +16,7 @@
 //!   (the autofocus stage's zoom schedule, `kerf::machines::autofocus::product`).
 
 use kerf::codec::job::{
-    write_efd, write_gcode, write_points, write_recording, write_schedule, JobFile,
+    file_len, write_efd, write_gcode, write_points, write_recording, write_schedule, JobFile,
 };
 pub use kerf::codec::job::{JobFileError, HEADER_BYTES, JOB_FORMAT_VERSION};
 pub use kerf::codec::link::JobKind;
@@ -121,5 +121,27 @@ impl Job {
                 steps: (0..n).filter_map(|k| file.step(k)).collect(),
             },
         })
+    }
+}
+
+/// The parts of a job file: one job file, or several back to back (a program of
+/// several parts, `kerf plan --all`), each read and checked by the firmware's reader.
+///
+/// Errors: the first part that is not a whole job file (an empty file is truncated).
+pub fn split(bytes: &[u8]) -> Result<Vec<&[u8]>, JobFileError> {
+    let mut parts = Vec::new();
+    let mut rest = bytes;
+    loop {
+        let part = match file_len(rest) {
+            Some(n) if n <= rest.len() => &rest[..n],
+            // Not a header, or shorter than it says: the reader names what is wrong.
+            _ => rest,
+        };
+        JobFile::read(part)?;
+        parts.push(part);
+        rest = &rest[part.len()..];
+        if rest.is_empty() {
+            return Ok(parts);
+        }
     }
 }

@@ -4,6 +4,7 @@
 //!   closing, start point, ordering, scaling into the workspace) ending in an EFD
 //!   (T 3.2.2) or a point list (T 3.1.5) fitted with the firmware's own code;
 //! - [`gcode`]: a G-code program checked with ARROW's own parser and job loader;
+//! - [`parts`]: every closed contour of an image as the parts of one job, ordered;
 //! - [`job`]: the versioned job file both write and the firmware loads;
 //! - [`check`]: a job file checked as the machine checks it at load, with its
 //!   duration; [`preview`]: its picture (workspace, travel, cut, start);
@@ -27,6 +28,7 @@ pub mod job;
 pub mod link;
 pub mod mask;
 pub mod output;
+pub mod parts;
 pub mod plan;
 pub mod plot;
 pub mod preview;

@@ -15,6 +15,7 @@ use kerf_host::plot;
 use report::{say, Report};
 mod cli_check;
 mod cli_machine;
+mod cli_parts;
 mod report;
 
 use std::io::Write;
@@ -192,10 +193,17 @@ struct PlanArgs {
     /// Also draw the image, the traced contour and the fit into this SVG file.
     #[arg(long, value_name = "SVG")]
     svg: Option<PathBuf>,
-    /// Which closed contour to cut, 1 for the largest, 2 for the next, ... (a job
-    /// carries one; the report says how many the image has).
+    /// Which closed contour to cut, 1 for the largest, 2 for the next, ... (the
+    /// report says how many the image has).
     #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..))]
     contour: u16,
+    /// Cut every closed contour, holes included, as the parts of one job: inner
+    /// contours before the ones around them, then the nearest next.
+    #[arg(long, conflicts_with_all = ["contour", "start"])]
+    all: bool,
+    /// With --all: leave out contours smaller than this across, mm (specks, noise).
+    #[arg(long, value_name = "MM", default_value_t = 0.0, requires = "all")]
+    min_size_mm: f64,
 }
 
 #[derive(Debug, clap::Args)]
@@ -275,6 +283,16 @@ fn run_plan(args: &PlanArgs, report: &mut Report) -> Result<(), Failure> {
         bar.set_style(style);
     }
     let name = args.image.display().to_string();
+    if args.all {
+        let gray = plan::read_grey(&args.image).map_err(|e| format!("{name}: {e}"))?;
+        let set = kerf_host::parts::plan_all(&gray, &config, args.min_size_mm, &mut |stage| {
+            bar.inc(1);
+            bar.set_message(stage.to_string());
+        })
+        .map_err(|e| format!("{name}: {e}"))?;
+        bar.finish_and_clear();
+        return cli_parts::report_parts(&name, &gray, &set, out.as_ref(), svg.as_ref(), report);
+    }
     let (gray, p) = plan::plan_file(&args.image, &config, &mut |stage| {
         bar.inc(1);
         bar.set_message(stage.to_string());

@@ -118,6 +118,14 @@ pub enum PlanError {
     /// The firmware's open-path code refused the points.
     #[error("the firmware refuses the path: {}", contour_words(.0))]
     Path(ContourError),
+    /// Every closed contour is smaller than the size asked.
+    #[error("no closed contour is {min_mm} mm across or more (the largest is {largest_mm:.2} mm): give a smaller --min-size-mm")]
+    NothingLargeEnough {
+        /// The size asked, mm.
+        min_mm: f64,
+        /// The largest contour's size, mm.
+        largest_mm: f64,
+    },
 }
 
 /// Why an image could not be read, in words.
@@ -226,7 +234,7 @@ impl Plan {
     }
 }
 
-fn to_mm(p: [f64; 2], centroid: [f64; 2], s: f64) -> [f64; 2] {
+pub(crate) fn to_mm(p: [f64; 2], centroid: [f64; 2], s: f64) -> [f64; 2] {
     // T eq. 2–4 print β = x_F·(O_W/I_W) + O_W/2: that adds the first point's own
     // (scaled) coordinate instead of subtracting it, so x_O = s(x_I + x_F) + O_W/2
     // lies in [s·x_F + O_W/2, s·x_F + 3·O_W/2] for x_I in [0, I_W]: beside a workspace
@@ -303,7 +311,7 @@ pub fn skeleton(edges: &GrayImage) -> Mask {
     band(edges).thinned()
 }
 
-fn band(edges: &GrayImage) -> Mask {
+pub(crate) fn band(edges: &GrayImage) -> Mask {
     Mask::from_fn(edges.width(), edges.height(), |x, y| {
         edges.get_pixel(x, y)[0] > 0
     })
@@ -317,7 +325,7 @@ pub const SIGMA_MIN_PX: f32 = 0.2;
 /// The strongest Sobel magnitude, a black-to-white step: 2·√5·255 (imageproc's Canny).
 pub const CANNY_MAX: f32 = 1140.4;
 
-fn check(config: &PlanConfig) -> Result<(), PlanError> {
+pub(crate) fn check(config: &PlanConfig) -> Result<(), PlanError> {
     let sigma = config.sigma_px;
     if !(sigma.is_finite() && (sigma == 0.0 || sigma >= SIGMA_MIN_PX)) {
         return Err(PlanError::Config(
@@ -362,14 +370,20 @@ pub fn plan_file(
 ) -> Result<(GrayImage, Plan), PlanError> {
     check(config)?;
     stage("reading the image");
+    let gray = read_grey(path)?;
+    let plan = plan_image(&gray, config, stage)?;
+    Ok((gray, plan))
+}
+
+/// An image file (PNG or JPEG) in grey levels, its transparent parts as background
+/// ([`grey_on_background`]).
+pub fn read_grey(path: &std::path::Path) -> Result<GrayImage, PlanError> {
     let image: DynamicImage = image::ImageReader::open(path)
         .map_err(image::ImageError::IoError)?
         .with_guessed_format()
         .map_err(image::ImageError::IoError)?
         .decode()?;
-    let gray = grey_on_background(&image);
-    let plan = plan_image(&gray, config, stage)?;
-    Ok((gray, plan))
+    Ok(grey_on_background(&image))
 }
 
 /// The image in grey levels with its transparent parts as background: a pixel of
@@ -459,7 +473,7 @@ pub fn plan_image(
     })
 }
 
-fn efd_job(contour_mm: &[[f64; 2]], harmonics: usize) -> Result<(Fit, Job), PlanError> {
+pub(crate) fn efd_job(contour_mm: &[[f64; 2]], harmonics: usize) -> Result<(Fit, Job), PlanError> {
     let points_m: Vec<[f64; 2]> = contour_mm
         .iter()
         .map(|p| [p[0] * 1e-3, p[1] * 1e-3])
@@ -485,7 +499,7 @@ fn efd_job(contour_mm: &[[f64; 2]], harmonics: usize) -> Result<(Fit, Job), Plan
     Ok((Fit::Efd(Box::new(efd)), job))
 }
 
-fn path_job(contour_mm: &[[f64; 2]], closed: bool) -> Result<(Fit, Job), PlanError> {
+pub(crate) fn path_job(contour_mm: &[[f64; 2]], closed: bool) -> Result<(Fit, Job), PlanError> {
     let mut line: Vec<[f64; 2]> = contour_mm
         .iter()
         .map(|p| [p[0] * 1e-3, p[1] * 1e-3])

@@ -57,7 +57,8 @@ impl From<crate::output::OutputError> for PlotError {
 /// A chart with both axes in f64 (every picture of this crate).
 pub(crate) type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
-/// Draws `points` as a line of `width` px with a legend entry.
+/// Draws `points` as a line of `width` px with a legend entry (none for an empty
+/// label).
 pub(crate) fn line<'a, DB: DrawingBackend + 'a>(
     chart: &mut Chart<'a, DB>,
     points: impl IntoIterator<Item = (f64, f64)>,
@@ -65,11 +66,15 @@ pub(crate) fn line<'a, DB: DrawingBackend + 'a>(
     color: RGBColor,
     width: u32,
 ) -> Result<(), PlotError> {
-    chart
+    let series = chart
         .draw_series(LineSeries::new(points, color.stroke_width(width)))
-        .map_err(err)?
-        .label(label)
-        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
+        .map_err(err)?;
+    // An empty label: no legend entry (the parts after the first of a picture).
+    if !label.is_empty() {
+        series
+            .label(label)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
+    }
     Ok(())
 }
 

@@ -1,7 +1,8 @@
 //! The picture of a checked job ([`crate::check`]) as SVG, before it is sent: the
-//! workspace's edge at the cutting height, the travel to the start with the beam off
-//! (dashed), the cut with the beam on, the start point, and the estimated duration in
-//! the title. Workspace millimetres, x right and y up.
+//! workspace's edge at the cutting height, the travels with the beam off (dashed),
+//! the cuts with the beam on, each part's start (the first one larger, the others
+//! numbered in cutting order), and the estimated duration in the title. Workspace
+//! millimetres, x right and y up.
 
 use crate::check::{Checked, Preview};
 use crate::output::OutputFile;
@@ -19,13 +20,13 @@ pub fn svg(title: &str, checked: &Checked) -> Result<Option<String>, PlotError> 
         return Ok(None);
     };
     let mut text = String::new();
+    let what = match preview.closed.as_slice() {
+        [true] => "closed contour".to_owned(),
+        [false] => "open path".to_owned(),
+        parts => format!("{} parts", parts.len()),
+    };
     let caption = format!(
-        "{title}: {} on {}, about {:.1} s",
-        if preview.closed {
-            "closed contour"
-        } else {
-            "open path"
-        },
+        "{title}: {what} on {}, about {:.1} s",
         checked.machine.name(),
         checked.duration_s
     );
@@ -61,8 +62,8 @@ fn draw<DB: DrawingBackend>(
     let all = preview
         .workspace_m
         .iter()
-        .chain(&preview.cut_m)
-        .chain(&preview.travel_m);
+        .chain(preview.cuts_m.iter().flatten())
+        .chain(preview.travels_m.iter().flatten());
     let (lo, hi) = all.fold(
         ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
         |(lo, hi), p| {
@@ -100,33 +101,38 @@ fn draw<DB: DrawingBackend>(
     let label = format!("workspace at z = {:.1} mm", preview.height_m * 1e3);
     line(&mut chart, mm(&edge), &label, grey, 1)?;
     let travel = RGBColor(0, 114, 178);
-    chart
-        .draw_series(DashedLineSeries::new(
-            mm(&preview.travel_m),
-            8,
-            6,
-            travel.stroke_width(2),
-        ))
-        .map_err(err)?
-        .label("travel, beam off")
-        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], travel.stroke_width(2)));
-    line(
-        &mut chart,
-        mm(&preview.cut_m),
-        "cut, beam on",
-        RGBColor(213, 94, 0),
-        2,
-    )?;
-    if let Some(s) = preview.cut_m.first() {
-        chart
-            .draw_series(std::iter::once(Circle::new(
-                (s[0] * 1e3, s[1] * 1e3),
-                6,
-                BLACK.filled(),
-            )))
-            .map_err(err)?
-            .label("start")
-            .legend(|(x, y)| Circle::new((x + 10, y), 5, BLACK.filled()));
+    for (k, t) in preview.travels_m.iter().enumerate() {
+        let series = chart
+            .draw_series(DashedLineSeries::new(mm(t), 8, 6, travel.stroke_width(2)))
+            .map_err(err)?;
+        if k == 0 {
+            series.label("travel, beam off").legend(move |(x, y)| {
+                PathElement::new([(x, y), (x + 20, y)], travel.stroke_width(2))
+            });
+        }
+    }
+    for (k, cut) in preview.cuts_m.iter().enumerate() {
+        let label = if k == 0 { "cut, beam on" } else { "" };
+        line(&mut chart, mm(cut), label, RGBColor(213, 94, 0), 2)?;
+    }
+    for (k, cut) in preview.cuts_m.iter().enumerate() {
+        let Some(s) = cut.first() else { continue };
+        let at = (s[0] * 1e3, s[1] * 1e3);
+        if k == 0 {
+            chart
+                .draw_series(std::iter::once(Circle::new(at, 6, BLACK.filled())))
+                .map_err(err)?
+                .label("start (parts numbered in cutting order)")
+                .legend(|(x, y)| Circle::new((x + 10, y), 5, BLACK.filled()));
+        } else {
+            chart
+                .draw_series(std::iter::once(Circle::new(at, 3, BLACK.filled())))
+                .map_err(err)?;
+        }
+        if preview.cuts_m.len() > 1 {
+            let text = Text::new(format!("{}", k + 1), at, ("sans-serif", 14).into_font());
+            chart.draw_series(std::iter::once(text)).map_err(err)?;
+        }
     }
     legend(&mut chart)?;
     root.present().map_err(err)?;

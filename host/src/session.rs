@@ -163,6 +163,10 @@ pub enum Progress<'a> {
     Line(f64, &'a str),
 }
 
+/// Tries to give the machine the next part when it rests between parts (a commit the
+/// machine finds busy is tried again; at rest it has a free buffer).
+const START_TRIES: usize = 8;
+
 /// Longest a start waits for the machine's axes to come to rest (carriages that slide
 /// to their end stops after power-up take about 0.1 s).
 const START_REST_WAIT: Duration = Duration::from_secs(5);
@@ -401,7 +405,9 @@ impl Session {
                             kerf::codec::link::VERSION
                         ),
                     };
-                    if !matches!(e, Event::Mode { .. }) {
+                    // Marked on the plots: faults and the like, not the mode changes
+                    // and the parts of a program (they would crowd the plot's labels).
+                    if !matches!(e, Event::Mode { .. } | Event::NextJob) {
                         log.mark(&text);
                     }
                     progress(Progress::Line(now, &text));
@@ -422,7 +428,10 @@ impl Session {
                             }
                             // The machine rests between parts: the next one is given
                             // (if it was not yet) and started.
-                            while parts.committed == parts.begun {
+                            for _ in 0..START_TRIES {
+                                if parts.committed > parts.begun {
+                                    break;
+                                }
                                 parts.feed(m)?;
                             }
                             start_at_rest(m, progress)?;
@@ -431,12 +440,7 @@ impl Session {
                                 format!("part {} of {} started", parts.begun, parts.parts.len());
                             progress(Progress::Line(now, &text));
                         }
-                        Event::NextJob => {
-                            parts.begun += 1;
-                            let text =
-                                format!("part {} of {} begun", parts.begun, parts.parts.len());
-                            progress(Progress::Line(now, &text));
-                        }
+                        Event::NextJob => parts.begun += 1,
                         // The fault's reason follows its mode change: the run ends
                         // when it has come.
                         Event::Fault { .. } => {

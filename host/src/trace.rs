@@ -383,15 +383,8 @@ pub enum TraceError {
 /// positions in walking order, starting at the rightmost pixel (top-most of those),
 /// counter-clockwise in the workspace; the first point is not repeated at the end.
 pub fn closed_chain(skeleton: &Mask, index: usize) -> Result<(Vec<[f64; 2]>, usize), TraceError> {
-    if skeleton.count() == 0 {
-        return Err(TraceError::NoEdges);
-    }
-    let core = skeleton.pruned_to_cycles();
-    let components = core.components();
+    let components = cycle_components(skeleton)?;
     let found = components.len();
-    if found == 0 {
-        return Err(TraceError::NoClosedContour);
-    }
     let component = components
         .into_iter()
         .nth(index)
@@ -399,11 +392,36 @@ pub fn closed_chain(skeleton: &Mask, index: usize) -> Result<(Vec<[f64; 2]>, usi
             asked: index.saturating_add(1),
             found,
         })?;
+    Ok((walk_closed(&component)?, found))
+}
+
+/// Every closed contour, largest first, each as [`closed_chain`] walks it.
+pub fn closed_chains(skeleton: &Mask) -> Result<Vec<Vec<[f64; 2]>>, TraceError> {
+    cycle_components(skeleton)?
+        .iter()
+        .map(walk_closed)
+        .collect()
+}
+
+/// The connected parts of the skeleton's cycles, largest first.
+fn cycle_components(skeleton: &Mask) -> Result<Vec<Mask>, TraceError> {
+    if skeleton.count() == 0 {
+        return Err(TraceError::NoEdges);
+    }
+    let components = skeleton.pruned_to_cycles().components();
+    if components.is_empty() {
+        return Err(TraceError::NoClosedContour);
+    }
+    Ok(components)
+}
+
+/// One connected part of the cycles walked round its outside (module docs).
+fn walk_closed(component: &Mask) -> Result<Vec<[f64; 2]>, TraceError> {
     let start = component
         .pixels()
         .max_by_key(|p| (p.0, std::cmp::Reverse(p.1)))
         .ok_or(TraceError::NoClosedContour)?;
-    let graph = Graph::new(&component, Some(start));
+    let graph = Graph::new(component, Some(start));
     let s = graph
         .nodes
         .iter()
@@ -450,7 +468,7 @@ pub fn closed_chain(skeleton: &Mask, index: usize) -> Result<(Vec<[f64; 2]>, usi
             if chain.len() >= 2 && chain.first() == chain.last() {
                 chain.pop();
             }
-            return Ok((chain, found));
+            return Ok(chain);
         }
         chain.push(graph.nodes[v].at);
         cur = next;

@@ -78,19 +78,21 @@ fn an_accepted_job_has_a_preview_inside_the_workspace() {
     let checked = check(&letter_job(1.0), None).expect("the letter fits");
     assert_eq!(checked.machine, Machine::KeopsSlave);
     let preview = checked.preview.clone().expect("the laser delta draws one");
-    assert!(!preview.closed);
-    assert_eq!(preview.travel_m.first(), Some(&[0.0, 0.0]));
-    assert_eq!(preview.travel_m.last(), preview.cut_m.first());
+    assert_eq!(preview.closed, [false]);
+    assert_eq!(preview.travels_m.len(), 1);
+    assert_eq!(preview.travels_m[0][0], [0.0, 0.0]);
+    assert_eq!(Some(&preview.travels_m[0][1]), preview.cuts_m[0].first());
     // The letter's first and last points, where the file puts them (f32).
     let letter = kerf::trajectory::shapes::letter_s().map(|p| p.map(|v| f64::from(v as f32)));
-    let (start, end) = (preview.cut_m[0], *preview.cut_m.last().unwrap());
+    let cut = &preview.cuts_m[0];
+    let (start, end) = (cut[0], *cut.last().unwrap());
     let last = letter[letter.len() - 1];
     assert!((start[0] - letter[0][0]).hypot(start[1] - letter[0][1]) < 1e-12);
     assert!((end[0] - last[0]).hypot(end[1] - last[1]) < 1e-12);
     // Every point of the cut is inside the edge: nearer the centre than the edge in
     // its direction (the edge is star-shaped about the centre).
     let edge = &preview.workspace_m;
-    for p in &preview.cut_m {
+    for p in cut {
         let k = (p[1].atan2(p[0]).rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU
             * OUTLINE_DIRECTIONS as f64)
             .round() as usize

@@ -358,6 +358,16 @@ fn every_subcommand_at_its_edges_ends_in_a_message_and_its_exit_code() {
             Fails(2, "invalid value"),
         ),
         (
+            "plan-min-size-nan",
+            plan(&["--all", "--min-size-mm", "NaN"]),
+            Fails(1, "smallest size"),
+        ),
+        (
+            "plan-min-size-huge",
+            plan(&["--all", "--min-size-mm=1e300"]),
+            Fails(1, "give a smaller"),
+        ),
+        (
             "plan-no-image",
             vec!["plan", "/nonexistent/x.png", "--out", "{}/p.kjob"],
             Fails(1, "no such file"),

@@ -291,8 +291,11 @@ impl<'q, T: Float> SlaveRig<'q, T> {
                 plant.q_dot_m_s[axis.min(2)] = 0.0;
             }
         }
+        // The straight moves' error: the approach before them (its reference is the
+        // travel's, by forward kinematics) is not part of the square.
+        let moving = t >= self.scenario.approach_s - 0.5 * ts;
         let reference = self.supervisor.machine().telemetry().effector_reference_m;
-        let effector_error_m = reference.map(|r| {
+        let effector_error_m = reference.filter(|_| moving).map(|r| {
             let r = Vector3::new(r[0].to_f64(), r[1].to_f64(), r[2].to_f64());
             (r - p).norm()
         });

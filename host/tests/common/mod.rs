@@ -72,6 +72,27 @@ impl Raster {
         self.finish(&fine, seed)
     }
 
+    /// Filled polygons (points in mm) drawn in order, each in ink or, for a hole, in
+    /// paper, antialiased by supersampling, with noise.
+    pub fn composed(&self, shapes: &[(&[[f64; 2]], bool)], seed: u64) -> GrayImage {
+        let mut fine = GrayImage::from_pixel(self.size * SUPER, self.size * SUPER, Luma([PAPER]));
+        for &(points_mm, ink) in shapes {
+            let mut poly: Vec<Point<i32>> = points_mm
+                .iter()
+                .map(|&p| {
+                    let q = self.fine(p);
+                    Point::new(q[0].round() as i32, q[1].round() as i32)
+                })
+                .collect();
+            poly.dedup();
+            if poly.first() == poly.last() {
+                poly.pop();
+            }
+            draw_polygon_mut(&mut fine, &poly, Luma([if ink { INK } else { PAPER }]));
+        }
+        self.finish(&fine, seed)
+    }
+
     /// A stroke of `width_px` along the polyline (points in mm), with noise.
     pub fn stroke(&self, points_mm: &[[f64; 2]], width_px: f64, seed: u64) -> GrayImage {
         let mut fine = GrayImage::from_pixel(self.size * SUPER, self.size * SUPER, Luma([PAPER]));

@@ -113,6 +113,32 @@ pub enum JobFile<'a> {
     },
 }
 
+/// The body's length of a file of `kind` and `count` (module docs); `None` for an
+/// unknown kind.
+fn body_len(kind: u8, count: u32) -> Option<u64> {
+    let count = u64::from(count);
+    match kind {
+        0 => Some(8 + 16 * count),
+        1 | 4 => Some(8 * count),
+        2 | 3 => Some(count),
+        _ => None,
+    }
+}
+
+/// The length of the job file at the start of `bytes`, from its header (a program of
+/// several parts is their files back to back); `None` when the header is incomplete,
+/// not a job file's, of an unknown kind, or the length passes `usize`. The file
+/// itself is checked by [`JobFile::read`].
+pub fn file_len(bytes: &[u8]) -> Option<usize> {
+    let header = bytes.get(..HEADER_BYTES)?;
+    if header.get(..4) != Some(&MAGIC[..]) {
+        return None;
+    }
+    let count = u32::from_le_bytes(header.get(8..12)?.try_into().ok()?);
+    let body = body_len(*header.get(5)?, count)?;
+    usize::try_from(body.checked_add(HEADER_BYTES as u64 + 4)?).ok()
+}
+
 /// Row `row` of `N` little-endian f32s; `None` past the end (an index so large that
 /// its byte offset passes `usize` included).
 fn f32_row<const N: usize>(bytes: &[u8], row: usize) -> Option<[f32; N]> {
@@ -196,13 +222,7 @@ impl<'a> JobFile<'a> {
             .get(8..12)
             .and_then(|b| b.try_into().ok())
             .map_or(0, u32::from_le_bytes);
-        let count = u64::from(count);
-        let expected = match kind {
-            0 => 8 + 16 * count,
-            1 | 4 => 8 * count,
-            2 | 3 => count,
-            k => return Err(JobFileError::Kind(k)),
-        };
+        let expected = body_len(kind, count).ok_or(JobFileError::Kind(kind))?;
         let body_len = body.len() as u64;
         if body_len < expected {
             return Err(JobFileError::Truncated);

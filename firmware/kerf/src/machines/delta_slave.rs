@@ -379,7 +379,8 @@ pub type SlaveOutputs<T> = ForceAndLaser<T, 3>;
 pub struct DeltaTelemetry<T> {
     /// The carriages.
     pub joints: JointTelemetry<T, 3>,
-    /// The effector's reference position during a straight move or a contour, m.
+    /// The effector's reference position during a job, m: a straight move's or a
+    /// contour's, and during the approach where its joint references put the effector.
     pub effector_reference_m: Option<[T; 3]>,
     /// During a contour: what the supervision measured.
     pub contour: Option<ContourTelemetry<T>>,
@@ -525,6 +526,14 @@ impl<T: Float> DeltaSlave<T> {
                     .joints
                     .run(&self.approach, inputs)
                     .map_err(DeltaFault::Joint)?;
+                // The travel (tool off) in the workspace: where the approach's joint
+                // references put the effector (`None` where it cannot be solved).
+                let [a, b, c] = self.joints.reference();
+                self.effector_reference_m = self
+                    .geometry
+                    .forward(&Vector3::new(a.position, b.position, c.position))
+                    .ok()
+                    .map(|p| [p.x, p.y, p.z]);
                 Ok(match step {
                     Step::Continue(forces) => Step::Continue(forces),
                     Step::Done(forces) if self.contour_active => {

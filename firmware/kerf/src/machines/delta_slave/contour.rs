@@ -55,6 +55,11 @@ pub const CONTOUR_HARMONICS: usize = 30;
 /// and 29).
 pub const OPEN_PATH_POINTS: usize = 32;
 
+/// Periods a contour runs beyond its ramps and cruise: the preview window, two taps
+/// ahead of the present one, drains until its present tap rests at the end (the count
+/// a job's duration adds, checked period by period against the simulated slave).
+const DRAIN_PERIODS: u32 = 1;
+
 /// Points per lap (per open path) at which a plan checks reach and limits.
 pub const PLAN_SAMPLES_PER_LAP: usize = 512;
 
@@ -378,12 +383,15 @@ impl ContourJob {
         self.law
     }
 
-    /// Periods from the start of the speed ramp until the stop ramp is at rest.
+    /// Periods from the end of the approach until the job is done: the ramps and the
+    /// cruise, and [`DRAIN_PERIODS`] more.
     fn periods(&self) -> u32 {
         // Checked when the job was planned.
         let ramp_periods =
             SpeedRamp::<f64>::new(&self.follower.ramp).map_or(0, |r| r.ramp_periods());
-        self.stop_after_periods.saturating_add(ramp_periods)
+        self.stop_after_periods
+            .saturating_add(ramp_periods)
+            .saturating_add(DRAIN_PERIODS)
     }
 
     /// The cut's point at `fraction` of one lap (a closed curve, from θ0) or of the
