@@ -34,7 +34,7 @@
 //! | 7 | Ready | `Start` with a job loaded | Running | job |
 //! | 6b | Running | `LoadJob(buffer)` whose job fits the machine, none queued yet | Running, the job queued to follow (its buffer held) | job |
 //! | 8 | Running | job done | Ready | safe |
-//! | 8b | Running | job done, a job queued whose start the machine takes (from where the last one ended) | Running, the queued job loaded and begun ([`Report::NextJob`]; the finished job's buffer released) | job |
+//! | 8b | Running | job done, a job queued whose start the machine takes (from where the last one ended) | Running, the queued job loaded and begun at the next period's start ([`Report::NextJob`]; the finished job's buffer released) | job |
 //! | 8c | Running | job done, a job queued whose start the machine refuses | Ready, the queued job loaded, the refusal reported as `Start`'s | safe |
 //! | 9 | Running | `Stop` | Stopping (a queued job dropped) | ramp to rest |
 //! | 10 | Stopping | at rest | Ready | safe |
@@ -344,6 +344,15 @@ pub enum Report<M: Machine> {
     },
 }
 
+/// Which job begins after a command.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+enum Begin {
+    /// The loaded job, for a `Start`.
+    Start,
+    /// The queued job, the running one being done.
+    Next,
+}
+
 /// Runs a [`Machine`] through the modes, one [`Supervisor::step`] per control period.
 pub struct Supervisor<'q, M: Machine> {
     commands: Consumer<'q, Command<M>>,
@@ -364,6 +373,10 @@ struct Core<'q, M: Machine> {
     job: Option<HeldJob<'q, M::Job>>,
     /// The job queued behind the running one, held in the other buffer.
     next: Option<HeldJob<'q, M::Job>>,
+    /// The running job is done and the queued one begins at this period's start.
+    next_due: bool,
+    /// A job to begin after the command just handled.
+    begin_due: Option<Begin>,
     reports: Producer<'q, Report<M>>,
     period: u64,
     dropped_reports: u32,
@@ -392,6 +405,8 @@ impl<'q, M: Machine> Supervisor<'q, M> {
                 jobs,
                 job: None,
                 next: None,
+                next_due: false,
+                begin_due: None,
                 reports,
                 period: 0,
                 dropped_reports: 0,
@@ -429,7 +444,7 @@ impl<'q, M: Machine> Supervisor<'q, M> {
 
     /// One control period: commands, then the mode's step; returns the outputs to write.
     pub fn step(&mut self, inputs: &M::Inputs) -> M::Outputs {
-        if self.commands.ready() {
+        if self.commands.ready() || self.core.next_due {
             self.handle_commands();
         }
         self.core.step(inputs)
@@ -440,10 +455,22 @@ impl<'q, M: Machine> Supervisor<'q, M> {
     /// command can change) ran every period. Inlined, so that a command's frame is the
     /// period's own (out of line it stacked 440 bytes onto a session's deepest
     /// period).
+    ///
+    /// A job begins (a `Start`, or the queued job when the running one is done) at one
+    /// place only, after the command that asked for it and before the next: with one
+    /// call site the machine's `begin_job` is inlined into the period's frame, where a
+    /// second site would stack its frame on top (300 bytes on the Keops slave).
     #[inline(always)]
     fn handle_commands(&mut self) {
-        // At most the queue's capacity: bounded, and each command is O(1).
-        for _ in 0..self.commands.capacity() {
+        if self.core.next_due {
+            self.core.begin_due = Some(Begin::Next);
+        }
+        // At most the queue's capacity and one begin after the last: bounded, and each
+        // command is O(1).
+        for _ in 0..self.commands.capacity().saturating_add(2) {
+            if let Some(begin) = self.core.begin_due.take() {
+                self.core.begin(begin);
+            }
             // Handled where it lies: a calibration or a job is kilobytes, and moving it
             // out of the queue would put a copy of it on the interrupt's stack.
             let Some(command) = self.commands.peek() else {
@@ -509,7 +536,10 @@ impl<M: Machine> Core<'_, M> {
                                 self.swept = true;
                                 self.report(Report::SweepDone);
                             }
-                            Mode::Running => self.begin_next_or_rest(),
+                            // The queued job begins at the next period's start, where
+                            // a `Start` would (its frame not under this period's).
+                            Mode::Running if self.next.is_some() => self.next_due = true,
+                            Mode::Running => self.enter(Mode::Ready),
                             Mode::Stopping => self.enter(Mode::Ready),
                             _ => {}
                         }
@@ -540,6 +570,8 @@ impl<M: Machine> Core<'_, M> {
     fn handle(&mut self, command: &Command<M>) {
         let kind = command.kind();
         let report = match self.apply(command) {
+            // A start is answered when the job has begun (`begin`).
+            Ok(()) if self.begin_due.is_some() => return,
             Ok(()) => Report::Accepted(kind),
             Err(error) => Report::Refused {
                 command: kind,
@@ -581,9 +613,8 @@ impl<M: Machine> Core<'_, M> {
                 Ok(())
             }
             (Mode::Ready, Command::Start) => {
-                let job = self.job.as_deref().ok_or(CommandError::NoJob)?;
-                self.machine.begin_job(job).map_err(CommandError::Job)?;
-                self.enter(Mode::Running);
+                // Begun (and answered) right after this command (`handle_commands`).
+                self.begin_due = Some(Begin::Start);
                 Ok(())
             }
             (Mode::Running, Command::LoadJob(slot)) if self.next.is_none() => {
@@ -610,28 +641,46 @@ impl<M: Machine> Core<'_, M> {
         }
     }
 
-    /// The running job is done: the queued one begins where it ended, or the machine
-    /// rests (transitions 8, 8b, 8c).
-    fn begin_next_or_rest(&mut self) {
-        if let Some(next) = self.next.take() {
-            let begun = self.machine.begin_job(&next);
-            // Releases the finished job's buffer.
-            self.job = Some(next);
-            match begun {
-                Ok(()) => return self.report(Report::NextJob),
-                Err(error) => self.report(Report::Refused {
-                    command: CommandKind::Start,
-                    error: CommandError::Job(error),
-                }),
+    /// Begins the loaded job for a `Start` (transition 7), or the queued one where the
+    /// running one ended (8b; 8c when the machine refuses it there: at rest, refused
+    /// as a `Start`), and reports it.
+    #[inline(always)]
+    fn begin(&mut self, begin: Begin) {
+        let next = begin == Begin::Next;
+        self.next_due = false;
+        if next {
+            if let Some(job) = self.next.take() {
+                // Releases the finished job's buffer.
+                self.job = Some(job);
             }
         }
-        self.enter(Mode::Ready);
+        let begun = match self.job.as_deref() {
+            Some(job) => self.machine.begin_job(job).map_err(CommandError::Job),
+            None => Err(CommandError::NoJob),
+        };
+        match begun {
+            Ok(()) if next => self.report(Report::NextJob),
+            Ok(()) => {
+                self.enter(Mode::Running);
+                self.report(Report::Accepted(CommandKind::Start));
+            }
+            Err(error) => {
+                if next {
+                    self.enter(Mode::Ready);
+                }
+                self.report(Report::Refused {
+                    command: CommandKind::Start,
+                    error,
+                });
+            }
+        }
     }
 
     fn enter(&mut self, mode: Mode<M::Fault>) {
         if mode != Mode::Running {
             // Only a running job has a successor.
             self.next = None;
+            self.next_due = false;
         }
         if mode != self.mode {
             self.mode = mode;

@@ -513,6 +513,18 @@ impl<T: Float> DeltaSlave<T> {
         &self.laser
     }
 
+    /// The travel (tool off) in the workspace during an approach: where its joint
+    /// references put the effector (`None` where that cannot be solved). Out of line:
+    /// its frame is not added to the contour's period.
+    #[inline(never)]
+    fn travel_reference_m(&self) -> Option<[T; 3]> {
+        let [a, b, c] = self.joints.reference();
+        self.geometry
+            .forward(&Vector3::new(a.position, b.position, c.position))
+            .ok()
+            .map(|p| [p.x, p.y, p.z])
+    }
+
     /// The forces of a running job's period (the laser's power is left in
     /// `laser_power_w`).
     fn run_forces(
@@ -526,14 +538,7 @@ impl<T: Float> DeltaSlave<T> {
                     .joints
                     .run(&self.approach, inputs)
                     .map_err(DeltaFault::Joint)?;
-                // The travel (tool off) in the workspace: where the approach's joint
-                // references put the effector (`None` where it cannot be solved).
-                let [a, b, c] = self.joints.reference();
-                self.effector_reference_m = self
-                    .geometry
-                    .forward(&Vector3::new(a.position, b.position, c.position))
-                    .ok()
-                    .map(|p| [p.x, p.y, p.z]);
+                self.effector_reference_m = self.travel_reference_m();
                 Ok(match step {
                     Step::Continue(forces) => Step::Continue(forces),
                     Step::Done(forces) if self.contour_active => {

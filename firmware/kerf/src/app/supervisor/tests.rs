@@ -582,10 +582,12 @@ fn rows_6b_and_8b_a_job_loaded_while_one_runs_follows_it_without_rest() {
         assert_eq!(s.step(&OK), JOB);
         drain();
         // Queued behind the running job, in the other buffer; the first ends in this
-        // period and the queued one begins in it.
+        // period, and the queued one begins at the next one's start and runs in it.
         load(to, 3);
         assert_eq!(s.step(&OK), JOB);
-        assert_eq!((s.mode(), s.machine().left), (Mode::Running, 3));
+        assert_eq!((s.mode(), s.machine().left), (Mode::Running, 0));
+        assert_eq!(s.step(&OK), JOB);
+        assert_eq!((s.mode(), s.machine().left), (Mode::Running, 2));
         let reports = drain();
         assert!(reports
             .iter()
@@ -597,19 +599,19 @@ fn rows_6b_and_8b_a_job_loaded_while_one_runs_follows_it_without_rest() {
         load(to, 1);
         assert_eq!(s.step(&OK), JOB);
         assert_eq!(to.jobs.place(5), None);
-        for _ in 0..2 {
-            assert_eq!(s.step(&OK), JOB);
-        }
-        assert_eq!((s.mode(), s.machine().left), (Mode::Running, 1));
-        assert!(
-            drain()
-                .iter()
-                .filter(|r| matches!(r, Report::NextJob))
-                .count()
-                == 1
-        );
+        assert_eq!(s.step(&OK), JOB);
+        assert_eq!((s.mode(), s.machine().left), (Mode::Running, 0));
+        // The third: one period, then the machine rests.
         assert_eq!(s.step(&OK), JOB);
         assert_eq!(s.mode(), Mode::Ready);
+        let reports = drain();
+        assert_eq!(
+            reports
+                .iter()
+                .filter(|r| matches!(r, Report::NextJob))
+                .count(),
+            1
+        );
         assert_eq!(s.step(&OK), SAFE);
         // Only the last job stays loaded: one buffer free, and only one.
         let free = to.jobs.take_free();
@@ -627,6 +629,8 @@ fn row_8c_a_queued_job_the_machine_cannot_begin_is_loaded_at_rest_and_refused_as
         s.step(&OK);
         load(to, 99);
         assert_eq!(s.step(&OK), JOB);
+        // Refused at the next period's start: at rest in it.
+        assert_eq!(s.step(&OK), SAFE);
         assert_eq!(s.mode(), Mode::Ready);
         let reports = drain();
         assert_eq!(
