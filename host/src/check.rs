@@ -4,7 +4,7 @@
 //!
 //! - The Keops slave (`keops-slave`) takes EFD files (closed contours) and points files
 //!   (open paths): [`check`] runs its loader
-//!   ([`LinkMachine::load_job`](kerf::app::host_link::LinkMachine::load_job) with
+//!   ([`LinkMachine::load_job`] with
 //!   [`contour_defaults`] of the Keops configuration: speed, ramps, laser power, cutting
 //!   height, approach), which plans the contour and checks its length against the
 //!   ramps, its curvature against the speed, and 512 points per lap for reach, carriage

@@ -80,14 +80,22 @@ pub fn job_file(data: &[u8]) -> usize {
 }
 
 /// `host_job`: the host's reader. A job read writes back to the same bytes, with its
-/// numbers bit for bit. Returns 1 for a job read.
+/// numbers bit for bit; the file twice over reads as two parts that are its bytes
+/// again; the machine's check on the host (`kerf check`) answers any file without a
+/// panic, and an accepted job's duration is finite. Returns 1 for a job read.
 pub fn host_job(data: &[u8]) -> usize {
     let Some(bytes) = file_of(data) else {
         return 0;
     };
+    if let Ok(checked) = kerf_host::check::check(&bytes, None) {
+        assert!(checked.duration_s.is_finite() && checked.duration_s > 0.0);
+    }
     let Ok(job) = HostJob::from_bytes(&bytes) else {
         return 0;
     };
+    let twice = [bytes.as_slice(), bytes.as_slice()].concat();
+    let parts = kerf_host::job::split(&twice).expect("a job file twice over is two parts");
+    assert_eq!(parts, [bytes.as_slice(), bytes.as_slice()]);
     let again = job.to_bytes().expect("a job read is written");
     assert_eq!(again, bytes);
     let back = HostJob::from_bytes(&again).expect("and read again");
