@@ -5,10 +5,8 @@
 //! millimetres, x right and y up.
 
 use crate::check::{Checked, Preview};
-use crate::output::OutputFile;
 use crate::plot::{err, legend, line, PlotError};
 use plotters::prelude::*;
-use std::path::Path;
 
 /// Picture size, px (the plotting area is square).
 const SIZE: (u32, u32) = (820, 860);
@@ -36,18 +34,6 @@ pub fn svg(title: &str, checked: &Checked) -> Result<Option<String>, PlotError> 
         preview,
     )?;
     Ok(Some(text))
-}
-
-/// Writes the preview of `checked` to `path`, whole or not at all; `false` (nothing
-/// written) when the machine has no preview.
-pub fn write_svg(path: &Path, title: &str, checked: &Checked) -> Result<bool, PlotError> {
-    let Some(text) = svg(title, checked)? else {
-        return Ok(false);
-    };
-    OutputFile::prepare(path, "preview")
-        .and_then(|f| f.write_bytes(text.as_bytes()))
-        .map_err(PlotError::from)?;
-    Ok(true)
 }
 
 fn mm(points: &[[f64; 2]]) -> impl Iterator<Item = (f64, f64)> + Clone + '_ {
