@@ -33,13 +33,20 @@ fn read(text: &[u8]) -> (Vec<GcodePoint>, Vec<Diagnostic>) {
     (points, found)
 }
 
-/// The scan: comments dropped, blanks removed, upper case; `G90`/`G91`, `G20`/`G21`
+/// The scan: comments (and `#` comment lines) dropped, blanks removed, upper case; `G90`/`G91`, `G20`/`G21`
 /// and `X Y Z` words tracked (`A B` only move) (the corpus uses no offsets); each line with an axis word
 /// gives (line, end point in mm). Arcs end where their axis words say, as lines do.
 fn scan(text: &str) -> Vec<(u32, [f64; 3])> {
     let (mut at, mut relative, mut inch) = ([0.0f64; 3], false, false);
     let mut ends = Vec::new();
     for (n, raw) in text.lines().enumerate() {
+        // A hobby controller's comment line: `#` and no parameter after it.
+        let trimmed = raw.trim_start();
+        if trimmed.starts_with('#')
+            && !trimmed[1..].starts_with(|c: char| c.is_ascii_digit() || c == '<' || c == '[')
+        {
+            continue;
+        }
         let mut body = String::new();
         let mut depth = false;
         for c in raw.chars() {

@@ -4,6 +4,7 @@
 //!   closing, start point, ordering, scaling into the workspace) ending in an EFD
 //!   (T 3.2.2) or a point list (T 3.1.5) fitted with the firmware's own code;
 //! - [`gcode`]: a G-code program checked with ARROW's own parser and job loader;
+//!   [`laser`]: a laser program as the parts of a Keops slave job;
 //! - [`parts`]: every closed contour of an image as the parts of one job, ordered;
 //! - [`job`]: the versioned job file both write and the firmware loads;
 //! - [`check`]: a job file checked as the machine checks it at load, with its
@@ -25,6 +26,7 @@ pub mod check;
 pub mod description;
 pub mod gcode;
 pub mod job;
+pub mod laser;
 pub mod link;
 pub mod mask;
 pub mod output;

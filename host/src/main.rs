@@ -14,6 +14,7 @@ use kerf_host::plan::{self, Fit, Format, PlanConfig};
 use kerf_host::plot;
 use report::{say, Report};
 mod cli_check;
+mod cli_laser;
 mod cli_machine;
 mod cli_parts;
 mod report;
@@ -42,7 +43,8 @@ enum Command {
     /// right and y up, the origin at the contour's centroid.
     Plan(PlanArgs),
     /// Check a G-code program with ARROW's parser and job loader (A §4) and pack it
-    /// as a job. Errors are printed as FILE:LINE:COLUMN: message.
+    /// as a job, or (--machine keops-slave) turn a laser program into the parts of a
+    /// Keops slave job. Errors are printed as FILE:LINE:COLUMN: message.
     Gcode(GcodeArgs),
     /// Check a job file as the machine will check it at load (its own loader and
     /// presets: workspace, carriage limits, curvature, length, capacity), with its
@@ -213,6 +215,14 @@ struct GcodeArgs {
     /// Write the job file here (without it, nothing is written).
     #[arg(long, value_name = "JOB")]
     out: Option<PathBuf>,
+    /// The machine the program is for: ARROW (its loader checks the program), or the
+    /// Keops slave (a laser program: each run with the beam on becomes a part).
+    #[arg(long, value_enum, default_value = "arrow")]
+    machine: cli_check::MachineArg,
+    /// For the Keops slave: move the program so that its cuts are centred on the
+    /// workspace's centre (a laser bed's origin is its corner).
+    #[arg(long)]
+    centre: bool,
 }
 
 fn main() -> ExitCode {
@@ -222,6 +232,12 @@ fn main() -> ExitCode {
     let r = &mut report;
     let result = match cli.command {
         Command::Plan(args) => run_plan(&args, r),
+        Command::Gcode(GcodeArgs {
+            file,
+            out,
+            machine: cli_check::MachineArg::KeopsSlave,
+            centre,
+        }) => cli_laser::run(&file, out.as_deref(), centre, r),
         Command::Gcode(args) => run_gcode(&args, r),
         Command::Check(args) => cli_check::run(&args, r),
         Command::Run(args) => cli_machine::run(&args, r),

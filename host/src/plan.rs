@@ -118,6 +118,9 @@ pub enum PlanError {
     /// The firmware's open-path code refused the points.
     #[error("the firmware refuses the path: {}", contour_words(.0))]
     Path(ContourError),
+    /// A laser program with no move while the beam is on.
+    #[error("the program cuts nothing: no feed move with the beam on (M3 or M4 with S above 0)")]
+    NoCut,
     /// Every closed contour is smaller than the size asked.
     #[error("no closed contour is {min_mm} mm across or more (the largest is {largest_mm:.2} mm): give a smaller --min-size-mm")]
     NothingLargeEnough {

@@ -84,6 +84,9 @@ pub enum GcodeErrorKind {
     /// Warning: a `(` inside a comment; the comment ends at the first `)`, as grbl and
     /// LinuxCNC read it.
     NestedComment,
+    /// Warning: a line that starts with `#` not followed by a parameter (`#1`, `#<`,
+    /// `#[`) is read as a comment, as hobby laser and 3D-printer programs write them.
+    HashComment,
     /// Error: more points than the caller's buffer holds (reported once).
     TooManyPoints,
     /// Error: more than the supported number of words on a line.
@@ -124,6 +127,7 @@ impl GcodeErrorKind {
         match self {
             Self::Ignored { .. }
             | Self::NestedComment
+            | Self::HashComment
             | Self::ProgramNumber
             | Self::InverseTimeMode
             | Self::AfterEnd => Severity::Warning,
@@ -228,6 +232,7 @@ impl fmt::Display for GcodeErrorKind {
             Self::NestedComment => {
                 f.write_str("'(' inside a comment: the comment ends at the first ')'")
             }
+            Self::HashComment => f.write_str("a line starting with '#' read as a comment"),
             Self::TooManyPoints => f.write_str("more points than the machine's buffer holds"),
             Self::TooManyWords => f.write_str("too many words on the line"),
             Self::NotFinite => f.write_str("coordinate or feed too large"),

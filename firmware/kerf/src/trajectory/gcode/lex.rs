@@ -1,4 +1,5 @@
-//! One line into words: comments, blanks, checksums and program numbers removed.
+//! One line into words: comments (`( )`, `;`, and a line starting with `#` where no
+//! parameter follows), blanks, checksums and program numbers removed.
 //!
 //! As grbl (`protocol.c` strips every blank and control byte before the parser) and
 //! LinuxCNC (blanks are ignored anywhere outside comments), blanks may stand inside a
@@ -53,6 +54,11 @@ pub(super) fn words(
         // Block delete: with the switch off, as LinuxCNC's default and grbl, the line
         // is read.
         Some(b'/') => i = i.saturating_add(1),
+        // A comment line of the hobby controllers, where no parameter follows.
+        Some(b'#') if !matches!(at(i.saturating_add(1)), Some(b'0'..=b'9' | b'<' | b'[')) => {
+            warn(column_of(line, i), GcodeErrorKind::HashComment);
+            return Ok(words);
+        }
         _ => {}
     }
     // The RepRap checksum covers every byte before `*`.

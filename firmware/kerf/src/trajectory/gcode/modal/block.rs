@@ -145,6 +145,9 @@ impl Parser {
         if let Some((t, column)) = l.t {
             say(ignored(b'T', (shown_x10(t), column)));
         }
+        // A tool change is ignored with the words that go with it (`M6 P1` selects a
+        // tool on some controllers).
+        let tool_change = m(6).is_some();
         if let Some(code) = m(6) {
             say(ignored(b'M', code));
         }
@@ -191,7 +194,7 @@ impl Parser {
             None => {}
         }
         // Non-modal codes: dwell, offsets, machine coordinates, home.
-        let mut p_used = false;
+        let mut p_used = tool_change;
         let mut axes_used = false;
         let mut machine_coordinates = false;
         match g(0) {

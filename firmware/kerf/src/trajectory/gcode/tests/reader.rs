@@ -354,3 +354,35 @@ fn a_bad_configuration_names_its_field() {
         "work_offsets"
     );
 }
+
+/// A line starting with `#` where no parameter follows is a comment (a warning); a
+/// parameter (`#1=`, `#<name>`, `#[`) and a `#` inside a line stay refused; a tool
+/// change's own `P` goes with it.
+#[test]
+fn hash_comment_lines_and_a_tool_changes_words_are_warnings() {
+    use super::super::GcodeErrorKind::{HashComment, Ignored, UnexpectedByte};
+    let text = "# a laser rig's comment\n  #Laser Blue\nG1 X1 F100\nM6 P1\n#1=5\n#<depth>=2\n#[1]\nG1 X2 #3\n";
+    let (points, found) = read_all(text, &ReaderConfig::DEFAULT);
+    let got: StdVec<_> = found.iter().map(|d| (d.line, d.column, d.kind)).collect();
+    assert_eq!(
+        got,
+        [
+            (1, 1, HashComment),
+            (2, 3, HashComment),
+            (
+                4,
+                1,
+                Ignored {
+                    letter: b'M',
+                    code_x10: 60
+                }
+            ),
+            (5, 1, UnexpectedByte(b'#')),
+            (6, 1, UnexpectedByte(b'#')),
+            (7, 1, UnexpectedByte(b'#')),
+            (8, 7, UnexpectedByte(b'#')),
+        ]
+    );
+    assert_eq!(points.len(), 1);
+    assert!(close(mm(&points[0]), [1.0, 0.0, 0.0], 1e-12));
+}

@@ -1,0 +1,223 @@
+//! Laser G-code for the Keops slave (`kerf gcode --machine keops-slave`): a program
+//! read with the firmware's own G-code reader (`kerf::trajectory::gcode::Parser`, line
+//! by line, no buffer limit) and cut as the parts of one job ([`crate::parts`]'s
+//! format: the parts' job files back to back).
+//!
+//! A part is a run of feed moves (`G1`, arcs as their chords) with the beam on: `M3` or
+//! `M4` with `S` above zero. It starts where the beam comes on and ends where it goes
+//! off (`M5`, `S0`), at a rapid move (`G0`: a travel, beam off), or at the end. A run
+//! that ends where it began (within 1 µm) is a closed contour and becomes an EFD of
+//! [`PlanConfig`]'s harmonics; any other run an open path (the firmware's spline
+//! through at most 32 of its points, chosen along the path sampled every
+//! [`SAMPLE_MM`]). Each part's fitted curve is measured against the program's path
+//! (both ways, brute force): the slave follows smooth curves, and a program's sharp
+//! corners come out rounded by that much.
+//!
+//! What the slave does not take from the program is said once each: Z (it cuts in its
+//! own plane), F and the value of S (it cuts at its own speed at constant energy per
+//! length; S only switches the beam). `centre` moves the program so that the box
+//! around its cuts is centred on the workspace's centre (a laser bed's origin is its
+//! corner, the slave's its centre).
+
+use crate::job::{Job, JobFileError};
+use crate::plan::{self, efd_job, path_job, Fit, PlanConfig, PlanError};
+use kerf::trajectory::gcode::{Diagnostic, GcodePoint, MoveKind, Parser, Severity, Spindle};
+
+/// Spacing of the points an open path is sampled at before its spline points are
+/// chosen, mm.
+pub const SAMPLE_MM: f64 = 0.05;
+
+/// A run of the program with the beam on.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LaserRun {
+    /// First and last lines of the file in it.
+    pub lines: [u32; 2],
+    /// The programmed path, mm (the workspace's x and y).
+    pub path_mm: Vec<[f64; 2]>,
+    /// Whether it ends where it began.
+    pub closed: bool,
+}
+
+/// The runs of a program and everything the reader said of it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LaserProgram {
+    /// The runs with the beam on, in the program's order.
+    pub runs: Vec<LaserRun>,
+    /// Warnings and errors, in the order of the file.
+    pub diagnostics: Vec<Diagnostic>,
+    /// What the slave does not take from the program, said once each.
+    pub notes: Vec<&'static str>,
+}
+
+/// A run fitted as a part of the job.
+#[derive(Clone, Debug)]
+pub struct LaserPart {
+    /// The run.
+    pub run: LaserRun,
+    /// The curve the part carries.
+    pub fit: Fit,
+    /// The part's job file.
+    pub job: Job,
+    /// Largest distance between the fitted curve and the programmed path, mm.
+    pub deviation_mm: f64,
+}
+
+/// Reads `text` (module docs). Errors are in the diagnostics; the runs are those of
+/// the lines without one.
+pub fn read(text: &[u8]) -> LaserProgram {
+    let mut parser = Parser::new();
+    let mut diagnostics = Vec::new();
+    let mut runs: Vec<LaserRun> = Vec::new();
+    let mut notes = Vec::new();
+    let mut note = |n: &'static str| {
+        if !notes.contains(&n) {
+            notes.push(n);
+        }
+    };
+    let mut at: Option<[f64; 3]> = None;
+    let mut current: Option<LaserRun> = None;
+    let mut z: Option<f64> = None;
+    let finish = |run: Option<LaserRun>, runs: &mut Vec<LaserRun>| {
+        if let Some(mut run) = run.filter(|r| r.path_mm.len() >= 2) {
+            let (first, last) = (run.path_mm[0], run.path_mm[run.path_mm.len() - 1]);
+            run.closed =
+                run.path_mm.len() >= 4 && (first[0] - last[0]).hypot(first[1] - last[1]) < 1e-3;
+            if run.closed {
+                run.path_mm.pop();
+            }
+            runs.push(run);
+        }
+    };
+    for line in text.split(|&b| b == b'\n') {
+        let mut points: Vec<GcodePoint> = Vec::new();
+        parser.read_line(
+            line,
+            &mut |p| {
+                points.push(*p);
+                true
+            },
+            &mut |d| diagnostics.push(*d),
+        );
+        for p in points {
+            let mm = [p.position_m[0] * 1e3, p.position_m[1] * 1e3];
+            if z.is_some_and(|z| (z - p.position_m[2]).abs() > 1e-9) {
+                note("Z is not followed: the slave cuts in its own plane");
+            }
+            z = Some(p.position_m[2]);
+            let beam_on =
+                p.kind == MoveKind::Feed && p.spindle != Spindle::Off && p.spindle_s > 0.0;
+            if beam_on {
+                note("F and the value of S are not followed: the slave cuts at its own speed at constant energy per length");
+                let run = current.get_or_insert_with(|| LaserRun {
+                    lines: [p.line, p.line],
+                    path_mm: at
+                        .map(|a| vec![[a[0] * 1e3, a[1] * 1e3]])
+                        .unwrap_or_default(),
+                    closed: false,
+                });
+                run.lines[1] = p.line;
+                if run.path_mm.last() != Some(&mm) {
+                    run.path_mm.push(mm);
+                }
+            } else {
+                finish(current.take(), &mut runs);
+            }
+            at = Some(p.position_m);
+        }
+    }
+    finish(current.take(), &mut runs);
+    LaserProgram {
+        runs,
+        diagnostics,
+        notes,
+    }
+}
+
+/// Whether any of the program's diagnostics is an error.
+pub fn has_errors(program: &LaserProgram) -> bool {
+    program
+        .diagnostics
+        .iter()
+        .any(|d| d.severity() == Severity::Error)
+}
+
+/// The program's runs fitted as parts (module docs), moved to the workspace's centre
+/// when `centre` is set.
+///
+/// Errors: no run with the beam on; a run the firmware's curve code refuses.
+pub fn parts(
+    program: &LaserProgram,
+    config: &PlanConfig,
+    centre: bool,
+) -> Result<Vec<LaserPart>, PlanError> {
+    if program.runs.is_empty() {
+        return Err(PlanError::NoCut);
+    }
+    let all = program.runs.iter().flat_map(|r| r.path_mm.iter());
+    let (lo, hi) = all.fold(
+        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+        |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        },
+    );
+    let shift = if centre {
+        [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0]
+    } else {
+        [0.0; 2]
+    };
+    program
+        .runs
+        .iter()
+        .map(|run| {
+            let path: Vec<[f64; 2]> = run
+                .path_mm
+                .iter()
+                .map(|p| [p[0] - shift[0], p[1] - shift[1]])
+                .collect();
+            let (fit, job) = if run.closed {
+                efd_job(&path, config.harmonics)?
+            } else {
+                path_job(&densify(&path, SAMPLE_MM), false)?
+            };
+            let samples = fit.samples_mm(4096);
+            let deviation_mm = plan::deviation(&samples, &path, run.closed)
+                .max(plan::deviation(&path, &samples, run.closed));
+            Ok(LaserPart {
+                run: LaserRun {
+                    lines: run.lines,
+                    path_mm: path,
+                    closed: run.closed,
+                },
+                fit,
+                job,
+                deviation_mm,
+            })
+        })
+        .collect()
+}
+
+/// The job file of `parts`: their files back to back.
+pub fn to_bytes(parts: &[LaserPart]) -> Result<Vec<u8>, JobFileError> {
+    let mut out = Vec::new();
+    for part in parts {
+        out.extend(part.job.to_bytes()?);
+    }
+    Ok(out)
+}
+
+/// `points` with points added so that no segment is longer than `step`.
+fn densify(points: &[[f64; 2]], step: f64) -> Vec<[f64; 2]> {
+    let mut out: Vec<[f64; 2]> = points.first().copied().into_iter().collect();
+    for w in points.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let n = ((b[0] - a[0]).hypot(b[1] - a[1]) / step).ceil().max(1.0) as usize;
+        for k in 1..=n {
+            let t = k as f64 / n as f64;
+            out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
+        }
+    }
+    out
+}
