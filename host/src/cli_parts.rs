@@ -12,7 +12,7 @@ use plotters::style::RGBColor;
 
 /// Reports the parts of `set` planned from the image `name`, draws them into `svg`
 /// and writes the job file `out` (both when given).
-pub fn report_parts(
+pub(crate) fn report_parts(
     name: &str,
     gray: &GrayImage,
     set: &PlanSet,

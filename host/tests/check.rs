@@ -146,6 +146,23 @@ fn the_machine_is_the_one_that_takes_the_kind_or_the_one_named() {
     for m in kerf_host::check::MACHINES {
         assert_eq!(Machine::from_name(m.name()), Some(m));
     }
+    use kerf_host::check::kind_words;
+    use kerf_host::job::JobKind;
+    assert_eq!(
+        Machine::for_kind(JobKind::Points),
+        Some(Machine::KeopsSlave)
+    );
+    assert_eq!(Machine::for_kind(JobKind::Gcode), Some(Machine::Arrow));
+    assert_eq!(Machine::for_kind(JobKind::Recording), None);
+    let kinds = [
+        JobKind::Efd,
+        JobKind::Points,
+        JobKind::Gcode,
+        JobKind::Recording,
+        JobKind::Schedule,
+    ];
+    let words: std::collections::BTreeSet<&str> = kinds.iter().map(|&k| kind_words(k)).collect();
+    assert_eq!(words.len(), kinds.len());
 }
 
 /// `kerf check`: exit 0 with the duration and the preview written; exit 1 for a job

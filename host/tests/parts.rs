@@ -92,6 +92,21 @@ fn picture() -> image::GrayImage {
 #[test]
 fn every_contour_of_a_picture_is_a_part_in_its_place() {
     let gray = picture();
+    // Read back from a file as the command reads it: the same grey levels.
+    let png = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("parts-read.png");
+    gray.save(&png).unwrap();
+    assert_eq!(kerf_host::plan::read_grey(&png).unwrap(), gray);
+    assert!(kerf_host::plan::read_grey(std::path::Path::new("/nonexistent.png")).is_err());
+    // The contours traced one by one are those traced all at once.
+    let skeleton =
+        kerf_host::plan::skeleton(&kerf_host::plan::edges(&gray, &PlanConfig::default()).unwrap());
+    let all = kerf_host::trace::closed_chains(&skeleton).unwrap();
+    for (k, chain) in all.iter().enumerate() {
+        assert_eq!(
+            &kerf_host::trace::closed_chain(&skeleton, k).unwrap().0,
+            chain
+        );
+    }
     let config = PlanConfig {
         width_mm: 22.0,
         ..PlanConfig::default()

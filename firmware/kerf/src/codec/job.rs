@@ -380,6 +380,27 @@ pub fn write_schedule(steps: &[[f64; 2]], out: &mut [u8]) -> Result<usize, JobFi
 mod tests {
     use super::*;
 
+    /// A file's length from its header alone is the length written, whatever follows
+    /// it; a header cut short, another magic or an unknown kind has none.
+    #[test]
+    fn file_len_reads_the_length_from_the_header() {
+        let mut buf = [0u8; 512];
+        let efd = write_efd([0.0, 0.0], &[[1e-3, 0.0, 0.0, 1e-3]; 3], &mut buf).unwrap();
+        let mut two = std::vec::Vec::from(&buf[..efd]);
+        let points = write_points(&[[0.0, 0.0], [1e-3, 0.0], [1e-3, 1e-3]], &mut buf).unwrap();
+        two.extend_from_slice(&buf[..points]);
+        assert_eq!(file_len(&two), Some(efd));
+        assert_eq!(file_len(&two[efd..]), Some(points));
+        assert_eq!((efd, points), (12 + 8 + 48 + 4, 12 + 24 + 4));
+        assert_eq!(file_len(&two[..HEADER_BYTES - 1]), None);
+        let mut other = two.clone();
+        other[0] = b'X';
+        assert_eq!(file_len(&other), None);
+        other = two.clone();
+        other[5] = 9;
+        assert_eq!(file_len(&other), None);
+    }
+
     #[test]
     fn each_kind_round_trips_and_damage_is_refused_by_kind() {
         let mut buf = [0u8; 512];
