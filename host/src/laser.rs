@@ -154,15 +154,7 @@ pub fn parts(
         return Err(PlanError::NoCut);
     }
     let all = program.runs.iter().flat_map(|r| r.path_mm.iter());
-    let (lo, hi) = all.fold(
-        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
-        |(lo, hi), p| {
-            (
-                [lo[0].min(p[0]), lo[1].min(p[1])],
-                [hi[0].max(p[0]), hi[1].max(p[1])],
-            )
-        },
-    );
+    let (lo, hi) = plan::bounds(all);
     let shift = if centre {
         [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0]
     } else {

@@ -134,18 +134,7 @@ pub fn plan_all(
     stage("tracing the contours");
     let chains = trace::closed_chains(&skel)?;
     let found = chains.len();
-    let bounds = |c: &[[f64; 2]]| {
-        c.iter().fold(
-            ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
-            |(lo, hi), p| {
-                (
-                    [lo[0].min(p[0]), lo[1].min(p[1])],
-                    [hi[0].max(p[0]), hi[1].max(p[1])],
-                )
-            },
-        )
-    };
-    let (lo, hi) = bounds(&chains.concat());
+    let (lo, hi) = plan::bounds(chains.iter().flatten());
     let extent_px = (hi[0] - lo[0]).max(hi[1] - lo[1]);
     if extent_px.is_nan() || extent_px <= 0.0 {
         return Err(PlanError::TooSmall(chains.first().map_or(0, Vec::len)));
@@ -154,7 +143,7 @@ pub fn plan_all(
     let mm_per_px = config.width_mm / extent_px;
     let origin_px = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
     let size_mm = |c: &[[f64; 2]]| {
-        let (lo, hi) = bounds(c);
+        let (lo, hi) = plan::bounds(c);
         (hi[0] - lo[0]).max(hi[1] - lo[1]) * mm_per_px
     };
     let largest_mm = chains.iter().map(|c| size_mm(c)).fold(0.0, f64::max);

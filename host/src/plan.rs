@@ -246,6 +246,20 @@ pub(crate) fn to_mm(p: [f64; 2], centroid: [f64; 2], s: f64) -> [f64; 2] {
     [s * (p[0] - centroid[0]), -s * (p[1] - centroid[1])]
 }
 
+/// The box around `points`: (lowest, highest) per axis; infinite both ways when there
+/// are none.
+pub fn bounds<'a>(points: impl IntoIterator<Item = &'a [f64; 2]>) -> ([f64; 2], [f64; 2]) {
+    points.into_iter().fold(
+        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+        |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        },
+    )
+}
+
 /// Length of a polyline, closed or not.
 pub fn polyline_length(points: &[[f64; 2]], closed: bool) -> f64 {
     let open: f64 = points
@@ -436,15 +450,7 @@ pub fn plan_image(
             1,
         ),
     };
-    let (min, max) = chain_px.iter().fold(
-        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
-        |(lo, hi), p| {
-            (
-                [lo[0].min(p[0]), lo[1].min(p[1])],
-                [hi[0].max(p[0]), hi[1].max(p[1])],
-            )
-        },
-    );
+    let (min, max) = bounds(&chain_px);
     let extent_px = (max[0] - min[0]).max(max[1] - min[1]);
     if chain_px.len() < 3 || extent_px.is_nan() || extent_px <= 0.0 {
         return Err(PlanError::TooSmall(chain_px.len()));

@@ -78,6 +78,35 @@ pub(crate) fn line<'a, DB: DrawingBackend + 'a>(
     Ok(())
 }
 
+/// A white picture titled `title` with a square chart in workspace millimetres around
+/// the box `lo`–`hi` (mm), widened by `margin` (1.02: 2 %).
+pub(crate) fn workspace_chart<'a, DB: DrawingBackend>(
+    root: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    lo: [f64; 2],
+    hi: [f64; 2],
+    margin: f64,
+) -> Result<Chart<'a, DB>, PlotError> {
+    let half = ((hi[0] - lo[0]).max(hi[1] - lo[1]) / 2.0 * margin).max(1e-3);
+    let mid = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+    root.fill(&WHITE).map_err(err)?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 20))
+        .margin(10)
+        .x_label_area_size(45)
+        .y_label_area_size(45)
+        .build_cartesian_2d(mid[0] - half..mid[0] + half, mid[1] - half..mid[1] + half)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("x, mm")
+        .y_desc("y, mm")
+        .light_line_style(WHITE.mix(0.0))
+        .draw()
+        .map_err(err)?;
+    Ok(chart)
+}
+
 /// The legend, top right, over a light background.
 pub(crate) fn legend<'a, DB: DrawingBackend + 'a>(
     chart: &mut Chart<'a, DB>,
@@ -143,32 +172,8 @@ fn draw<DB: DrawingBackend>(
         .chain(plan.contour_mm.iter())
         .chain(fit.iter())
         .chain(extra.iter().flat_map(|o| o.points_mm.iter()));
-    let (lo, hi) = all.fold(
-        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
-        |(lo, hi), p| {
-            (
-                [lo[0].min(p[0]), lo[1].min(p[1])],
-                [hi[0].max(p[0]), hi[1].max(p[1])],
-            )
-        },
-    );
-    let half = (hi[0] - lo[0]).max(hi[1] - lo[1]) / 2.0 * 1.02;
-    let mid = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
-    root.fill(&WHITE).map_err(err)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
-        .margin(10)
-        .x_label_area_size(45)
-        .y_label_area_size(45)
-        .build_cartesian_2d(mid[0] - half..mid[0] + half, mid[1] - half..mid[1] + half)
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc("x, mm")
-        .y_desc("y, mm")
-        .light_line_style(WHITE.mix(0.0))
-        .draw()
-        .map_err(err)?;
+    let (lo, hi) = crate::plan::bounds(all);
+    let mut chart = workspace_chart(&root, title, lo, hi, 1.02)?;
 
     // The image, lightened: cells of f × f pixels.
     let f = w.max(h).div_ceil(MAX_CELLS).max(1);

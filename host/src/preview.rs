@@ -5,7 +5,7 @@
 //! millimetres, x right and y up.
 
 use crate::check::{Checked, Preview};
-use crate::plot::{err, legend, line, PlotError};
+use crate::plot::{err, legend, line, workspace_chart, PlotError};
 use plotters::prelude::*;
 
 /// Picture size, px (the plotting area is square).
@@ -50,35 +50,12 @@ fn draw<DB: DrawingBackend>(
         .iter()
         .chain(preview.cuts_m.iter().flatten())
         .chain(preview.travels_m.iter().flatten());
-    let (lo, hi) = all.fold(
-        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
-        |(lo, hi), p| {
-            (
-                [lo[0].min(p[0]), lo[1].min(p[1])],
-                [hi[0].max(p[0]), hi[1].max(p[1])],
-            )
-        },
-    );
+    let (lo, hi) = crate::plan::bounds(all);
     if !(lo[0].is_finite() && hi[0].is_finite()) {
         return Err(PlotError::from_words("nothing to draw"));
     }
-    let half = ((hi[0] - lo[0]).max(hi[1] - lo[1]) / 2.0 * 1.05 * 1e3).max(1e-3);
-    let mid = [(lo[0] + hi[0]) / 2.0 * 1e3, (lo[1] + hi[1]) / 2.0 * 1e3];
-    root.fill(&WHITE).map_err(err)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(caption, ("sans-serif", 20))
-        .margin(10)
-        .x_label_area_size(45)
-        .y_label_area_size(45)
-        .build_cartesian_2d(mid[0] - half..mid[0] + half, mid[1] - half..mid[1] + half)
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc("x, mm")
-        .y_desc("y, mm")
-        .light_line_style(WHITE.mix(0.0))
-        .draw()
-        .map_err(err)?;
+    let to_mm = |p: [f64; 2]| p.map(|v| v * 1e3);
+    let mut chart = workspace_chart(&root, caption, to_mm(lo), to_mm(hi), 1.05)?;
     let grey = RGBColor(120, 120, 120);
     let mut edge: Vec<[f64; 2]> = preview.workspace_m.clone();
     if let Some(&first) = edge.first() {
