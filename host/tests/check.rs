@@ -3,6 +3,8 @@
 //! accepted job, the machine chosen by the job's kind or by name, and the command's
 //! exit codes with nothing written for a refused job.
 
+mod common;
+
 use kerf::kinematics::delta::DeltaGeometry;
 use kerf::machines::delta_slave::product::CUT_HEIGHT_M;
 use kerf::machines::delta_slave::DeltaSlaveConfig;
@@ -10,22 +12,8 @@ use kerf_host::check::{check, workspace_outline, CheckError, Machine, OUTLINE_DI
 use kerf_host::job::Job;
 use nalgebra::Vector3;
 use std::path::PathBuf;
-use std::process::{Command, Output};
 
-fn kerf(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_kerf"))
-        .args(args)
-        .output()
-        .expect("run kerf")
-}
-
-fn tmp(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name)
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
+use common::{kerf, text, tmp};
 
 /// The letter 's' (25 points, 16 mm tall) as a points job, scaled by `scale`.
 fn letter_job(scale: f32) -> Vec<u8> {

@@ -5,25 +5,11 @@ mod common;
 
 use kerf_host::job::Job;
 use std::path::PathBuf;
-use std::process::{Command, Output};
 
-fn kerf(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_kerf"))
-        .args(args)
-        .output()
-        .expect("run kerf")
-}
-
-fn tmp(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name)
-}
+use common::{kerf, text, tmp};
 
 fn pyramid() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/pyramid.gcode")
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
 }
 
 #[test]

@@ -4,11 +4,13 @@
 //! of the programmed path; the laser rig's square from a public repository cut as the
 //! slave checks it.
 
+mod common;
+
+use common::kerf;
 use kerf_host::check::check;
 use kerf_host::job::split;
 use kerf_host::laser::{self, LaserProgram};
 use kerf_host::plan::PlanConfig;
-use std::process::Command;
 
 /// A square, a two-segment open path, a move with the beam off (M5), one with S0, and
 /// an arc with the beam on again.
@@ -79,12 +81,6 @@ fn the_laser_rigs_square_is_a_part_the_slave_takes() {
     );
     let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
     let job = dir.join("laser-square.kjob");
-    let kerf = |args: &[&str]| {
-        Command::new(env!("CARGO_BIN_EXE_kerf"))
-            .args(args)
-            .output()
-            .unwrap()
-    };
     let out = kerf(&[
         "gcode",
         path,

@@ -5,11 +5,11 @@
 
 mod common;
 
+use common::kerf;
 use kerf_host::check::check;
 use kerf_host::job::{split, Job};
 use kerf_host::parts::{cutting_order, inside, plan_all};
 use kerf_host::plan::{PlanConfig, PlanError};
-use std::process::Command;
 
 /// `n` vertices of a regular polygon of circumradius `r` about `c`, mm.
 fn polygon(n: usize, r: f64, c: [f64; 2]) -> Vec<[f64; 2]> {
@@ -196,12 +196,6 @@ fn kerf_plan_all_writes_one_file_of_parts() {
     let png = dir.join("parts.png");
     picture().save(&png).unwrap();
     let job = dir.join("parts.kjob");
-    let kerf = |args: &[&str]| {
-        Command::new(env!("CARGO_BIN_EXE_kerf"))
-            .args(args)
-            .output()
-            .unwrap()
-    };
     let png_s = png.to_str().unwrap();
     let out = kerf(&[
         "plan",

@@ -7,6 +7,7 @@ use image::{GrayImage, Luma};
 use imageproc::drawing::{draw_filled_circle_mut, draw_polygon_mut};
 use imageproc::point::Point;
 use std::path::PathBuf;
+use std::process::{Command, Output};
 
 /// Supersampling of the renderer (per axis).
 pub const SUPER: u32 = 4;
@@ -56,20 +57,7 @@ impl Raster {
 
     /// A filled polygon (points in mm), antialiased by supersampling, with noise.
     pub fn filled(&self, points_mm: &[[f64; 2]], seed: u64) -> GrayImage {
-        let mut fine = GrayImage::from_pixel(self.size * SUPER, self.size * SUPER, Luma([PAPER]));
-        let mut poly: Vec<Point<i32>> = points_mm
-            .iter()
-            .map(|&p| {
-                let q = self.fine(p);
-                Point::new(q[0].round() as i32, q[1].round() as i32)
-            })
-            .collect();
-        poly.dedup();
-        if poly.first() == poly.last() {
-            poly.pop();
-        }
-        draw_polygon_mut(&mut fine, &poly, Luma([INK]));
-        self.finish(&fine, seed)
+        self.composed(&[(points_mm, true)], seed)
     }
 
     /// Filled polygons (points in mm) drawn in order, each in ink or, for a hole, in
@@ -202,4 +190,22 @@ pub fn plot_dir() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("plots"));
     std::fs::create_dir_all(&dir).expect("plot directory");
     dir
+}
+
+/// Runs the `kerf` binary with `args`.
+pub fn kerf(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_kerf"))
+        .args(args)
+        .output()
+        .expect("run kerf")
+}
+
+/// A file `name` in the tests' temporary folder.
+pub fn tmp(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name)
+}
+
+/// Bytes as text (lossy).
+pub fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
 }
