@@ -176,3 +176,31 @@ fn every_closed_contour_is_counted_and_each_can_be_chosen() {
         other => panic!("{:?}", other.map(|p| p.contours)),
     }
 }
+
+/// A photograph that yields nothing says which option to try, and the option it names
+/// finds the contour: the cell's faint rim breaks up at the default thresholds.
+#[test]
+fn a_photograph_without_a_contour_names_the_option_to_try() {
+    let e = plan_file(&data("cell.png"), &PlanConfig::default(), &mut |_| {}).unwrap_err();
+    let said = e.to_string();
+    assert!(
+        said.contains("lower --canny thresholds, such as 20,50"),
+        "{said}"
+    );
+    let hinted = PlanConfig {
+        canny: (20.0, 50.0),
+        ..PlanConfig::default()
+    };
+    let (_, plan) = plan_file(&data("cell.png"), &hinted, &mut |_| {}).expect("the hint works");
+    assert!(plan.closed);
+    // A picture with no edge at all: the thresholds are named too.
+    let blank = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("blank.png");
+    image::GrayImage::from_pixel(64, 64, image::Luma([200]))
+        .save(&blank)
+        .unwrap();
+    let e = plan_file(&blank, &PlanConfig::default(), &mut |_| {}).unwrap_err();
+    assert!(
+        e.to_string().contains("no edges found") && e.to_string().contains("--canny"),
+        "{e}"
+    );
+}
