@@ -403,10 +403,10 @@ fn three_parts() -> Vec<Vec<u8>> {
 }
 
 /// A program of three parts runs as one job: each part uploaded while the one before
-/// runs is queued (a fourth finds both buffers held: busy), begins in the period the
-/// one before ends ([`Event::NextJob`], no rest between), and its approach leads to
-/// its own start where the file puts it; the whole takes the parts' planned durations
-/// added up, the host's own check's.
+/// runs is queued (a fourth finds both buffers held: busy), begins in the period
+/// after the one before ends ([`Event::NextJob`], no rest between), and its approach
+/// leads to its own start where the file puts it; the whole takes the parts' planned
+/// durations added up, the host's own check's.
 #[test]
 fn the_parts_of_a_program_follow_each_other_without_rest() {
     let parts = three_parts();

@@ -51,7 +51,7 @@
 //!
 //! A queue of one job behind the running one is how a program of many parts runs as
 //! one: the sender builds the next part in the buffer the running job does not hold
-//! while it runs, and the part begins in the period the running one ends, its
+//! while it runs, and the part begins in the period after the running one's last, its
 //! approach (tool off) leading from where that one stopped. With both buffers held, a
 //! third `LoadJob` is refused with [`CommandError::JobBufferBusy`] until the running
 //! part ends.
