@@ -6,6 +6,8 @@ use kerf::codec::job::write_efd;
 use kerf::codec::link::{
     decode, encode, Event, HostFrame, MachineMessage, Request, TelemetrySample, MAX_FRAME,
 };
+use kerf::machines::delta_slave::CONTOUR_HARMONICS;
+use kerf::trajectory::efd::Efd;
 use kerf_host::session::{RunPlan, TimedChange};
 use kerf_sim::contour::octagon_efd;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -43,10 +45,19 @@ pub use kerf::codec::link::crc32;
 
 /// The octagon (±6 mm, 30 harmonics) as the job file the planner writes.
 pub fn octagon_job_file() -> Vec<u8> {
-    let efd = octagon_efd(30).expect("the stored octagon");
+    efd_job(&octagon_efd(30).expect("the stored octagon"))
+}
+
+/// The closed polygon `points` (m, where the program puts them) fitted with
+/// `harmonics` harmonics, as the job file the planner writes (its centre the fit's).
+pub fn efd_job_file(points: &[[f64; 2]], harmonics: usize) -> Vec<u8> {
+    efd_job(&Efd::from_polygon(points, harmonics).expect("a closed polygon"))
+}
+
+fn efd_job(efd: &Efd<f64, CONTOUR_HARMONICS>) -> Vec<u8> {
     let c = efd.centre();
     let mut buf = [0u8; 1024];
-    let n = write_efd([c.x, c.y], efd.coefficients(), &mut buf).expect("504 bytes");
+    let n = write_efd([c.x, c.y], efd.coefficients(), &mut buf).expect("504 bytes at most");
     buf[..n].to_vec()
 }
 

@@ -5,7 +5,7 @@
 //! a host that goes silent gets its job stopped. An open path (a points file) is cut
 //! once from its first point to its last.
 
-use host_tests::link::{crc32, heard, octagon_job_file, request_frame, Heard};
+use host_tests::link::{crc32, efd_job_file, heard, octagon_job_file, request_frame, Heard};
 use kerf::codec::link::{Event, JobKind, ModeCode, Request, TelemetrySample, MAX_CHUNK};
 use kerf_sim::linked::{with_linked_slave, LinkedSlave};
 use kerf_sim::slave::SlaveScenario;
@@ -383,9 +383,6 @@ fn planned_open_path_s(points: &[[f64; 2]]) -> f64 {
 
 /// Three octagons of ±3 mm where the program puts them (left, top, right), as EFD files.
 fn three_parts() -> Vec<Vec<u8>> {
-    use kerf::codec::job::write_efd;
-    use kerf::machines::delta_slave::CONTOUR_HARMONICS;
-    use kerf::trajectory::efd::Efd;
     [[-6e-3, 0.0], [0.0, 5e-3], [6e-3, 0.0]]
         .iter()
         .map(|c| {
@@ -393,11 +390,7 @@ fn three_parts() -> Vec<Vec<u8>> {
                 .iter()
                 .map(|p| [c[0] + 0.3 * p[0], c[1] + 0.3 * p[1]])
                 .collect();
-            let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&points, 30).unwrap();
-            let centre = efd.centre();
-            let mut buf = [0u8; 1024];
-            let n = write_efd([centre.x, centre.y], efd.coefficients(), &mut buf).unwrap();
-            buf[..n].to_vec()
+            efd_job_file(&points, 30)
         })
         .collect()
 }

@@ -310,19 +310,14 @@ fn reply_to_matches_the_request_number() {
 /// those of the machine's presets.
 #[test]
 fn the_hosts_check_says_what_the_machine_says() {
-    use kerf::codec::job::{write_efd, write_gcode, write_points};
-    use kerf::machines::delta_slave::CONTOUR_HARMONICS;
-    use kerf::trajectory::efd::Efd;
+    use kerf::codec::job::{write_gcode, write_points};
     use kerf_host::check::{check, CheckError, Machine};
     let efd_file = |scale: f64| {
         let points: Vec<[f64; 2]> = kerf::trajectory::shapes::octagon()
             .iter()
             .map(|p| [p[0] * scale, p[1] * scale])
             .collect();
-        let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&points, 30).unwrap();
-        let mut buf = [0u8; 1024];
-        let n = write_efd([0.0, 0.0], efd.coefficients(), &mut buf).unwrap();
-        buf[..n].to_vec()
+        host_tests::link::efd_job_file(&points, 30)
     };
     let points_file = |points: &[[f64; 2]]| {
         let mut buf = [0u8; 1024];

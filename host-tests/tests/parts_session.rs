@@ -4,7 +4,7 @@
 //! each without resting, and the run ends after the last with the parts' planned time.
 
 use hal_mock::hall_sensor::HallSensorParams;
-use host_tests::link::{run_plan, serve, MachineThread, Pace};
+use host_tests::link::{efd_job_file, run_plan, serve, MachineThread, Pace};
 use kerf::codec::link::JobKind;
 use kerf_host::link::MachineLink;
 use kerf_host::session::{Progress, Session};
@@ -18,9 +18,6 @@ use std::time::Duration;
 
 /// Two small circles (r 1 mm) left and right of the centre, as EFD files.
 fn two_parts() -> Vec<Vec<u8>> {
-    use kerf::codec::job::write_efd;
-    use kerf::machines::delta_slave::CONTOUR_HARMONICS;
-    use kerf::trajectory::efd::Efd;
     [-3e-3, 3e-3]
         .iter()
         .map(|&x| {
@@ -30,11 +27,7 @@ fn two_parts() -> Vec<Vec<u8>> {
                     [x + 1e-3 * a.cos(), 1e-3 * a.sin()]
                 })
                 .collect();
-            let efd = Efd::<f64, CONTOUR_HARMONICS>::from_polygon(&points, 10).unwrap();
-            let c = efd.centre();
-            let mut buf = [0u8; 1024];
-            let n = write_efd([c.x, c.y], efd.coefficients(), &mut buf).unwrap();
-            buf[..n].to_vec()
+            efd_job_file(&points, 10)
         })
         .collect()
 }

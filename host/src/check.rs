@@ -34,8 +34,9 @@ use kerf::machines::delta_slave::product::{contour_defaults, JOB_LAPS};
 use kerf::machines::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
 use nalgebra::Vector3;
 
-/// The machines a job can be checked for on the host.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+/// The machines a job can be checked for on the host (on the command line by the
+/// names `keops-slave` and `arrow`).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Machine {
     /// The Keops slave, the laser delta: contours (EFD and points files).
     KeopsSlave,
@@ -145,7 +146,7 @@ pub fn kind_words(kind: JobKind) -> &'static str {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Preview {
     /// Where the workspace ends at the cutting height (closed; reach and carriage
-    /// travel), m.
+    /// travel), m; found once for a program ([`workspace_outline`]).
     pub workspace_m: Vec<[f64; 2]>,
     /// The beam-off travels: to the first part's start from the workspace's centre,
     /// then from each part's end to the next one's start, m.
@@ -202,7 +203,14 @@ pub fn check(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckErr
         });
     }
     // `split` returns at least one part.
-    all.ok_or(CheckError::File(JobFileError::Truncated))
+    let mut all = all.ok_or(CheckError::File(JobFileError::Truncated))?;
+    // The workspace is the machine's, not a part's: found once for the program.
+    if let Some(preview) = &mut all.preview {
+        let config = DeltaSlaveConfig::KEOPS;
+        let centre = contour_defaults(&config, JOB_LAPS).centre_m;
+        preview.workspace_m = workspace_outline(&config, [centre[0], centre[1]], centre[2]);
+    }
+    Ok(all)
 }
 
 impl Checked {
@@ -238,24 +246,10 @@ fn check_part(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckEr
         None => Machine::for_kind(kind).ok_or(CheckError::NoMachineFor(kind_words(kind).into()))?,
     };
     if !machine.kinds().contains(&kind) {
-        return Err(CheckError::Kind {
-            machine: machine.name(),
-            kind: kind_words(kind).into(),
-            takes: machine
-                .kinds()
-                .iter()
-                .map(|&k| kind_words(k))
-                .collect::<Vec<_>>()
-                .join(", "),
-        });
+        return Err(kind_refused(machine, kind));
     }
-    match machine {
-        Machine::KeopsSlave => check_keops(&file),
-        Machine::Arrow => {
-            let text = match file {
-                JobFile::Gcode { text } => text,
-                _ => &[],
-            };
+    match (machine, file) {
+        (Machine::Arrow, JobFile::Gcode { text }) => {
             let report = crate::gcode::check(text)?;
             Ok(Checked {
                 machine,
@@ -266,6 +260,23 @@ fn check_part(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckEr
                 preview: None,
             })
         }
+        // ARROW's kinds are G-code only: refused above, refused the same here.
+        (Machine::Arrow, _) => Err(kind_refused(machine, kind)),
+        (Machine::KeopsSlave, file) => check_keops(&file),
+    }
+}
+
+/// `machine` does not take jobs of `kind`.
+fn kind_refused(machine: Machine, kind: JobKind) -> CheckError {
+    CheckError::Kind {
+        machine: machine.name(),
+        kind: kind_words(kind).into(),
+        takes: machine
+            .kinds()
+            .iter()
+            .map(|&k| kind_words(k))
+            .collect::<Vec<_>>()
+            .join(", "),
     }
 }
 
@@ -305,7 +316,7 @@ fn check_keops(file: &JobFile<'_>) -> Result<Checked, CheckError> {
         duration_s: job.duration_s(),
         cut_length_m,
         preview: Some(Preview {
-            workspace_m: workspace_outline(&machine, centre, height_m),
+            workspace_m: Vec::new(),
             travels_m,
             closed: vec![job.contour_is_closed() == Some(true)],
             cuts_m: vec![cut_m],

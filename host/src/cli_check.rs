@@ -3,30 +3,10 @@
 
 use crate::report::{say, Report};
 use crate::{prepare, Failure};
-use clap::ValueEnum;
 use kerf_host::check::{self, kind_words, Machine};
 use kerf_host::output::io_words;
 use kerf_host::preview;
 use std::path::PathBuf;
-
-/// A machine to check for, as it announces itself.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum MachineArg {
-    /// The Keops slave (laser delta): EFD and points jobs.
-    KeopsSlave,
-    /// ARROW: G-code jobs.
-    Arrow,
-}
-
-impl MachineArg {
-    /// The machine it names.
-    pub fn machine(self) -> Machine {
-        match self {
-            MachineArg::KeopsSlave => Machine::KeopsSlave,
-            MachineArg::Arrow => Machine::Arrow,
-        }
-    }
-}
 
 #[derive(Debug, clap::Args)]
 pub struct CheckArgs {
@@ -34,7 +14,7 @@ pub struct CheckArgs {
     job: PathBuf,
     /// The machine to check for [default: the one that takes the job's kind].
     #[arg(long, value_enum)]
-    machine: Option<MachineArg>,
+    machine: Option<Machine>,
     /// Draw the workspace, the travel, the cut and its start into this SVG file.
     #[arg(long, value_name = "SVG")]
     preview: Option<PathBuf>,
@@ -50,8 +30,8 @@ pub fn run(args: &CheckArgs, report: &mut Report) -> Result<(), Failure> {
             io_words(&e)
         ))
     })?;
-    let checked = check::check(&bytes, args.machine.map(MachineArg::machine))
-        .map_err(|e| Failure::Refused(format!("{name}: {e}")))?;
+    let checked =
+        check::check(&bytes, args.machine).map_err(|e| Failure::Refused(format!("{name}: {e}")))?;
     match checked.parts {
         1 => say!(
             report,

@@ -218,7 +218,7 @@ struct GcodeArgs {
     /// The machine the program is for: ARROW (its loader checks the program), or the
     /// Keops slave (a laser program: each run with the beam on becomes a part).
     #[arg(long, value_enum, default_value = "arrow")]
-    machine: cli_check::MachineArg,
+    machine: kerf_host::check::Machine,
     /// For the Keops slave: move the program so that its cuts are centred on the
     /// workspace's centre (a laser bed's origin is its corner).
     #[arg(long)]
@@ -235,7 +235,7 @@ fn main() -> ExitCode {
         Command::Gcode(GcodeArgs {
             file,
             out,
-            machine: cli_check::MachineArg::KeopsSlave,
+            machine: kerf_host::check::Machine::KeopsSlave,
             centre,
         }) => cli_laser::run(&file, out.as_deref(), centre, r),
         Command::Gcode(args) => run_gcode(&args, r),

@@ -6,7 +6,7 @@
 mod common;
 
 use common::kerf;
-use kerf_host::check::check;
+use kerf_host::check::{check, OUTLINE_DIRECTIONS};
 use kerf_host::job::{split, Job};
 use kerf_host::parts::{cutting_order, inside, plan_all};
 use kerf_host::plan::{PlanConfig, PlanError};
@@ -154,6 +154,10 @@ fn every_contour_of_a_picture_is_a_part_in_its_place() {
     assert!((all.duration_s - sum).abs() < 1e-12);
     let preview = all.preview.unwrap();
     assert_eq!((preview.cuts_m.len(), preview.travels_m.len()), (3, 3));
+    // The program's preview has the machine's workspace, as a single part's has.
+    let one = check(parts[0], None).unwrap().preview.unwrap();
+    assert_eq!(preview.workspace_m.len(), OUTLINE_DIRECTIONS);
+    assert_eq!(preview.workspace_m, one.workspace_m);
     // Each travel leads from one part's end to the next one's start.
     for (k, t) in preview.travels_m.iter().enumerate().skip(1) {
         assert_eq!(Some(&t[0]), preview.cuts_m[k - 1].last());

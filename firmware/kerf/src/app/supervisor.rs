@@ -373,9 +373,8 @@ struct Core<'q, M: Machine> {
     job: Option<HeldJob<'q, M::Job>>,
     /// The job queued behind the running one, held in the other buffer.
     next: Option<HeldJob<'q, M::Job>>,
-    /// The running job is done and the queued one begins at this period's start.
-    next_due: bool,
-    /// A job to begin after the command just handled.
+    /// A job to begin: after the command just handled (a `Start`), or at the next
+    /// period's start (the queued one, where the running one ended).
     begin_due: Option<Begin>,
     reports: Producer<'q, Report<M>>,
     period: u64,
@@ -405,7 +404,6 @@ impl<'q, M: Machine> Supervisor<'q, M> {
                 jobs,
                 job: None,
                 next: None,
-                next_due: false,
                 begin_due: None,
                 reports,
                 period: 0,
@@ -444,7 +442,7 @@ impl<'q, M: Machine> Supervisor<'q, M> {
 
     /// One control period: commands, then the mode's step; returns the outputs to write.
     pub fn step(&mut self, inputs: &M::Inputs) -> M::Outputs {
-        if self.commands.ready() || self.core.next_due {
+        if self.commands.ready() || self.core.begin_due.is_some() {
             self.handle_commands();
         }
         self.core.step(inputs)
@@ -462,9 +460,6 @@ impl<'q, M: Machine> Supervisor<'q, M> {
     /// second site would stack its frame on top (300 bytes on the Keops slave).
     #[inline(always)]
     fn handle_commands(&mut self) {
-        if self.core.next_due {
-            self.core.begin_due = Some(Begin::Next);
-        }
         // At most the queue's capacity and one begin after the last: bounded, and each
         // command is O(1).
         for _ in 0..self.commands.capacity().saturating_add(2) {
@@ -538,7 +533,9 @@ impl<M: Machine> Core<'_, M> {
                             }
                             // The queued job begins at the next period's start, where
                             // a `Start` would (its frame not under this period's).
-                            Mode::Running if self.next.is_some() => self.next_due = true,
+                            Mode::Running if self.next.is_some() => {
+                                self.begin_due = Some(Begin::Next);
+                            }
                             Mode::Running => self.enter(Mode::Ready),
                             Mode::Stopping => self.enter(Mode::Ready),
                             _ => {}
@@ -647,7 +644,6 @@ impl<M: Machine> Core<'_, M> {
     #[inline(always)]
     fn begin(&mut self, begin: Begin) {
         let next = begin == Begin::Next;
-        self.next_due = false;
         if next {
             if let Some(job) = self.next.take() {
                 // Releases the finished job's buffer.
@@ -680,7 +676,9 @@ impl<M: Machine> Core<'_, M> {
         if mode != Mode::Running {
             // Only a running job has a successor.
             self.next = None;
-            self.next_due = false;
+            if self.begin_due == Some(Begin::Next) {
+                self.begin_due = None;
+            }
         }
         if mode != self.mode {
             self.mode = mode;

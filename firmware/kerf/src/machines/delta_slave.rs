@@ -514,8 +514,9 @@ impl<T: Float> DeltaSlave<T> {
     }
 
     /// The travel (tool off) in the workspace during an approach: where its joint
-    /// references put the effector (`None` where that cannot be solved). Out of line:
-    /// its frame is not added to the contour's period.
+    /// references put the effector (`None` where that cannot be solved). Solved for
+    /// telemetry only, when it is reported; out of line, so its frame is not added to
+    /// the period's.
     #[inline(never)]
     fn travel_reference_m(&self) -> Option<[T; 3]> {
         let [a, b, c] = self.joints.reference();
@@ -538,7 +539,6 @@ impl<T: Float> DeltaSlave<T> {
                     .joints
                     .run(&self.approach, inputs)
                     .map_err(DeltaFault::Joint)?;
-                self.effector_reference_m = self.travel_reference_m();
                 Ok(match step {
                     Step::Continue(forces) => Step::Continue(forces),
                     Step::Done(forces) if self.contour_active => {
@@ -745,7 +745,10 @@ impl<T: Float> Machine for DeltaSlave<T> {
     fn telemetry(&self) -> DeltaTelemetry<T> {
         DeltaTelemetry {
             joints: self.joints.telemetry(),
-            effector_reference_m: self.effector_reference_m,
+            effector_reference_m: match self.phase {
+                Some(Phase::Approach) => self.travel_reference_m(),
+                _ => self.effector_reference_m,
+            },
             contour: self.contour_telemetry,
             laser_power_w: self.laser_power_w,
         }
