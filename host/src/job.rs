@@ -14,11 +14,16 @@
 //!   `kerf::machines::delta_slave::remote::recording::Recording::parse`.
 //! - Schedule: steps of (setpoint, duration s), the setpoint in the machine's own unit
 //!   (the autofocus stage's zoom schedule, `kerf::machines::autofocus::product`).
+//!
+//! A contour part (EFD, path) may carry its cut settings (speed, laser, passes:
+//! [`CutSettings`]) between the header and the body; [`Job`] holds the geometry, and
+//! [`with_settings`] gives a file's parts their settings.
 
+use kerf::codec::cut_settings::CUT_SETTINGS_BYTES;
 use kerf::codec::job::{
     file_len, write_efd, write_gcode, write_points, write_recording, write_schedule, JobFile,
 };
-pub use kerf::codec::job::{JobFileError, HEADER_BYTES, JOB_FORMAT_VERSION};
+pub use kerf::codec::job::{CutLaser, CutSettings, JobFileError, HEADER_BYTES, JOB_FORMAT_VERSION};
 pub use kerf::codec::link::JobKind;
 
 /// What a job file carries.
@@ -144,4 +149,31 @@ pub fn split(bytes: &[u8]) -> Result<Vec<&[u8]>, JobFileError> {
             return Ok(parts);
         }
     }
+}
+
+/// `settings` over each part's own, field by field (a field `settings` gives replaces
+/// the part's; the others stay), for every part of the program `bytes`; the program
+/// unchanged where `settings` gives none.
+///
+/// Errors: a part that does not read; settings given for a part of another kind than
+/// EFD and points ([`JobFileError::Settings`]: G-code carries its own), or that the
+/// file cannot say (a zero speed, zero passes).
+pub fn with_settings(bytes: &[u8], settings: &CutSettings) -> Result<Vec<u8>, JobFileError> {
+    let parts = split(bytes)?;
+    if *settings == CutSettings::MACHINE {
+        return Ok(bytes.to_vec());
+    }
+    let mut out = Vec::with_capacity(bytes.len() + parts.len() * CUT_SETTINGS_BYTES);
+    for part in parts {
+        let own = JobFile::read(part)?.settings();
+        let merged = CutSettings {
+            speed_m_s: settings.speed_m_s.or(own.speed_m_s),
+            laser: settings.laser.or(own.laser),
+            passes: settings.passes.or(own.passes),
+        };
+        let mut buf = vec![0u8; part.len() + CUT_SETTINGS_BYTES];
+        let n = kerf::codec::job::with_settings(part, &merged, &mut buf)?;
+        out.extend_from_slice(&buf[..n]);
+    }
+    Ok(out)
 }

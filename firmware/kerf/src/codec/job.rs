@@ -1,21 +1,28 @@
 //! The job file: what the host tool plans (`kerf plan`, `kerf gcode`) and uploads, and
 //! what a machine loads. One format on both sides, written and read here.
 //!
-//! Version 1, all numbers little-endian:
+//! All numbers little-endian:
 //!
 //! | offset | bytes | field |
 //! |---|---|---|
 //! | 0 | 4 | magic `KRFJ` |
-//! | 4 | 1 | format version (= [`JOB_FORMAT_VERSION`]) |
+//! | 4 | 1 | format version: 1, or 2 with cut settings ([`JOB_FORMAT_VERSION`]) |
 //! | 5 | 1 | kind: 0 EFD, 1 points, 2 G-code, 3 recording, 4 schedule ([`JobKind`]) |
 //! | 6 | 2 | reserved, 0 |
 //! | 8 | 4 | count: harmonics (EFD), points (points), body bytes (G-code, recording), steps (schedule) |
-//! | 12 | … | body |
+//! | 12 | 12 | version 2 only: the part's cut settings ([`crate::codec::cut_settings`]) |
+//! | 12 or 24 | … | body |
 //! | end − 4 | 4 | CRC-32 (ISO-HDLC) of every byte before it |
 //!
+//! Version 2 exists for the contour kinds (EFD and points), the laser's parts; a
+//! version 1 file is a part cut with the machine's own settings, and the writers
+//! write version 1 wherever the settings are the machine's, so the smallest file
+//! that says a part is the one written.
+//!
 //! A reader checks, in this order: length, magic, version, kind, the body's length
-//! against the count, the CRC, the reserved bytes, and that every number is finite; a
-//! new layout gets a new version, and readers refuse versions they do not know.
+//! against the count, the CRC, the reserved bytes, the settings, and that every number
+//! is finite; a new layout gets a new version, and readers refuse versions they do not
+//! know.
 //!
 //! Bodies: EFD, the centre (x, y) then (a_k, b_k, c_k, d_k) per harmonic, f32, m;
 //! points, (x, y) per point, f32, m; G-code, the text (ASCII); recording, a recorded
@@ -25,10 +32,17 @@
 //! machine that runs it (the autofocus stage's magnification,
 //! `machines::autofocus::product`).
 
+pub use super::cut_settings::{CutLaser, CutSettings};
 pub use super::link::JobKind;
 
-/// Version of the job file.
-pub const JOB_FORMAT_VERSION: u8 = 1;
+use super::cut_settings::{BlockError, CUT_SETTINGS_BYTES};
+
+/// The newest version of the job file (the reader reads this one and every one
+/// before it).
+pub const JOB_FORMAT_VERSION: u8 = 2;
+
+/// The version without cut settings.
+const VERSION_WITHOUT_SETTINGS: u8 = 1;
 
 /// The file's first bytes.
 pub const MAGIC: [u8; 4] = *b"KRFJ";
@@ -58,6 +72,8 @@ pub enum JobFileError {
     Reserved,
     /// A number is NaN or infinite.
     NotFinite,
+    /// Cut settings that do not read, or on a kind that takes none.
+    Settings,
     /// The buffer to write into is too small.
     NoRoom,
 }
@@ -76,6 +92,10 @@ impl core::fmt::Display for JobFileError {
             Self::Crc => write!(f, "CRC mismatch: the job file is damaged"),
             Self::Reserved => write!(f, "reserved bytes are not zero"),
             Self::NotFinite => write!(f, "a number is NaN or infinite"),
+            Self::Settings => write!(
+                f,
+                "the cut settings do not read (an unknown laser mode), or are on a job kind that takes none"
+            ),
             Self::NoRoom => write!(f, "the job does not fit the buffer"),
         }
     }
@@ -90,11 +110,15 @@ pub enum JobFile<'a> {
         centre_m: [f32; 2],
         /// (a, b, c, d) per harmonic, read with [`JobFile::harmonic`].
         coefficients: &'a [u8],
+        /// How it is cut.
+        settings: CutSettings,
     },
     /// An open contour's points (x, y), read with [`JobFile::point`].
     Points {
         /// The body.
         points: &'a [u8],
+        /// How it is cut.
+        settings: CutSettings,
     },
     /// G-code text.
     Gcode {
@@ -136,7 +160,16 @@ pub fn file_len(bytes: &[u8]) -> Option<usize> {
     }
     let count = u32::from_le_bytes(header.get(8..12)?.try_into().ok()?);
     let body = body_len(*header.get(5)?, count)?;
-    usize::try_from(body.checked_add(HEADER_BYTES as u64 + 4)?).ok()
+    let fixed = HEADER_BYTES + settings_len(*header.get(4)?) + 4;
+    usize::try_from(body.checked_add(fixed as u64)?).ok()
+}
+
+/// Bytes of cut settings in a file of `version`.
+fn settings_len(version: u8) -> usize {
+    match version {
+        VERSION_WITHOUT_SETTINGS => 0,
+        _ => CUT_SETTINGS_BYTES,
+    }
 }
 
 /// Row `row` of `N` little-endian f32s; `None` past the end (an index so large that
@@ -168,7 +201,7 @@ impl<'a> JobFile<'a> {
     pub fn count(&self) -> usize {
         match self {
             Self::Efd { coefficients, .. } => coefficients.len() / 16,
-            Self::Points { points } => points.len() / 8,
+            Self::Points { points, .. } => points.len() / 8,
             Self::Gcode { text } => text.len(),
             Self::Recording { bytes } => bytes.len(),
             Self::Schedule { steps } => steps.len() / 8,
@@ -185,7 +218,7 @@ impl<'a> JobFile<'a> {
 
     /// Point `k` of a point job, m.
     pub fn point(&self, k: usize) -> Option<[f32; 2]> {
-        let Self::Points { points } = self else {
+        let Self::Points { points, .. } = self else {
             return None;
         };
         f32_row::<2>(points, k)
@@ -197,6 +230,15 @@ impl<'a> JobFile<'a> {
             return None;
         };
         f32_row::<2>(steps, k)
+    }
+
+    /// How the part is cut: the file's settings (EFD and points), the machine's own
+    /// for a version 1 file and the other kinds.
+    pub fn settings(&self) -> CutSettings {
+        match self {
+            Self::Efd { settings, .. } | Self::Points { settings, .. } => *settings,
+            _ => CutSettings::MACHINE,
+        }
     }
 
     /// Reads and checks a job file.
@@ -214,9 +256,12 @@ impl<'a> JobFile<'a> {
             return Err(JobFileError::Magic);
         }
         let version = header.get(4).copied().unwrap_or(0);
-        if version != JOB_FORMAT_VERSION {
+        if !(VERSION_WITHOUT_SETTINGS..=JOB_FORMAT_VERSION).contains(&version) {
             return Err(JobFileError::Version(version));
         }
+        let (block, body) = body
+            .split_at_checked(settings_len(version))
+            .ok_or(JobFileError::Truncated)?;
         let kind = header.get(5).copied().unwrap_or(u8::MAX);
         let count = header
             .get(8..12)
@@ -236,6 +281,13 @@ impl<'a> JobFile<'a> {
         if header.get(6..8) != Some(&[0, 0][..]) {
             return Err(JobFileError::Reserved);
         }
+        let settings = match CutSettings::read(block) {
+            None => CutSettings::MACHINE,
+            Some(_) if kind > 1 => return Err(JobFileError::Settings),
+            Some(Ok(settings)) => settings,
+            Some(Err(BlockError::NotFinite)) => return Err(JobFileError::NotFinite),
+            Some(Err(BlockError::Unknown)) => return Err(JobFileError::Settings),
+        };
         let finite = |b: &[u8]| {
             b.chunks_exact(4).all(|w| {
                 w.try_into()
@@ -252,13 +304,17 @@ impl<'a> JobFile<'a> {
                 Ok(Self::Efd {
                     centre_m: f32_row::<2>(centre, 0).unwrap_or([0.0; 2]),
                     coefficients,
+                    settings,
                 })
             }
             1 => {
                 if !finite(body) {
                     return Err(JobFileError::NotFinite);
                 }
-                Ok(Self::Points { points: body })
+                Ok(Self::Points {
+                    points: body,
+                    settings,
+                })
             }
             2 => Ok(Self::Gcode { text: body }),
             3 => Ok(Self::Recording { bytes: body }),
@@ -273,39 +329,70 @@ impl<'a> JobFile<'a> {
 }
 
 /// Writes a job file of `kind` with `count` and the body `write_body` produces into
-/// `out`; returns the file's length.
+/// `out`, version 1, or version 2 with the cut settings `block`; returns the file's
+/// length.
 fn write(
     kind: u8,
     count: usize,
+    block: Option<[u8; CUT_SETTINGS_BYTES]>,
     body_bytes: usize,
     out: &mut [u8],
     write_body: impl FnOnce(&mut [u8]),
 ) -> Result<usize, JobFileError> {
     let count = u32::try_from(count).map_err(|_| JobFileError::NoRoom)?;
-    let len = HEADER_BYTES + body_bytes + 4;
+    let version = match block {
+        None => VERSION_WITHOUT_SETTINGS,
+        Some(_) => JOB_FORMAT_VERSION,
+    };
+    let start = HEADER_BYTES + settings_len(version);
+    let len = start + body_bytes + 4;
     let file = out.get_mut(..len).ok_or(JobFileError::NoRoom)?;
     let (checked, crc) = file.split_at_mut(len - 4);
-    let (header, body) = checked.split_at_mut(HEADER_BYTES);
+    let (header, body) = checked.split_at_mut(start);
     let [c0, c1, c2, c3] = count.to_le_bytes();
     let [m0, m1, m2, m3] = MAGIC;
-    let fields = [
-        m0,
-        m1,
-        m2,
-        m3,
-        JOB_FORMAT_VERSION,
-        kind,
-        0,
-        0,
-        c0,
-        c1,
-        c2,
-        c3,
-    ];
-    header.copy_from_slice(&fields);
+    let fields = [m0, m1, m2, m3, version, kind, 0, 0, c0, c1, c2, c3];
+    let (fixed, settings) = header.split_at_mut(HEADER_BYTES);
+    fixed.copy_from_slice(&fields);
+    if let Some(block) = block {
+        settings.copy_from_slice(&block);
+    }
     write_body(body);
     crc.copy_from_slice(&crc32(checked).to_le_bytes());
     Ok(len)
+}
+
+/// The contour job file `file` (EFD or points, either version) written again into
+/// `out` with the cut settings `settings`: version 1 where they are the machine's
+/// own, version 2 otherwise. Returns the new file's length.
+///
+/// Errors: `file`'s own ([`JobFile::read`]); [`JobFileError::Settings`] for another
+/// kind or settings the block cannot say (a zero or non-finite speed, zero passes, a
+/// laser value not finite); [`JobFileError::NoRoom`].
+pub fn with_settings(
+    file: &[u8],
+    settings: &CutSettings,
+    out: &mut [u8],
+) -> Result<usize, JobFileError> {
+    let read = JobFile::read(file)?;
+    let kind = match read {
+        JobFile::Efd { .. } => 0,
+        JobFile::Points { .. } => 1,
+        _ => return Err(JobFileError::Settings),
+    };
+    let block = match settings.block() {
+        Some(_) if *settings == CutSettings::MACHINE => None,
+        Some(block) => Some(block),
+        None => return Err(JobFileError::Settings),
+    };
+    // Read above: a header, the settings its version has, a body and a CRC.
+    let start = HEADER_BYTES + file.get(4).map_or(0, |&v| settings_len(v));
+    let body = file
+        .get(start..file.len().saturating_sub(4))
+        .ok_or(JobFileError::Truncated)?;
+    write(kind, read.count(), block, body.len(), out, |b| {
+        b.copy_from_slice(body)
+    })
 }
 
 /// A value as the file stores it: f32, rounded to nearest (a finite f64 beyond
@@ -327,7 +414,7 @@ fn write_values<'v>(
         return Err(JobFileError::NotFinite);
     }
     let body_bytes = 4 * values.clone().count();
-    write(kind, count, body_bytes, out, |body| {
+    write(kind, count, None, body_bytes, out, |body| {
         for (chunk, v) in body.chunks_exact_mut(4).zip(values) {
             chunk.copy_from_slice(&stored(v).to_le_bytes());
         }
@@ -356,7 +443,7 @@ pub fn write_points(points: &[[f64; 2]], out: &mut [u8]) -> Result<usize, JobFil
 
 /// Writes a G-code job.
 pub fn write_gcode(text: &[u8], out: &mut [u8]) -> Result<usize, JobFileError> {
-    write(2, text.len(), text.len(), out, |body| {
+    write(2, text.len(), None, text.len(), out, |body| {
         body.copy_from_slice(text)
     })
 }
@@ -364,7 +451,7 @@ pub fn write_gcode(text: &[u8], out: &mut [u8]) -> Result<usize, JobFileError> {
 /// Writes a recording job (a recorded master session's bytes, as they are: the
 /// recording's own reader checks them).
 pub fn write_recording(bytes: &[u8], out: &mut [u8]) -> Result<usize, JobFileError> {
-    write(3, bytes.len(), bytes.len(), out, |body| {
+    write(3, bytes.len(), None, bytes.len(), out, |body| {
         body.copy_from_slice(bytes)
     })
 }
@@ -422,9 +509,14 @@ mod tests {
             bad[i] ^= 0x10;
             assert!(JobFile::read(&bad[..n]).is_err(), "byte {i}");
         }
-        let mut bad = buf;
-        bad[4] = 2;
-        assert_eq!(JobFile::read(&bad[..n]), Err(JobFileError::Version(2)));
+        for version in [0, JOB_FORMAT_VERSION + 1] {
+            let mut bad = buf;
+            bad[4] = version;
+            assert_eq!(
+                JobFile::read(&bad[..n]),
+                Err(JobFileError::Version(version))
+            );
+        }
         assert_eq!(JobFile::read(&buf[..n - 1]), Err(JobFileError::Truncated));
         assert_eq!(JobFile::read(&buf[..5]), Err(JobFileError::Truncated));
 
@@ -471,6 +563,69 @@ mod tests {
             write_gcode(&[b'x'; 600], &mut buf),
             Err(JobFileError::NoRoom)
         );
+    }
+
+    /// A contour written again with cut settings reads back with them and the same
+    /// body, its length from the header alone; with the machine's settings it is
+    /// version 1 again, byte for byte; every byte of it is guarded; settings on
+    /// another kind, or that the block cannot say, are refused.
+    #[test]
+    fn cut_settings_ride_with_contours_only() {
+        let mut v1 = [0u8; 256];
+        let n = write_efd([1e-3, 0.0], &[[1e-3, 0.0, 0.0, 1e-3]; 2], &mut v1).unwrap();
+        let settings = CutSettings {
+            speed_m_s: Some(4e-3),
+            laser: Some(CutLaser::PowerW(5.0)),
+            passes: Some(2),
+        };
+        let mut v2 = [0u8; 256];
+        let m = with_settings(&v1[..n], &settings, &mut v2).unwrap();
+        assert_eq!((m, v2[4]), (n + 12, 2));
+        assert_eq!(file_len(&v2), Some(m));
+        let file = JobFile::read(&v2[..m]).unwrap();
+        assert_eq!(file.settings(), settings);
+        let first = JobFile::read(&v1[..n]).unwrap();
+        assert_eq!(file.count(), first.count());
+        assert_eq!(file.harmonic(1), first.harmonic(1));
+        assert_eq!(first.settings(), CutSettings::MACHINE);
+        for i in 0..m {
+            let mut bad = v2;
+            bad[i] ^= 0x10;
+            assert!(JobFile::read(&bad[..m]).is_err(), "byte {i}");
+        }
+        let mut again = [0u8; 256];
+        let k = with_settings(&v2[..m], &CutSettings::MACHINE, &mut again).unwrap();
+        assert_eq!(again[..k], v1[..n]);
+        let n = write_points(&[[0.0, 0.0], [1e-3, 0.0], [1e-3, 1e-3]], &mut v1).unwrap();
+        let m = with_settings(&v1[..n], &settings, &mut v2).unwrap();
+        let file = JobFile::read(&v2[..m]).unwrap();
+        assert_eq!((file.kind(), file.settings()), (JobKind::Points, settings));
+        assert_eq!(file.point(2), Some([1e-3, 1e-3]));
+        // G-code takes none; a zero speed is not a setting; no room is said.
+        let n = write_gcode(b"G1 X1 F100\n", &mut v1).unwrap();
+        let refused = with_settings(&v1[..n], &settings, &mut v2);
+        assert_eq!(refused, Err(JobFileError::Settings));
+        let zero = CutSettings {
+            speed_m_s: Some(0.0),
+            ..settings
+        };
+        let n = write_points(&[[0.0, 0.0], [1e-3, 0.0], [1e-3, 1e-3]], &mut v1).unwrap();
+        assert_eq!(
+            with_settings(&v1[..n], &zero, &mut v2),
+            Err(JobFileError::Settings)
+        );
+        let short = with_settings(&v1[..n], &settings, &mut v2[..n]);
+        assert_eq!(short, Err(JobFileError::NoRoom));
+        // A version 2 G-code file (made by hand) is refused for its settings.
+        let mut gcode = [0u8; 64];
+        let n = write_gcode(b"G0 X1\n", &mut gcode[12..]).unwrap();
+        gcode.copy_within(12..24, 0);
+        gcode[4] = 2;
+        gcode[12..24].fill(0);
+        let crc = crc32(&gcode[..n + 8]);
+        gcode[n + 8..n + 12].copy_from_slice(&crc.to_le_bytes());
+        assert_eq!(file_len(&gcode), Some(n + 12));
+        assert_eq!(JobFile::read(&gcode[..n + 12]), Err(JobFileError::Settings));
     }
 
     /// An index whose byte offset passes `usize` is past the end, not a wrapped

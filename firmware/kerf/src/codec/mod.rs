@@ -17,6 +17,7 @@
 pub mod canfd_timing;
 pub mod canopen;
 pub mod cia402;
+pub mod cut_settings;
 pub mod dct;
 pub mod gcs;
 pub mod job;

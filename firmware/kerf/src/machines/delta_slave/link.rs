@@ -27,9 +27,10 @@ pub use crate::app::axis::settings::{AxisSettings, DobSettings, PdSettings, Velo
 use crate::app::axis::{AxisConfig, AxisLaw};
 use crate::app::host_link::LinkMachine;
 use crate::app::joints::JobError;
-use crate::codec::job::JobFile;
+use crate::codec::job::{CutLaser, CutSettings, JobFile};
 use crate::codec::link::code_words as words;
 use crate::codec::link::{Channel, ChannelValues, CodeWords, JobKind, JOB_NOT_AT_REST};
+use crate::control::laser::LaserMode;
 use crate::error::ConfigError;
 use crate::scalar::{to_f64, Float};
 use crate::trajectory::efd::Efd;
@@ -94,6 +95,12 @@ pub mod load_codes {
     pub const TOO_MANY_POINTS: u16 = 0x204;
     /// The points do not make a path: fewer than three, or one repeated.
     pub const BAD_PATH: u16 = 0x205;
+    /// The part's speed is not above zero.
+    pub const SPEED: u16 = 0x206;
+    /// Passes asked of an open path (it is cut once).
+    pub const PASSES: u16 = 0x207;
+    /// The part's energy per length needs more power at its speed than the source has.
+    pub const ENERGY: u16 = 0x208;
 }
 
 /// What the fault codes of [`LinkMachine::fault_code`] mean.
@@ -133,7 +140,7 @@ const FAULTS: [CodeWords; 7] = [
 
 /// What the job refusal codes of the planner ([`LinkMachine::job_error_code`]) and
 /// the loader ([`load_codes`]) mean.
-const JOB_REFUSALS: [CodeWords; 16] = [
+const JOB_REFUSALS: [CodeWords; 19] = [
     words(
         1,
         "the job has no move, or more moves than the machine holds",
@@ -196,6 +203,17 @@ const JOB_REFUSALS: [CodeWords; 16] = [
     words(
         load_codes::BAD_PATH,
         "the points do not make a path (fewer than 3, or a point repeated)",
+        "",
+    ),
+    words(load_codes::SPEED, "the part's speed is not above zero", ""),
+    words(
+        load_codes::PASSES,
+        "an open path is cut in one pass (passes are for closed contours)",
+        "",
+    ),
+    words(
+        load_codes::ENERGY,
+        "the energy per length needs more than the laser's power at the part's speed",
         "",
     ),
 ];
@@ -336,8 +354,8 @@ fn refusal_code(error: &DeltaJobError) -> u16 {
     }
 }
 
-/// An EFD file as a closed contour, cut for the context's laps from θ = 0, its centre
-/// where the file puts it.
+/// An EFD file as a closed contour, cut for the context's laps (times the file's
+/// passes) from θ = 0, its centre where the file puts it.
 fn load_closed(
     context: &ContourDefaults,
     file: &JobFile<'_>,
@@ -364,9 +382,10 @@ fn load_closed(
         ContourCurve::Closed {
             efd: &efd,
             theta0_rad: 0.0,
-            laps: context.laps,
+            laps: context.laps * f64::from(file.settings().passes.unwrap_or(1)),
         },
         centre,
+        file.settings(),
         job,
     )
 }
@@ -374,6 +393,9 @@ fn load_closed(
 /// A points file as an open path, cut once from its first point to its last, each
 /// point where the file puts it.
 fn load_open(context: &ContourDefaults, file: &JobFile<'_>, job: &mut DeltaJob) -> Result<(), u16> {
+    if file.settings().passes.is_some_and(|n| n > 1) {
+        return Err(load_codes::PASSES);
+    }
     let n = file.count();
     if n > OPEN_PATH_POINTS {
         return Err(load_codes::TOO_MANY_POINTS);
@@ -390,21 +412,51 @@ fn load_open(context: &ContourDefaults, file: &JobFile<'_>, job: &mut DeltaJob) 
         context,
         ContourCurve::Open(&path),
         [centre.x, centre.y],
+        file.settings(),
         job,
     )
 }
 
 /// Plans `curve` (relative to its centre, at `centre_m` in the file's x and y) with
-/// the context's speed, ramps, law and laser into `job`.
+/// the context's ramps and law into `job`, at the part's speed and laser where its
+/// settings give them, the context's otherwise (its laser: the energy per length its
+/// power cuts at its speed, whatever the part's speed, so the depth stays).
 fn plan_into(
     context: &ContourDefaults,
     curve: ContourCurve<'_>,
     centre_m: [f64; 2],
+    settings: CutSettings,
     job: &mut DeltaJob,
 ) -> Result<(), u16> {
     let mut plan = context.plan(curve);
     plan.centre_m[0] += centre_m[0];
     plan.centre_m[1] += centre_m[1];
+    if let Some(speed) = settings.speed_m_s {
+        if speed <= 0.0 {
+            return Err(load_codes::SPEED);
+        }
+        plan.speed_m_s = f64::from(speed);
+    }
+    plan.laser = match settings.laser {
+        None => plan.laser,
+        Some(CutLaser::Off) => LaserMode::Off,
+        Some(CutLaser::PowerW(power)) => LaserMode::ConstantPower {
+            power_w: f64::from(power),
+        },
+        Some(CutLaser::EnergyJPerM(energy)) => LaserMode::ConstantEnergy {
+            energy_per_length_j_per_m: f64::from(energy),
+        },
+    };
+    // Constant energy at the cutting speed within the source (below, the planner's
+    // own laser check refuses what is not a setting at all).
+    if let LaserMode::ConstantEnergy {
+        energy_per_length_j_per_m: energy,
+    } = plan.laser
+    {
+        if energy * plan.speed_m_s > context.machine.laser.max_power_w {
+            return Err(load_codes::ENERGY);
+        }
+    }
     *job = DeltaJob::plan_contour(&context.machine, &plan).map_err(|e| refusal_code(&e))?;
     Ok(())
 }

@@ -428,3 +428,60 @@ fn the_stop_ramps_the_carriages_with_the_beam_off() {
     // The carriages were moving: the ramp took more than the one period of a rest.
     assert!(periods > 1, "{periods}");
 }
+
+/// A part's cut settings reach the plan through the loader: two passes cut one lap
+/// more (the job longer by the lap's length over the speed, to the period the cruise
+/// is rounded to), and what the machine cannot do is refused in its own code: a speed
+/// not above zero, passes on an open path, an energy per length the source cannot
+/// give at the part's speed (1,250 J/m at 20 mm/s is 25 W of a 20 W source; at 15 mm/s
+/// it is 18.75 W, accepted by this check).
+#[test]
+fn a_parts_cut_settings_are_planned_or_refused_in_their_codes() {
+    use crate::app::host_link::LinkMachine;
+    use crate::codec::job::{with_settings, write_efd, write_points, CutLaser, CutSettings};
+    use crate::machines::delta_slave::link::load_codes;
+    use crate::machines::delta_slave::product::{contour_defaults, JOB_LAPS};
+    let context = contour_defaults(&DeltaSlaveConfig::KEOPS, JOB_LAPS);
+    let radius = f64::from(4e-3f32);
+    let mut plain = [0u8; 256];
+    let n = write_efd([0.0, 0.0], &[[radius, 0.0, 0.0, radius]], &mut plain).unwrap();
+    let load = |settings: CutSettings, file: &[u8]| {
+        let mut bytes = [0u8; 512];
+        let m = with_settings(file, &settings, &mut bytes).unwrap();
+        let mut job = DeltaJob::default();
+        let read = crate::codec::job::JobFile::read(&bytes[..m]).unwrap();
+        DeltaSlave::<f32>::load_job(&context, &read, &mut job).map(|()| job.duration_s())
+    };
+    let once = load(CutSettings::MACHINE, &plain[..n]).unwrap();
+    let twice = CutSettings {
+        passes: Some(2),
+        ..CutSettings::MACHINE
+    };
+    let lap_s = std::f64::consts::TAU * radius / context.speed_m_s;
+    let longer = load(twice, &plain[..n]).unwrap() - once;
+    assert!(
+        (longer - lap_s).abs() <= 2e-4,
+        "{longer} s against {lap_s} s"
+    );
+    let speed = |v: f32, laser| CutSettings {
+        speed_m_s: Some(v),
+        laser,
+        passes: None,
+    };
+    assert_eq!(
+        load(speed(-1e-3, None), &plain[..n]),
+        Err(load_codes::SPEED)
+    );
+    let energy = Some(CutLaser::EnergyJPerM(1250.0));
+    assert_eq!(
+        load(speed(20e-3, energy), &plain[..n]),
+        Err(load_codes::ENERGY)
+    );
+    assert!(load(speed(15e-3, energy), &plain[..n]) != Err(load_codes::ENERGY));
+    let too_strong = Some(CutLaser::PowerW(25.0));
+    assert_eq!(load(speed(8e-3, too_strong), &plain[..n]), Err(11));
+    let path = [[0.0, 0.0], [2e-3, 1e-3], [4e-3, 0.0], [6e-3, 1e-3]];
+    let n = write_points(&path, &mut plain).unwrap();
+    assert!(load(CutSettings::MACHINE, &plain[..n]).is_ok());
+    assert_eq!(load(twice, &plain[..n]), Err(load_codes::PASSES));
+}
