@@ -3,7 +3,7 @@
 
 use crate::report::{say, Report};
 use crate::{prepare, Failure};
-use kerf_host::check::{self, kind_words, Machine};
+use kerf_host::check::{kind_words, Machine};
 use kerf_host::output::io_words;
 use kerf_host::preview;
 use std::path::PathBuf;
@@ -18,6 +18,8 @@ pub struct CheckArgs {
     /// Draw the workspace, the travel, the cut and its start into this SVG file.
     #[arg(long, value_name = "SVG")]
     preview: Option<PathBuf>,
+    #[command(flatten)]
+    cut: crate::cli_cut::CutArgs,
 }
 
 /// `kerf check JOB`.
@@ -30,8 +32,7 @@ pub fn run(args: &CheckArgs, report: &mut Report) -> Result<(), Failure> {
             io_words(&e)
         ))
     })?;
-    let checked =
-        check::check(&bytes, args.machine).map_err(|e| Failure::Refused(format!("{name}: {e}")))?;
+    let (bytes, checked) = crate::cli_cut::settle(&name, &bytes, &args.cut, args.machine)?;
     match checked.parts {
         1 => say!(
             report,

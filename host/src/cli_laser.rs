@@ -1,22 +1,38 @@
 //! `kerf gcode FILE --machine keops-slave`: a laser program as the parts of a Keops
 //! slave job ([`kerf_host::laser`]).
 
+use crate::cli_cut::CutArgs;
 use crate::report::{say, Report};
 use crate::{prepare, Failure};
-use kerf_host::laser;
+use kerf::machines::delta_slave::DeltaSlaveConfig;
+use kerf_host::job::{CutLaser, CutSettings};
+use kerf_host::laser::{self, Beam};
 use kerf_host::output::io_words;
 use kerf_host::plan::PlanConfig;
 use std::io::Write;
 use std::path::Path;
 
-/// Reads the laser program `file`, reports its parts and writes them to `out`.
+/// Reads the laser program `file`, reports its parts (their settings from the
+/// program, `S` of `s_max` as the source's full power, and `cut` over them), checks
+/// them as the slave would and writes them to `out`.
 pub fn run(
     file: &Path,
     out: Option<&Path>,
     centre: bool,
+    s_max: f64,
+    cut: &CutArgs,
     report: &mut Report,
 ) -> Result<(), Failure> {
     let name = file.display().to_string();
+    if !(s_max.is_finite() && s_max > 0.0) {
+        return Err(Failure::Input(format!(
+            "--s-max {s_max}: the S value of full power, above zero"
+        )));
+    }
+    let beam = Beam {
+        s_max,
+        max_power_w: DeltaSlaveConfig::KEOPS.laser.max_power_w,
+    };
     let out = prepare(out, "job file")?;
     let text = std::fs::read(file).map_err(|e| {
         Failure::Input(format!("{name}: cannot read the program: {}", io_words(&e)))
@@ -34,37 +50,49 @@ pub fn run(
         // Standard error may be closed: the report still follows.
         let _ = writeln!(std::io::stderr(), "{line}");
     }
-    let parts = laser::parts(&program, &PlanConfig::default(), centre)
+    let parts = laser::parts(&program, &PlanConfig::default(), centre, &beam)
         .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
     say!(report, "{name}: {} parts for keops-slave", parts.len());
     for note in &program.notes {
         say!(report, "note       {note}");
     }
+    if program.runs.iter().any(|r| r.s > s_max) {
+        say!(
+            report,
+            "note       S passes --s-max {s_max} in places: full power there"
+        );
+    }
     for (k, p) in parts.iter().enumerate() {
         let start = p.run.path_mm.first().copied().unwrap_or([0.0; 2]);
         say!(
             report,
-            "part {:>3}   lines {}-{}, {}, starts at ({:.2}, {:.2}) mm, the fit within {:.3} mm of the program",
+            "part {:>3}   lines {}-{}, {}, starts at ({:.2}, {:.2}) mm, the fit within {:.3} mm of the program; {}",
             k + 1,
             p.run.lines[0],
             p.run.lines[1],
             if p.run.closed { "closed (EFD)" } else { "open (spline)" },
             start[0],
             start[1],
-            p.deviation_mm
+            p.deviation_mm,
+            settings_words(&p.settings)
         );
     }
-    if let Some(out) = &out {
-        let bytes =
-            laser::to_bytes(&parts).map_err(|e| Failure::Input(format!("{}: {e}", out.shown())))?;
-        out.write_bytes(&bytes)?;
-        say!(
-            report,
-            "wrote {} ({} parts, {} bytes)",
-            out.shown(),
-            parts.len(),
-            bytes.len()
-        );
-    }
-    Ok(())
+    let bytes = laser::to_bytes(&parts).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    crate::cli_cut::write_program(&name, &bytes, cut, out.as_ref(), report)
+}
+
+/// A part's settings in a machinist's words.
+fn settings_words(settings: &CutSettings) -> String {
+    let speed = settings
+        .speed_m_s
+        .map_or("the machine's speed".into(), |v| {
+            format!("{:.1} mm/s", f64::from(v) * 1e3)
+        });
+    let laser = match settings.laser {
+        None => "the machine's laser".into(),
+        Some(CutLaser::Off) => "beam off".into(),
+        Some(CutLaser::PowerW(w)) => format!("{w:.2} W (M3)"),
+        Some(CutLaser::EnergyJPerM(e)) => format!("{:.3} J/mm (M4)", f64::from(e) * 1e-3),
+    };
+    format!("{speed}, {laser}")
 }

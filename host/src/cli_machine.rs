@@ -123,6 +123,8 @@ pub struct RunArgs {
     /// Give up after the machine is silent this long, s.
     #[arg(long, value_name = "S", default_value_t = 30)]
     quiet_s: u64,
+    #[command(flatten)]
+    cut: crate::cli_cut::CutArgs,
 }
 
 /// `kerf log`.
@@ -270,6 +272,7 @@ pub fn run(args: &RunArgs, report: &mut Report) -> Result<(), Failure> {
             io_words(&e)
         ))
     })?;
+    let bytes = crate::cli_cut::apply(&name, &bytes, &args.cut)?;
     // One job file, or the parts of a program back to back.
     let parts: Vec<(JobKind, &[u8])> = kerf_host::job::split(&bytes)
         .and_then(|parts| {

@@ -1,6 +1,7 @@
 //! `kerf plan --all`: the report and the files of a program of several parts
 //! ([`kerf_host::parts`]).
 
+use crate::cli_cut::CutArgs;
 use crate::report::{say, Report};
 use crate::Failure;
 use image::GrayImage;
@@ -16,6 +17,7 @@ pub(crate) fn report_parts(
     name: &str,
     gray: &GrayImage,
     set: &PlanSet,
+    cut: &CutArgs,
     out: Option<&OutputFile>,
     svg: Option<&OutputFile>,
     report: &mut Report,
@@ -74,18 +76,8 @@ pub(crate) fn report_parts(
         svg.write_bytes(text.as_bytes())?;
         say!(report, "wrote {}", svg.shown());
     }
-    if let Some(out) = out {
-        let bytes = set
-            .to_bytes()
-            .map_err(|e| Failure::Input(format!("{}: {e}", out.shown())))?;
-        out.write_bytes(&bytes)?;
-        say!(
-            report,
-            "wrote {} ({} parts, {} bytes)",
-            out.shown(),
-            set.parts.len(),
-            bytes.len()
-        );
-    }
-    Ok(())
+    let bytes = set
+        .to_bytes()
+        .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    crate::cli_cut::write_program(name, &bytes, cut, out, report)
 }

@@ -153,16 +153,16 @@ pub fn split(bytes: &[u8]) -> Result<Vec<&[u8]>, JobFileError> {
 
 /// `settings` over each part's own, field by field (a field `settings` gives replaces
 /// the part's; the others stay), for every part of the program `bytes`; the program
-/// unchanged where `settings` gives none.
+/// unchanged (not read) where `settings` gives none.
 ///
 /// Errors: a part that does not read; settings given for a part of another kind than
 /// EFD and points ([`JobFileError::Settings`]: G-code carries its own), or that the
 /// file cannot say (a zero speed, zero passes).
 pub fn with_settings(bytes: &[u8], settings: &CutSettings) -> Result<Vec<u8>, JobFileError> {
-    let parts = split(bytes)?;
     if *settings == CutSettings::MACHINE {
         return Ok(bytes.to_vec());
     }
+    let parts = split(bytes)?;
     let mut out = Vec::with_capacity(bytes.len() + parts.len() * CUT_SETTINGS_BYTES);
     for part in parts {
         let own = JobFile::read(part)?.settings();

@@ -13,13 +13,19 @@
 //! (both ways, brute force): the slave follows smooth curves, and a program's sharp
 //! corners come out rounded by that much.
 //!
+//! Each part carries its cut settings from the program ([`Beam`]): the speed is the
+//! feed `F` of its first move, and the laser `S` of `S_max` of the source's power,
+//! held constant under `M3` and as energy per length under `M4` (grbl's laser mode:
+//! the power scaled with the speed, `S` at the programmed feed), so `P/F`.
+//!
 //! What the slave does not take from the program is said once each: Z (it cuts in its
-//! own plane), F and the value of S (it cuts at its own speed at constant energy per
-//! length; S only switches the beam). `centre` moves the program so that the box
-//! around its cuts is centred on the workspace's centre (a laser bed's origin is its
-//! corner, the slave's its centre).
+//! own plane), a feed or power that changes within a part (the slave cuts a part at
+//! one speed and one setting: its first move's); `kerf gcode` says where `S` passes
+//! `S_max` (full power).
+//! `centre` moves the program so that the box around its cuts is centred on the
+//! workspace's centre (a laser bed's origin is its corner, the slave's its centre).
 
-use crate::job::{Job, JobFileError};
+use crate::job::{with_settings, CutLaser, CutSettings, Job, JobFileError};
 use crate::plan::{self, efd_job, path_job, Fit, PlanConfig, PlanError};
 use kerf::trajectory::gcode::{Diagnostic, GcodePoint, MoveKind, Parser, Severity, Spindle};
 
@@ -36,6 +42,41 @@ pub struct LaserRun {
     pub path_mm: Vec<[f64; 2]>,
     /// Whether it ends where it began.
     pub closed: bool,
+    /// Its first move's feed, m/s.
+    pub feed_m_s: f64,
+    /// Its first move's `S`, in the program's scale.
+    pub s: f64,
+    /// Whether the beam is grbl's dynamic power (`M4`) rather than constant (`M3`).
+    pub dynamic: bool,
+}
+
+/// How a program's `S` becomes power.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Beam {
+    /// `S` of full power (grbl's `$30`, 1000 by default).
+    pub s_max: f64,
+    /// The source's full power, W.
+    pub max_power_w: f64,
+}
+
+impl Beam {
+    /// The cut settings of `run`: its feed, and `S` as power (`M3`) or as the energy
+    /// per length that power gives at the feed (`M4`); `S` past `s_max` is full power.
+    pub fn settings(&self, run: &LaserRun) -> CutSettings {
+        let power_w = (run.s / self.s_max).clamp(0.0, 1.0) * self.max_power_w;
+        // The reader refuses a feed move before any `F`: a feed is above zero here,
+        // and without one the part would be cut at the machine's speed and power.
+        let feed = (run.feed_m_s > 0.0).then_some(run.feed_m_s);
+        let laser = match feed {
+            Some(v) if run.dynamic => CutLaser::EnergyJPerM((power_w / v) as f32),
+            _ => CutLaser::PowerW(power_w as f32),
+        };
+        CutSettings {
+            speed_m_s: feed.map(|v| v as f32),
+            laser: Some(laser),
+            passes: None,
+        }
+    }
 }
 
 /// The runs of a program and everything the reader said of it.
@@ -60,6 +101,8 @@ pub struct LaserPart {
     pub job: Job,
     /// Largest distance between the fitted curve and the programmed path, mm.
     pub deviation_mm: f64,
+    /// How it is cut, from the program.
+    pub settings: CutSettings,
 }
 
 /// Reads `text` (module docs). Errors are in the diagnostics; the runs are those of
@@ -107,14 +150,22 @@ pub fn read(text: &[u8]) -> LaserProgram {
             let beam_on =
                 p.kind == MoveKind::Feed && p.spindle != Spindle::Off && p.spindle_s > 0.0;
             if beam_on {
-                note("F and the value of S are not followed: the slave cuts at its own speed at constant energy per length");
+                let dynamic = p.spindle == Spindle::CounterClockwise;
                 let run = current.get_or_insert_with(|| LaserRun {
                     lines: [p.line, p.line],
                     path_mm: at
                         .map(|a| vec![[a[0] * 1e3, a[1] * 1e3]])
                         .unwrap_or_default(),
                     closed: false,
+                    feed_m_s: p.feed_m_s,
+                    s: p.spindle_s,
+                    dynamic,
                 });
+                if (run.feed_m_s, run.s, run.dynamic) != (p.feed_m_s, p.spindle_s, dynamic) {
+                    note(
+                        "F, S or M3/M4 changes within a part: each part is cut at its first move's",
+                    );
+                }
                 run.lines[1] = p.line;
                 if run.path_mm.last() != Some(&mm) {
                     run.path_mm.push(mm);
@@ -149,6 +200,7 @@ pub fn parts(
     program: &LaserProgram,
     config: &PlanConfig,
     centre: bool,
+    beam: &Beam,
 ) -> Result<Vec<LaserPart>, PlanError> {
     if program.runs.is_empty() {
         return Err(PlanError::NoCut);
@@ -179,23 +231,23 @@ pub fn parts(
                 .max(plan::deviation(&path, &samples, run.closed));
             Ok(LaserPart {
                 run: LaserRun {
-                    lines: run.lines,
                     path_mm: path,
-                    closed: run.closed,
+                    ..run.clone()
                 },
                 fit,
                 job,
                 deviation_mm,
+                settings: beam.settings(run),
             })
         })
         .collect()
 }
 
-/// The job file of `parts`: their files back to back.
+/// The job file of `parts`: their files back to back, each with its settings.
 pub fn to_bytes(parts: &[LaserPart]) -> Result<Vec<u8>, JobFileError> {
     let mut out = Vec::new();
     for part in parts {
-        out.extend(part.job.to_bytes()?);
+        out.extend(with_settings(&part.job.to_bytes()?, &part.settings)?);
     }
     Ok(out)
 }

@@ -14,6 +14,7 @@ use kerf_host::plan::{self, Fit, Format, PlanConfig};
 use kerf_host::plot;
 use report::{say, Report};
 mod cli_check;
+mod cli_cut;
 mod cli_laser;
 mod cli_machine;
 mod cli_parts;
@@ -206,6 +207,8 @@ struct PlanArgs {
     /// With --all: leave out contours smaller than this across, mm (specks, noise).
     #[arg(long, value_name = "MM", default_value_t = 0.0, requires = "all")]
     min_size_mm: f64,
+    #[command(flatten)]
+    cut: cli_cut::CutArgs,
 }
 
 #[derive(Debug, clap::Args)]
@@ -223,6 +226,11 @@ struct GcodeArgs {
     /// workspace's centre (a laser bed's origin is its corner).
     #[arg(long)]
     centre: bool,
+    /// For the Keops slave: the S value of full power (grbl's $30).
+    #[arg(long, value_name = "S", default_value_t = 1000.0)]
+    s_max: f64,
+    #[command(flatten)]
+    cut: cli_cut::CutArgs,
 }
 
 fn main() -> ExitCode {
@@ -237,7 +245,9 @@ fn main() -> ExitCode {
             out,
             machine: kerf_host::check::Machine::KeopsSlave,
             centre,
-        }) => cli_laser::run(&file, out.as_deref(), centre, r),
+            s_max,
+            cut,
+        }) => cli_laser::run(&file, out.as_deref(), centre, s_max, &cut, r),
         Command::Gcode(args) => run_gcode(&args, r),
         Command::Check(args) => cli_check::run(&args, r),
         Command::Run(args) => cli_machine::run(&args, r),
@@ -307,7 +317,15 @@ fn run_plan(args: &PlanArgs, report: &mut Report) -> Result<(), Failure> {
         })
         .map_err(|e| format!("{name}: {e}"))?;
         bar.finish_and_clear();
-        return cli_parts::report_parts(&name, &gray, &set, out.as_ref(), svg.as_ref(), report);
+        return cli_parts::report_parts(
+            &name,
+            &gray,
+            &set,
+            &args.cut,
+            out.as_ref(),
+            svg.as_ref(),
+            report,
+        );
     }
     let (gray, p) = plan::plan_file(&args.image, &config, &mut |stage| {
         bar.inc(1);
@@ -369,14 +387,21 @@ fn run_plan(args: &PlanArgs, report: &mut Report) -> Result<(), Failure> {
         svg.write_bytes(text.as_bytes())?;
         say!(report, "wrote {}", svg.shown());
     }
-    if let Some(out) = &out {
-        write_job(out, &p.job, report)?;
-    }
-    Ok(())
+    let bytes = p
+        .job
+        .to_bytes()
+        .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    cli_cut::write_program(&name, &bytes, &args.cut, out.as_ref(), report)
 }
 
 fn run_gcode(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
     let name = args.file.display().to_string();
+    if args.cut.settings()? != kerf_host::job::CutSettings::MACHINE {
+        return Err(Failure::Input(format!(
+            "{name}: an ARROW program carries its own feeds; --speed-mm-s, --power-w, \
+             --energy-j-per-mm, --beam-off and --passes are for the laser delta's parts"
+        )));
+    }
     let out = prepare(args.out.as_deref(), "job file")?;
     let text = std::fs::read(&args.file)
         .map_err(|e| format!("{name}: cannot read the program: {}", io_words(&e)))?;

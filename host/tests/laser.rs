@@ -7,9 +7,10 @@
 mod common;
 
 use common::kerf;
+use kerf::codec::job::JobFile;
 use kerf_host::check::check;
-use kerf_host::job::split;
-use kerf_host::laser::{self, LaserProgram};
+use kerf_host::job::{split, CutLaser, CutSettings};
+use kerf_host::laser::{self, Beam, LaserProgram};
 use kerf_host::plan::PlanConfig;
 
 /// A square, a two-segment open path, a move with the beam off (M5), one with S0, and
@@ -41,8 +42,17 @@ fn the_runs_with_the_beam_on_are_the_parts() {
             "{p:?}"
         );
     }
-    assert_eq!(program.notes.len(), 1, "{:?}", program.notes);
-    let parts = laser::parts(&program, &PlanConfig::default(), false).unwrap();
+    // F and S stay the same along each run: nothing to say.
+    assert!(program.notes.is_empty(), "{:?}", program.notes);
+    let parts = laser::parts(&program, &PlanConfig::default(), false, &BEAM).unwrap();
+    // F600 is 10 mm/s; M3 S500 of 1000 half the 20 W source, S200 a fifth.
+    let square = CutSettings {
+        speed_m_s: Some(0.01),
+        laser: Some(CutLaser::PowerW(10.0)),
+        passes: None,
+    };
+    assert_eq!(parts[0].settings, square);
+    assert_eq!(parts[2].settings.laser, Some(CutLaser::PowerW(4.0)));
     for p in &parts {
         println!(
             "lines {:?}: closed {}, the fit within {:.4} mm",
@@ -56,14 +66,44 @@ fn the_runs_with_the_beam_on_are_the_parts() {
     assert!(parts[1].deviation_mm < 0.01, "{}", parts[1].deviation_mm);
     assert!(parts[2].deviation_mm < 0.005, "{}", parts[2].deviation_mm);
     let bytes = laser::to_bytes(&parts).unwrap();
-    assert_eq!(split(&bytes).unwrap().len(), 3);
+    let files = split(&bytes).unwrap();
+    assert_eq!(files.len(), 3);
+    // Each part's file carries its settings.
+    for (file, part) in files.iter().zip(&parts) {
+        assert_eq!(JobFile::read(file).unwrap().settings(), part.settings);
+    }
+}
+
+/// The grbl laser's source of full power at S1000.
+const BEAM: Beam = Beam {
+    s_max: 1000.0,
+    max_power_w: 20.0,
+};
+
+/// `M4` is grbl's dynamic power: the energy per length that S gives at the feed, so
+/// the depth holds where the slave slows; `S` past `S_max` is full power; a feed or
+/// power that changes within a part is said (the part is cut at its first move's).
+#[test]
+fn m4_is_energy_per_length_and_a_change_within_a_part_is_said() {
+    // F300 = 5 mm/s; S250 of 1000 = 5 W at 5 mm/s: 1,000 J/m.
+    let program = laser::read(b"G21 M4 S250\nG1 X1 F300\nG1 X1 Y1\nG1 X0 Y1 F600\nM5\nG0 X5\nM3 S2000\nG1 X6 F300\nG1 X7 Y1\n");
+    assert!(!laser::has_errors(&program), "{:?}", program.diagnostics);
+    assert_eq!(program.notes.len(), 1, "{:?}", program.notes);
+    assert!(program.notes[0].contains("within a part"));
+    let parts = laser::parts(&program, &PlanConfig::default(), false, &BEAM).unwrap();
+    assert_eq!(parts[0].settings.speed_m_s, Some(0.005));
+    let Some(CutLaser::EnergyJPerM(e)) = parts[0].settings.laser else {
+        panic!("{:?}", parts[0].settings)
+    };
+    assert!((e - 1000.0).abs() < 1e-3, "{e}");
+    assert_eq!(parts[1].settings.laser, Some(CutLaser::PowerW(20.0)));
 }
 
 #[test]
 fn a_program_that_cuts_nothing_or_does_not_read_says_so() {
     let idle = laser::read(b"G21\nG0 X1 Y1\nM3 S0\nG1 X2 F100\n");
     assert!(idle.runs.is_empty());
-    let e = laser::parts(&idle, &PlanConfig::default(), false).unwrap_err();
+    let e = laser::parts(&idle, &PlanConfig::default(), false, &BEAM).unwrap_err();
     assert!(e.to_string().contains("cuts nothing"), "{e}");
     let broken = laser::read(b"G1 X1 F100 #1\n");
     assert!(laser::has_errors(&broken));
@@ -72,7 +112,10 @@ fn a_program_that_cuts_nothing_or_does_not_read_says_so() {
 }
 
 /// The laser rig's 4 mm square (fraktalcyber/lfi-rig, MIT; data/gcode/SOURCES.md) on
-/// the Keops slave: one closed part, centred, that the slave takes.
+/// the Keops slave: one closed part, centred, at the program's M4 S100 (a tenth of
+/// full power at F6000, 100 mm/s: 20 J/m). The slave cannot turn its corners at
+/// 100 mm/s: refused in its words and nothing written; at 8 mm/s given on the
+/// command line it takes the part, which keeps the program's energy per length.
 #[test]
 fn the_laser_rigs_square_is_a_part_the_slave_takes() {
     let path = concat!(
@@ -81,15 +124,21 @@ fn the_laser_rigs_square_is_a_part_the_slave_takes() {
     );
     let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
     let job = dir.join("laser-square.kjob");
-    let out = kerf(&[
-        "gcode",
-        path,
-        "--machine",
-        "keops-slave",
-        "--centre",
-        "--out",
-        job.to_str().unwrap(),
-    ]);
+    let _ = std::fs::remove_file(&job);
+    let gcode = |extra: &[&str]| {
+        let mut args = vec!["gcode", path, "--machine", "keops-slave", "--out"];
+        args.push(job.to_str().unwrap());
+        args.extend_from_slice(extra);
+        kerf(&args)
+    };
+    let fast = gcode(&["--centre"]);
+    assert_eq!(fast.status.code(), Some(1));
+    let said = String::from_utf8_lossy(&fast.stdout);
+    assert!(said.contains("100.0 mm/s, 0.020 J/mm (M4)"), "{said}");
+    let e = String::from_utf8_lossy(&fast.stderr);
+    assert!(e.contains("would refuse this job: job code 0x0008"), "{e}");
+    assert!(!job.exists());
+    let out = gcode(&["--centre", "--speed-mm-s", "8"]);
     assert_eq!(
         out.status.code(),
         Some(0),
@@ -99,33 +148,28 @@ fn the_laser_rigs_square_is_a_part_the_slave_takes() {
     let said = String::from_utf8_lossy(&out.stdout);
     assert!(
         said.contains("1 parts for keops-slave")
-            && said.contains("closed (EFD), starts at (-2.00, -2.00) mm"),
+            && said.contains("closed (EFD), starts at (-2.00, -2.00) mm")
+            && said.contains("check      keops-slave takes it"),
         "{said}"
     );
     // Its comments and tool change are warnings on standard error.
     assert!(String::from_utf8_lossy(&out.stderr).contains("read as a comment"));
-    let checked = check(&std::fs::read(&job).unwrap(), None).unwrap();
+    let bytes = std::fs::read(&job).unwrap();
+    let settings = JobFile::read(&bytes).unwrap().settings();
+    assert_eq!(settings.speed_m_s, Some(8e-3));
+    assert_eq!(settings.laser, Some(CutLaser::EnergyJPerM(20.0)));
+    let checked = check(&bytes, None).unwrap();
     // The 16 mm outline, its corners rounded: a little shorter.
     assert!(
         (checked.cut_length_m * 1e3 - 16.0).abs() < 0.2,
         "{}",
         checked.cut_length_m
     );
-    // Not centred, the square lies 55 mm out, beyond the workspace: refused in words.
-    let far = dir.join("laser-square-far.kjob");
-    assert_eq!(
-        kerf(&[
-            "gcode",
-            path,
-            "--machine",
-            "keops-slave",
-            "--out",
-            far.to_str().unwrap()
-        ])
-        .status
-        .code(),
-        Some(0)
-    );
-    let e = check(&std::fs::read(&far).unwrap(), None).unwrap_err();
-    assert!(e.to_string().contains("leaves the workspace"), "{e}");
+    // Not centred, the square lies 55 mm out, beyond the workspace: refused in words,
+    // the file left as it was.
+    let far = gcode(&["--speed-mm-s", "8"]);
+    assert_eq!(far.status.code(), Some(1));
+    let e = String::from_utf8_lossy(&far.stderr);
+    assert!(e.contains("leaves the workspace"), "{e}");
+    assert_eq!(std::fs::read(&job).unwrap(), bytes);
 }
