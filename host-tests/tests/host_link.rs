@@ -514,3 +514,114 @@ fn the_parts_of_a_program_follow_each_other_without_rest() {
     })
     .unwrap();
 }
+
+/// A part's cut settings are how the machine cuts it: a circle of 3 mm radius at
+/// 5 mm/s, at a constant 4 W for two passes, then at 800 J/m (the power following the
+/// measured speed) for one. From the telemetry at 1 ms: the reference's speed at
+/// cruise (median of the steps between samples; f32 positions, 0.2 nm, and the chord
+/// of a 5 µm step: both under 10⁻⁴ of it), the length cut with the beam on (two laps
+/// of 18.85 mm, to 1 %: the ramps are inside it), the power (4 W in every cutting
+/// sample; or power over the reference's speed, median, 800 J/m to 2 %: the measured
+/// velocity is filtered and noisy), and the duration the host's check planned.
+#[test]
+fn a_parts_cut_settings_are_how_the_machine_cuts_it() {
+    use kerf::codec::job::{with_settings, CutLaser, CutSettings};
+    let radius = 3e-3;
+    let circle: Vec<[f64; 2]> = (0..64)
+        .map(|k| {
+            let a = std::f64::consts::TAU * f64::from(k) / 64.0;
+            [radius * a.cos(), radius * a.sin()]
+        })
+        .collect();
+    let plain = efd_job_file(&circle, 10);
+    let speed = 5e-3;
+    for (laser, passes) in [
+        (CutLaser::PowerW(4.0), 2u8),
+        (CutLaser::EnergyJPerM(800.0), 1),
+    ] {
+        let settings = CutSettings {
+            speed_m_s: Some(speed as f32),
+            laser: Some(laser),
+            passes: Some(passes),
+        };
+        let mut buf = vec![0u8; plain.len() + 12];
+        let n = with_settings(&plain, &settings, &mut buf).unwrap();
+        let job = &buf[..n];
+        let planned = kerf_host::check::check(job, None).unwrap().duration_s;
+        let mut host = Host::default();
+        with_linked_slave::<f64, _>(&scenario(), 1.0, |slave| {
+            for _ in 0..3 {
+                host.period(slave, &[]);
+            }
+            host.upload(slave, job);
+            assert_eq!(host.ask(slave, Request::Telemetry { every_periods: 10 }, 2), "Ack");
+            assert_eq!(host.ask(slave, Request::Start, 5), "Ack");
+            let end = Event::Mode { from: ModeCode::Running, to: ModeCode::Ready };
+            for k in 0..400_000u32 {
+                let bytes = if k % 100 == 0 { host.frame(Request::Heartbeat).1 } else { Vec::new() };
+                host.period(slave, &bytes);
+                if host.events().contains(&end) {
+                    break;
+                }
+            }
+            for _ in 0..20 {
+                host.period(slave, &[]);
+            }
+            let samples = host.samples();
+            let cutting: Vec<&TelemetrySample> = samples
+                .iter()
+                .filter(|s| s.mode == ModeCode::Running && channel(s, "laser") > 0.0)
+                .collect();
+            let at = |s: &TelemetrySample| [channel(s, "x_ref"), channel(s, "y_ref")].map(f64::from);
+            let steps: Vec<(f64, &TelemetrySample)> = cutting
+                .windows(2)
+                .filter(|w| w[1].period == w[0].period + 10)
+                .map(|w| {
+                    let (a, b) = (at(w[0]), at(w[1]));
+                    ((b[0] - a[0]).hypot(b[1] - a[1]), w[1])
+                })
+                .collect();
+            let median = |mut v: Vec<f64>| {
+                v.sort_by(f64::total_cmp);
+                v[v.len() / 2]
+            };
+            let cruise = median(steps.iter().map(|(d, _)| d / 1e-3).collect());
+            let length: f64 = steps.iter().map(|(d, _)| d).sum();
+            let lap = std::f64::consts::TAU * radius;
+            let first = samples.iter().find(|s| s.mode == ModeCode::Running).unwrap().period;
+            let rest = samples
+                .iter()
+                .find(|s| s.mode == ModeCode::Ready && s.period > first)
+                .unwrap()
+                .period;
+            let ran = f64::from(rest - first) * 1e-4;
+            println!(
+                "{laser:?}, {passes} passes: cruise {:.4} mm/s, cut {:.3} mm with the beam on, planned {planned:.4} s, ran {ran:.4} s",
+                cruise * 1e3,
+                length * 1e3
+            );
+            assert!((cruise - speed).abs() < 1e-3 * speed, "{cruise}");
+            let laps = f64::from(passes);
+            assert!((length - laps * lap).abs() < 0.01 * laps * lap, "{length}");
+            assert!((ran - planned).abs() <= 1.1e-3, "planned {planned} s, ran {ran} s");
+            match laser {
+                CutLaser::PowerW(w) => {
+                    assert!(cutting.iter().all(|s| channel(s, "laser") == w));
+                }
+                CutLaser::EnergyJPerM(e) => {
+                    let per_length = median(
+                        steps
+                            .iter()
+                            .filter(|(d, _)| d / 1e-3 > 1e-3)
+                            .map(|(d, s)| f64::from(channel(s, "laser")) / (d / 1e-3))
+                            .collect(),
+                    );
+                    println!("energy per length: median {per_length:.1} J/m");
+                    assert!((per_length - f64::from(e)).abs() < 0.02 * f64::from(e), "{per_length}");
+                }
+                CutLaser::Off => unreachable!(),
+            }
+        })
+        .unwrap();
+    }
+}
