@@ -5,7 +5,8 @@
 use crate::input::same_bits;
 use crate::targets::link::octagon_job;
 use kerf::codec::job::{
-    write_efd, write_gcode, write_points, write_recording, write_schedule, JobFile, HEADER_BYTES,
+    with_settings, write_efd, write_gcode, write_points, write_recording, write_schedule, CutLaser,
+    CutSettings, JobFile, HEADER_BYTES,
 };
 use kerf::codec::link::crc32;
 use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry};
@@ -29,8 +30,10 @@ fn file_of(data: &[u8]) -> Option<Vec<u8>> {
 }
 
 /// `job_file`: the machine's reader. A file read has the length its kind and count
-/// say, only finite numbers, nothing past its count, and writing its numbers again
-/// with the codec's writer gives the same bytes. Returns 1 for a file read.
+/// (and its version's cut settings) say, only finite numbers, nothing past its count,
+/// and writing its numbers and settings again with the codec's writers gives the same
+/// bytes (a version 2 file whose settings are all the machine's is written as version
+/// 1, the same file without its block). Returns 1 for a file read.
 pub fn job_file(data: &[u8]) -> usize {
     let Some(bytes) = file_of(data) else {
         return 0;
@@ -73,9 +76,27 @@ pub fn job_file(data: &[u8]) -> usize {
             (8 * n, write_schedule(&wide, &mut out))
         }
     };
-    assert_eq!(bytes.len(), HEADER_BYTES + body + 4);
-    assert_eq!(written, Ok(bytes.len()));
-    assert_eq!(out, bytes, "the file written again differs");
+    let settings = file.settings();
+    let block = match bytes[4] {
+        1 => 0,
+        _ => 12,
+    };
+    assert_eq!(bytes.len(), HEADER_BYTES + block + body + 4);
+    let v1 = written.expect("a file read is written");
+    assert_eq!(v1, bytes.len() - block);
+    if settings == CutSettings::MACHINE && block == 0 {
+        assert_eq!(out[..v1], bytes[..], "the file written again differs");
+        return 1;
+    }
+    if settings == CutSettings::MACHINE {
+        // Version 1 again: the same header but its version, the same body.
+        assert_eq!((&out[..4], &out[5..12]), (&bytes[..4], &bytes[5..12]));
+        assert_eq!(out[12..v1 - 4], bytes[24..bytes.len() - 4]);
+        return 1;
+    }
+    let mut again = vec![0u8; bytes.len()];
+    let n = with_settings(&out[..v1], &settings, &mut again).expect("settings read are written");
+    assert_eq!(again[..n], bytes[..], "the file written again differs");
     1
 }
 
@@ -96,8 +117,14 @@ pub fn host_job(data: &[u8]) -> usize {
     let twice = [bytes.as_slice(), bytes.as_slice()].concat();
     let parts = kerf_host::job::split(&twice).expect("a job file twice over is two parts");
     assert_eq!(parts, [bytes.as_slice(), bytes.as_slice()]);
-    let again = job.to_bytes().expect("a job read is written");
-    assert_eq!(again, bytes);
+    // The host's job holds the geometry; the settings ride in the file.
+    let settings = JobFile::read(&bytes).expect("read above").settings();
+    let again =
+        kerf_host::job::with_settings(&job.to_bytes().expect("a job read is written"), &settings)
+            .expect("settings read are written");
+    if bytes[4] == 1 || settings != CutSettings::MACHINE {
+        assert_eq!(again, bytes);
+    }
     let back = HostJob::from_bytes(&again).expect("and read again");
     assert_eq!(back.kind(), job.kind());
     match (&job, &back) {
@@ -134,6 +161,14 @@ pub fn job_file_seeds() -> Vec<Vec<u8>> {
     let mut out = vec![0u8; 2048];
     let points = [[0.0, 0.0], [1e-3, 2e-3], [4e-3, -1e-3], [6e-3, 0.0]];
     let n = write_points(&points, &mut out).unwrap();
+    files.push(out[..n].to_vec());
+    // The octagon with cut settings (version 2).
+    let settings = CutSettings {
+        speed_m_s: Some(5e-3),
+        laser: Some(CutLaser::EnergyJPerM(800.0)),
+        passes: Some(2),
+    };
+    let n = with_settings(&octagon_job(), &settings, &mut out).unwrap();
     files.push(out[..n].to_vec());
     let n = write_gcode(super::codec::GCODE_SEEDS[1].as_bytes(), &mut out).unwrap();
     files.push(out[..n].to_vec());

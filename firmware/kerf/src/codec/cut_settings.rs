@@ -14,7 +14,8 @@
 //! | 10 | 2 | reserved, 0 |
 //!
 //! The reader checks the form only (finite numbers, a known laser byte, zero reserved
-//! bytes); whether a machine can cut at that speed, power or number of passes is the
+//! bytes, one block for each setting: a zero value where the laser has none, and
+//! "the machine's" speed as +0 alone); whether a machine can cut at that speed, power or number of passes is the
 //! machine's own check when it loads the part.
 
 /// Bytes of the block.
@@ -71,14 +72,16 @@ impl CutSettings {
         if !speed.is_finite() || !value.is_finite() {
             return Some(Err(BlockError::NotFinite));
         }
-        let laser = match laser {
-            0 => None,
-            1 => Some(CutLaser::Off),
-            2 => Some(CutLaser::PowerW(value)),
-            3 => Some(CutLaser::EnergyJPerM(value)),
+        // One block for each setting: "the machine's" is +0 alone, and a laser without
+        // a value has a zero one.
+        let laser = match (laser, value.to_bits()) {
+            (0, 0) => None,
+            (1, 0) => Some(CutLaser::Off),
+            (2, _) => Some(CutLaser::PowerW(value)),
+            (3, _) => Some(CutLaser::EnergyJPerM(value)),
             _ => return Some(Err(BlockError::Unknown)),
         };
-        if [r0, r1] != [0, 0] {
+        if [r0, r1] != [0, 0] || (speed == 0.0 && speed.to_bits() != 0) {
             return Some(Err(BlockError::Unknown));
         }
         Some(Ok(Self {
@@ -170,6 +173,16 @@ mod tests {
         assert_eq!(CutSettings::read(&bad), Some(Err(BlockError::Unknown)));
         bad = good;
         bad[11] = 1;
+        assert_eq!(CutSettings::read(&bad), Some(Err(BlockError::Unknown)));
+        // A value beside the machine's laser or the beam off, and a speed of −0, would
+        // be a second block for the same settings.
+        for laser in [0, 1] {
+            bad = good;
+            bad[8] = laser;
+            assert_eq!(CutSettings::read(&bad), Some(Err(BlockError::Unknown)));
+        }
+        bad = good;
+        bad[..4].copy_from_slice(&(-0.0f32).to_le_bytes());
         assert_eq!(CutSettings::read(&bad), Some(Err(BlockError::Unknown)));
         bad = good;
         bad[4..8].copy_from_slice(&f32::NAN.to_le_bytes());
