@@ -42,6 +42,10 @@ fn stored(option: &str, value: f64, scale: f64, ok: bool, wanted: &str) -> Resul
     let v = (value * scale) as f32;
     if ok && v.is_finite() {
         Ok(v)
+    } else if ok && value.is_finite() {
+        Err(Failure::Input(format!(
+            "{option} {value}: too large for the job file (f32)"
+        )))
     } else {
         Err(Failure::Input(format!("{option} {value}: {wanted}")))
     }

@@ -1,27 +1,25 @@
 //! `kerf plan --all`: the report and the files of a program of several parts
 //! ([`kerf_host::parts`]).
 
-use crate::cli_cut::CutArgs;
 use crate::report::{say, Report};
 use crate::Failure;
 use image::GrayImage;
 use kerf_host::output::OutputFile;
 use kerf_host::parts::PlanSet;
-use kerf_host::plan;
+use kerf_host::plan::{self, PlanConfig};
 use kerf_host::plot::{self, Overlay};
 use plotters::style::RGBColor;
 
-/// Reports the parts of `set` planned from the image `name`, draws them into `svg`
-/// and writes the job file `out` (both when given).
+/// Reports the parts of `set` planned from the image `name` (with `config`'s kerf),
+/// draws them into `svg` when given, and returns the program's job file.
 pub(crate) fn report_parts(
     name: &str,
     gray: &GrayImage,
     set: &PlanSet,
-    cut: &CutArgs,
-    out: Option<&OutputFile>,
+    config: &PlanConfig,
     svg: Option<&OutputFile>,
     report: &mut Report,
-) -> Result<(), Failure> {
+) -> Result<Vec<u8>, Failure> {
     let (w, h) = gray.dimensions();
     say!(report, "image      {name}: {w} x {h} px");
     let left_out = match set.too_small {
@@ -54,6 +52,7 @@ pub(crate) fn report_parts(
         );
         fits.push(fit);
     }
+    crate::kerf_line(config, report);
     if let (Some(svg), Some(first)) = (svg, set.parts.first()) {
         // The first part drawn as a single plan is (labelled); the others over it.
         let mut extra = Vec::new();
@@ -76,8 +75,6 @@ pub(crate) fn report_parts(
         svg.write_bytes(text.as_bytes())?;
         say!(report, "wrote {}", svg.shown());
     }
-    let bytes = set
-        .to_bytes()
-        .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
-    crate::cli_cut::write_program(name, &bytes, cut, out, report)
+    set.to_bytes()
+        .map_err(|e| Failure::Input(format!("{name}: {e}")))
 }

@@ -26,6 +26,7 @@ pub mod check;
 pub mod description;
 pub mod gcode;
 pub mod job;
+pub mod kerf_offset;
 pub mod laser;
 pub mod link;
 pub mod mask;

@@ -207,6 +207,14 @@ struct PlanArgs {
     /// With --all: leave out contours smaller than this across, mm (specks, noise).
     #[arg(long, value_name = "MM", default_value_t = 0.0, requires = "all")]
     min_size_mm: f64,
+    /// The width of the cut, mm: closed contours are moved off the drawn line by half
+    /// of it, to the scrap's side, so the part comes out the size drawn.
+    #[arg(long, value_name = "MM", default_value_t = 0.0)]
+    kerf_mm: f64,
+    /// Which side of the drawn line is scrap: outside an outline and inside its holes
+    /// (the part is kept), or the other way (the hole is kept).
+    #[arg(long, value_enum, default_value = "outside", requires = "kerf_mm")]
+    kerf_side: kerf_host::kerf_offset::KerfSide,
     #[command(flatten)]
     cut: cli_cut::CutArgs,
 }
@@ -289,6 +297,8 @@ fn run_plan(args: &PlanArgs, report: &mut Report) -> Result<(), Failure> {
         harmonics: args.harmonics,
         start_px: args.start.map(|p| [p.0, p.1]),
         contour: usize::from(args.contour) - 1,
+        kerf_mm: args.kerf_mm,
+        kerf_side: args.kerf_side,
         format: args.format.map(|f| match f {
             FormatArg::Efd => Format::Efd,
             FormatArg::Points => Format::Points,
@@ -317,15 +327,8 @@ fn run_plan(args: &PlanArgs, report: &mut Report) -> Result<(), Failure> {
         })
         .map_err(|e| format!("{name}: {e}"))?;
         bar.finish_and_clear();
-        return cli_parts::report_parts(
-            &name,
-            &gray,
-            &set,
-            &args.cut,
-            out.as_ref(),
-            svg.as_ref(),
-            report,
-        );
+        let bytes = cli_parts::report_parts(&name, &gray, &set, &config, svg.as_ref(), report)?;
+        return cli_cut::write_program(&name, &bytes, &args.cut, out.as_ref(), report);
     }
     let (gray, p) = plan::plan_file(&args.image, &config, &mut |stage| {
         bar.inc(1);
@@ -381,6 +384,7 @@ fn run_plan(args: &PlanArgs, report: &mut Report) -> Result<(), Failure> {
             off
         ),
     }
+    kerf_line(&config, report);
     if let Some(svg) = &svg {
         let text = plot::svg(&name, &gray, &p, &[])
             .map_err(|e| Failure::Output(format!("{}: {e}", svg.shown())))?;
@@ -392,6 +396,22 @@ fn run_plan(args: &PlanArgs, report: &mut Report) -> Result<(), Failure> {
         .to_bytes()
         .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
     cli_cut::write_program(&name, &bytes, &args.cut, out.as_ref(), report)
+}
+
+/// What the kerf offset did, when there is one.
+pub(crate) fn kerf_line(config: &PlanConfig, report: &mut Report) {
+    if config.kerf_mm > 0.0 {
+        let (outline, holes) = match config.kerf_side {
+            kerf_host::kerf_offset::KerfSide::Outside => ("outside", "inside"),
+            kerf_host::kerf_offset::KerfSide::Inside => ("inside", "outside"),
+        };
+        say!(
+            report,
+            "kerf       {:.3} mm wide: the path {:.3} mm {outline} the drawn outline ({holes} its holes); the distances above include it",
+            config.kerf_mm,
+            config.kerf_mm / 2.0
+        );
+    }
 }
 
 fn run_gcode(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {

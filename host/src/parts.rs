@@ -10,7 +10,8 @@
 //! shape on a sheet) is cut before the one around it, so that nothing is cut free
 //! before what lies inside it is cut; among the contours whose insides are done, the
 //! one whose start is nearest the last start comes next (from the workspace's
-//! centre). Each part is fitted as a single plan is (EFD, or points on request) and
+//! centre). Each part is fitted as a single plan is (EFD, or points on request; the
+//! kerf offset to the scrap's side, which alternates from an outline to its holes) and
 //! the parts' job files are written back to back: one file, read part by part
 //! ([`crate::job::split`]).
 
@@ -70,11 +71,10 @@ fn area2(ring: &[[f64; 2]]) -> f64 {
         .abs()
 }
 
-/// The cutting order of closed `rings` (module docs): indices into `rings`.
-pub fn cutting_order(rings: &[Vec<[f64; 2]>]) -> Vec<usize> {
+/// For each of `rings`, the rings that enclose it (larger, and containing its start).
+fn enclosing(rings: &[Vec<[f64; 2]>]) -> Vec<Vec<usize>> {
     let n = rings.len();
-    // around[a]: the rings that enclose ring a (larger, and containing its start).
-    let around: Vec<Vec<usize>> = (0..n)
+    (0..n)
         .map(|a| {
             (0..n)
                 .filter(|&b| {
@@ -84,7 +84,13 @@ pub fn cutting_order(rings: &[Vec<[f64; 2]>]) -> Vec<usize> {
                 })
                 .collect()
         })
-        .collect();
+        .collect()
+}
+
+/// The cutting order of closed `rings` (module docs): indices into `rings`.
+pub fn cutting_order(rings: &[Vec<[f64; 2]>]) -> Vec<usize> {
+    let n = rings.len();
+    let around = enclosing(rings);
     let mut done = vec![false; n];
     let mut order = Vec::with_capacity(n);
     let mut at = [0.0, 0.0];
@@ -163,12 +169,17 @@ pub fn plan_all(
         .map(|c| c.iter().map(|&p| to_mm(p, origin_px, mm_per_px)).collect())
         .collect();
     let mut parts = Vec::with_capacity(kept.len());
+    let around = enclosing(&rings_mm);
     for index in cutting_order(&rings_mm) {
         let contour_mm = rings_mm[index].clone();
-        let (fit, job): (_, Job) = match config.format.unwrap_or(Format::Efd) {
+        let (mut fit, mut job): (_, Job) = match config.format.unwrap_or(Format::Efd) {
             Format::Efd => efd_job(&contour_mm, config.harmonics)?,
             Format::Points => path_job(&contour_mm, true)?,
         };
+        if config.kerf_mm > 0.0 {
+            let distance_mm = plan::kerf_distance_mm(config, around[index].len());
+            (fit, job) = plan::offset_fit(&fit, distance_mm, config.harmonics)?;
+        }
         parts.push(Plan {
             closed: true,
             contours: found,

@@ -30,6 +30,7 @@
 //! (a0, c0)) at the origin: the firmware places the curve's centre at the job's centre.
 
 use crate::job::Job;
+use crate::kerf_offset::{offset_ring, KerfSide, OffsetError, OFFSET_SAMPLES};
 use crate::trace::{self, Mask, TraceError};
 use image::{DynamicImage, GrayImage};
 use imageproc::distance_transform::Norm;
@@ -74,6 +75,12 @@ pub struct PlanConfig {
     pub format: Option<Format>,
     /// Which closed contour the job cuts, 0-based, largest first (a job carries one).
     pub contour: usize,
+    /// Width of the cut, mm: closed contours are offset by half of it to the scrap's
+    /// side ([`crate::kerf_offset`]); 0 for none.
+    pub kerf_mm: f64,
+    /// Which side of the drawn line is scrap (a single contour is an outline; with
+    /// every contour, holes take the other side).
+    pub kerf_side: KerfSide,
 }
 
 impl Default for PlanConfig {
@@ -90,6 +97,8 @@ impl Default for PlanConfig {
             start_px: None,
             format: None,
             contour: 0,
+            kerf_mm: 0.0,
+            kerf_side: KerfSide::Outside,
         }
     }
 }
@@ -121,6 +130,9 @@ pub enum PlanError {
     /// A laser program with no move while the beam is on.
     #[error("the program cuts nothing: no feed move with the beam on (M3 or M4 with S above 0)")]
     NoCut,
+    /// The kerf offset cannot be taken.
+    #[error("{0}")]
+    Offset(#[from] OffsetError),
     /// Every closed contour is smaller than the size asked.
     #[error("no closed contour is {min_mm} mm across or more (the largest is {largest_mm:.2} mm): give a smaller --min-size-mm")]
     NothingLargeEnough {
@@ -376,7 +388,46 @@ pub(crate) fn check(config: &PlanConfig) -> Result<(), PlanError> {
     {
         return Err(PlanError::Config("start must be finite"));
     }
+    if !(config.kerf_mm.is_finite()
+        && config.kerf_mm >= 0.0
+        && config.kerf_mm < config.width_mm / 2.0)
+    {
+        return Err(PlanError::Config(
+            "the kerf must be finite, 0 or more, and narrower than half the width",
+        ));
+    }
+    if config.kerf_mm > 0.0 && config.start_px.is_some() {
+        return Err(PlanError::Config(
+            "the kerf offset is for closed contours (without --start)",
+        ));
+    }
     Ok(())
+}
+
+/// The fit `fit` of a closed contour offset by `distance_mm` (away from its inside
+/// when positive; [`crate::kerf_offset`]) and fitted again as the same kind of job.
+pub(crate) fn offset_fit(
+    fit: &Fit,
+    distance_mm: f64,
+    harmonics: usize,
+) -> Result<(Fit, Job), PlanError> {
+    let ring = offset_ring(&fit.samples_mm(OFFSET_SAMPLES), distance_mm)?;
+    match fit {
+        Fit::Efd(_) => efd_job(&ring, harmonics),
+        Fit::Path { .. } => path_job(&ring, true),
+    }
+}
+
+/// Half the kerf of `config`, signed for a contour inside `depth` others: to the
+/// scrap's side ([`KerfSide`]), which alternates from an outline to its holes.
+pub(crate) fn kerf_distance_mm(config: &PlanConfig, depth: usize) -> f64 {
+    let outward = (config.kerf_side == KerfSide::Outside) == (depth % 2 == 0);
+    let half = config.kerf_mm / 2.0;
+    if outward {
+        half
+    } else {
+        -half
+    }
 }
 
 /// Plans the job of an image file (module docs); `stage` is told each step's name.
@@ -465,11 +516,14 @@ pub fn plan_image(
     let format = config
         .format
         .unwrap_or(if closed { Format::Efd } else { Format::Points });
-    let (fit, job) = match format {
+    let (mut fit, mut job) = match format {
         Format::Efd if !closed => return Err(PlanError::OpenAsEfd),
         Format::Efd => efd_job(&contour_mm, config.harmonics)?,
         Format::Points => path_job(&contour_mm, closed)?,
     };
+    if config.kerf_mm > 0.0 {
+        (fit, job) = offset_fit(&fit, kerf_distance_mm(config, 0), config.harmonics)?;
+    }
     Ok(Plan {
         closed,
         contours,

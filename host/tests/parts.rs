@@ -243,3 +243,45 @@ fn kerf_plan_all_writes_one_file_of_parts() {
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("smallest size"));
 }
+
+/// The kerf offset of a program's parts: to the scrap's side, which alternates from an
+/// outline to its hole. With the outside as scrap the octagon's hole shrinks and the
+/// octagon and the disc grow; with the inside, the other way. Each by half the kerf
+/// all round: a closed convex curve moved out by d is 2π·d longer (in: shorter), to
+/// 0.02 mm (the fits' ringing at the octagon's corners).
+#[test]
+fn the_kerf_offset_moves_outlines_out_and_holes_in() {
+    use kerf_host::kerf_offset::KerfSide;
+    use kerf_host::plan::polyline_length;
+    let gray = picture();
+    let length = |side: KerfSide, kerf_mm: f64| -> Vec<f64> {
+        let config = PlanConfig {
+            width_mm: 22.0,
+            kerf_mm,
+            kerf_side: side,
+            ..PlanConfig::default()
+        };
+        let set = plan_all(&gray, &config, 0.0, &mut |_| {}).unwrap();
+        set.parts
+            .iter()
+            .map(|p| polyline_length(&p.fit.samples_mm(4096), true))
+            .collect()
+    };
+    let drawn = length(KerfSide::Outside, 0.0);
+    let step = std::f64::consts::TAU * 0.2;
+    // Cutting order: the hole, then the octagon around it, then the disc.
+    for (side, signs) in [
+        (KerfSide::Outside, [-1.0, 1.0, 1.0]),
+        (KerfSide::Inside, [1.0, -1.0, -1.0]),
+    ] {
+        let cut = length(side, 0.4);
+        for k in 0..3 {
+            let change = cut[k] - drawn[k];
+            println!("{side:?}: part {} {:+.4} mm", k + 1, change);
+            assert!(
+                (change - signs[k] * step).abs() < 0.02,
+                "{side:?} {k}: {change}"
+            );
+        }
+    }
+}

@@ -3,6 +3,8 @@
 
 #![allow(dead_code)]
 
+pub mod edges;
+
 use image::{GrayImage, Luma};
 use imageproc::drawing::{draw_filled_circle_mut, draw_polygon_mut};
 use imageproc::point::Point;

@@ -1,0 +1,252 @@
+//! The kerf offset: the beam removes material on both sides of its path, so a part cut
+//! along its drawn contour comes out smaller by half the kerf's width all round (and
+//! its holes larger). Laser cutters therefore move the path off the drawn line by half
+//! the kerf, to the side that is scrap: outside a part's outline and inside its holes
+//! ([`KerfSide::Outside`], the default), or the other way when the part is the hole
+//! (a window cut out of a sheet that is kept, [`KerfSide::Inside`]).
+//!
+//! The offset is taken of the fitted curve (smooth, sampled at [`OFFSET_SAMPLES`]
+//! points): each point moves by the distance along the curve's normal there (the
+//! central difference of its neighbours, turned a quarter outward by the ring's
+//! orientation). Where the offset moves into a corner tighter than itself, the moved
+//! points fold into a loop whose points lie nearer the contour than the offset; those
+//! are dropped and the path goes straight from the last point before the loop to the
+//! first after it (the trimmed offset: the corner comes out sharp, as the beam leaves
+//! it), and the result is fitted again as the job's curve. A stretch dropped that is
+//! not a corner's loop — where the points on either side are farther apart than the
+//! kerf, because another stretch of the contour lies nearer than the offset (a gap or a
+//! neck narrower than the kerf) — is refused with where: the path cannot pass there.
+
+use crate::plan::segment_distance;
+use thiserror::Error;
+
+/// Points the fitted curve is sampled at for its offset.
+pub const OFFSET_SAMPLES: usize = 2048;
+
+/// Which side of the drawn line is scrap.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum KerfSide {
+    /// Outside a part's outline and inside its holes: the part keeps its size.
+    #[default]
+    Outside,
+    /// Inside an outline and outside its holes: the hole keeps its size.
+    Inside,
+}
+
+/// Why a contour has no offset.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum OffsetError {
+    /// Another stretch of the contour lies nearer the offset path than the offset.
+    #[error(
+        "the kerf offset of {offset_mm:.3} mm runs into the contour near ({x:.2}, {y:.2}) mm: a gap or neck there is narrower than the kerf (a smaller --kerf-mm)",
+        x = at_mm[0],
+        y = at_mm[1]
+    )]
+    Collision {
+        /// The offset, mm.
+        offset_mm: f64,
+        /// Where, on the offset path (the last point kept before the stretch), mm.
+        at_mm: [f64; 2],
+    },
+    /// Fewer than three points, or not a number.
+    #[error("the contour has no offset: fewer than three points, or a number that is not finite")]
+    Degenerate,
+}
+
+/// Twice the signed area of `ring` (positive counter-clockwise).
+fn signed_area2(ring: &[[f64; 2]]) -> f64 {
+    let n = ring.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (ring[i], ring[(i + 1) % n]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum()
+}
+
+/// The closed `ring` (mm, either orientation, its first point not repeated) moved by
+/// `distance_mm` along its normals: away from its inside when positive, into it when
+/// negative (module docs).
+///
+/// Errors: a fold or a collision (module docs), a ring of fewer than three points or
+/// with a number not finite.
+pub fn offset_ring(ring: &[[f64; 2]], distance_mm: f64) -> Result<Vec<[f64; 2]>, OffsetError> {
+    let n = ring.len();
+    let area2 = signed_area2(ring);
+    if n < 3 || !area2.is_finite() || area2 == 0.0 || !distance_mm.is_finite() {
+        return Err(OffsetError::Degenerate);
+    }
+    // Counter-clockwise, the outward normal is the tangent turned clockwise.
+    let outward = area2.signum();
+    let offset: Vec<[f64; 2]> = (0..n)
+        .map(|i| {
+            let (a, b) = (ring[(i + n - 1) % n], ring[(i + 1) % n]);
+            let (tx, ty) = (b[0] - a[0], b[1] - a[1]);
+            let length = tx.hypot(ty);
+            let scale = if length > 0.0 {
+                outward * distance_mm / length
+            } else {
+                0.0
+            };
+            [ring[i][0] + ty * scale, ring[i][1] - tx * scale]
+        })
+        .collect();
+    let magnitude = distance_mm.abs();
+    // Each offset point is the offset from its own stretch of the contour; nearer
+    // another, it is in a corner's loop or past a neck. The tolerance covers the chords
+    // between samples (their sagitta is under a micrometre at these sample counts).
+    let tolerance = 1e-3 * magnitude + 1e-6;
+    let kept: Vec<bool> = offset
+        .iter()
+        .map(|q| {
+            (0..n)
+                .map(|k| segment_distance(*q, ring[k], ring[(k + 1) % n]))
+                .fold(f64::INFINITY, f64::min)
+                >= magnitude - tolerance
+        })
+        .collect();
+    let Some(first) = kept.iter().position(|&k| k) else {
+        return Err(OffsetError::Degenerate);
+    };
+    // Around from a kept point: each run of dropped points must be a corner's loop,
+    // bridged by a step no longer than the kerf.
+    let mut path = Vec::with_capacity(n);
+    let mut last = first;
+    for step in 1..=n {
+        let i = (first + step) % n;
+        if !kept[i] {
+            continue;
+        }
+        if step - (last + n - first) % n > 1 {
+            let (a, b) = (offset[last], offset[i]);
+            if (b[0] - a[0]).hypot(b[1] - a[1]) > 2.0 * magnitude {
+                return Err(OffsetError::Collision {
+                    offset_mm: magnitude,
+                    at_mm: a,
+                });
+            }
+        }
+        path.push(offset[i]);
+        last = i;
+    }
+    if path.len() < 3 {
+        return Err(OffsetError::Degenerate);
+    }
+    Ok(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ellipse(a: f64, b: f64, n: usize, clockwise: bool) -> Vec<[f64; 2]> {
+        (0..n)
+            .map(|k| {
+                let t = std::f64::consts::TAU * k as f64 / n as f64;
+                let t = if clockwise { -t } else { t };
+                [a * t.cos(), b * t.sin()]
+            })
+            .collect()
+    }
+
+    /// A circle's offset is the circle of the radius plus the offset (or minus), in
+    /// either orientation: every point to round-off.
+    #[test]
+    fn a_circle_grows_and_shrinks_by_the_offset() {
+        for clockwise in [false, true] {
+            let ring = ellipse(5.0, 5.0, 720, clockwise);
+            for d in [0.1, -0.1, 2.0, -2.0] {
+                let out = offset_ring(&ring, d).unwrap();
+                for p in out {
+                    assert!((p[0].hypot(p[1]) - (5.0 + d)).abs() < 1e-9, "{p:?} {d}");
+                }
+            }
+        }
+    }
+
+    /// Past a corner's radius the moved points fold into a loop: dropped, the corner
+    /// comes out sharp and every point of the path is at least the offset from the
+    /// contour. The ellipse's tightest radius is b²/a = 1.5 mm, at its ends on x.
+    #[test]
+    fn a_corners_loop_is_trimmed() {
+        let ring = ellipse(6.0, 3.0, 720, false);
+        let within = offset_ring(&ring, -1.4).unwrap();
+        assert_eq!(within.len(), 720);
+        let trimmed = offset_ring(&ring, -1.6).unwrap();
+        assert!(trimmed.len() < 720, "{}", trimmed.len());
+        for q in &trimmed {
+            let gap = (0..ring.len())
+                .map(|k| segment_distance(*q, ring[k], ring[(k + 1) % ring.len()]))
+                .fold(f64::INFINITY, f64::min);
+            assert!(gap > 1.6 - 2e-3, "{q:?} {gap}");
+        }
+        // The trimmed ends are the farthest the inner path reaches along x: the
+        // points where the offsets from the ellipse's two sides meet on the axis.
+        let reach = trimmed.iter().map(|p| p[0].abs()).fold(0.0, f64::max);
+        assert!(reach < 6.0 - 1.6, "{reach}");
+        assert_eq!(offset_ring(&ring[..2], 0.1), Err(OffsetError::Degenerate));
+        assert_eq!(offset_ring(&ring, f64::NAN), Err(OffsetError::Degenerate));
+    }
+
+    /// A 'C' whose ends are 0.74 mm apart (round ends of 1 mm radius at 4 mm from the
+    /// centre, ±20°): an offset of 0.3 mm passes the gap on both sides; one of 0.5 mm
+    /// does not fit it (2 · 1.5 mm against 2.74 mm between the ends' centres) and is
+    /// refused at the gap.
+    #[test]
+    fn a_gap_narrower_than_the_kerf_is_refused_where_it_is() {
+        let c = letter_c();
+        let fits = offset_ring(&c, 0.3).unwrap();
+        assert_eq!(fits.len(), c.len());
+        let e = offset_ring(&c, 0.5).unwrap_err();
+        let OffsetError::Collision { at_mm, .. } = e else {
+            panic!("{e:?}")
+        };
+        // Near the gap: about 4 mm out along +x.
+        assert!(at_mm[0] > 2.5 && at_mm[1].abs() < 2.5, "{at_mm:?}");
+    }
+
+    /// The offset job of a smooth convex part (an ellipse fitted as an EFD) encloses
+    /// the area Steiner's formula gives for a convex body moved out by d, A + L·d + π·d²
+    /// (in, while d stays under the tightest radius: A − L·d + π·d²), A and L those of
+    /// the fit before the offset: to 10⁻⁴ of the area (the refit's truncation and the
+    /// polygons' chords).
+    #[test]
+    fn the_offset_job_encloses_steiners_area() {
+        use crate::plan::{efd_job, offset_fit, polyline_length};
+        let (fit, _) = efd_job(&ellipse(6.0, 3.0, 720, false), 30).unwrap();
+        let samples = fit.samples_mm(OFFSET_SAMPLES);
+        let area = signed_area2(&samples) / 2.0;
+        let length = polyline_length(&samples, true);
+        for d in [0.5, -0.5, 1.0] {
+            let (moved, job) = offset_fit(&fit, d, 30).unwrap();
+            assert_eq!(job.kind(), crate::job::JobKind::Efd);
+            let got = signed_area2(&moved.samples_mm(OFFSET_SAMPLES)) / 2.0;
+            let steiner = area + length * d + std::f64::consts::PI * d * d;
+            assert!(
+                (got - steiner).abs() < 1e-4 * steiner,
+                "{d}: {got} against {steiner}"
+            );
+        }
+    }
+
+    /// The 'C' of the test above, counter-clockwise, every 0.01 rad of arc.
+    fn letter_c() -> Vec<[f64; 2]> {
+        let arc = |c: [f64; 2], r: f64, from: f64, to: f64| -> Vec<[f64; 2]> {
+            let n = ((to - from).abs() * r / 0.01).ceil() as usize;
+            (0..n)
+                .map(|k| {
+                    let t = from + (to - from) * k as f64 / n as f64;
+                    [c[0] + r * t.cos(), c[1] + r * t.sin()]
+                })
+                .collect()
+        };
+        let end = 20f64.to_radians();
+        let pi = std::f64::consts::PI;
+        let cap = |t: f64| [4.0 * t.cos(), 4.0 * t.sin()];
+        let mut ring = arc([0.0, 0.0], 5.0, end, 2.0 * pi - end);
+        ring.extend(arc(cap(-end), 1.0, -end, -end + pi));
+        ring.extend(arc([0.0, 0.0], 3.0, 2.0 * pi - end, end));
+        ring.extend(arc(cap(end), 1.0, end + pi, end + 2.0 * pi));
+        ring
+    }
+}
