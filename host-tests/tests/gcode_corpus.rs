@@ -1,8 +1,10 @@
 //! Real programs (`data/gcode/`, sources in its SOURCES.md) read by the firmware's
 //! G-code reader: none has an error, and the end point of every line that moves is
-//! where a separate, simpler scan of the file puts it.
+//! where a separate, simpler scan of the file puts it; they and random programs are
+//! planned by the look-ahead planner within the machine's limits.
 
-use kerf::trajectory::gcode::{Diagnostic, GcodePoint, Parser, Severity};
+use kerf::trajectory::gcode::{Diagnostic, GcodePoint, MoveKind, Parser, Severity};
+use kerf::trajectory::planner::{Block, Planner};
 use std::path::PathBuf;
 
 fn corpus() -> Vec<PathBuf> {
@@ -295,68 +297,135 @@ const MILL: kerf::trajectory::planner::PlannerLimits = kerf::trajectory::planner
     junction_deviation_m: 0.01e-3,
 };
 
-/// Every program through the look-ahead planner, streamed through 16 moves as a
-/// controller's buffer holds them, and with the whole program in view: both end at
-/// rest, pass every corner within its junction speed, take at least the time the
-/// feeds alone allow (each move at its feed, acceleration unbounded), and the stream
-/// takes at least the time of the whole view. Printed: the three durations.
-#[test]
-fn every_corpus_program_is_planned_within_the_machines_limits() {
-    use kerf::trajectory::gcode::MoveKind;
-    use kerf::trajectory::planner::{Block, Planner};
+/// A program's points through the look-ahead planner, streamed through 16 moves as a
+/// controller's buffer holds them and with the whole program in view: the moves as
+/// taken, their duration, the whole view's, and the time the feeds alone allow (each
+/// move at its feed, acceleration unbounded).
+fn plan_program(points: &[GcodePoint]) -> (Vec<Block<3>>, f64, f64, f64) {
     let feed_of = |p: &GcodePoint| match p.kind {
         MoveKind::Rapid => MILL.max_speed_m_s,
         MoveKind::Feed => p.feed_m_s,
     };
+    let start = [0.0; 3];
+    let mut streamed = Planner::<3, 16>::new(&MILL, start).unwrap();
+    let mut whole = Box::new(Planner::<3, 8192>::new(&MILL, start).unwrap());
+    let mut taken: Vec<Block<3>> = Vec::new();
+    let mut feed_bound_s = 0.0;
+    let mut at = start;
+    for p in points {
+        let feed = feed_of(p);
+        let d: f64 = (0..3)
+            .map(|k| (p.position_m[k] - at[k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        feed_bound_s += d / feed.min(MILL.max_speed_m_s);
+        at = p.position_m;
+        if streamed.is_full() {
+            taken.extend(streamed.pop());
+        }
+        streamed.push(p.position_m, feed).unwrap();
+        whole.push(p.position_m, feed).unwrap();
+    }
+    while let Some(b) = streamed.pop() {
+        taken.push(b);
+    }
+    let streamed_s = taken
+        .iter()
+        .map(|b| b.profile(MILL.accel_m_s2).duration_s())
+        .sum();
+    (taken, streamed_s, whole.duration_s(), feed_bound_s)
+}
+
+/// What a plan of `points` must be: the moves chained from the origin to the last
+/// point, ending at rest, each speed within its feed and the machine's largest, every
+/// change of speed within the acceleration over the move, every corner within its
+/// junction speed; the stream no faster than the whole view, which is no faster than
+/// the feeds alone.
+fn plan_holds(points: &[GcodePoint]) -> Result<(), String> {
+    let (taken, streamed_s, whole_s, feed_bound_s) = plan_program(points);
+    let a = MILL.accel_m_s2;
+    let ok = |c: bool, what: &str| if c { Ok(()) } else { Err(what.to_string()) };
+    ok(
+        whole_s >= feed_bound_s * (1.0 - 1e-9),
+        "faster than the feeds",
+    )?;
+    ok(
+        streamed_s >= whole_s * (1.0 - 1e-9),
+        "the stream faster than the whole",
+    )?;
+    ok(
+        taken.last().is_none_or(|b| b.exit_m_s == 0.0),
+        "not at rest",
+    )?;
+    if let (Some(last), Some(end)) = (taken.last(), points.last()) {
+        ok(last.end_m == end.position_m, "not at the last point")?;
+    }
+    for b in &taken {
+        let slack = 1e-12 + 1e-9 * (b.entry_m_s + b.exit_m_s);
+        ok(
+            b.nominal_m_s <= MILL.max_speed_m_s,
+            "a feed past the largest",
+        )?;
+        ok(
+            b.entry_m_s <= b.nominal_m_s + slack && b.exit_m_s <= b.nominal_m_s + slack,
+            "past the feed",
+        )?;
+        let room = 2.0 * a * b.length_m + 1e-12;
+        ok(
+            b.exit_m_s.powi(2) <= b.entry_m_s.powi(2) + room,
+            "accelerates past the limit",
+        )?;
+        ok(
+            b.entry_m_s.powi(2) <= b.exit_m_s.powi(2) + room,
+            "brakes past the limit",
+        )?;
+    }
+    for pair in taken.windows(2) {
+        ok(pair[0].end_m == pair[1].start_m, "moves not chained")?;
+        ok(
+            (pair[0].exit_m_s - pair[1].entry_m_s).abs() < 1e-12,
+            "speed jumps at a junction",
+        )?;
+        let corner = MILL.corner_speed_m_s(&pair[0].unit, &pair[1].unit);
+        ok(
+            pair[1].entry_m_s <= corner + 1e-12,
+            "a corner past its junction speed",
+        )?;
+    }
+    Ok(())
+}
+
+/// Every corpus program planned within the machine's limits ([`plan_holds`]).
+/// Printed: the three durations.
+#[test]
+fn every_corpus_program_is_planned_within_the_machines_limits() {
     for path in corpus() {
         let text = std::fs::read(&path).unwrap();
         let (points, _) = read(&text);
         let name = path.file_name().unwrap().to_string_lossy();
-        let start = [0.0; 3];
-        let mut streamed = Planner::<3, 16>::new(&MILL, start).unwrap();
-        let mut whole = Box::new(Planner::<3, 8192>::new(&MILL, start).unwrap());
-        let mut taken: Vec<Block<3>> = Vec::new();
-        let mut feed_bound_s = 0.0;
-        let mut at = start;
-        for p in &points {
-            let feed = feed_of(p);
-            let d: f64 = (0..3)
-                .map(|k| (p.position_m[k] - at[k]).powi(2))
-                .sum::<f64>()
-                .sqrt();
-            feed_bound_s += d / feed.min(MILL.max_speed_m_s);
-            at = p.position_m;
-            if streamed.is_full() {
-                taken.extend(streamed.pop());
-            }
-            streamed.push(p.position_m, feed).unwrap();
-            whole.push(p.position_m, feed).unwrap();
-        }
-        while let Some(b) = streamed.pop() {
-            taken.push(b);
-        }
-        let duration = |blocks: &[Block<3>]| -> f64 {
-            blocks
-                .iter()
-                .map(|b| b.profile(MILL.accel_m_s2).duration_s())
-                .sum()
-        };
-        let streamed_s = duration(&taken);
-        let whole_s = whole.duration_s();
+        let (taken, streamed_s, whole_s, feed_bound_s) = plan_program(&points);
         println!(
             "{name}: {} moves, planned {streamed_s:.2} s through 16 (whole program in view {whole_s:.2} s), feeds alone {feed_bound_s:.2} s",
             taken.len()
         );
-        assert!(whole_s >= feed_bound_s * (1.0 - 1e-9), "{name}");
-        assert!(streamed_s >= whole_s * (1.0 - 1e-9), "{name}");
-        assert_eq!(taken.last().map(|b| b.exit_m_s), Some(0.0), "{name}");
-        for pair in taken.windows(2) {
-            assert!(
-                (pair[0].exit_m_s - pair[1].entry_m_s).abs() < 1e-12,
-                "{name}"
-            );
-            let corner = MILL.corner_speed_m_s(&pair[0].unit, &pair[1].unit);
-            assert!(pair[1].entry_m_s <= corner + 1e-12, "{name}");
+        if let Err(e) = plan_holds(&points) {
+            panic!("{name}: {e}");
         }
+    }
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    /// Random valid programs (lines and arcs, loosened as grbl accepts them) through
+    /// the reader and then the planner: no error, no panic, and a plan that holds
+    /// ([`plan_holds`]).
+    #[test]
+    fn random_programs_read_and_plan_within_the_limits(moves in moves(), seed in 1u64..u64::MAX) {
+        let (text, _) = program(&moves);
+        let (points, found) = read(loosened(&text, seed).as_bytes());
+        proptest::prop_assert!(found.iter().all(|d| d.severity() != Severity::Error), "{found:?}");
+        let held = plan_holds(&points);
+        proptest::prop_assert!(held.is_ok(), "{held:?}\n{text}");
     }
 }
