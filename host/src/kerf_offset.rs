@@ -54,7 +54,7 @@ pub enum OffsetError {
 }
 
 /// Twice the signed area of `ring` (positive counter-clockwise).
-fn signed_area2(ring: &[[f64; 2]]) -> f64 {
+pub(crate) fn signed_area2(ring: &[[f64; 2]]) -> f64 {
     let n = ring.len();
     (0..n)
         .map(|i| {

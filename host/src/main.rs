@@ -213,8 +213,13 @@ struct PlanArgs {
     kerf_mm: f64,
     /// Which side of the drawn line is scrap: outside an outline and inside its holes
     /// (the part is kept), or the other way (the hole is kept).
-    #[arg(long, value_enum, default_value = "outside", requires = "kerf_mm")]
+    #[arg(long, value_enum, default_value = "outside")]
     kerf_side: kerf_host::kerf_offset::KerfSide,
+    /// A straight lead-in of this length, mm, from the scrap's side (as --kerf-side
+    /// says) to each closed contour's start: a part of its own, cut just before the
+    /// contour, so the beam comes on away from the part.
+    #[arg(long, value_name = "MM", default_value_t = 0.0)]
+    lead_in_mm: f64,
     #[command(flatten)]
     cut: cli_cut::CutArgs,
 }
@@ -299,6 +304,7 @@ fn run_plan(args: &PlanArgs, report: &mut Report) -> Result<(), Failure> {
         contour: usize::from(args.contour) - 1,
         kerf_mm: args.kerf_mm,
         kerf_side: args.kerf_side,
+        lead_in_mm: args.lead_in_mm,
         format: args.format.map(|f| match f {
             FormatArg::Efd => Format::Efd,
             FormatArg::Points => Format::Points,
@@ -392,24 +398,30 @@ fn run_plan(args: &PlanArgs, report: &mut Report) -> Result<(), Failure> {
         say!(report, "wrote {}", svg.shown());
     }
     let bytes = p
-        .job
         .to_bytes()
         .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
     cli_cut::write_program(&name, &bytes, &args.cut, out.as_ref(), report)
 }
 
-/// What the kerf offset did, when there is one.
+/// What the kerf offset and the lead-in did, when there are any.
 pub(crate) fn kerf_line(config: &PlanConfig, report: &mut Report) {
+    let (outline, holes) = match config.kerf_side {
+        kerf_host::kerf_offset::KerfSide::Outside => ("outside", "inside"),
+        kerf_host::kerf_offset::KerfSide::Inside => ("inside", "outside"),
+    };
     if config.kerf_mm > 0.0 {
-        let (outline, holes) = match config.kerf_side {
-            kerf_host::kerf_offset::KerfSide::Outside => ("outside", "inside"),
-            kerf_host::kerf_offset::KerfSide::Inside => ("inside", "outside"),
-        };
         say!(
             report,
             "kerf       {:.3} mm wide: the path {:.3} mm {outline} the drawn outline ({holes} its holes); the distances above include it",
             config.kerf_mm,
             config.kerf_mm / 2.0
+        );
+    }
+    if config.lead_in_mm > 0.0 {
+        say!(
+            report,
+            "lead-in    {:.2} mm straight to each contour's start from {outline} an outline ({holes} a hole), a part of its own before it",
+            config.lead_in_mm
         );
     }
 }

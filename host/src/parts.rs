@@ -32,11 +32,11 @@ pub struct PlanSet {
 }
 
 impl PlanSet {
-    /// The job file: the parts' files back to back.
+    /// The job file: the parts' files back to back (each lead-in before its part).
     pub fn to_bytes(&self) -> Result<Vec<u8>, crate::job::JobFileError> {
         let mut out = Vec::new();
         for part in &self.parts {
-            out.extend(part.job.to_bytes()?);
+            out.extend(part.to_bytes()?);
         }
         Ok(out)
     }
@@ -176,10 +176,12 @@ pub fn plan_all(
             Format::Efd => efd_job(&contour_mm, config.harmonics)?,
             Format::Points => path_job(&contour_mm, true)?,
         };
+        let depth = around[index].len();
         if config.kerf_mm > 0.0 {
-            let distance_mm = plan::kerf_distance_mm(config, around[index].len());
+            let distance_mm = plan::kerf_distance_mm(config, depth);
             (fit, job) = plan::offset_fit(&fit, distance_mm, config.harmonics)?;
         }
+        let lead_in = plan::lead_in(&fit, config, depth)?;
         parts.push(Plan {
             closed: true,
             contours: found,
@@ -189,6 +191,7 @@ pub fn plan_all(
             contour_mm,
             fit,
             job,
+            lead_in,
         });
     }
     Ok(PlanSet {

@@ -30,7 +30,7 @@
 //! (a0, c0)) at the origin: the firmware places the curve's centre at the job's centre.
 
 use crate::job::Job;
-use crate::kerf_offset::{offset_ring, KerfSide, OffsetError, OFFSET_SAMPLES};
+use crate::kerf_offset::{offset_ring, signed_area2, KerfSide, OffsetError, OFFSET_SAMPLES};
 use crate::trace::{self, Mask, TraceError};
 use image::{DynamicImage, GrayImage};
 use imageproc::distance_transform::Norm;
@@ -81,6 +81,10 @@ pub struct PlanConfig {
     /// Which side of the drawn line is scrap (a single contour is an outline; with
     /// every contour, holes take the other side).
     pub kerf_side: KerfSide,
+    /// Length of a straight lead-in from the scrap's side to each closed contour's
+    /// start, mm (a part of its own, cut just before the contour, so the beam comes
+    /// on away from the part); 0 for none.
+    pub lead_in_mm: f64,
 }
 
 impl Default for PlanConfig {
@@ -99,6 +103,7 @@ impl Default for PlanConfig {
             contour: 0,
             kerf_mm: 0.0,
             kerf_side: KerfSide::Outside,
+            lead_in_mm: 0.0,
         }
     }
 }
@@ -234,9 +239,21 @@ pub struct Plan {
     pub fit: Fit,
     /// The job.
     pub job: Job,
+    /// The lead-in cut just before it ([`PlanConfig::lead_in_mm`]).
+    pub lead_in: Option<Job>,
 }
 
 impl Plan {
+    /// The job file: the lead-in's, when there is one, then the contour's.
+    pub fn to_bytes(&self) -> Result<Vec<u8>, crate::job::JobFileError> {
+        let mut out = match &self.lead_in {
+            Some(job) => job.to_bytes()?,
+            None => Vec::new(),
+        };
+        out.extend(self.job.to_bytes()?);
+        Ok(out)
+    }
+
     /// An image pixel position in the workspace, mm (module docs).
     pub fn to_mm(&self, p: [f64; 2]) -> [f64; 2] {
         to_mm(p, self.centroid_px, self.mm_per_px)
@@ -401,7 +418,48 @@ pub(crate) fn check(config: &PlanConfig) -> Result<(), PlanError> {
             "the kerf offset is for closed contours (without --start)",
         ));
     }
+    if !(config.lead_in_mm.is_finite()
+        && config.lead_in_mm >= 0.0
+        && config.lead_in_mm <= config.width_mm)
+    {
+        return Err(PlanError::Config(
+            "the lead-in must be finite, 0 or more, and no longer than the width",
+        ));
+    }
+    if config.lead_in_mm > 0.0 && config.start_px.is_some() {
+        return Err(PlanError::Config(
+            "the lead-in is for closed contours (without --start)",
+        ));
+    }
     Ok(())
+}
+
+/// The lead-in of `config` to the start of the closed curve `fit` inside `depth`
+/// others: a straight path of [`PlanConfig::lead_in_mm`] along the curve's normal at
+/// its start, from the scrap's side to the start (`None` without a lead-in).
+pub(crate) fn lead_in(
+    fit: &Fit,
+    config: &PlanConfig,
+    depth: usize,
+) -> Result<Option<Job>, PlanError> {
+    if config.lead_in_mm <= 0.0 {
+        return Ok(None);
+    }
+    let samples = fit.samples_mm(OFFSET_SAMPLES);
+    let (Some(&start), Some(&next), Some(&before)) =
+        (samples.first(), samples.get(1), samples.last())
+    else {
+        return Err(PlanError::TooSmall(samples.len()));
+    };
+    let (tx, ty) = (next[0] - before[0], next[1] - before[1]);
+    let length = tx.hypot(ty);
+    // The outward normal of a counter-clockwise curve is its tangent turned clockwise;
+    // towards the scrap, as the kerf goes.
+    let side =
+        signed_area2(&samples).signum() * kerf_sign(config, depth) * config.lead_in_mm / length;
+    let from = [start[0] + ty * side, start[1] - tx * side];
+    let middle = [(from[0] + start[0]) / 2.0, (from[1] + start[1]) / 2.0];
+    Ok(Some(path_job(&[from, middle, start], false)?.1))
 }
 
 /// The fit `fit` of a closed contour offset by `distance_mm` (away from its inside
@@ -418,16 +476,20 @@ pub(crate) fn offset_fit(
     }
 }
 
-/// Half the kerf of `config`, signed for a contour inside `depth` others: to the
-/// scrap's side ([`KerfSide`]), which alternates from an outline to its holes.
-pub(crate) fn kerf_distance_mm(config: &PlanConfig, depth: usize) -> f64 {
-    let outward = (config.kerf_side == KerfSide::Outside) == (depth % 2 == 0);
-    let half = config.kerf_mm / 2.0;
-    if outward {
-        half
+/// 1 where the scrap lies outside a contour inside `depth` others, −1 where inside
+/// ([`KerfSide`]: the side alternates from an outline to its holes).
+fn kerf_sign(config: &PlanConfig, depth: usize) -> f64 {
+    if (config.kerf_side == KerfSide::Outside) == (depth % 2 == 0) {
+        1.0
     } else {
-        -half
+        -1.0
     }
+}
+
+/// Half the kerf of `config`, signed for a contour inside `depth` others: to the
+/// scrap's side.
+pub(crate) fn kerf_distance_mm(config: &PlanConfig, depth: usize) -> f64 {
+    kerf_sign(config, depth) * config.kerf_mm / 2.0
 }
 
 /// Plans the job of an image file (module docs); `stage` is told each step's name.
@@ -524,6 +586,7 @@ pub fn plan_image(
     if config.kerf_mm > 0.0 {
         (fit, job) = offset_fit(&fit, kerf_distance_mm(config, 0), config.harmonics)?;
     }
+    let lead_in = lead_in(&fit, config, 0)?;
     Ok(Plan {
         closed,
         contours,
@@ -533,6 +596,7 @@ pub fn plan_image(
         contour_mm,
         fit,
         job,
+        lead_in,
     })
 }
 

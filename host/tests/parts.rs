@@ -285,3 +285,39 @@ fn the_kerf_offset_moves_outlines_out_and_holes_in() {
         }
     }
 }
+
+/// A lead-in per closed contour, cut just before it: a straight path of the length
+/// asked that ends at the contour's start and begins in the scrap — outside an
+/// outline, inside a hole (and the other way with the inside as scrap); the program
+/// (three lead-ins, three parts) is one the slave takes.
+#[test]
+fn each_lead_in_comes_from_the_scrap_to_its_contours_start() {
+    use kerf_host::kerf_offset::KerfSide;
+    let gray = picture();
+    for side in [KerfSide::Outside, KerfSide::Inside] {
+        let config = PlanConfig {
+            width_mm: 22.0,
+            lead_in_mm: 1.5,
+            kerf_side: side,
+            ..PlanConfig::default()
+        };
+        let set = plan_all(&gray, &config, 0.0, &mut |_| {}).unwrap();
+        let bytes = set.to_bytes().unwrap();
+        assert_eq!(split(&bytes).unwrap().len(), 6);
+        assert_eq!(check(&bytes, None).unwrap().parts, 6);
+        // Cutting order: the hole, then the octagon around it, then the disc.
+        for (k, part) in set.parts.iter().enumerate() {
+            let Some(Job::Path { points_m }) = &part.lead_in else {
+                panic!("a lead-in path")
+            };
+            let mm = |p: &[f32; 2]| [f64::from(p[0]) * 1e3, f64::from(p[1]) * 1e3];
+            let (from, to) = (mm(&points_m[0]), mm(&points_m[points_m.len() - 1]));
+            let start = part.fit.samples_mm(8)[0];
+            assert!((to[0] - start[0]).hypot(to[1] - start[1]) < 1e-5, "{to:?} {start:?}");
+            assert!(((from[0] - to[0]).hypot(from[1] - to[1]) - 1.5).abs() < 1e-5);
+            let in_scrap_inside = (k == 0) == (side == KerfSide::Outside);
+            let ring = part.fit.samples_mm(1024);
+            assert_eq!(inside(from, &ring), in_scrap_inside, "{side:?} part {}", k + 1);
+        }
+    }
+}
