@@ -173,3 +173,36 @@ fn the_laser_rigs_square_is_a_part_the_slave_takes() {
     assert!(e.contains("leaves the workspace"), "{e}");
     assert_eq!(std::fs::read(&job).unwrap(), bytes);
 }
+
+/// A LightBurn-style program (data/gcode/lightburn-style-plate.gcode): two layers,
+/// each part at its own layer's speed and power (M4: the energy per length S gives at
+/// F), the hole first as in the file, and a program the slave takes.
+#[test]
+fn each_layer_of_a_lightburn_style_program_keeps_its_settings() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../data/gcode/lightburn-style-plate.gcode"
+    );
+    let program = laser::read(&std::fs::read(path).unwrap());
+    assert!(!laser::has_errors(&program), "{:?}", program.diagnostics);
+    let parts = laser::parts(&program, &PlanConfig::default(), true, &BEAM).unwrap();
+    assert_eq!(parts.len(), 2);
+    // S400 of 1000 is 8 W, at F480 (8 mm/s) 1 J/mm; S600 is 12 W, at F360 2 J/mm.
+    let expect = [(8e-3f32, 1000.0f32), (6e-3, 2000.0)];
+    for (part, (speed, energy)) in parts.iter().zip(expect) {
+        assert!(part.run.closed);
+        assert_eq!(part.settings.speed_m_s, Some(speed));
+        let Some(CutLaser::EnergyJPerM(e)) = part.settings.laser else {
+            panic!("{:?}", part.settings)
+        };
+        assert!((e - energy).abs() < 1e-2, "{e}");
+    }
+    // The hexagon (3 mm about the centre) before the 12 mm outline.
+    assert!(parts[0]
+        .run
+        .path_mm
+        .iter()
+        .all(|p| p[0].hypot(p[1]) < 3.0 + 1e-9));
+    let checked = check(&laser::to_bytes(&parts).unwrap(), None).unwrap();
+    assert_eq!(checked.parts, 2);
+}

@@ -313,11 +313,19 @@ fn each_lead_in_comes_from_the_scrap_to_its_contours_start() {
             let mm = |p: &[f32; 2]| [f64::from(p[0]) * 1e3, f64::from(p[1]) * 1e3];
             let (from, to) = (mm(&points_m[0]), mm(&points_m[points_m.len() - 1]));
             let start = part.fit.samples_mm(8)[0];
-            assert!((to[0] - start[0]).hypot(to[1] - start[1]) < 1e-5, "{to:?} {start:?}");
+            assert!(
+                (to[0] - start[0]).hypot(to[1] - start[1]) < 1e-5,
+                "{to:?} {start:?}"
+            );
             assert!(((from[0] - to[0]).hypot(from[1] - to[1]) - 1.5).abs() < 1e-5);
             let in_scrap_inside = (k == 0) == (side == KerfSide::Outside);
             let ring = part.fit.samples_mm(1024);
-            assert_eq!(inside(from, &ring), in_scrap_inside, "{side:?} part {}", k + 1);
+            assert_eq!(
+                inside(from, &ring),
+                in_scrap_inside,
+                "{side:?} part {}",
+                k + 1
+            );
         }
     }
 }
