@@ -10,7 +10,8 @@
 //! ([`crate::description`]): the CSV has a column per channel, and the summary and the
 //! picture use the channels a machine has — the path from `x`, `y` and `x_ref`,
 //! `y_ref`, the tracking error from `error`, the forces from every channel in N, the
-//! laser from `laser`; a machine without them gets the panels it has.
+//! laser from `laser` (with the path, the energy per length); a machine without them
+//! gets the panels it has.
 
 use crate::description::ChannelInfo;
 use crate::output::OutputFile;
@@ -19,6 +20,10 @@ use kerf::codec::link::{ModeCode, TelemetrySample};
 use plotters::prelude::*;
 use std::io::Write;
 use std::path::Path;
+
+/// Slowest measured speed at which [`TelemetryLog::energy_per_length`] counts a
+/// sample, m/s (0.5 mm/s).
+pub const ENERGY_MIN_SPEED_M_S: f64 = 5e-4;
 
 /// One sample on the host's time axis.
 #[derive(Clone, Debug, PartialEq)]
@@ -112,6 +117,31 @@ impl TelemetryLog {
         entry.sample.values.get(k).map(|v| f64::from(*v))
     }
 
+    /// The energy the beam put into each length of the cut, J/mm, over time (s):
+    /// between each two samples with the beam on, the power of the second over the
+    /// speed of the measured effector between them (from `x`, `y` and `laser`; none
+    /// without them). Below [`ENERGY_MIN_SPEED_M_S`] the quotient says nothing (the
+    /// beam fades with the speed at constant energy per length), and is left out.
+    pub fn energy_per_length(&self) -> Vec<(f64, f64)> {
+        self.entries
+            .windows(2)
+            .filter_map(|w| {
+                let power_w = self.value(&w[1], "laser")?;
+                let dt = w[1].time_s - w[0].time_s;
+                let dx = self.value(&w[1], "x")? - self.value(&w[0], "x")?;
+                let dy = self.value(&w[1], "y")? - self.value(&w[0], "y")?;
+                let speed = dx.hypot(dy) / dt;
+                (power_w > 0.0 && dt > 0.0 && speed >= ENERGY_MIN_SPEED_M_S)
+                    .then(|| (w[1].time_s, power_w / speed * 1e-3))
+            })
+            .collect()
+    }
+
+    /// Whether the machine has a laser channel.
+    fn value_of_laser(&self) -> bool {
+        self.channels.iter().any(|c| c.name == "laser")
+    }
+
     /// The indices of the channels in `unit`.
     fn in_unit(&self, unit: &str) -> Vec<usize> {
         (0..self.channels.len())
@@ -173,6 +203,9 @@ impl TelemetryLog {
             (Some(a), Some(b)) => b.time_s - a.time_s,
             _ => 0.0,
         };
+        let mut energy: Vec<f64> = self.energy_per_length().iter().map(|e| e.1).collect();
+        energy.sort_by(f64::total_cmp);
+        let energy_median_j_per_mm = energy.get(energy.len() / 2).copied();
         Summary {
             samples: self.entries.len(),
             cutting_samples: n,
@@ -181,6 +214,7 @@ impl TelemetryLog {
             error_rms_m,
             force_peak_n,
             laser_mean_w,
+            energy_median_j_per_mm,
             has: Channels {
                 error: self.channels.iter().any(|c| c.name == "error"),
                 forces: !forces.is_empty(),
@@ -190,8 +224,9 @@ impl TelemetryLog {
     }
 
     /// Draws the run: the path (measured over reference, mm), the contour error
-    /// (µm) and the three force commands (N) over time, with the marks as vertical
-    /// lines.
+    /// (µm), the three force commands (N) and, for a laser, the energy per length
+    /// (J/mm, [`TelemetryLog::energy_per_length`]) over time, with the marks as
+    /// vertical lines.
     pub fn write_svg(&self, path: &Path, title: &str) -> Result<(), PlotError> {
         let text = self.svg(title)?;
         OutputFile::prepare(path, "picture")
@@ -202,8 +237,9 @@ impl TelemetryLog {
     /// The picture of [`TelemetryLog::write_svg`] as SVG text.
     pub fn svg(&self, title: &str) -> Result<String, PlotError> {
         let mut text = String::new();
+        let height = if self.value_of_laser() { 1350 } else { 1100 };
         self.draw(
-            SVGBackend::with_string(&mut text, (900, 1100)).into_drawing_area(),
+            SVGBackend::with_string(&mut text, (900, height)).into_drawing_area(),
             title,
         )?;
         Ok(text)
@@ -219,6 +255,7 @@ impl TelemetryLog {
         let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
         let (top, bottom) = root.split_vertically(560);
         let (mid, low) = bottom.split_vertically(250);
+        let (low, laser) = low.split_vertically(250);
         self.draw_path(&top)?;
         let t = |e: &Entry| e.time_s;
         let span = self.entries.first().map_or(0.0, t)..self.entries.last().map_or(1.0, t);
@@ -271,7 +308,16 @@ impl TelemetryLog {
                 color: colors[i % colors.len()],
             })
             .collect();
-        draw_series(&low, span, "force command, N", &series, marks)?;
+        draw_series(&low, span.clone(), "force command, N", &series, marks)?;
+        if self.value_of_laser() {
+            let energy = self.energy_per_length();
+            let series = [Series {
+                label: "power over measured speed",
+                points: &energy,
+                color: RGBColor(230, 159, 0),
+            }];
+            draw_series(&laser, span, "energy per length, J/mm", &series, marks)?;
+        }
         root.present().map_err(err)?;
         Ok(())
     }
@@ -411,6 +457,9 @@ pub struct Summary {
     pub force_peak_n: f64,
     /// Mean laser power while cutting, W.
     pub laser_mean_w: f64,
+    /// The median of [`TelemetryLog::energy_per_length`], J/mm (`None`: no sample
+    /// with the beam on and moving).
+    pub energy_median_j_per_mm: Option<f64>,
     /// Which of these the machine's channels carry (the others are 0).
     pub has: Channels,
 }
@@ -447,6 +496,9 @@ impl std::fmt::Display for Summary {
         }
         if self.has.laser {
             parts.push(format!("laser mean {:.2} W", self.laser_mean_w));
+        }
+        if let Some(e) = self.energy_median_j_per_mm {
+            parts.push(format!("energy per length median {e:.3} J/mm"));
         }
         if !parts.is_empty() {
             write!(f, ": {}", parts.join("; "))?;
@@ -536,5 +588,46 @@ mod tests {
         assert_eq!(third[col("mode")], "Running");
         assert_eq!(third[col("error_m")].parse::<f32>().unwrap(), -3e-6);
         assert_eq!(third[col("force2_n")].parse::<f32>().unwrap(), -3.0);
+    }
+
+    /// An effector moving at 5 mm/s with the beam at 4 W puts 0.8 J into each mm:
+    /// every sample says so, the summary's median too; samples at rest or with the
+    /// beam off are left out; the picture has the panel.
+    #[test]
+    fn the_energy_per_length_is_the_power_over_the_measured_speed() {
+        let laser: Vec<ChannelInfo> = [("x", "m"), ("y", "m"), ("laser", "W")]
+            .map(|(name, unit)| ChannelInfo {
+                name: name.into(),
+                unit: unit.into(),
+            })
+            .to_vec();
+        let mut log = TelemetryLog::new(1e-4, &laser);
+        let at = |k: u32, x: f32, power: f32| TelemetrySample {
+            period: 10 * k,
+            mode: ModeCode::Running,
+            values: [x, 0.0, power].into_iter().collect(),
+        };
+        // Still for 3 samples (beam on), then 20 samples along x at 5 µm per ms, then
+        // the beam off.
+        for k in 0..3 {
+            log.push(at(k, 0.0, 4.0));
+        }
+        for k in 3..23 {
+            log.push(at(k, 5e-6 * (k - 2) as f32, 4.0));
+        }
+        log.push(at(23, 1.05e-4, 0.0));
+        let energy = log.energy_per_length();
+        assert_eq!(energy.len(), 20);
+        for (_, e) in &energy {
+            // f32 positions: 6e-8 relative of 0.1 mm over a 5 µm step.
+            assert!((e - 0.8).abs() < 1e-4, "{e}");
+        }
+        let median = log.summary().energy_median_j_per_mm.unwrap();
+        assert!((median - 0.8).abs() < 1e-4);
+        assert!(log
+            .summary()
+            .to_string()
+            .contains("energy per length median 0.800 J/mm"));
+        assert!(log.svg("run").unwrap().contains("energy per length, J/mm"));
     }
 }

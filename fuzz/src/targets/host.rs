@@ -12,6 +12,7 @@ use kerf::codec::link::{
 use kerf::machines::delta_slave::{CONTOUR_HARMONICS, OPEN_PATH_POINTS};
 use kerf_host::description::ChannelInfo;
 use kerf_host::job::Job;
+use kerf_host::kerf_offset::KerfSide;
 use kerf_host::link::{Heard, MachineLink};
 use kerf_host::plan::{plan_image as plan, Format, PlanConfig};
 use kerf_host::telemetry::TelemetryLog;
@@ -291,6 +292,18 @@ fn config(b: &[u8]) -> PlanConfig {
         },
         // Mostly the largest; now and then one past those a small image has.
         contour: usize::from(b[6] >> 6),
+        // Now and then a kerf (its offset is the slow step) and a lead-in.
+        kerf_mm: if b[3] >= 0xe0 {
+            f64::from(b[3] & 7) * 0.1
+        } else {
+            0.0
+        },
+        kerf_side: if b[3] & 8 == 0 {
+            KerfSide::Outside
+        } else {
+            KerfSide::Inside
+        },
+        lead_in_mm: f64::from(b[1] >> 6) * 0.8,
     }
 }
 
