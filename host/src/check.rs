@@ -14,7 +14,8 @@
 //!   from the workspace's centre, and the outline of the workspace at the cutting
 //!   height.
 //! - ARROW (`arrow`) takes G-code: its check is [`crate::gcode::check`] (line and
-//!   column of the first problem, the job's moves and duration).
+//!   column of the first problem, the job's moves and duration); its preview is seen
+//!   along its tool (x and z), with the edge of its workspace at y0.
 //!
 //! A file of several parts (their job files back to back, [`crate::job::split`]) is
 //! checked part by part, as the machine loads them one after the other: the first
@@ -29,9 +30,11 @@ use crate::job::{split, JobFileError, JobKind};
 use kerf::app::host_link::LinkMachine;
 use kerf::codec::job::JobFile;
 use kerf::codec::link::{CodeWords, LINK_JOB_REFUSALS};
+use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry, Pose};
 use kerf::kinematics::delta::DeltaGeometry;
 use kerf::machines::delta_slave::product::{contour_defaults, JOB_LAPS};
 use kerf::machines::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
+use kerf::trajectory::gcode::MoveKind;
 use nalgebra::Vector3;
 
 /// The machines a job can be checked for on the host (on the command line by the
@@ -142,21 +145,35 @@ pub fn kind_words(kind: JobKind) -> &'static str {
     }
 }
 
-/// What a preview draws, in the workspace's x and y (m).
+/// What a preview draws, in the plane of the machine's cuts (m): the Keops slave's x
+/// and y, ARROW's x and z (seen along its tool, the y axis).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Preview {
-    /// Where the workspace ends at the cutting height (closed; reach and carriage
-    /// travel), m; found once for a program ([`workspace_outline`]).
+    /// Where the workspace ends in that plane (closed), m; found once for a program
+    /// ([`workspace_outline`], [`arrow_outline`]).
     pub workspace_m: Vec<[f64; 2]>,
-    /// The beam-off travels: to the first part's start from the workspace's centre,
-    /// then from each part's end to the next one's start, m.
-    pub travels_m: Vec<[[f64; 2]; 2]>,
-    /// The cuts, beam on, one per part in order, m.
+    /// The travels with the tool off or clear: to the first cut's start, then from
+    /// each cut's end to the next one's start, m.
+    pub travels_m: Vec<Vec<[f64; 2]>>,
+    /// The cuts, one per part (a run of feed moves) in order, m.
     pub cuts_m: Vec<Vec<[f64; 2]>>,
-    /// Whether each part is a closed contour.
+    /// Whether each cut is closed.
     pub closed: Vec<bool>,
-    /// The cutting height, m.
-    pub height_m: f64,
+    /// How the picture names what it draws.
+    pub view: View,
+}
+
+/// The words and axes of a machine's preview.
+#[derive(Clone, Debug, PartialEq)]
+pub struct View {
+    /// The horizontal and vertical axes' labels.
+    pub axes: [&'static str; 2],
+    /// The workspace's edge: where it is taken.
+    pub section: String,
+    /// A cut.
+    pub cut: &'static str,
+    /// A travel.
+    pub travel: &'static str,
 }
 
 /// A job the machine accepts.
@@ -206,9 +223,14 @@ pub fn check(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckErr
     let mut all = all.ok_or(CheckError::File(JobFileError::Truncated))?;
     // The workspace is the machine's, not a part's: found once for the program.
     if let Some(preview) = &mut all.preview {
-        let config = DeltaSlaveConfig::KEOPS;
-        let centre = contour_defaults(&config, JOB_LAPS).centre_m;
-        preview.workspace_m = workspace_outline(&config, [centre[0], centre[1]], centre[2]);
+        preview.workspace_m = match all.machine {
+            Machine::KeopsSlave => {
+                let config = DeltaSlaveConfig::KEOPS;
+                let centre = contour_defaults(&config, JOB_LAPS).centre_m;
+                workspace_outline(&config, [centre[0], centre[1]], centre[2])
+            }
+            Machine::Arrow => arrow_outline(&ArrowConfig::ARROW),
+        };
     }
     Ok(all)
 }
@@ -225,7 +247,7 @@ impl Checked {
                 let end = a.cuts_m.last().and_then(|c| c.last()).copied();
                 let start = b.cuts_m.first().and_then(|c| c.first()).copied();
                 if let (Some(end), Some(start)) = (end, start) {
-                    a.travels_m.push([end, start]);
+                    a.travels_m.push(vec![end, start]);
                 }
                 a.cuts_m.extend(b.cuts_m);
                 a.closed.extend(b.closed);
@@ -257,7 +279,7 @@ fn check_part(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckEr
                 parts: 1,
                 duration_s: report.duration_s,
                 cut_length_m: report.length_m,
-                preview: None,
+                preview: Some(arrow_preview(&report)),
             })
         }
         // ARROW's kinds are G-code only: refused above, refused the same here.
@@ -308,7 +330,7 @@ fn check_keops(file: &JobFile<'_>) -> Result<Checked, CheckError> {
     let centre = [context.centre_m[0], context.centre_m[1]];
     let travels_m = cut_m
         .first()
-        .map_or(Vec::new(), |&start| vec![[centre, start]]);
+        .map_or(Vec::new(), |&start| vec![vec![centre, start]]);
     Ok(Checked {
         machine: Machine::KeopsSlave,
         kind: file.kind(),
@@ -320,15 +342,19 @@ fn check_keops(file: &JobFile<'_>) -> Result<Checked, CheckError> {
             travels_m,
             closed: vec![job.contour_is_closed() == Some(true)],
             cuts_m: vec![cut_m],
-            height_m,
+            view: View {
+                axes: ["x, mm", "y, mm"],
+                section: format!("workspace at z = {:.1} mm", height_m * 1e3),
+                cut: "cut, beam on",
+                travel: "travel, beam off",
+            },
         }),
     })
 }
 
-/// The edge of the delta's workspace at `height_m` around `centre` (m): in each of
-/// [`OUTLINE_DIRECTIONS`] directions, the farthest point the inverse kinematics
-/// reaches within the carriages' travel, found by stepping out 1 mm at a time and
-/// bisecting the last step to 1 µm. Empty when the centre itself is out of reach.
+/// The edge of the delta's workspace at `height_m` around `centre` (m): where the
+/// inverse kinematics reaches within the carriages' travel ([`outline`]). Empty when
+/// the centre itself is out of reach.
 pub fn workspace_outline(
     machine: &DeltaSlaveConfig,
     centre: [f64; 2],
@@ -337,12 +363,34 @@ pub fn workspace_outline(
     let Ok(geometry) = DeltaGeometry::<f64>::new(&machine.delta) else {
         return Vec::new();
     };
-    let at = |r: f64, phi: f64| [centre[0] + r * phi.cos(), centre[1] + r * phi.sin()];
-    let reaches = |p: [f64; 2]| {
+    outline(centre, |p| {
         geometry
             .inverse(&Vector3::new(p[0], p[1], height_m))
             .is_ok()
+    })
+}
+
+/// The edge of ARROW's workspace (A eq. 25, the actuators' reach and travel) seen
+/// along its tool: x and z at the workspace's centre y0, the platform and the table
+/// square to the tool ([`outline`]).
+pub fn arrow_outline(config: &ArrowConfig) -> Vec<[f64; 2]> {
+    let Ok(geometry) = ArrowGeometry::<f64>::new(config) else {
+        return Vec::new();
     };
+    let y0 = config.workspace.y0_m;
+    outline([0.0, 0.0], |p| {
+        geometry
+            .check_workspace(&Pose::new(p[0], y0, p[1], 0.0), 0.0)
+            .is_ok()
+    })
+}
+
+/// In each of [`OUTLINE_DIRECTIONS`] directions from `centre` (m), the farthest point
+/// `reaches` takes: stepped out 1 mm at a time (to 2 m at most) and the last step
+/// bisected to 1 µm. Empty when `centre` itself is out of reach. The region is taken
+/// as star-shaped about the centre (both machines' are: boxes cut by reach).
+fn outline(centre: [f64; 2], reaches: impl Fn([f64; 2]) -> bool) -> Vec<[f64; 2]> {
+    let at = |r: f64, phi: f64| [centre[0] + r * phi.cos(), centre[1] + r * phi.sin()];
     if !reaches(centre) {
         return Vec::new();
     }
@@ -350,8 +398,7 @@ pub fn workspace_outline(
         .map(|k| {
             let phi = std::f64::consts::TAU * k as f64 / OUTLINE_DIRECTIONS as f64;
             let (mut inside, mut step) = (0.0, 1e-3);
-            // Out to a metre at most: the Keops workspace is tens of millimetres.
-            while inside < 1.0 && reaches(at(inside + step, phi)) {
+            while inside < 2.0 && reaches(at(inside + step, phi)) {
                 inside += step;
             }
             while step > 1e-6 {
@@ -363,4 +410,46 @@ pub fn workspace_outline(
             at(inside, phi)
         })
         .collect()
+}
+
+/// ARROW's program seen along its tool (x right, z up): each run of feed moves one
+/// cut, the rapids between them travels.
+fn arrow_preview(report: &crate::gcode::GcodeReport) -> Preview {
+    let xz = |p: &[f64; 3]| [p[0], p[2]];
+    let mut cuts_m: Vec<Vec<[f64; 2]>> = Vec::new();
+    let mut travels_m: Vec<Vec<[f64; 2]>> = Vec::new();
+    let mut cutting = false;
+    for (m, path) in report.moves.iter().zip(&report.paths_m) {
+        let points: Vec<[f64; 2]> = path.iter().map(xz).collect();
+        let feed = m.kind == MoveKind::Feed;
+        let list = if feed { &mut cuts_m } else { &mut travels_m };
+        match list.last_mut() {
+            // A run of moves of one kind is one line.
+            Some(last) if feed == cutting => last.extend(points),
+            _ => list.push(points),
+        }
+        cutting = feed;
+    }
+    let closed = cuts_m
+        .iter()
+        .map(|c| match (c.first(), c.last()) {
+            (Some(a), Some(b)) => (a[0] - b[0]).hypot(a[1] - b[1]) < 1e-6 && c.len() > 2,
+            _ => false,
+        })
+        .collect();
+    Preview {
+        workspace_m: Vec::new(),
+        travels_m,
+        cuts_m,
+        closed,
+        view: View {
+            axes: ["x, mm", "z, mm"],
+            section: format!(
+                "workspace at y = {:.0} mm, seen along the tool",
+                ArrowConfig::ARROW.workspace.y0_m * 1e3
+            ),
+            cut: "feed, tool cutting",
+            travel: "rapid, tool clear",
+        },
+    }
 }

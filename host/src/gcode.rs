@@ -31,11 +31,17 @@ pub struct MoveReport {
     pub duration_s: f64,
 }
 
+/// Points a move's path is sampled at per spline segment ([`GcodeReport::paths_m`]).
+pub const PATH_SAMPLES_PER_SEGMENT: usize = 16;
+
 /// A program the machine accepts.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GcodeReport {
     /// Its moves, in order.
     pub moves: Vec<MoveReport>,
+    /// Each move's path as the machine follows it (its spline), x, y, z in m, sampled
+    /// [`PATH_SAMPLES_PER_SEGMENT`] times a segment, both ends included.
+    pub paths_m: Vec<Vec<[f64; 3]>>,
     /// Total path length, m.
     pub length_m: f64,
     /// Total duration, s (whole control periods).
@@ -86,7 +92,30 @@ pub fn check(text: &[u8]) -> Result<GcodeReport, GcodeCheckError> {
             duration_s: m.plan.duration_s(),
         })
         .collect();
+    let paths_m = job
+        .moves()
+        .iter()
+        .map(|m| {
+            let spline = &m.spline;
+            let at = |i: usize, t: f64| {
+                let p = spline.evaluate(i, t).position;
+                [p[0], p[1], p[2]]
+            };
+            let mut path: Vec<[f64; 3]> = (0..spline.segments())
+                .flat_map(|i| {
+                    let h = spline.segment_parameter(i);
+                    (0..PATH_SAMPLES_PER_SEGMENT)
+                        .map(move |k| (i, h * k as f64 / PATH_SAMPLES_PER_SEGMENT as f64))
+                })
+                .map(|(i, t)| at(i, t))
+                .collect();
+            let last = spline.segments().saturating_sub(1);
+            path.push(at(last, spline.segment_parameter(last)));
+            path
+        })
+        .collect();
     Ok(GcodeReport {
+        paths_m,
         length_m: moves.iter().map(|m| m.length_m).sum(),
         duration_s: job.periods() as f64 * job.period_s(),
         moves,

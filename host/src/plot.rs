@@ -78,11 +78,13 @@ pub(crate) fn line<'a, DB: DrawingBackend + 'a>(
     Ok(())
 }
 
-/// A white picture titled `title` with a square chart in workspace millimetres around
-/// the box `lo`–`hi` (mm), widened by `margin` (1.02: 2 %).
+/// A white picture titled `title` with a square chart in workspace millimetres, its
+/// axes labelled `axes`, around the box `lo`–`hi` (mm), widened by `margin` (1.02:
+/// 2 %).
 pub(crate) fn workspace_chart<'a, DB: DrawingBackend>(
     root: &'a DrawingArea<DB, Shift>,
     title: &str,
+    axes: [&str; 2],
     lo: [f64; 2],
     hi: [f64; 2],
     margin: f64,
@@ -99,8 +101,8 @@ pub(crate) fn workspace_chart<'a, DB: DrawingBackend>(
         .map_err(err)?;
     chart
         .configure_mesh()
-        .x_desc("x, mm")
-        .y_desc("y, mm")
+        .x_desc(axes[0])
+        .y_desc(axes[1])
         .light_line_style(WHITE.mix(0.0))
         .draw()
         .map_err(err)?;
@@ -173,7 +175,7 @@ fn draw<DB: DrawingBackend>(
         .chain(fit.iter())
         .chain(extra.iter().flat_map(|o| o.points_mm.iter()));
     let (lo, hi) = crate::plan::bounds(all);
-    let mut chart = workspace_chart(&root, title, lo, hi, 1.02)?;
+    let mut chart = workspace_chart(&root, title, ["x, mm", "y, mm"], lo, hi, 1.02)?;
 
     // The image, lightened: cells of f × f pixels.
     let f = w.max(h).div_ceil(MAX_CELLS).max(1);

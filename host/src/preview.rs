@@ -1,6 +1,6 @@
 //! The picture of a checked job ([`crate::check`]) as SVG, before it is sent: the
-//! workspace's edge at the cutting height, the travels with the beam off (dashed),
-//! the cuts with the beam on, each part's start (the first one larger, the others
+//! workspace's edge in the plane of the cuts, the travels (dashed), the cuts, each
+//! part's start (the first one larger, the others
 //! numbered in cutting order), and the estimated duration in the title. Workspace
 //! millimetres, x right and y up.
 
@@ -55,27 +55,27 @@ fn draw<DB: DrawingBackend>(
         return Err(PlotError::from_words("nothing to draw"));
     }
     let to_mm = |p: [f64; 2]| p.map(|v| v * 1e3);
-    let mut chart = workspace_chart(&root, caption, to_mm(lo), to_mm(hi), 1.05)?;
+    let view = &preview.view;
+    let mut chart = workspace_chart(&root, caption, view.axes, to_mm(lo), to_mm(hi), 1.05)?;
     let grey = RGBColor(120, 120, 120);
     let mut edge: Vec<[f64; 2]> = preview.workspace_m.clone();
     if let Some(&first) = edge.first() {
         edge.push(first);
     }
-    let label = format!("workspace at z = {:.1} mm", preview.height_m * 1e3);
-    line(&mut chart, mm(&edge), &label, grey, 1)?;
+    line(&mut chart, mm(&edge), &view.section, grey, 1)?;
     let travel = RGBColor(0, 114, 178);
     for (k, t) in preview.travels_m.iter().enumerate() {
         let series = chart
             .draw_series(DashedLineSeries::new(mm(t), 8, 6, travel.stroke_width(2)))
             .map_err(err)?;
         if k == 0 {
-            series.label("travel, beam off").legend(move |(x, y)| {
+            series.label(view.travel).legend(move |(x, y)| {
                 PathElement::new([(x, y), (x + 20, y)], travel.stroke_width(2))
             });
         }
     }
     for (k, cut) in preview.cuts_m.iter().enumerate() {
-        let label = if k == 0 { "cut, beam on" } else { "" };
+        let label = if k == 0 { view.cut } else { "" };
         line(&mut chart, mm(cut), label, RGBColor(213, 94, 0), 2)?;
     }
     for (k, cut) in preview.cuts_m.iter().enumerate() {

@@ -110,7 +110,7 @@ fn the_machine_is_the_one_that_takes_the_kind_or_the_one_named() {
             .unwrap();
     let gcode = Job::Gcode { text: pyramid }.to_bytes().unwrap();
     let arrow = check(&gcode, None).expect("ARROW takes its pyramid");
-    assert_eq!((arrow.machine, arrow.preview), (Machine::Arrow, None));
+    assert_eq!(arrow.machine, Machine::Arrow);
     assert!(arrow.duration_s > 0.0 && arrow.cut_length_m > 0.0);
     match check(&gcode, Some(Machine::KeopsSlave)) {
         Err(e @ CheckError::Kind { .. }) => {
@@ -206,4 +206,81 @@ fn kerf_check_exits_by_the_machines_verdict_and_writes_nothing_for_a_refusal() {
     let out = kerf(&["check", "/nonexistent/job"]);
     assert_eq!(out.status.code(), Some(1));
     assert!(text(&out.stderr).contains("cannot read the job file"));
+}
+
+/// ARROW's preview, seen along its tool (x right, z up): the pyramid's programmed
+/// points (a scan of the file's X and Z words) are points of its drawn path (the
+/// spline passes through them), and the workspace's edge is where A eq. 25 ends: every
+/// edge point passes the machine's workspace check and one 2 µm farther out does not;
+/// the edge spans z ±150 mm, eq. 25's z limits.
+#[test]
+fn arrows_preview_draws_its_program_inside_its_workspace() {
+    use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry, Pose};
+    let text = std::fs::read_to_string(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/pyramid.gcode"),
+    )
+    .unwrap();
+    let gcode = Job::Gcode {
+        text: text.clone().into_bytes(),
+    }
+    .to_bytes()
+    .unwrap();
+    let preview = check(&gcode, None)
+        .unwrap()
+        .preview
+        .expect("ARROW draws one");
+    let word = |line: &str, letter: char| -> Option<f64> {
+        let code = line.split('(').next()?;
+        let at = code.find(letter)?;
+        let rest = &code[at + 1..];
+        let end = rest.find(|c: char| c.is_whitespace()).unwrap_or(rest.len());
+        rest[..end].parse().ok()
+    };
+    let drawn: Vec<[f64; 2]> = preview
+        .cuts_m
+        .iter()
+        .chain(&preview.travels_m)
+        .flatten()
+        .copied()
+        .collect();
+    let mut targets = 0;
+    for line in text.lines().filter(|l| !l.starts_with('(')) {
+        let (Some(x), Some(z)) = (word(line, 'X'), word(line, 'Z')) else {
+            continue;
+        };
+        targets += 1;
+        let p = [x * 1e-3, z * 1e-3];
+        let nearest = drawn
+            .iter()
+            .map(|d| (d[0] - p[0]).hypot(d[1] - p[1]))
+            .fold(f64::INFINITY, f64::min);
+        assert!(nearest < 1e-9, "{line}: {nearest}");
+    }
+    assert!(targets > 20, "{targets}");
+    let svg = kerf_host::preview::svg("pyramid", &check(&gcode, None).unwrap())
+        .unwrap()
+        .unwrap();
+    for words in ["z, mm", "seen along the tool", "feed, tool cutting"] {
+        assert!(svg.contains(words), "{words}");
+    }
+    let config = ArrowConfig::ARROW;
+    let geometry = ArrowGeometry::<f64>::new(&config).unwrap();
+    let y0 = config.workspace.y0_m;
+    let fits = |p: [f64; 2]| {
+        geometry
+            .check_workspace(&Pose::new(p[0], y0, p[1], 0.0), 0.0)
+            .is_ok()
+    };
+    assert_eq!(preview.workspace_m.len(), OUTLINE_DIRECTIONS);
+    for p in &preview.workspace_m {
+        let r = p[0].hypot(p[1]);
+        let farther = [p[0] * (r + 2e-6) / r, p[1] * (r + 2e-6) / r];
+        assert!(fits(*p) && !fits(farther), "{p:?}");
+    }
+    let top = preview
+        .workspace_m
+        .iter()
+        .map(|p| p[1])
+        .fold(f64::MIN, f64::max);
+    assert!((top - config.workspace.z_half_m).abs() < 1e-6, "{top}");
 }
