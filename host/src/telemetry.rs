@@ -310,12 +310,25 @@ impl TelemetryLog {
             .collect();
         draw_series(&low, span.clone(), "force command, N", &series, marks)?;
         if self.value_of_laser() {
+            // One line per stretch with the beam on: not drawn across the travels.
             let energy = self.energy_per_length();
-            let series = [Series {
-                label: "power over measured speed",
-                points: &energy,
-                color: RGBColor(230, 159, 0),
-            }];
+            let step = energy
+                .windows(2)
+                .map(|w| w[1].0 - w[0].0)
+                .fold(f64::INFINITY, f64::min);
+            let series: Vec<Series<'_>> = energy
+                .chunk_by(|a, b| b.0 - a.0 <= 3.0 * step)
+                .enumerate()
+                .map(|(k, points)| Series {
+                    label: if k == 0 {
+                        "power over measured speed"
+                    } else {
+                        ""
+                    },
+                    points,
+                    color: RGBColor(230, 159, 0),
+                })
+                .collect();
             draw_series(&laser, span, "energy per length, J/mm", &series, marks)?;
         }
         root.present().map_err(err)?;
