@@ -215,6 +215,10 @@ struct PlanArgs {
     /// (the part is kept), or the other way (the hole is kept).
     #[arg(long, value_enum, default_value = "outside")]
     kerf_side: kerf_host::kerf_offset::KerfSide,
+    /// Cut the picture into ink (darker than this grey level, 1 to 255) and paper
+    /// before its edges are sought: for photographs and faint drawings.
+    #[arg(long, value_name = "GREY", value_parser = clap::value_parser!(u8).range(1..))]
+    threshold: Option<u8>,
     /// A straight lead-in of this length, mm, from the scrap's side (as --kerf-side
     /// says) to each closed contour's start: a part of its own, cut just before the
     /// contour, so the beam comes on away from the part.
@@ -305,6 +309,7 @@ fn run_plan(args: &PlanArgs, report: &mut Report) -> Result<(), Failure> {
         kerf_mm: args.kerf_mm,
         kerf_side: args.kerf_side,
         lead_in_mm: args.lead_in_mm,
+        threshold: args.threshold,
         format: args.format.map(|f| match f {
             FormatArg::Efd => Format::Efd,
             FormatArg::Points => Format::Points,

@@ -81,6 +81,11 @@ pub struct PlanConfig {
     /// Which side of the drawn line is scrap (a single contour is an outline; with
     /// every contour, holes take the other side).
     pub kerf_side: KerfSide,
+    /// Grey level at which the image is cut into ink and paper before its edges are
+    /// sought (darker pixels ink, the rest paper): a photograph's shading and a faint
+    /// drawing's low contrast become one clean step. `None`: the grey levels as they
+    /// are. (Which side is ink does not matter: an edge is the same either way.)
+    pub threshold: Option<u8>,
     /// Length of a straight lead-in from the scrap's side to each closed contour's
     /// start, mm (a part of its own, cut just before the contour, so the beam comes
     /// on away from the part); 0 for none.
@@ -104,6 +109,7 @@ impl Default for PlanConfig {
             kerf_mm: 0.0,
             kerf_side: KerfSide::Outside,
             lead_in_mm: 0.0,
+            threshold: None,
         }
     }
 }
@@ -338,6 +344,16 @@ pub fn edges(gray: &GrayImage, config: &PlanConfig) -> Result<GrayImage, PlanErr
             "sigma must be at most the image's larger side, in pixels",
         ));
     }
+    let binary;
+    let gray = match config.threshold {
+        Some(t) => {
+            binary = GrayImage::from_fn(gray.width(), gray.height(), |x, y| {
+                image::Luma([if gray.get_pixel(x, y)[0] < t { 0 } else { 255 }])
+            });
+            &binary
+        }
+        None => gray,
+    };
     let smoothed = if config.sigma_px > 0.0 {
         imageproc::filter::gaussian_blur_f32(gray, config.sigma_px)
     } else {
@@ -424,6 +440,11 @@ pub(crate) fn check(config: &PlanConfig) -> Result<(), PlanError> {
     {
         return Err(PlanError::Config(
             "the lead-in must be finite, 0 or more, and no longer than the width",
+        ));
+    }
+    if config.threshold == Some(0) {
+        return Err(PlanError::Config(
+            "the threshold must be 1 to 255 (at 0 no pixel is ink)",
         ));
     }
     if config.lead_in_mm > 0.0 && config.start_px.is_some() {

@@ -360,7 +360,7 @@ fn trace(
 #[derive(Copy, Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum TraceError {
     /// No edge pixels at all.
-    #[error("no edges found in the image (for a faint or low-contrast picture try lower --canny thresholds, such as 20,50, or less smoothing, --sigma 0.5)")]
+    #[error("no edges found in the image (for a faint or low-contrast picture try lower --canny thresholds, such as 20,50, less smoothing, --sigma 0.5, or cutting it into ink and paper, --threshold 128)")]
     NoEdges,
     /// No cycle: the edges form no closed contour.
     #[error("no closed contour in the image: its edges do not close (for a faint picture try lower --canny thresholds, such as 20,50, or a larger --close-px to bridge gaps, such as 5; for an open contour give --start X,Y)")]

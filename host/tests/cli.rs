@@ -282,3 +282,35 @@ fn the_machine_commands_check_their_arguments_and_report_an_unreachable_machine(
         text(&out.stderr)
     );
 }
+
+/// A faint disc (grey 120 on 136: a Sobel step of 64, under Canny's upper 100) has no
+/// edge as it is, and the refusal names `--threshold`; cut into ink and paper at 128
+/// it is a clean circle: the fit 6 mm from its centre all round (the 12 mm width), to
+/// 0.1 mm (the traced chain is a digital circle, within about a pixel of the true one,
+/// and a pixel is 0.075 mm). A threshold of 0 is refused in words.
+#[test]
+fn a_threshold_finds_a_faint_shape() {
+    use kerf_host::plan::{plan_image, PlanConfig};
+    let (size, r) = (200u32, 80.0f64);
+    let gray = image::GrayImage::from_fn(size, size, |x, y| {
+        let d = (f64::from(x) - 100.0).hypot(f64::from(y) - 100.0);
+        image::Luma([if d < r { 120 } else { 136 }])
+    });
+    let e = plan_image(&gray, &PlanConfig::default(), &mut |_| {}).unwrap_err();
+    assert!(e.to_string().contains("--threshold 128"), "{e}");
+    let config = PlanConfig {
+        threshold: Some(128),
+        ..PlanConfig::default()
+    };
+    let plan = plan_image(&gray, &config, &mut |_| {}).unwrap();
+    for p in plan.fit.samples_mm(256) {
+        let radius = p[0].hypot(p[1]);
+        assert!((radius - 6.0).abs() < 0.1, "{radius}");
+    }
+    let zero = PlanConfig {
+        threshold: Some(0),
+        ..PlanConfig::default()
+    };
+    let e = plan_image(&gray, &zero, &mut |_| {}).unwrap_err();
+    assert!(e.to_string().contains("threshold must be 1 to 255"), "{e}");
+}

@@ -1,5 +1,6 @@
 //! The cut settings (`--speed-mm-s`, `--power-w`, `--energy-j-per-mm`, `--beam-off`,
-//! `--passes`) and the kerf offset (`--kerf-mm`, `--kerf-side`) at their edges, on every
+//! `--passes`), the kerf offset (`--kerf-mm`, `--kerf-side`), the lead-in and the
+//! threshold at their edges, on every
 //! command that takes them, as `edge_values` drives the other options: each case ends
 //! in its exit code with a message that names the problem, never a panic, and leaves
 //! no file but whole ones. A setting the slave cannot cut (25 W of its 20 W, a speed its
@@ -127,6 +128,22 @@ fn cut_settings_and_the_kerf_at_their_edges() {
             Fails(2, "invalid value"),
         ),
         ("kerf", plan(&["--kerf-mm", "0.2"]), Done(planned)),
+        ("threshold", plan(&["--threshold", "128"]), Done(planned)),
+        (
+            "threshold-0",
+            plan(&["--threshold", "0"]),
+            Fails(2, "invalid value"),
+        ),
+        (
+            "threshold-256",
+            plan(&["--threshold", "256"]),
+            Fails(2, "invalid value"),
+        ),
+        (
+            "threshold-1",
+            plan(&["--threshold", "1"]),
+            Fails(1, "--threshold"),
+        ),
         ("lead-in", plan(&["--lead-in-mm", "1.5"]), Done(planned)),
         (
             "lead-in-short",

@@ -304,6 +304,8 @@ fn config(b: &[u8]) -> PlanConfig {
             KerfSide::Inside
         },
         lead_in_mm: f64::from(b[1] >> 6) * 0.8,
+        // Now and then ink and paper (0 included: refused).
+        threshold: (b[0] & 0x80 != 0).then_some(b[2]),
     }
 }
 
