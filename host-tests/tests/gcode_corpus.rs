@@ -295,6 +295,7 @@ const MILL: kerf::trajectory::planner::PlannerLimits = kerf::trajectory::planner
     max_speed_m_s: 0.1,
     accel_m_s2: 1.0,
     junction_deviation_m: 0.01e-3,
+    jerk_m_s3: f64::INFINITY,
 };
 
 /// A program's points through the look-ahead planner, streamed through 16 moves as a
@@ -329,10 +330,7 @@ fn plan_program(points: &[GcodePoint]) -> (Vec<Block<3>>, f64, f64, f64) {
     while let Some(b) = streamed.pop() {
         taken.push(b);
     }
-    let streamed_s = taken
-        .iter()
-        .map(|b| b.profile(MILL.accel_m_s2).duration_s())
-        .sum();
+    let streamed_s = taken.iter().map(|b| b.profile(&MILL).duration_s()).sum();
     (taken, streamed_s, whole.duration_s(), feed_bound_s)
 }
 

@@ -31,6 +31,18 @@
 //! acceleration bounded and speed limits along the path, this bang–bang profile is
 //! the time-optimal one.
 //!
+//! # Jerk-limited ramps
+//!
+//! With a finite jerk `j` ([`PlannerLimits::jerk_m_s3`]) each speed change is an
+//! S-curve instead of a constant acceleration: the acceleration rises at `j` to
+//! `a_p = min(a, √(j Δv))`, holds, and falls at `j` back to zero, so it is continuous
+//! across the moves. The change takes `T = Δv/a_p + a_p/j` and, the speed being
+//! symmetric about the ramp's middle, covers `(v₀ + v₁)/2 · T`. The passes and the
+//! cruise speed use that distance in place of `(v₁² − v₀²)/2a` (the largest speed
+//! reachable within a length, or the largest cruise that leaves room for both ramps,
+//! found by bisection: the distance grows with the speed); an infinite jerk gives the
+//! constant-acceleration ramps back exactly. (docs/equations.md §17.)
+//!
 //! # Following the plan
 //!
 //! [`PlanFollower`] samples the plan once per control period: the point along the
@@ -52,16 +64,22 @@ pub struct PlannerLimits {
     pub accel_m_s2: f64,
     /// How far from a corner the circle that sets its speed passes, m (module docs).
     pub junction_deviation_m: f64,
+    /// The rate of change of the acceleration in the ramps, m/s³; `f64::INFINITY` for
+    /// ramps of constant acceleration (module docs).
+    pub jerk_m_s3: f64,
 }
 
 impl PlannerLimits {
-    /// Checked: every limit finite and positive.
+    /// Checked: every limit finite and positive (the jerk may be infinite).
     ///
     /// Errors: the field that is not.
     pub fn check(&self) -> Result<(), ConfigError> {
         positive("max_speed_m_s", self.max_speed_m_s)?;
         positive("accel_m_s2", self.accel_m_s2)?;
         positive("junction_deviation_m", self.junction_deviation_m)?;
+        if self.jerk_m_s3 != f64::INFINITY {
+            positive("jerk_m_s3", self.jerk_m_s3)?;
+        }
         Ok(())
     }
 
@@ -81,6 +99,123 @@ impl PlannerLimits {
         let radius_m = self.junction_deviation_m * sin_half / (1.0 - sin_half);
         libm::sqrt(self.accel_m_s2 * radius_m)
     }
+
+    /// The largest speed reachable from `from_m_s` within `length_m` (the passes'
+    /// limit), m/s.
+    pub fn reach_m_s(&self, from_m_s: f64, length_m: f64) -> f64 {
+        let a = self.accel_m_s2;
+        let constant = libm::sqrt(from_m_s * from_m_s + 2.0 * a * length_m);
+        if self.jerk_m_s3 == f64::INFINITY {
+            return constant;
+        }
+        // An S-curve covers more length than a constant acceleration for the same
+        // change: its reach lies between the start and the constant one's.
+        largest_within(from_m_s, constant, |v| {
+            Ramp::new(from_m_s, v, a, self.jerk_m_s3).length_m() <= length_m
+        })
+    }
+}
+
+/// The largest `v` in `[lo, hi]` for which `fits` holds, `fits` holding at `lo` and
+/// failing past some point (bisection to the last bit, 64 halvings at most).
+fn largest_within(lo: f64, hi: f64, fits: impl Fn(f64) -> bool) -> f64 {
+    if fits(hi) {
+        return hi;
+    }
+    let (mut lo, mut hi) = (lo, hi);
+    for _ in 0..64 {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        if fits(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}
+
+/// One speed change, from `from` to `to`, at most `accel` and `jerk` (an S-curve:
+/// module docs).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Ramp {
+    /// Speed at its start, m/s.
+    pub from_m_s: f64,
+    /// Speed at its end, m/s.
+    pub to_m_s: f64,
+    /// Its largest acceleration, m/s².
+    pub peak_m_s2: f64,
+    /// The jerk of its rising and falling parts, m/s³ (0 where they take no time).
+    pub jerk_m_s3: f64,
+    /// Time of its rising (and of its falling) part, s.
+    pub rise_s: f64,
+    /// Time at the peak acceleration, s.
+    pub hold_s: f64,
+}
+
+impl Ramp {
+    /// The change from `from_m_s` to `to_m_s` at acceleration `accel` and `jerk`
+    /// (`f64::INFINITY`: constant acceleration).
+    pub fn new(from_m_s: f64, to_m_s: f64, accel: f64, jerk: f64) -> Self {
+        let change = (to_m_s - from_m_s).abs();
+        let peak = if jerk == f64::INFINITY {
+            accel
+        } else {
+            accel.min(libm::sqrt(jerk * change))
+        };
+        let (rise_s, hold_s, jerk) = if change == 0.0 || peak <= 0.0 {
+            (0.0, 0.0, 0.0)
+        } else if jerk == f64::INFINITY {
+            (0.0, change / peak, 0.0)
+        } else {
+            let rise = peak / jerk;
+            (rise, (change / peak - rise).max(0.0), jerk)
+        };
+        Self {
+            from_m_s,
+            to_m_s,
+            peak_m_s2: peak,
+            jerk_m_s3: jerk,
+            rise_s,
+            hold_s,
+        }
+    }
+
+    /// Duration, s.
+    pub fn duration_s(&self) -> f64 {
+        2.0 * self.rise_s + self.hold_s
+    }
+
+    /// Length covered, m: the mean of the two speeds over the duration.
+    pub fn length_m(&self) -> f64 {
+        0.5 * (self.from_m_s + self.to_m_s) * self.duration_s()
+    }
+
+    /// Distance and speed `t_s` after its start (held at its end past it), m and m/s.
+    pub fn at(&self, t_s: f64) -> (f64, f64) {
+        let sign = if self.to_m_s >= self.from_m_s {
+            1.0
+        } else {
+            -1.0
+        };
+        let (j, a) = (sign * self.jerk_m_s3, sign * self.peak_m_s2);
+        let t = t_s.clamp(0.0, self.duration_s());
+        // Rising: the acceleration grows at j.
+        let t1 = t.min(self.rise_s);
+        let mut s = self.from_m_s * t1 + j * t1 * t1 * t1 / 6.0;
+        let mut v = self.from_m_s + 0.5 * j * t1 * t1;
+        // Holding the peak.
+        let t2 = (t - self.rise_s).clamp(0.0, self.hold_s);
+        s += v * t2 + 0.5 * a * t2 * t2;
+        v += a * t2;
+        // Falling back to zero acceleration.
+        let t3 = (t - self.rise_s - self.hold_s).max(0.0);
+        s += v * t3 + 0.5 * a * t3 * t3 - j * t3 * t3 * t3 / 6.0;
+        v += a * t3 - 0.5 * j * t3 * t3;
+        (s, v)
+    }
 }
 
 /// Why a move is not taken.
@@ -95,56 +230,64 @@ pub enum PlanError {
     NoFeed,
 }
 
-/// A move's speed profile: accelerate, cruise, decelerate.
+/// A move's speed profile: a ramp up to its cruise, the cruise, a ramp down.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub struct Trapezoid {
-    /// Speed at the start, m/s.
-    pub entry_m_s: f64,
-    /// Speed of the flat part (the peak of a triangle), m/s.
+pub struct SpeedProfile {
+    /// From the entry to the cruise.
+    pub up: Ramp,
+    /// Speed of the flat part (the peak where there is none), m/s.
     pub cruise_m_s: f64,
-    /// Speed at the end, m/s.
-    pub exit_m_s: f64,
-    /// Length of the acceleration, m.
-    pub accel_m: f64,
     /// Length at the cruise speed, m.
     pub cruise_m: f64,
-    /// Length of the deceleration, m.
-    pub decel_m: f64,
-    /// The acceleration, m/s².
-    pub accel_m_s2: f64,
+    /// From the cruise to the exit.
+    pub down: Ramp,
 }
 
-impl Trapezoid {
+impl SpeedProfile {
     /// The profile over `length_m` from `entry` to `exit` with at most `nominal`,
-    /// at acceleration `accel` (the entry and exit reachable from each other).
-    pub fn new(length_m: f64, entry_m_s: f64, exit_m_s: f64, nominal_m_s: f64, accel: f64) -> Self {
-        let peak_sq = accel * length_m + 0.5 * (entry_m_s * entry_m_s + exit_m_s * exit_m_s);
-        let cruise = libm::sqrt(peak_sq.max(0.0))
-            .min(nominal_m_s)
-            .max(entry_m_s)
-            .max(exit_m_s);
-        let accel_m = ((cruise * cruise - entry_m_s * entry_m_s) / (2.0 * accel)).max(0.0);
-        let decel_m = ((cruise * cruise - exit_m_s * exit_m_s) / (2.0 * accel)).max(0.0);
+    /// under `limits` (the entry and exit reachable from each other): the largest
+    /// cruise whose two ramps fit the length.
+    pub fn new(
+        length_m: f64,
+        entry_m_s: f64,
+        exit_m_s: f64,
+        nominal_m_s: f64,
+        limits: &PlannerLimits,
+    ) -> Self {
+        let (a, j) = (limits.accel_m_s2, limits.jerk_m_s3);
+        let ramps = |v: f64| (Ramp::new(entry_m_s, v, a, j), Ramp::new(v, exit_m_s, a, j));
+        let fits = |v: f64| {
+            let (up, down) = ramps(v);
+            up.length_m() + down.length_m() <= length_m
+        };
+        let low = entry_m_s.max(exit_m_s);
+        // Constant acceleration's peak bounds the S-curves' from above.
+        let peak = libm::sqrt(
+            (a * length_m + 0.5 * (entry_m_s * entry_m_s + exit_m_s * exit_m_s)).max(0.0),
+        );
+        let high = peak.min(nominal_m_s).max(low);
+        let cruise = if j == f64::INFINITY {
+            high
+        } else {
+            largest_within(low, high, fits)
+        };
+        let (up, down) = ramps(cruise);
         Self {
-            entry_m_s,
+            up,
             cruise_m_s: cruise,
-            exit_m_s,
-            accel_m,
-            cruise_m: (length_m - accel_m - decel_m).max(0.0),
-            decel_m,
-            accel_m_s2: accel,
+            cruise_m: (length_m - up.length_m() - down.length_m()).max(0.0),
+            down,
         }
     }
 
     /// Time of the three parts, s.
     pub fn times_s(&self) -> [f64; 3] {
-        let ramp = |from: f64| (self.cruise_m_s - from) / self.accel_m_s2;
         let cruise = if self.cruise_m > 0.0 {
             self.cruise_m / self.cruise_m_s
         } else {
             0.0
         };
-        [ramp(self.entry_m_s), cruise, ramp(self.exit_m_s)]
+        [self.up.duration_s(), cruise, self.down.duration_s()]
     }
 
     /// Duration, s.
@@ -155,21 +298,18 @@ impl Trapezoid {
     /// Distance travelled and speed at `t_s` after the start (held at the end past
     /// it), m and m/s.
     pub fn at(&self, t_s: f64) -> (f64, f64) {
-        let [ta, tc, td] = self.times_s();
-        let a = self.accel_m_s2;
+        let [ta, tc, _] = self.times_s();
         let t = t_s.max(0.0);
         if t < ta {
-            return (self.entry_m_s * t + 0.5 * a * t * t, self.entry_m_s + a * t);
+            return self.up.at(t);
         }
         let t = t - ta;
+        let accel_m = self.up.length_m();
         if t < tc {
-            return (self.accel_m + self.cruise_m_s * t, self.cruise_m_s);
+            return (accel_m + self.cruise_m_s * t, self.cruise_m_s);
         }
-        let t = (t - tc).min(td);
-        (
-            self.accel_m + self.cruise_m + self.cruise_m_s * t - 0.5 * a * t * t,
-            self.cruise_m_s - a * t,
-        )
+        let (s, v) = self.down.at(t - tc);
+        (accel_m + self.cruise_m + s, v)
     }
 }
 
@@ -195,14 +335,14 @@ pub struct Block<const D: usize> {
 }
 
 impl<const D: usize> Block<D> {
-    /// Its speed profile at acceleration `accel_m_s2`.
-    pub fn profile(&self, accel_m_s2: f64) -> Trapezoid {
-        Trapezoid::new(
+    /// Its speed profile under `limits`.
+    pub fn profile(&self, limits: &PlannerLimits) -> SpeedProfile {
+        SpeedProfile::new(
             self.length_m,
             self.entry_m_s,
             self.exit_m_s,
             self.nominal_m_s,
-            accel_m_s2,
+            limits,
         )
     }
 
@@ -334,26 +474,27 @@ impl<const D: usize, const N: usize> Planner<D, N> {
 
     /// Duration of the moves in the buffer as planned, s.
     pub fn duration_s(&self) -> f64 {
-        let a = self.limits.accel_m_s2;
-        self.blocks.iter().map(|b| b.profile(a).duration_s()).sum()
+        let limits = &self.limits;
+        self.blocks
+            .iter()
+            .map(|b| b.profile(limits).duration_s())
+            .sum()
     }
 
     /// The backward pass (the last move stops), then the forward pass from the
     /// front's fixed entry (module docs).
     fn replan(&mut self) {
-        let a2 = 2.0 * self.limits.accel_m_s2;
+        let limits = self.limits;
         let mut exit = 0.0f64;
         for b in self.blocks.iter_mut().rev() {
             b.exit_m_s = exit;
-            b.entry_m_s = b
-                .max_entry_m_s
-                .min(libm::sqrt(exit * exit + a2 * b.length_m));
+            b.entry_m_s = b.max_entry_m_s.min(limits.reach_m_s(exit, b.length_m));
             exit = b.entry_m_s;
         }
         let mut entry = self.front_entry_m_s;
         for b in self.blocks.iter_mut() {
             b.entry_m_s = entry;
-            b.exit_m_s = b.exit_m_s.min(libm::sqrt(entry * entry + a2 * b.length_m));
+            b.exit_m_s = b.exit_m_s.min(limits.reach_m_s(entry, b.length_m));
             entry = b.exit_m_s;
         }
     }
@@ -374,7 +515,7 @@ pub struct PlanSample<const D: usize> {
 pub struct PlanFollower<const D: usize> {
     period_s: f64,
     /// The move being followed, its profile and the time since it began, s.
-    current: Option<(Block<D>, Trapezoid, f64)>,
+    current: Option<(Block<D>, SpeedProfile, f64)>,
     /// Where the last move ended (held when there is none), m.
     rest_m: [f64; D],
 }
@@ -404,7 +545,7 @@ impl<const D: usize> PlanFollower<D> {
     /// `planner` as the current one ends; at rest where the last one ended when there
     /// is none (a move taken at rest starts at its first point).
     pub fn step<const N: usize>(&mut self, planner: &mut Planner<D, N>) -> PlanSample<D> {
-        let accel = planner.limits().accel_m_s2;
+        let limits = *planner.limits();
         let mut t = match self.current {
             Some((_, _, t)) => t + self.period_s,
             None => 0.0,
@@ -414,7 +555,7 @@ impl<const D: usize> PlanFollower<D> {
             let (block, profile) = match self.current {
                 Some((block, profile, _)) => (block, profile),
                 None => match planner.pop() {
-                    Some(block) => (block, block.profile(accel)),
+                    Some(block) => (block, block.profile(&limits)),
                     None => break,
                 },
             };
