@@ -353,7 +353,9 @@ fn check_keops(file: &JobFile<'_>) -> Result<Checked, CheckError> {
 }
 
 /// The edge of the delta's workspace at `height_m` around `centre` (m): where the
-/// inverse kinematics reaches within the carriages' travel ([`outline`]). Empty when
+/// inverse kinematics reaches within the carriages' travel (in each of
+/// [`OUTLINE_DIRECTIONS`] directions, stepped out 1 mm at a time and bisected to
+/// 1 µm). Empty when
 /// the centre itself is out of reach.
 pub fn workspace_outline(
     machine: &DeltaSlaveConfig,
@@ -372,7 +374,7 @@ pub fn workspace_outline(
 
 /// The edge of ARROW's workspace (A eq. 25, the actuators' reach and travel) seen
 /// along its tool: x and z at the workspace's centre y0, the platform and the table
-/// square to the tool ([`outline`]).
+/// square to the tool (found as [`workspace_outline`] finds the delta's).
 pub fn arrow_outline(config: &ArrowConfig) -> Vec<[f64; 2]> {
     let Ok(geometry) = ArrowGeometry::<f64>::new(config) else {
         return Vec::new();

@@ -56,7 +56,7 @@ impl CutArgs {
     ///
     /// Errors: a speed not above zero, a power or energy below zero, or a number the
     /// job file cannot hold.
-    pub fn settings(&self) -> Result<CutSettings, Failure> {
+    pub(crate) fn settings(&self) -> Result<CutSettings, Failure> {
         let speed_m_s = self
             .speed_mm_s
             .map(|v| stored("--speed-mm-s", v, 1e-3, v > 0.0, "a speed above zero, mm/s"))
@@ -91,7 +91,7 @@ impl CutArgs {
 ///
 /// Errors: an option's value out of range; settings for parts that take none
 /// (G-code), prefixed by `name`.
-pub fn apply(name: &str, bytes: &[u8], cut: &CutArgs) -> Result<Vec<u8>, Failure> {
+pub(crate) fn apply(name: &str, bytes: &[u8], cut: &CutArgs) -> Result<Vec<u8>, Failure> {
     let settings = cut.settings()?;
     if settings != CutSettings::MACHINE {
         let parts = split(bytes).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
@@ -119,7 +119,7 @@ pub fn apply(name: &str, bytes: &[u8], cut: &CutArgs) -> Result<Vec<u8>, Failure
 /// load: the bytes to write or send and what the check found.
 ///
 /// Errors: [`apply`]'s; a part the machine would refuse, in its words.
-pub fn settle(
+pub(crate) fn settle(
     name: &str,
     bytes: &[u8],
     cut: &CutArgs,
@@ -134,7 +134,7 @@ pub fn settle(
 /// Checks the program `bytes` with the options' settings for the laser delta, reports
 /// what the machine would do with it, and writes it to `out` when given; a program the
 /// machine would refuse is refused here and nothing is written.
-pub fn write_program(
+pub(crate) fn write_program(
     name: &str,
     bytes: &[u8],
     cut: &CutArgs,
