@@ -30,6 +30,7 @@
 //! (a0, c0)) at the origin: the firmware places the curve's centre at the job's centre.
 
 use crate::job::Job;
+pub use crate::kerf_offset::segment_distance;
 use crate::kerf_offset::{offset_ring, signed_area2, KerfSide, OffsetError, OFFSET_SAMPLES};
 use crate::trace::{self, Mask, TraceError};
 use image::{DynamicImage, GrayImage};
@@ -733,18 +734,6 @@ fn spline_points(
             _ => return Ok((points, spline)),
         }
     }
-}
-
-/// Distance from `p` to the segment `a`–`b`.
-pub fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let len2 = d[0] * d[0] + d[1] * d[1];
-    let t = if len2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p[0] - a[0] - t * d[0]).hypot(p[1] - a[1] - t * d[1])
 }
 
 /// Largest distance from a point of `a` to the polyline `b` (closed or not): how far

@@ -272,7 +272,10 @@ fn arrows_preview_draws_its_program_inside_its_workspace() {
             .is_ok()
     };
     assert_eq!(preview.workspace_m.len(), OUTLINE_DIRECTIONS);
-    assert_eq!(preview.workspace_m, kerf_host::check::arrow_outline(&config));
+    assert_eq!(
+        preview.workspace_m,
+        kerf_host::check::arrow_outline(&config)
+    );
     for p in &preview.workspace_m {
         let r = p[0].hypot(p[1]);
         let farther = [p[0] * (r + 2e-6) / r, p[1] * (r + 2e-6) / r];
