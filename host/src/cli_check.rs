@@ -58,6 +58,7 @@ pub fn run(args: &CheckArgs, report: &mut Report) -> Result<(), Failure> {
         checked.duration_s,
         checked.cut_length_m * 1e3
     );
+    crate::cli_cut::report_settings(&bytes, report);
     if let Some(svg) = &svg {
         let title = args
             .job

@@ -5,6 +5,7 @@
 use crate::report::{say, Report};
 use crate::Failure;
 use kerf::codec::job::JobFile;
+use kerf::machines::delta_slave::product::{CUT_MOTION, LASER_POWER_W};
 use kerf_host::check::{self, kind_words, Checked, Machine};
 use kerf_host::job::{split, JobKind};
 use kerf_host::job::{with_settings, CutLaser, CutSettings, JobFileError};
@@ -163,4 +164,52 @@ pub(crate) fn write_program(
         }
     }
     Ok(())
+}
+
+/// A part's settings in a machinist's words, the machine's own values where the part
+/// leaves them to it.
+pub(crate) fn settings_words(settings: &CutSettings) -> String {
+    let machine_speed_m_s = CUT_MOTION.speed_m_s;
+    let speed = settings.speed_m_s.map_or(
+        format!("{:.1} mm/s (the machine's)", machine_speed_m_s * 1e3),
+        |v| format!("{:.1} mm/s", f64::from(v) * 1e3),
+    );
+    let laser = match settings.laser {
+        None => format!(
+            "{:.3} J/mm (the machine's)",
+            LASER_POWER_W / machine_speed_m_s * 1e-3
+        ),
+        Some(CutLaser::Off) => "beam off".into(),
+        Some(CutLaser::PowerW(w)) => format!("{w:.2} W (M3)"),
+        Some(CutLaser::EnergyJPerM(e)) => format!("{:.3} J/mm (M4)", f64::from(e) * 1e-3),
+    };
+    match settings.passes {
+        Some(n) if n > 1 => format!("{speed}, {laser}, {n} passes"),
+        _ => format!("{speed}, {laser}"),
+    }
+}
+
+/// The laser parts' settings of the program `bytes`, a line for each run of parts
+/// that share them (nothing for other kinds).
+pub(crate) fn report_settings(bytes: &[u8], report: &mut Report) {
+    let settings: Vec<CutSettings> = split(bytes)
+        .unwrap_or_default()
+        .iter()
+        .filter_map(|p| JobFile::read(p).ok())
+        .filter(|f| LASER_KINDS.contains(&f.kind()))
+        .map(|f| f.settings())
+        .collect();
+    let mut first = 0;
+    for (k, s) in settings.iter().enumerate() {
+        if settings.get(k + 1) == Some(s) {
+            continue;
+        }
+        let parts = match (settings.len(), first == k) {
+            (1, _) => String::new(),
+            (_, true) => format!("part {}: ", k + 1),
+            (_, false) => format!("parts {}-{}: ", first + 1, k + 1),
+        };
+        say!(report, "settings   {parts}{}", settings_words(s));
+        first = k + 1;
+    }
 }

@@ -5,7 +5,6 @@ use crate::cli_cut::CutArgs;
 use crate::report::{say, Report};
 use crate::{prepare, Failure};
 use kerf::machines::delta_slave::DeltaSlaveConfig;
-use kerf_host::job::{CutLaser, CutSettings};
 use kerf_host::laser::{self, Beam};
 use kerf_host::output::io_words;
 use kerf_host::plan::PlanConfig;
@@ -74,25 +73,9 @@ pub fn run(
             start[0],
             start[1],
             p.deviation_mm,
-            settings_words(&p.settings)
+            crate::cli_cut::settings_words(&p.settings)
         );
     }
     let bytes = laser::to_bytes(&parts).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
     crate::cli_cut::write_program(&name, &bytes, cut, out.as_ref(), report)
-}
-
-/// A part's settings in a machinist's words.
-fn settings_words(settings: &CutSettings) -> String {
-    let speed = settings
-        .speed_m_s
-        .map_or("the machine's speed".into(), |v| {
-            format!("{:.1} mm/s", f64::from(v) * 1e3)
-        });
-    let laser = match settings.laser {
-        None => "the machine's laser".into(),
-        Some(CutLaser::Off) => "beam off".into(),
-        Some(CutLaser::PowerW(w)) => format!("{w:.2} W (M3)"),
-        Some(CutLaser::EnergyJPerM(e)) => format!("{:.3} J/mm (M4)", f64::from(e) * 1e-3),
-    };
-    format!("{speed}, {laser}")
 }

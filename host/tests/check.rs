@@ -288,3 +288,57 @@ fn arrows_preview_draws_its_program_inside_its_workspace() {
         .fold(f64::MIN, f64::max);
     assert!((top - config.workspace.z_half_m).abs() < 1e-6, "{top}");
 }
+
+/// `kerf check` says how each part will be cut: the LightBurn-style plate's two layers
+/// each at its own speed and energy per length, the same settings over the command
+/// line for every part, and a part that leaves them to the machine with the
+/// machine's own values.
+#[test]
+fn kerf_check_says_how_each_part_is_cut() {
+    let plate = tmp("check-plate.kjob");
+    let program = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../data/gcode/lightburn-style-plate.gcode"
+    );
+    let out = kerf(&[
+        "gcode",
+        program,
+        "--machine",
+        "keops-slave",
+        "--centre",
+        "--out",
+        plate.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let said = text(&kerf(&["check", plate.to_str().unwrap()]).stdout);
+    assert!(
+        said.contains("settings   part 1: 8.0 mm/s, 1.000 J/mm (M4)"),
+        "{said}"
+    );
+    assert!(
+        said.contains("settings   part 2: 6.0 mm/s, 2.000 J/mm (M4)"),
+        "{said}"
+    );
+    let over = text(
+        &kerf(&[
+            "check",
+            plate.to_str().unwrap(),
+            "--power-w",
+            "3",
+            "--passes",
+            "2",
+        ])
+        .stdout,
+    );
+    assert!(
+        over.contains("settings   part 1: 8.0 mm/s, 3.00 W (M3), 2 passes"),
+        "{over}"
+    );
+    let letter = tmp("check-letter-settings.kjob");
+    std::fs::write(&letter, letter_job(1.0)).unwrap();
+    let said = text(&kerf(&["check", letter.to_str().unwrap()]).stdout);
+    assert!(
+        said.contains("settings   8.0 mm/s (the machine's), 1.250 J/mm (the machine's)"),
+        "{said}"
+    );
+}
