@@ -123,6 +123,22 @@ fn channel(sample: &TelemetrySample, name: &str) -> f32 {
     sample.values[k]
 }
 
+/// The machine time a job ran, s: from the first sample running to the first at rest
+/// after it (to the telemetry's ten periods, 1 ms).
+fn ran_s(samples: &[TelemetrySample]) -> f64 {
+    let first = samples
+        .iter()
+        .find(|s| s.mode == ModeCode::Running)
+        .expect("a sample running")
+        .period;
+    let rest = samples
+        .iter()
+        .find(|s| s.mode == ModeCode::Ready && s.period > first)
+        .expect("a sample after the run")
+        .period;
+    f64::from(rest - first) * 1e-4
+}
+
 fn scenario() -> SlaveScenario {
     let mut s = SlaveScenario::square();
     s.sensors = [hal_mock::hall_sensor::HallSensorParams::LM1247_16BIT; 3];
@@ -348,13 +364,7 @@ fn an_open_path_is_cut_from_its_first_point_to_its_last() {
         // machine ran it: from the first sample running to the first at rest, to the
         // telemetry's ten periods (1 ms).
         let planned = planned_open_path_s(&points);
-        let first_running = running[0].period;
-        let first_ready = samples
-            .iter()
-            .find(|s| s.mode == ModeCode::Ready && s.period > first_running)
-            .expect("a sample after the run")
-            .period;
-        let ran = f64::from(first_ready - first_running) * 1e-4;
+        let ran = ran_s(&samples);
         println!("open path: planned {planned:.4} s, ran {ran:.4} s");
         assert!((ran - planned).abs() <= 1.1e-3, "planned {planned} s, ran {ran} s");
     })
@@ -484,21 +494,11 @@ fn the_parts_of_a_program_follow_each_other_without_rest() {
             );
             assert!(nearest < 10e-9, "part {}: {nearest}", k + 1);
         }
-        let first = samples
-            .iter()
-            .find(|s| s.mode == ModeCode::Running)
-            .unwrap()
-            .period;
         for _ in 0..20 {
             host.period(slave, &[]);
         }
         let samples = host.samples();
-        let rest = samples
-            .iter()
-            .find(|s| s.mode == ModeCode::Ready && s.period > first)
-            .unwrap()
-            .period;
-        let ran = f64::from(rest - first) * 1e-4;
+        let ran = ran_s(&samples);
         println!("three parts: planned {planned:.4} s, ran {ran:.4} s");
         // Each part's periods as planned, to the telemetry's ten periods.
         assert!(
@@ -588,13 +588,7 @@ fn a_parts_cut_settings_are_how_the_machine_cuts_it() {
             let cruise = median(steps.iter().map(|(d, _)| d / 1e-3).collect());
             let length: f64 = steps.iter().map(|(d, _)| d).sum();
             let lap = std::f64::consts::TAU * radius;
-            let first = samples.iter().find(|s| s.mode == ModeCode::Running).unwrap().period;
-            let rest = samples
-                .iter()
-                .find(|s| s.mode == ModeCode::Ready && s.period > first)
-                .unwrap()
-                .period;
-            let ran = f64::from(rest - first) * 1e-4;
+            let ran = ran_s(&samples);
             println!(
                 "{laser:?}, {passes} passes: cruise {:.4} mm/s, cut {:.3} mm with the beam on, planned {planned:.4} s, ran {ran:.4} s",
                 cruise * 1e3,

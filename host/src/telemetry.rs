@@ -138,7 +138,7 @@ impl TelemetryLog {
     }
 
     /// Whether the machine has a laser channel.
-    fn value_of_laser(&self) -> bool {
+    fn has_laser(&self) -> bool {
         self.channels.iter().any(|c| c.name == "laser")
     }
 
@@ -237,7 +237,7 @@ impl TelemetryLog {
     /// The picture of [`TelemetryLog::write_svg`] as SVG text.
     pub fn svg(&self, title: &str) -> Result<String, PlotError> {
         let mut text = String::new();
-        let height = if self.value_of_laser() { 1350 } else { 1100 };
+        let height = if self.has_laser() { 1350 } else { 1100 };
         self.draw(
             SVGBackend::with_string(&mut text, (900, height)).into_drawing_area(),
             title,
@@ -309,7 +309,7 @@ impl TelemetryLog {
             })
             .collect();
         draw_series(&low, span.clone(), "force command, N", &series, marks)?;
-        if self.value_of_laser() {
+        if self.has_laser() {
             // One line per stretch with the beam on: not drawn across the travels.
             let energy = self.energy_per_length();
             let step = energy
