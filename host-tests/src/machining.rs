@@ -13,10 +13,12 @@ use hal_mock::delta_plant::DeltaPlantParams;
 use hal_mock::hall_sensor::HallSensorParams;
 use kerf::app::supervisor::{Machine, Mode};
 use kerf::control::laser::LaserMode;
-use kerf::machines::delta_slave::product::{APPROACH_S, CUT_HEIGHT_M, CUT_MOTION};
+use kerf::machines::delta_slave::product::{
+    APPROACH_S, CUT_HEIGHT_M, CUT_MOTION, JUNCTION_DEVIATION_M,
+};
 use kerf::machines::delta_slave::{
     ContourConfig, ContourCurve, ContourLaw, ContourPlan, DeltaFault, DeltaJob, DeltaJobError,
-    DeltaSlaveConfig, CONTOUR_HARMONICS, OPEN_PATH_POINTS,
+    DeltaSlaveConfig, MovePoint, CONTOUR_HARMONICS, OPEN_PATH_POINTS,
 };
 use kerf::trajectory::curve::Curve;
 use kerf::trajectory::efd::Efd;
@@ -36,6 +38,9 @@ pub enum CaseCurve {
     },
     /// An open path through the points, first to last.
     Open(Vec<[f64; 2]>),
+    /// A program of straight moves through the points, corners sharp, each move at
+    /// its feed (at most the case's speed), with the Keops junction deviation.
+    Moves(Vec<MovePoint>),
 }
 
 /// One contour run: what to cut, how, on which machine.
@@ -172,6 +177,7 @@ pub fn machine(period_s: f64) -> DeltaSlaveConfig {
 enum Planned {
     Closed(Box<Efd<f64, CONTOUR_HARMONICS>>),
     Open(Box<OpenPath<f64, OPEN_PATH_POINTS>>),
+    Moves(Vec<MovePoint>),
 }
 
 impl Planned {
@@ -183,6 +189,7 @@ impl Planned {
             CaseCurve::Open(points) => Self::Open(Box::new(
                 OpenPath::from_points(points).map_err(DeltaJobError::Contour)?,
             )),
+            CaseCurve::Moves(points) => Self::Moves(points.clone()),
         })
     }
 
@@ -195,6 +202,10 @@ impl Planned {
                 laps: 1.0,
             },
             Self::Open(path) => ContourCurve::Open(path),
+            Self::Moves(points) => ContourCurve::Moves {
+                points,
+                junction_deviation_m: JUNCTION_DEVIATION_M,
+            },
         }
     }
 }
@@ -204,6 +215,10 @@ pub fn path_length_m(case: &ContourCase) -> Result<f64, DeltaJobError> {
     Ok(match Planned::of(case)? {
         Planned::Closed(efd) => efd.arc_length(0.0, efd.span(), 1024),
         Planned::Open(path) => path.arc_length(0.0, path.span(), 1024),
+        Planned::Moves(points) => points
+            .windows(2)
+            .map(|w| (w[1].point_m[0] - w[0].point_m[0]).hypot(w[1].point_m[1] - w[0].point_m[1]))
+            .sum(),
     })
 }
 
@@ -241,7 +256,7 @@ pub fn run<T: Float>(case: &ContourCase) -> Result<ContourReport, SlaveError> {
         scenario.sensors = [nominal; 3];
         scenario.stored_nominal_calibration = true;
     }
-    let job_s = 0.3 + path_length_m(case).map_err(SlaveError::Job)? / case.speed_m_s + 1.0;
+    let job_s = job.duration_s() + 1.0;
     let max_power_w = scenario.machine.laser.max_power_w;
     let mut samples = Vec::new();
     let mut fault = None;

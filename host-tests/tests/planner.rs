@@ -99,6 +99,37 @@ fn a_profile_covers_its_length_at_its_speeds() {
                 (integral - length).abs() < 1e-9 * length.max(1.0),
                 "{integral} vs {length}"
             );
+            // Rebuilt from its cruise speed (what a control period does), the same
+            // profile.
+            let again = SpeedProfile::with_cruise(length, entry, exit, p.cruise_m_s, &limits);
+            assert_eq!(again, p);
+            // Its acceleration is the speed's rate of change: a central difference of
+            // the speed 1 µs either side, away from the instants where the jerk (or,
+            // with constant acceleration, the acceleration) steps.
+            let h = 1e-6;
+            let kinks = [
+                0.0,
+                p.up.rise_s,
+                p.up.rise_s + p.up.hold_s,
+                ta,
+                ta + tc,
+                ta + tc + p.down.rise_s,
+                ta + tc + p.down.rise_s + p.down.hold_s,
+                duration,
+            ];
+            for k in 1..200 {
+                let t = duration * k as f64 / 200.0;
+                if kinks.iter().any(|&x| (t - x).abs() < 2.0 * h) {
+                    continue;
+                }
+                let rate = (p.at(t + h).1 - p.at(t - h).1) / (2.0 * h);
+                let a = p.accel_at(t);
+                // The central difference is exact for the quadratic speed of a jerk
+                // phase, up to rounding: 1e-16 m/s over 2 µs.
+                assert!((rate - a).abs() < 1e-7, "t {t}: {rate} against {a}");
+                assert!(a.abs() <= limits.accel_m_s2 + 1e-12);
+            }
+            assert_eq!((p.accel_at(-1e-3), p.accel_at(duration + 1e-3)), (0.0, 0.0));
         }
     }
 }

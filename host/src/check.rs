@@ -41,7 +41,7 @@ use nalgebra::Vector3;
 /// names `keops-slave` and `arrow`).
 #[derive(Copy, Clone, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Machine {
-    /// The Keops slave, the laser delta: contours (EFD and points files).
+    /// The Keops slave, the laser delta: contours (EFD, points and moves files).
     KeopsSlave,
     /// ARROW: G-code programs.
     Arrow,
@@ -142,6 +142,7 @@ pub fn kind_words(kind: JobKind) -> &'static str {
         JobKind::Gcode => "G-code",
         JobKind::Recording => "recording",
         JobKind::Schedule => "schedule",
+        JobKind::Moves => "moves (sharp corners)",
     }
 }
 

@@ -5,14 +5,16 @@
 use crate::report::{say, Report};
 use crate::Failure;
 use kerf::codec::job::JobFile;
-use kerf::machines::delta_slave::product::{CUT_MOTION, LASER_POWER_W};
+use kerf::control::laser::LaserMode;
+use kerf::machines::delta_slave::product::{contour_defaults, JOB_LAPS};
+use kerf::machines::delta_slave::DeltaSlaveConfig;
 use kerf_host::check::{self, kind_words, Checked, Machine};
 use kerf_host::job::{split, JobKind};
 use kerf_host::job::{with_settings, CutLaser, CutSettings, JobFileError};
 use kerf_host::output::OutputFile;
 
 /// The kinds of job that carry cut settings.
-const LASER_KINDS: [JobKind; 2] = [JobKind::Efd, JobKind::Points];
+const LASER_KINDS: [JobKind; 3] = [JobKind::Efd, JobKind::Points, JobKind::Moves];
 
 /// How the parts are cut, over the job file's own settings (each option replaces the
 /// file's for every part; without it the file's stay, and without those the
@@ -102,7 +104,7 @@ pub(crate) fn apply(name: &str, bytes: &[u8], cut: &CutArgs) -> Result<Vec<u8>, 
         if let Some(kind) = kinds.into_iter().find(|k| !LASER_KINDS.contains(k)) {
             return Err(Failure::Input(format!(
                 "{name}: a {} job takes no cut settings: --speed-mm-s, --power-w, --energy-j-per-mm, \
-                 --beam-off and --passes are for laser parts (EFD and points jobs)",
+                 --beam-off and --passes are for laser parts (EFD, points and moves jobs)",
                 kind_words(kind)
             )));
         }
@@ -169,19 +171,27 @@ pub(crate) fn write_program(
 /// A part's settings in a machinist's words, the machine's own values where the part
 /// leaves them to it.
 pub(crate) fn settings_words(settings: &CutSettings) -> String {
-    let machine_speed_m_s = CUT_MOTION.speed_m_s;
+    // What the Keops slave's loader cuts a part at where the part leaves it.
+    let machine = contour_defaults(&DeltaSlaveConfig::KEOPS, JOB_LAPS);
+    let machine_speed_m_s = machine.speed_m_s;
     let speed = settings.speed_m_s.map_or(
         format!("{:.1} mm/s (the machine's)", machine_speed_m_s * 1e3),
         |v| format!("{:.1} mm/s", f64::from(v) * 1e3),
     );
-    let laser = match settings.laser {
-        None => format!(
-            "{:.3} J/mm (the machine's)",
-            LASER_POWER_W / machine_speed_m_s * 1e-3
-        ),
-        Some(CutLaser::Off) => "beam off".into(),
-        Some(CutLaser::PowerW(w)) => format!("{w:.2} W (M3)"),
-        Some(CutLaser::EnergyJPerM(e)) => format!("{:.3} J/mm (M4)", f64::from(e) * 1e-3),
+    let laser = match (settings.laser, machine.laser()) {
+        (
+            None,
+            LaserMode::ConstantEnergy {
+                energy_per_length_j_per_m: e,
+            },
+        ) => {
+            format!("{:.3} J/mm (the machine's)", e * 1e-3)
+        }
+        (None, LaserMode::ConstantPower { power_w }) => format!("{power_w:.2} W (the machine's)"),
+        (None, LaserMode::Off) => "beam off (the machine's)".into(),
+        (Some(CutLaser::Off), _) => "beam off".into(),
+        (Some(CutLaser::PowerW(w)), _) => format!("{w:.2} W (M3)"),
+        (Some(CutLaser::EnergyJPerM(e)), _) => format!("{:.3} J/mm (M4)", f64::from(e) * 1e-3),
     };
     match settings.passes {
         Some(n) if n > 1 => format!("{speed}, {laser}, {n} passes"),

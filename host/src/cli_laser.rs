@@ -5,7 +5,7 @@ use crate::cli_cut::CutArgs;
 use crate::report::{say, Report};
 use crate::{prepare, Failure};
 use kerf::machines::delta_slave::DeltaSlaveConfig;
-use kerf_host::laser::{self, Beam};
+use kerf_host::laser::{self, Beam, Corners};
 use kerf_host::output::io_words;
 use kerf_host::plan::PlanConfig;
 use std::io::Write;
@@ -19,6 +19,7 @@ pub fn run(
     out: Option<&Path>,
     centre: bool,
     s_max: f64,
+    corners: Corners,
     cut: &CutArgs,
     report: &mut Report,
 ) -> Result<(), Failure> {
@@ -49,11 +50,18 @@ pub fn run(
         // Standard error may be closed: the report still follows.
         let _ = writeln!(std::io::stderr(), "{line}");
     }
-    let parts = laser::parts(&program, &PlanConfig::default(), centre, &beam)
+    let parts = laser::parts(&program, &PlanConfig::default(), centre, &beam, corners)
         .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
     say!(report, "{name}: {} parts for keops-slave", parts.len());
     for note in &program.notes {
         say!(report, "note       {note}");
+    }
+    let feed_changes = |r: &laser::LaserRun| r.feeds_m_s.iter().skip(1).any(|&f| f != r.feed_m_s);
+    if corners == Corners::Fit && program.runs.iter().any(feed_changes) {
+        say!(
+            report,
+            "note       F changes within a part: a fitted part is cut at its first move's feed"
+        );
     }
     if program.runs.iter().any(|r| r.s > s_max) {
         say!(
@@ -63,16 +71,29 @@ pub fn run(
     }
     for (k, p) in parts.iter().enumerate() {
         let start = p.run.path_mm.first().copied().unwrap_or([0.0; 2]);
+        let shape = match (&p.fit, p.run.closed) {
+            (None, _) => format!(
+                "{} moves, sharp corners",
+                p.run.path_mm.len().saturating_sub(1)
+            ),
+            (Some(_), closed) => format!(
+                "{}, the fit within {:.3} mm of the program",
+                if closed {
+                    "closed (EFD)"
+                } else {
+                    "open (spline)"
+                },
+                p.deviation_mm
+            ),
+        };
         say!(
             report,
-            "part {:>3}   lines {}-{}, {}, starts at ({:.2}, {:.2}) mm, the fit within {:.3} mm of the program; {}",
+            "part {:>3}   lines {}-{}, {shape}, starts at ({:.2}, {:.2}) mm; {}",
             k + 1,
             p.run.lines[0],
             p.run.lines[1],
-            if p.run.closed { "closed (EFD)" } else { "open (spline)" },
             start[0],
             start[1],
-            p.deviation_mm,
             crate::cli_cut::settings_words(&p.settings)
         );
     }

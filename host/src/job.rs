@@ -14,14 +14,18 @@
 //!   `kerf::machines::delta_slave::remote::recording::Recording::parse`.
 //! - Schedule: steps of (setpoint, duration s), the setpoint in the machine's own unit
 //!   (the autofocus stage's zoom schedule, `kerf::machines::autofocus::product`).
+//! - Moves: m points (x, y, feed m/s) of straight moves with sharp corners, the feed
+//!   that of the move ending at the point, for the laser delta's look-ahead planner;
+//!   m ≤ 32 (`MOVE_POINTS`).
 //!
-//! A contour part (EFD, path) may carry its cut settings (speed, laser, passes:
+//! A contour part (EFD, path, moves) may carry its cut settings (speed, laser, passes:
 //! [`CutSettings`]) between the header and the body; [`Job`] holds the geometry, and
 //! [`with_settings`] gives a file's parts their settings.
 
 use kerf::codec::cut_settings::CUT_SETTINGS_BYTES;
 use kerf::codec::job::{
-    file_len, write_efd, write_gcode, write_points, write_recording, write_schedule, JobFile,
+    file_len, write_efd, write_gcode, write_moves, write_points, write_recording, write_schedule,
+    JobFile,
 };
 pub use kerf::codec::job::{CutLaser, CutSettings, JobFileError, HEADER_BYTES, JOB_FORMAT_VERSION};
 pub use kerf::codec::link::JobKind;
@@ -56,6 +60,11 @@ pub enum Job {
         /// (setpoint, duration s) per step.
         steps: Vec<[f32; 2]>,
     },
+    /// Straight moves with sharp corners.
+    Moves {
+        /// (x, y, feed of the move ending there) per point, m and m/s.
+        points: Vec<[f32; 3]>,
+    },
 }
 
 impl Job {
@@ -67,6 +76,7 @@ impl Job {
             Job::Gcode { .. } => JobKind::Gcode,
             Job::Recording { .. } => JobKind::Recording,
             Job::Schedule { .. } => JobKind::Schedule,
+            Job::Moves { .. } => JobKind::Moves,
         }
     }
 
@@ -79,6 +89,7 @@ impl Job {
             Job::Gcode { text } => text.len(),
             Job::Recording { bytes } => bytes.len(),
             Job::Schedule { steps } => 8 * steps.len(),
+            Job::Moves { points } => 12 * points.len(),
         };
         let mut out = vec![0u8; HEADER_BYTES + body + 4];
         let n = match self {
@@ -98,6 +109,10 @@ impl Job {
             Job::Schedule { steps } => {
                 let wide: Vec<[f64; 2]> = steps.iter().map(|p| p.map(f64::from)).collect();
                 write_schedule(&wide, &mut out)?
+            }
+            Job::Moves { points } => {
+                let wide: Vec<[f64; 3]> = points.iter().map(|p| p.map(f64::from)).collect();
+                write_moves(&wide, &mut out)?
             }
         };
         out.truncate(n);
@@ -124,6 +139,9 @@ impl Job {
             },
             JobFile::Schedule { .. } => Job::Schedule {
                 steps: (0..n).filter_map(|k| file.step(k)).collect(),
+            },
+            JobFile::Moves { .. } => Job::Moves {
+                points: (0..n).filter_map(|k| file.move_point(k)).collect(),
             },
         })
     }
@@ -156,7 +174,7 @@ pub fn split(bytes: &[u8]) -> Result<Vec<&[u8]>, JobFileError> {
 /// unchanged (not read) where `settings` gives none.
 ///
 /// Errors: a part that does not read; settings given for a part of another kind than
-/// EFD and points ([`JobFileError::Settings`]: G-code carries its own), or that the
+/// EFD, points and moves ([`JobFileError::Settings`]: G-code carries its own), or that the
 /// file cannot say (a zero speed, zero passes).
 pub fn with_settings(bytes: &[u8], settings: &CutSettings) -> Result<Vec<u8>, JobFileError> {
     if *settings == CutSettings::MACHINE {

@@ -3,30 +3,36 @@
 //! by line, no buffer limit) and cut as the parts of one job ([`crate::parts`]'s
 //! format: the parts' job files back to back).
 //!
-//! A part is a run of feed moves (`G1`, arcs as their chords) with the beam on: `M3` or
+//! A run is a run of feed moves (`G1`, arcs as their chords) with the beam on: `M3` or
 //! `M4` with `S` above zero. It starts where the beam comes on and ends where it goes
 //! off (`M5`, `S0`), at a rapid move (`G0`: a travel, beam off), or at the end. A run
-//! that ends where it began (within 1 µm) is a closed contour and becomes an EFD of
-//! [`PlanConfig`]'s harmonics; any other run an open path (the firmware's spline
-//! through at most 32 of its points, chosen along the path sampled every
-//! [`SAMPLE_MM`]). Each part's fitted curve is measured against the program's path
-//! (both ways, brute force): the slave follows smooth curves, and a program's sharp
-//! corners come out rounded by that much.
+//! that ends where it began (within 1 µm) is closed.
 //!
-//! Each part carries its cut settings from the program ([`Beam`]): the speed is the
-//! feed `F` of its first move, and the laser `S` of `S_max` of the source's power,
-//! held constant under `M3` and as energy per length under `M4` (grbl's laser mode:
-//! the power scaled with the speed, `S` at the programmed feed), so `P/F`.
+//! How a run becomes parts ([`Corners`]): by default as the program draws it, straight
+//! moves with sharp corners, each at its own feed, planned by the slave's look-ahead
+//! planner (a moves job of at most 32 points; a longer run is cut as several parts
+//! back to back, each ending at rest where the next begins). Or fitted with a smooth
+//! curve: a closed run an EFD of [`PlanConfig`]'s harmonics, an open one the
+//! firmware's spline through at most 32 of its points, chosen along the path sampled
+//! every [`SAMPLE_MM`]; each fit is measured against the program's path (both ways,
+//! brute force), since the program's sharp corners come out rounded by that much.
+//!
+//! Each part carries its cut settings from the program ([`Beam`]): the speed (for
+//! moves the fastest move's feed, which caps the others; for a fit the feed `F` of its
+//! first move), and the laser `S` of `S_max` of the source's power, held constant
+//! under `M3` and as energy per length under `M4` (grbl's laser mode: the power scaled
+//! with the speed, `S` at the programmed feed), so `P/F`.
 //!
 //! What the slave does not take from the program is said once each: Z (it cuts in its
-//! own plane), a feed or power that changes within a part (the slave cuts a part at
-//! one speed and one setting: its first move's); `kerf gcode` says where `S` passes
-//! `S_max` (full power).
+//! own plane), a power that changes within a part (the slave cuts a part at one laser
+//! setting: its first move's; a fitted part at its first move's feed too); `kerf
+//! gcode` says where `S` passes `S_max` (full power).
 //! `centre` moves the program so that the box around its cuts is centred on the
 //! workspace's centre (a laser bed's origin is its corner, the slave's its centre).
 
 use crate::job::{with_settings, CutLaser, CutSettings, Job, JobFileError};
 use crate::plan::{self, efd_job, path_job, Fit, PlanConfig, PlanError};
+use kerf::machines::delta_slave::MOVE_POINTS;
 use kerf::trajectory::gcode::{Diagnostic, GcodePoint, MoveKind, Parser, Severity, Spindle};
 
 /// Spacing of the points an open path is sampled at before its spline points are
@@ -40,6 +46,9 @@ pub struct LaserRun {
     pub lines: [u32; 2],
     /// The programmed path, mm (the workspace's x and y).
     pub path_mm: Vec<[f64; 2]>,
+    /// The feed of the move ending at each point of the path, m/s (the first point's
+    /// 0); a closed run has one more, the feed of the move back to its start.
+    pub feeds_m_s: Vec<f64>,
     /// Whether it ends where it began.
     pub closed: bool,
     /// Its first move's feed, m/s.
@@ -60,8 +69,9 @@ pub struct Beam {
 }
 
 impl Beam {
-    /// The cut settings of `run`: its feed, and `S` as power (`M3`) or as the energy
-    /// per length that power gives at the feed (`M4`); `S` past `s_max` is full power.
+    /// The cut settings of `run`: its first move's feed, and `S` as power (`M3`) or as
+    /// the energy per length that power gives at the feed (`M4`); `S` past `s_max` is
+    /// full power.
     pub fn settings(&self, run: &LaserRun) -> CutSettings {
         let power_w = (run.s / self.s_max).clamp(0.0, 1.0) * self.max_power_w;
         // The reader refuses a feed move before any `F`: a feed is above zero here,
@@ -90,16 +100,26 @@ pub struct LaserProgram {
     pub notes: Vec<&'static str>,
 }
 
-/// A run fitted as a part of the job.
+/// How a run's corners are cut (module docs).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Corners {
+    /// As programmed: straight moves, sharp corners, each move at its feed.
+    Sharp,
+    /// Fitted with a smooth curve (an EFD or a spline), at one speed.
+    Fit,
+}
+
+/// A run (or, as moves, a piece of one) as a part of the job.
 #[derive(Clone, Debug)]
 pub struct LaserPart {
-    /// The run.
+    /// The run (its path the piece's).
     pub run: LaserRun,
-    /// The curve the part carries.
-    pub fit: Fit,
+    /// The curve the part carries where it is fitted; `None` for moves.
+    pub fit: Option<Fit>,
     /// The part's job file.
     pub job: Job,
-    /// Largest distance between the fitted curve and the programmed path, mm.
+    /// Largest distance between the fitted curve and the programmed path, mm (0 for
+    /// moves: they are the path).
     pub deviation_mm: f64,
     /// How it is cut, from the program.
     pub settings: CutSettings,
@@ -126,6 +146,7 @@ pub fn read(text: &[u8]) -> LaserProgram {
             run.closed =
                 run.path_mm.len() >= 4 && (first[0] - last[0]).hypot(first[1] - last[1]) < 1e-3;
             if run.closed {
+                // The move back keeps its feed (`feeds_m_s` has one more).
                 run.path_mm.pop();
             }
             runs.push(run);
@@ -151,24 +172,27 @@ pub fn read(text: &[u8]) -> LaserProgram {
                 p.kind == MoveKind::Feed && p.spindle != Spindle::Off && p.spindle_s > 0.0;
             if beam_on {
                 let dynamic = p.spindle == Spindle::CounterClockwise;
-                let run = current.get_or_insert_with(|| LaserRun {
-                    lines: [p.line, p.line],
-                    path_mm: at
+                let run = current.get_or_insert_with(|| {
+                    let path_mm: Vec<[f64; 2]> = at
                         .map(|a| vec![[a[0] * 1e3, a[1] * 1e3]])
-                        .unwrap_or_default(),
-                    closed: false,
-                    feed_m_s: p.feed_m_s,
-                    s: p.spindle_s,
-                    dynamic,
+                        .unwrap_or_default();
+                    LaserRun {
+                        lines: [p.line, p.line],
+                        feeds_m_s: vec![0.0; path_mm.len()],
+                        path_mm,
+                        closed: false,
+                        feed_m_s: p.feed_m_s,
+                        s: p.spindle_s,
+                        dynamic,
+                    }
                 });
-                if (run.feed_m_s, run.s, run.dynamic) != (p.feed_m_s, p.spindle_s, dynamic) {
-                    note(
-                        "F, S or M3/M4 changes within a part: each part is cut at its first move's",
-                    );
+                if (run.s, run.dynamic) != (p.spindle_s, dynamic) {
+                    note("S or M3/M4 changes within a part: each part is cut at its first move's power");
                 }
                 run.lines[1] = p.line;
                 if run.path_mm.last() != Some(&mm) {
                     run.path_mm.push(mm);
+                    run.feeds_m_s.push(p.feed_m_s);
                 }
             } else {
                 finish(current.take(), &mut runs);
@@ -192,8 +216,8 @@ pub fn has_errors(program: &LaserProgram) -> bool {
         .any(|d| d.severity() == Severity::Error)
 }
 
-/// The program's runs fitted as parts (module docs), moved to the workspace's centre
-/// when `centre` is set.
+/// The program's runs as parts, their corners as `corners` says (module docs), moved
+/// to the workspace's centre when `centre` is set.
 ///
 /// Errors: no run with the beam on; a run the firmware's curve code refuses.
 pub fn parts(
@@ -201,6 +225,7 @@ pub fn parts(
     config: &PlanConfig,
     centre: bool,
     beam: &Beam,
+    corners: Corners,
 ) -> Result<Vec<LaserPart>, PlanError> {
     if program.runs.is_empty() {
         return Err(PlanError::NoCut);
@@ -212,15 +237,23 @@ pub fn parts(
     } else {
         [0.0; 2]
     };
+    let shifted = |run: &LaserRun| LaserRun {
+        path_mm: run
+            .path_mm
+            .iter()
+            .map(|p| [p[0] - shift[0], p[1] - shift[1]])
+            .collect(),
+        ..run.clone()
+    };
+    if corners == Corners::Sharp {
+        let pieces = program.runs.iter().map(shifted).flat_map(|r| pieces(&r));
+        return Ok(pieces.map(|run| moves_part(run, beam)).collect());
+    }
     program
         .runs
         .iter()
         .map(|run| {
-            let path: Vec<[f64; 2]> = run
-                .path_mm
-                .iter()
-                .map(|p| [p[0] - shift[0], p[1] - shift[1]])
-                .collect();
+            let path = shifted(run).path_mm;
             let (fit, job) = if run.closed {
                 efd_job(&path, config.harmonics)?
             } else {
@@ -234,13 +267,63 @@ pub fn parts(
                     path_mm: path,
                     ..run.clone()
                 },
-                fit,
+                fit: Some(fit),
                 job,
                 deviation_mm,
                 settings: beam.settings(run),
             })
         })
         .collect()
+}
+
+/// `run` as open pieces of at most [`MOVE_POINTS`] points each, the next beginning
+/// where one ends (a closed run's move back to its start included).
+fn pieces(run: &LaserRun) -> Vec<LaserRun> {
+    let mut path = run.path_mm.clone();
+    if run.closed {
+        path.push(path[0]);
+    }
+    let feeds = &run.feeds_m_s;
+    let mut out = Vec::new();
+    let mut start = 0;
+    while start + 1 < path.len() {
+        let end = (start + MOVE_POINTS).min(path.len());
+        let mut feeds_m_s = feeds.get(start..end).unwrap_or_default().to_vec();
+        if let Some(first) = feeds_m_s.first_mut() {
+            *first = 0.0;
+        }
+        out.push(LaserRun {
+            path_mm: path[start..end].to_vec(),
+            feeds_m_s,
+            closed: run.closed && start == 0 && end == path.len(),
+            ..run.clone()
+        });
+        start = end - 1;
+    }
+    out
+}
+
+/// A piece of a run as a moves part: its settings the program's, at the speed of its
+/// fastest move.
+fn moves_part(run: LaserRun, beam: &Beam) -> LaserPart {
+    let points = run
+        .path_mm
+        .iter()
+        .zip(&run.feeds_m_s)
+        .map(|(p, &feed)| [(p[0] * 1e-3) as f32, (p[1] * 1e-3) as f32, feed as f32])
+        .collect();
+    let fastest = run.feeds_m_s.iter().copied().fold(0.0, f64::max);
+    let settings = CutSettings {
+        speed_m_s: (fastest > 0.0).then_some(fastest as f32),
+        ..beam.settings(&run)
+    };
+    LaserPart {
+        run,
+        fit: None,
+        job: Job::Moves { points },
+        deviation_mm: 0.0,
+        settings,
+    }
 }
 
 /// The job file of `parts`: their files back to back, each with its settings.

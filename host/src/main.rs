@@ -246,6 +246,11 @@ struct GcodeArgs {
     /// For the Keops slave: the S value of full power (grbl's $30).
     #[arg(long, value_name = "S", default_value_t = 1000.0)]
     s_max: f64,
+    /// For the Keops slave: cut the program's corners sharp, as straight moves each at
+    /// its feed (planned by the machine's look-ahead planner), or fit each run with a
+    /// smooth curve (an EFD or a spline) cut at one speed.
+    #[arg(long, value_enum, default_value = "sharp")]
+    corners: kerf_host::laser::Corners,
     #[command(flatten)]
     cut: cli_cut::CutArgs,
 }
@@ -263,8 +268,9 @@ fn main() -> ExitCode {
             machine: kerf_host::check::Machine::KeopsSlave,
             centre,
             s_max,
+            corners,
             cut,
-        }) => cli_laser::run(&file, out.as_deref(), centre, s_max, &cut, r),
+        }) => cli_laser::run(&file, out.as_deref(), centre, s_max, corners, &cut, r),
         Command::Gcode(args) => run_gcode(&args, r),
         Command::Check(args) => cli_check::run(&args, r),
         Command::Run(args) => cli_machine::run(&args, r),

@@ -114,7 +114,7 @@ fn the_machine_is_the_one_that_takes_the_kind_or_the_one_named() {
     assert!(arrow.duration_s > 0.0 && arrow.cut_length_m > 0.0);
     match check(&gcode, Some(Machine::KeopsSlave)) {
         Err(e @ CheckError::Kind { .. }) => {
-            assert_eq!(e.to_string(), "keops-slave does not take G-code jobs (it takes EFD (closed contour), points (open path))")
+            assert_eq!(e.to_string(), "keops-slave does not take G-code jobs (it takes EFD (closed contour), points (open path), moves (sharp corners))")
         }
         other => panic!("{other:?}"),
     }
@@ -141,6 +141,7 @@ fn the_machine_is_the_one_that_takes_the_kind_or_the_one_named() {
         Some(Machine::KeopsSlave)
     );
     assert_eq!(Machine::for_kind(JobKind::Gcode), Some(Machine::Arrow));
+    assert_eq!(Machine::for_kind(JobKind::Moves), Some(Machine::KeopsSlave));
     assert_eq!(Machine::for_kind(JobKind::Recording), None);
     let kinds = [
         JobKind::Efd,
@@ -148,6 +149,7 @@ fn the_machine_is_the_one_that_takes_the_kind_or_the_one_named() {
         JobKind::Gcode,
         JobKind::Recording,
         JobKind::Schedule,
+        JobKind::Moves,
     ];
     let words: std::collections::BTreeSet<&str> = kinds.iter().map(|&k| kind_words(k)).collect();
     assert_eq!(words.len(), kinds.len());

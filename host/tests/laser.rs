@@ -1,8 +1,9 @@
 //! Laser programs for the Keops slave (`kerf_host::laser`, `kerf gcode --machine
 //! keops-slave`): the runs with the beam on found where M3/M4, S, M5 and G0 put them;
-//! a closed run an EFD part, an open one a spline part, each within a stated distance
-//! of the programmed path; the laser rig's square from a public repository cut as the
-//! slave checks it.
+//! as moves (the default) each run its programmed points and feeds, a long run in
+//! pieces that meet; fitted, a closed run an EFD part, an open one a spline part, each
+//! within a stated distance of the programmed path; the laser rig's square from a
+//! public repository cut as the slave checks it.
 
 mod common;
 
@@ -10,7 +11,7 @@ use common::kerf;
 use kerf::codec::job::JobFile;
 use kerf_host::check::check;
 use kerf_host::job::{split, CutLaser, CutSettings};
-use kerf_host::laser::{self, Beam, LaserProgram};
+use kerf_host::laser::{self, Beam, Corners, LaserProgram};
 use kerf_host::plan::PlanConfig;
 
 /// A square, a two-segment open path, a move with the beam off (M5), one with S0, and
@@ -44,7 +45,7 @@ fn the_runs_with_the_beam_on_are_the_parts() {
     }
     // F and S stay the same along each run: nothing to say.
     assert!(program.notes.is_empty(), "{:?}", program.notes);
-    let parts = laser::parts(&program, &PlanConfig::default(), false, &BEAM).unwrap();
+    let parts = laser::parts(&program, &PlanConfig::default(), false, &BEAM, Corners::Fit).unwrap();
     // F600 is 10 mm/s; M3 S500 of 1000 half the 20 W source, S200 a fifth.
     let square = CutSettings {
         speed_m_s: Some(0.01),
@@ -81,29 +82,94 @@ const BEAM: Beam = Beam {
 };
 
 /// `M4` is grbl's dynamic power: the energy per length that S gives at the feed, so
-/// the depth holds where the slave slows; `S` past `S_max` is full power; a feed or
-/// power that changes within a part is said (the part is cut at its first move's).
+/// the depth holds where the slave slows; `S` past `S_max` is full power; a power that
+/// changes within a part is said (the part is cut at its first move's). As moves, each
+/// move keeps its feed and the part's speed is its fastest; fitted, the part is cut at
+/// its first move's feed.
 #[test]
 fn m4_is_energy_per_length_and_a_change_within_a_part_is_said() {
     // F300 = 5 mm/s; S250 of 1000 = 5 W at 5 mm/s: 1,000 J/m.
-    let program = laser::read(b"G21 M4 S250\nG1 X1 F300\nG1 X1 Y1\nG1 X0 Y1 F600\nM5\nG0 X5\nM3 S2000\nG1 X6 F300\nG1 X7 Y1\n");
+    let program = laser::read(b"G21 M4 S250\nG1 X1 F300\nG1 X1 Y1\nG1 X0 Y1 F600 S300\nM5\nG0 X5\nM3 S2000\nG1 X6 F300\nG1 X7 Y1\n");
     assert!(!laser::has_errors(&program), "{:?}", program.diagnostics);
     assert_eq!(program.notes.len(), 1, "{:?}", program.notes);
     assert!(program.notes[0].contains("within a part"));
-    let parts = laser::parts(&program, &PlanConfig::default(), false, &BEAM).unwrap();
+    let parts = laser::parts(&program, &PlanConfig::default(), false, &BEAM, Corners::Fit).unwrap();
     assert_eq!(parts[0].settings.speed_m_s, Some(0.005));
     let Some(CutLaser::EnergyJPerM(e)) = parts[0].settings.laser else {
         panic!("{:?}", parts[0].settings)
     };
     assert!((e - 1000.0).abs() < 1e-3, "{e}");
     assert_eq!(parts[1].settings.laser, Some(CutLaser::PowerW(20.0)));
+    let moves = laser::parts(
+        &program,
+        &PlanConfig::default(),
+        false,
+        &BEAM,
+        Corners::Sharp,
+    )
+    .unwrap();
+    assert_eq!(moves[0].settings.speed_m_s, Some(0.01));
+    assert_eq!(moves[0].settings.laser, parts[0].settings.laser);
+    let bytes = laser::to_bytes(&moves).unwrap();
+    let files = split(&bytes).unwrap();
+    let file = JobFile::read(files[0]).unwrap();
+    // The run begins at its first move's end: no move put the tool anywhere before.
+    let points: Vec<[f32; 3]> = (0..file.count())
+        .filter_map(|k| file.move_point(k))
+        .collect();
+    assert_eq!(
+        points,
+        [[1e-3, 0.0, 0.0], [1e-3, 1e-3, 5e-3], [0.0, 1e-3, 1e-2]]
+    );
+}
+
+/// A run longer than a moves job holds is cut in pieces of at most 32 points, each
+/// beginning where the one before ends; a closed run's last piece ends at its start,
+/// and only a run in one piece is closed.
+#[test]
+fn a_long_run_is_cut_in_pieces_that_meet() {
+    use kerf::machines::delta_slave::MOVE_POINTS;
+    let mut text = String::from("G21 M3 S100 G0 X0 Y0\nG1 X10 Y0 F600\n");
+    // A circle of radius 10 about the origin from (10, 0), 72 chords.
+    text.push_str("G2 X10 Y0 I-10 J0\n");
+    let program = laser::read(text.as_bytes());
+    assert!(!laser::has_errors(&program), "{:?}", program.diagnostics);
+    let run = &program.runs[0];
+    let parts = laser::parts(
+        &program,
+        &PlanConfig::default(),
+        false,
+        &BEAM,
+        Corners::Sharp,
+    )
+    .unwrap();
+    let pieces: Vec<&Vec<[f64; 2]>> = parts.iter().map(|p| &p.run.path_mm).collect();
+    assert!(pieces.len() >= 2, "{}", pieces.len());
+    assert!(pieces.iter().all(|p| p.len() <= MOVE_POINTS));
+    for w in pieces.windows(2) {
+        assert_eq!(w[0].last(), w[1].first());
+    }
+    assert_eq!(pieces[0].first(), Some(&[0.0, 0.0]));
+    // Every programmed point once (the meeting points twice), the run's end last.
+    let total: usize = pieces.iter().map(|p| p.len()).sum();
+    let end = if run.closed {
+        run.path_mm[0]
+    } else {
+        *run.path_mm.last().unwrap()
+    };
+    assert_eq!(pieces.last().unwrap().last(), Some(&end));
+    assert_eq!(
+        total - (pieces.len() - 1),
+        run.path_mm.len() + usize::from(run.closed)
+    );
+    assert!(parts.iter().all(|p| !p.run.closed));
 }
 
 #[test]
 fn a_program_that_cuts_nothing_or_does_not_read_says_so() {
     let idle = laser::read(b"G21\nG0 X1 Y1\nM3 S0\nG1 X2 F100\n");
     assert!(idle.runs.is_empty());
-    let e = laser::parts(&idle, &PlanConfig::default(), false, &BEAM).unwrap_err();
+    let e = laser::parts(&idle, &PlanConfig::default(), false, &BEAM, Corners::Sharp).unwrap_err();
     assert!(e.to_string().contains("cuts nothing"), "{e}");
     let broken = laser::read(b"G1 X1 F100 #1\n");
     assert!(laser::has_errors(&broken));
@@ -113,9 +179,11 @@ fn a_program_that_cuts_nothing_or_does_not_read_says_so() {
 
 /// The laser rig's 4 mm square (fraktalcyber/lfi-rig, MIT; data/gcode/SOURCES.md) on
 /// the Keops slave: one closed part, centred, at the program's M4 S100 (a tenth of
-/// full power at F6000, 100 mm/s: 20 J/m). The slave cannot turn its corners at
-/// 100 mm/s: refused in its words and nothing written; at 8 mm/s given on the
-/// command line it takes the part, which keeps the program's energy per length.
+/// full power at F6000, 100 mm/s: 20 J/m). Fitted with a curve, the slave cannot turn
+/// its rounded corners at 100 mm/s: refused in its words and nothing written; at
+/// 8 mm/s given on the command line it takes the part, which keeps the program's
+/// energy per length. As moves (the default) it takes the program as it is: the
+/// planner slows for each corner.
 #[test]
 fn the_laser_rigs_square_is_a_part_the_slave_takes() {
     let path = concat!(
@@ -131,14 +199,25 @@ fn the_laser_rigs_square_is_a_part_the_slave_takes() {
         args.extend_from_slice(extra);
         kerf(&args)
     };
-    let fast = gcode(&["--centre"]);
+    let sharp = gcode(&["--centre"]);
+    let said = String::from_utf8_lossy(&sharp.stdout);
+    assert_eq!(sharp.status.code(), Some(0), "{said}");
+    assert!(
+        said.contains("4 moves, sharp corners, starts at (-2.00, -2.00) mm; 100.0 mm/s"),
+        "{said}"
+    );
+    let moves = std::fs::read(&job).unwrap();
+    let cut_mm = check(&moves, None).unwrap().cut_length_m * 1e3;
+    assert!((cut_mm - 16.0).abs() < 0.01, "{cut_mm}");
+    std::fs::remove_file(&job).unwrap();
+    let fast = gcode(&["--centre", "--corners", "fit"]);
     assert_eq!(fast.status.code(), Some(1));
     let said = String::from_utf8_lossy(&fast.stdout);
     assert!(said.contains("100.0 mm/s, 0.020 J/mm (M4)"), "{said}");
     let e = String::from_utf8_lossy(&fast.stderr);
     assert!(e.contains("would refuse this job: job code 0x0008"), "{e}");
     assert!(!job.exists());
-    let out = gcode(&["--centre", "--speed-mm-s", "8"]);
+    let out = gcode(&["--centre", "--speed-mm-s", "8", "--corners", "fit"]);
     assert_eq!(
         out.status.code(),
         Some(0),
@@ -148,7 +227,9 @@ fn the_laser_rigs_square_is_a_part_the_slave_takes() {
     let said = String::from_utf8_lossy(&out.stdout);
     assert!(
         said.contains("1 parts for keops-slave")
-            && said.contains("closed (EFD), starts at (-2.00, -2.00) mm")
+            && said.contains(
+                "closed (EFD), the fit within 0.038 mm of the program, starts at (-2.00, -2.00) mm"
+            )
             && said.contains("check      keops-slave takes it"),
         "{said}"
     );
@@ -167,7 +248,7 @@ fn the_laser_rigs_square_is_a_part_the_slave_takes() {
     );
     // Not centred, the square lies 55 mm out, beyond the workspace: refused in words,
     // the file left as it was.
-    let far = gcode(&["--speed-mm-s", "8"]);
+    let far = gcode(&["--speed-mm-s", "8", "--corners", "fit"]);
     assert_eq!(far.status.code(), Some(1));
     let e = String::from_utf8_lossy(&far.stderr);
     assert!(e.contains("leaves the workspace"), "{e}");
@@ -185,7 +266,14 @@ fn each_layer_of_a_lightburn_style_program_keeps_its_settings() {
     );
     let program = laser::read(&std::fs::read(path).unwrap());
     assert!(!laser::has_errors(&program), "{:?}", program.diagnostics);
-    let parts = laser::parts(&program, &PlanConfig::default(), true, &BEAM).unwrap();
+    let parts = laser::parts(
+        &program,
+        &PlanConfig::default(),
+        true,
+        &BEAM,
+        Corners::Sharp,
+    )
+    .unwrap();
     assert_eq!(parts.len(), 2);
     // S400 of 1000 is 8 W, at F480 (8 mm/s) 1 J/mm; S600 is 12 W, at F360 2 J/mm.
     let expect = [(8e-3f32, 1000.0f32), (6e-3, 2000.0)];

@@ -115,6 +115,7 @@ fn host_link() {
         jerk_m_s3: opaque(10.0),
         approach_s: opaque(0.3),
         laps: opaque(1.0),
+        junction_deviation_m: opaque(10e-6),
         law: ContourLaw::Contouring,
         laser_power_w: opaque(10.0),
     };

@@ -5,8 +5,8 @@
 use crate::input::same_bits;
 use crate::targets::link::octagon_job;
 use kerf::codec::job::{
-    with_settings, write_efd, write_gcode, write_points, write_recording, write_schedule, CutLaser,
-    CutSettings, JobFile, HEADER_BYTES,
+    with_settings, write_efd, write_gcode, write_moves, write_points, write_recording,
+    write_schedule, CutLaser, CutSettings, JobFile, HEADER_BYTES,
 };
 use kerf::codec::link::crc32;
 use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry};
@@ -74,6 +74,13 @@ pub fn job_file(data: &[u8]) -> usize {
             assert!(steps.iter().flatten().all(|v| v.is_finite()), "{steps:?}");
             let wide: Vec<[f64; 2]> = steps.iter().map(|p| p.map(f64::from)).collect();
             (8 * n, write_schedule(&wide, &mut out))
+        }
+        JobFile::Moves { .. } => {
+            let points: Vec<[f32; 3]> = (0..n).map(|k| file.move_point(k).unwrap()).collect();
+            assert!(file.move_point(n).is_none());
+            assert!(points.iter().flatten().all(|v| v.is_finite()), "{points:?}");
+            let wide: Vec<[f64; 3]> = points.iter().map(|p| p.map(f64::from)).collect();
+            (12 * n, write_moves(&wide, &mut out))
         }
     };
     let settings = file.settings();
@@ -149,6 +156,9 @@ pub fn host_job(data: &[u8]) -> usize {
         (HostJob::Schedule { steps: a }, HostJob::Schedule { steps: b }) => {
             assert!(same_bits(a.as_flattened(), b.as_flattened()));
         }
+        (HostJob::Moves { points: a }, HostJob::Moves { points: b }) => {
+            assert!(same_bits(a.as_flattened(), b.as_flattened()));
+        }
         _ => unreachable!("the kinds agree"),
     }
     1
@@ -175,6 +185,19 @@ pub fn job_file_seeds() -> Vec<Vec<u8>> {
     let n = write_recording(b"KRFR\x01\x00", &mut out).unwrap();
     files.push(out[..n].to_vec());
     let n = write_schedule(&[[1.0, 6.0], [2.0, 4.0], [1.5, 4.0]], &mut out).unwrap();
+    files.push(out[..n].to_vec());
+    // A square of moves, with a pass more (version 2).
+    let square = [
+        [-2e-3, -2e-3, 0.0],
+        [2e-3, -2e-3, 8e-3],
+        [2e-3, 2e-3, 4e-3],
+        [-2e-3, 2e-3, 8e-3],
+        [-2e-3, -2e-3, 8e-3],
+    ];
+    let n = write_moves(&square, &mut out).unwrap();
+    let moves = out[..n].to_vec();
+    let n = with_settings(&moves, &settings, &mut out).unwrap();
+    files.push(moves);
     files.push(out[..n].to_vec());
     files
         .iter()

@@ -7,14 +7,14 @@
 //! |---|---|---|
 //! | 0 | 4 | magic `KRFJ` |
 //! | 4 | 1 | format version: 1, or 2 with cut settings ([`JOB_FORMAT_VERSION`]) |
-//! | 5 | 1 | kind: 0 EFD, 1 points, 2 G-code, 3 recording, 4 schedule ([`JobKind`]) |
+//! | 5 | 1 | kind: 0 EFD, 1 points, 2 G-code, 3 recording, 4 schedule, 5 moves ([`JobKind`]) |
 //! | 6 | 2 | reserved, 0 |
-//! | 8 | 4 | count: harmonics (EFD), points (points), body bytes (G-code, recording), steps (schedule) |
+//! | 8 | 4 | count: harmonics (EFD), points (points, moves), body bytes (G-code, recording), steps (schedule) |
 //! | 12 | 12 | version 2 only: the part's cut settings ([`crate::codec::cut_settings`]) |
 //! | 12 or 24 | … | body |
 //! | end − 4 | 4 | CRC-32 (ISO-HDLC) of every byte before it |
 //!
-//! Version 2 exists for the contour kinds (EFD and points), the laser's parts; a
+//! Version 2 exists for the contour kinds (EFD, points and moves), the laser's parts; a
 //! version 1 file is a part cut with the machine's own settings, and the writers
 //! write version 1 wherever the settings are the machine's, so the smallest file
 //! that says a part is the one written.
@@ -30,7 +30,9 @@
 //! `machines::delta_slave::remote::recording`, which checks it when a machine loads it);
 //! schedule, (setpoint, duration s) per step, f32, the setpoint in the unit of the
 //! machine that runs it (the autofocus stage's magnification,
-//! `machines::autofocus::product`).
+//! `machines::autofocus::product`); moves, (x, y, feed) per point, f32, m and m/s, the
+//! feed that of the move ending at the point (the first point's is not used, and is
+//! written 0).
 
 pub use super::cut_settings::{CutLaser, CutSettings};
 pub use super::link::JobKind;
@@ -135,6 +137,14 @@ pub enum JobFile<'a> {
         /// The body.
         steps: &'a [u8],
     },
+    /// A program of straight moves: (x, y, feed) per point, read with
+    /// [`JobFile::move_point`].
+    Moves {
+        /// The body.
+        points: &'a [u8],
+        /// How it is cut.
+        settings: CutSettings,
+    },
 }
 
 /// The body's length of a file of `kind` and `count` (module docs); `None` for an
@@ -145,6 +155,7 @@ fn body_len(kind: u8, count: u32) -> Option<u64> {
         0 => Some(8 + 16 * count),
         1 | 4 => Some(8 * count),
         2 | 3 => Some(count),
+        5 => Some(12 * count),
         _ => None,
     }
 }
@@ -193,11 +204,12 @@ impl<'a> JobFile<'a> {
             Self::Gcode { .. } => JobKind::Gcode,
             Self::Recording { .. } => JobKind::Recording,
             Self::Schedule { .. } => JobKind::Schedule,
+            Self::Moves { .. } => JobKind::Moves,
         }
     }
 
-    /// Harmonics (EFD), points (points), text bytes (G-code), recording bytes or
-    /// steps (schedule).
+    /// Harmonics (EFD), points (points, moves), text bytes (G-code), recording bytes
+    /// or steps (schedule).
     pub fn count(&self) -> usize {
         match self {
             Self::Efd { coefficients, .. } => coefficients.len() / 16,
@@ -205,6 +217,7 @@ impl<'a> JobFile<'a> {
             Self::Gcode { text } => text.len(),
             Self::Recording { bytes } => bytes.len(),
             Self::Schedule { steps } => steps.len() / 8,
+            Self::Moves { points, .. } => points.len() / 12,
         }
     }
 
@@ -224,6 +237,14 @@ impl<'a> JobFile<'a> {
         f32_row::<2>(points, k)
     }
 
+    /// Point `k` of a moves job: (x, y, feed of the move ending there), m and m/s.
+    pub fn move_point(&self, k: usize) -> Option<[f32; 3]> {
+        let Self::Moves { points, .. } = self else {
+            return None;
+        };
+        f32_row::<3>(points, k)
+    }
+
     /// Step `k` of a schedule job: (setpoint, duration s).
     pub fn step(&self, k: usize) -> Option<[f32; 2]> {
         let Self::Schedule { steps } = self else {
@@ -232,11 +253,13 @@ impl<'a> JobFile<'a> {
         f32_row::<2>(steps, k)
     }
 
-    /// How the part is cut: the file's settings (EFD and points), the machine's own
-    /// for a version 1 file and the other kinds.
+    /// How the part is cut: the file's settings (EFD, points and moves), the
+    /// machine's own for a version 1 file and the other kinds.
     pub fn settings(&self) -> CutSettings {
         match self {
-            Self::Efd { settings, .. } | Self::Points { settings, .. } => *settings,
+            Self::Efd { settings, .. }
+            | Self::Points { settings, .. }
+            | Self::Moves { settings, .. } => *settings,
             _ => CutSettings::MACHINE,
         }
     }
@@ -283,7 +306,7 @@ impl<'a> JobFile<'a> {
         }
         let settings = match CutSettings::read(block) {
             None => CutSettings::MACHINE,
-            Some(_) if kind > 1 => return Err(JobFileError::Settings),
+            Some(_) if !matches!(kind, 0 | 1 | 5) => return Err(JobFileError::Settings),
             Some(Ok(settings)) => settings,
             Some(Err(BlockError::NotFinite)) => return Err(JobFileError::NotFinite),
             Some(Err(BlockError::Unknown)) => return Err(JobFileError::Settings),
@@ -318,6 +341,15 @@ impl<'a> JobFile<'a> {
             }
             2 => Ok(Self::Gcode { text: body }),
             3 => Ok(Self::Recording { bytes: body }),
+            5 => {
+                if !finite(body) {
+                    return Err(JobFileError::NotFinite);
+                }
+                Ok(Self::Moves {
+                    points: body,
+                    settings,
+                })
+            }
             _ => {
                 if !finite(body) {
                     return Err(JobFileError::NotFinite);
@@ -362,7 +394,7 @@ fn write(
     Ok(len)
 }
 
-/// The contour job file `file` (EFD or points, either version) written again into
+/// The contour job file `file` (EFD, points or moves, either version) written again into
 /// `out` with the cut settings `settings`: version 1 where they are the machine's
 /// own, version 2 otherwise. Returns the new file's length.
 ///
@@ -378,6 +410,7 @@ pub fn with_settings(
     let kind = match read {
         JobFile::Efd { .. } => 0,
         JobFile::Points { .. } => 1,
+        JobFile::Moves { .. } => 5,
         _ => return Err(JobFileError::Settings),
     };
     let block = match settings.block() {
@@ -439,6 +472,14 @@ pub fn write_efd(
 /// Errors: as [`write_efd`].
 pub fn write_points(points: &[[f64; 2]], out: &mut [u8]) -> Result<usize, JobFileError> {
     write_values(1, points.len(), points.iter().flatten(), out)
+}
+
+/// Writes a moves job ((x, y, feed) per point, m and m/s, stored as f32; the first
+/// point's feed is not used: write 0).
+///
+/// Errors: as [`write_efd`].
+pub fn write_moves(points: &[[f64; 3]], out: &mut [u8]) -> Result<usize, JobFileError> {
+    write_values(5, points.len(), points.iter().flatten(), out)
 }
 
 /// Writes a G-code job.
@@ -551,10 +592,17 @@ mod tests {
         let crc = crc32(&nan[..n - 4]);
         nan[n - 4..n].copy_from_slice(&crc.to_le_bytes());
         assert_eq!(JobFile::read(&nan[..n]), Err(JobFileError::NotFinite));
+        let moves = [[0.0, 1e-3, 0.0], [2e-3, 3e-3, 5e-3], [2e-3, 0.0, 8e-3]];
+        let m = write_moves(&moves, &mut buf).unwrap();
+        assert_eq!(m, 12 + 36 + 4);
+        let file = JobFile::read(&buf[..m]).unwrap();
+        assert_eq!((file.kind(), file.count()), (JobKind::Moves, 3));
+        assert_eq!(file.move_point(1), Some([2e-3, 3e-3, 5e-3]));
+        assert_eq!((file.move_point(3), file.point(0)), (None, None));
         // A kind past the last is still refused by number.
         let mut bad = buf;
-        bad[5] = 5;
-        assert_eq!(JobFile::read(&bad[..n]), Err(JobFileError::Kind(5)));
+        bad[5] = 6;
+        assert_eq!(JobFile::read(&bad[..m]), Err(JobFileError::Kind(6)));
         assert_eq!(
             write_points(&[[f64::NAN, 0.0]], &mut buf),
             Err(JobFileError::NotFinite)
@@ -601,6 +649,11 @@ mod tests {
         let file = JobFile::read(&v2[..m]).unwrap();
         assert_eq!((file.kind(), file.settings()), (JobKind::Points, settings));
         assert_eq!(file.point(2), Some([1e-3, 1e-3]));
+        let n = write_moves(&[[0.0, 0.0, 0.0], [1e-3, 0.0, 4e-3]], &mut v1).unwrap();
+        let m = with_settings(&v1[..n], &settings, &mut v2).unwrap();
+        let file = JobFile::read(&v2[..m]).unwrap();
+        assert_eq!((file.kind(), file.settings()), (JobKind::Moves, settings));
+        assert_eq!(file.move_point(1), Some([1e-3, 0.0, 4e-3]));
         // G-code takes none; a zero speed is not a setting; no room is said.
         let n = write_gcode(b"G1 X1 F100\n", &mut v1).unwrap();
         let refused = with_settings(&v1[..n], &settings, &mut v2);

@@ -93,6 +93,8 @@ pub enum JobKind {
     /// A schedule: setpoints, each held for a duration (the autofocus stage's zoom
     /// schedule, `machines::autofocus::product`).
     Schedule,
+    /// A program of straight moves, each with its feed: a part cut with sharp corners.
+    Moves,
 }
 
 /// A request of the host.

@@ -46,11 +46,13 @@ pub use contour::{
 };
 use contour::{ContourJob, ContourRun};
 use line::{joint_references, Line};
+pub use moves::{MovePoint, MOVE_POINTS, MOVE_SAMPLES};
 use nalgebra::Vector3;
 
 mod contour;
 mod line;
 pub mod link;
+mod moves;
 pub mod product;
 pub mod remote;
 
@@ -416,31 +418,35 @@ enum Phase<T> {
     Contour,
 }
 
-/// The delta slave as a [`Machine`] the supervisor runs.
+/// The delta slave as a [`Machine`] the supervisor runs. In declaration order
+/// (`repr(C)`): what every period reads first, the contour's run (whose program of
+/// moves is f64, which the default layout would put first for its alignment) and the
+/// approach's moves last, so the period's loads keep short offsets.
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub struct DeltaSlave<T: Float> {
     joints: Joints<T, 3>,
     geometry: DeltaGeometry<T>,
-    limits: Limits,
-    /// The control period in `T`, s.
-    ts: T,
-    /// The joint-space move to a job's start (built in place at `Start`).
-    approach: JointJob<3>,
-    phase: Option<Phase<T>>,
-    effector_reference_m: Option<[T; 3]>,
-    /// The contour's run: rebuilt in place at `Start`, run after the approach while
-    /// `contour_active`.
-    contour: ContourRun<T>,
-    contour_active: bool,
-    contour_telemetry: Option<ContourTelemetry<T>>,
     preview: Preview<T>,
     contouring: Contouring<T>,
+    laser: Laser<T>,
+    /// The control period in `T`, s.
+    ts: T,
     normal_error_limit_m: T,
     joint_error_limit_m: T,
     saturation_periods: u32,
-    laser: Laser<T>,
     /// The power commanded in the last period, W (zero outside a contour).
     laser_power_w: T,
+    phase: Option<Phase<T>>,
+    effector_reference_m: Option<[T; 3]>,
+    contour_active: bool,
+    contour_telemetry: Option<ContourTelemetry<T>>,
+    /// The contour's run: rebuilt in place at `Start`, run after the approach while
+    /// `contour_active`.
+    contour: ContourRun<T>,
+    limits: Limits,
+    /// The joint-space move to a job's start (built in place at `Start`).
+    approach: JointJob<3>,
 }
 
 impl<T: Float> DeltaSlave<T> {

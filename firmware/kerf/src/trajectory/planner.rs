@@ -201,13 +201,14 @@ impl Ramp {
             -1.0
         };
         let (j, a) = (sign * self.jerk_m_s3, sign * self.peak_m_s2);
-        let t = t_s.clamp(0.0, self.duration_s());
+        // max/min rather than clamp: no panic on a NaN bound in the control period.
+        let t = t_s.max(0.0).min(self.duration_s());
         // Rising: the acceleration grows at j.
         let t1 = t.min(self.rise_s);
         let mut s = self.from_m_s * t1 + j * t1 * t1 * t1 / 6.0;
         let mut v = self.from_m_s + 0.5 * j * t1 * t1;
         // Holding the peak.
-        let t2 = (t - self.rise_s).clamp(0.0, self.hold_s);
+        let t2 = (t - self.rise_s).max(0.0).min(self.hold_s);
         s += v * t2 + 0.5 * a * t2 * t2;
         v += a * t2;
         // Falling back to zero acceleration.
@@ -215,6 +216,27 @@ impl Ramp {
         s += v * t3 + 0.5 * a * t3 * t3 - j * t3 * t3 * t3 / 6.0;
         v += a * t3 - 0.5 * j * t3 * t3;
         (s, v)
+    }
+
+    /// Acceleration `t_s` after its start (zero outside it), m/s².
+    pub fn accel_at(&self, t_s: f64) -> f64 {
+        if !(0.0..self.duration_s()).contains(&t_s) {
+            return 0.0;
+        }
+        let sign = if self.to_m_s >= self.from_m_s {
+            1.0
+        } else {
+            -1.0
+        };
+        // Rising at j, holding the peak, falling at j (as in `at`).
+        let magnitude = if t_s < self.rise_s {
+            self.jerk_m_s3 * t_s
+        } else if t_s < self.rise_s + self.hold_s {
+            self.peak_m_s2
+        } else {
+            self.peak_m_s2 - self.jerk_m_s3 * (t_s - self.rise_s - self.hold_s)
+        };
+        sign * magnitude.max(0.0)
     }
 }
 
@@ -271,10 +293,24 @@ impl SpeedProfile {
         } else {
             largest_within(low, high, fits)
         };
-        let (up, down) = ramps(cruise);
+        Self::with_cruise(length_m, entry_m_s, exit_m_s, cruise, limits)
+    }
+
+    /// The profile over `length_m` from `entry` to `exit` through `cruise_m_s`, found
+    /// before by [`SpeedProfile::new`] (no search: what a control period can afford).
+    pub fn with_cruise(
+        length_m: f64,
+        entry_m_s: f64,
+        exit_m_s: f64,
+        cruise_m_s: f64,
+        limits: &PlannerLimits,
+    ) -> Self {
+        let (a, j) = (limits.accel_m_s2, limits.jerk_m_s3);
+        let up = Ramp::new(entry_m_s, cruise_m_s, a, j);
+        let down = Ramp::new(cruise_m_s, exit_m_s, a, j);
         Self {
             up,
-            cruise_m_s: cruise,
+            cruise_m_s,
             cruise_m: (length_m - up.length_m() - down.length_m()).max(0.0),
             down,
         }
@@ -310,6 +346,16 @@ impl SpeedProfile {
         }
         let (s, v) = self.down.at(t - tc);
         (accel_m + self.cruise_m + s, v)
+    }
+
+    /// Acceleration along the path at `t_s` after the start (zero outside), m/s².
+    pub fn accel_at(&self, t_s: f64) -> f64 {
+        let [ta, tc, _] = self.times_s();
+        if t_s < ta {
+            self.up.accel_at(t_s)
+        } else {
+            self.down.accel_at(t_s - ta - tc)
+        }
     }
 }
 
@@ -348,7 +394,7 @@ impl<const D: usize> Block<D> {
 
     /// The point `s_m` along it (clamped to its ends), m.
     pub fn point_at(&self, s_m: f64) -> [f64; D] {
-        let s = s_m.clamp(0.0, self.length_m);
+        let s = s_m.max(0.0).min(self.length_m);
         let mut point = self.start_m;
         for (x, u) in point.iter_mut().zip(&self.unit) {
             *x += u * s;
@@ -500,6 +546,28 @@ impl<const D: usize, const N: usize> Planner<D, N> {
     }
 }
 
+/// Where a [`PlanFollower`] takes its moves from, each with its speed profile: a
+/// [`Planner`] (which plans the profile as the move is taken) or a program planned
+/// before it runs.
+pub trait MoveSource<const D: usize> {
+    /// The next move and its profile, `None` when there is none (yet).
+    fn next_move(&mut self) -> Option<(Block<D>, SpeedProfile)>;
+    /// At most this many moves can be taken one after another without a new one
+    /// added (what bounds a period's loop over moves shorter than a period).
+    fn bound(&self) -> usize;
+}
+
+impl<const D: usize, const N: usize> MoveSource<D> for Planner<D, N> {
+    fn next_move(&mut self) -> Option<(Block<D>, SpeedProfile)> {
+        let limits = self.limits;
+        self.pop().map(|block| (block, block.profile(&limits)))
+    }
+
+    fn bound(&self) -> usize {
+        N
+    }
+}
+
 /// One period's point of a followed plan.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct PlanSample<const D: usize> {
@@ -507,11 +575,14 @@ pub struct PlanSample<const D: usize> {
     pub position_m: [f64; D],
     /// Its speed along the path, m/s.
     pub speed_m_s: f64,
+    /// Its acceleration along the path, m/s².
+    pub accel_m_s2: f64,
     /// The move's direction (unit).
     pub unit: [f64; D],
 }
 
 /// Follows a [`Planner`]'s moves at a fixed period (module docs).
+#[derive(Copy, Clone, Debug)]
 pub struct PlanFollower<const D: usize> {
     period_s: f64,
     /// The move being followed, its profile and the time since it began, s.
@@ -542,20 +613,20 @@ impl<const D: usize> PlanFollower<D> {
     }
 
     /// One period: the point a period further along the plan, taking moves from
-    /// `planner` as the current one ends; at rest where the last one ended when there
+    /// `moves` as the current one ends; at rest where the last one ended when there
     /// is none (a move taken at rest starts at its first point).
-    pub fn step<const N: usize>(&mut self, planner: &mut Planner<D, N>) -> PlanSample<D> {
-        let limits = *planner.limits();
+    pub fn step(&mut self, moves: &mut impl MoveSource<D>) -> PlanSample<D> {
         let mut t = match self.current {
             Some((_, _, t)) => t + self.period_s,
             None => 0.0,
         };
-        // Each pass ends in a move or crosses one whole: bounded by the buffer.
-        for _ in 0..=N {
+        // Each pass ends in a move or crosses one whole: bounded by the source's
+        // moves.
+        for _ in 0..=moves.bound() {
             let (block, profile) = match self.current {
                 Some((block, profile, _)) => (block, profile),
-                None => match planner.pop() {
-                    Some(block) => (block, block.profile(&limits)),
+                None => match moves.next_move() {
+                    Some(next) => next,
                     None => break,
                 },
             };
@@ -566,6 +637,7 @@ impl<const D: usize> PlanFollower<D> {
                 return PlanSample {
                     position_m: block.point_at(s),
                     speed_m_s: v,
+                    accel_m_s2: profile.accel_at(t),
                     unit: block.unit,
                 };
             }
@@ -578,6 +650,7 @@ impl<const D: usize> PlanFollower<D> {
         PlanSample {
             position_m: self.rest_m,
             speed_m_s: 0.0,
+            accel_m_s2: 0.0,
             unit: [0.0; D],
         }
     }

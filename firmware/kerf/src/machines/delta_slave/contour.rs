@@ -1,12 +1,13 @@
 //! Contour jobs of the delta slave (T ch. 4, 8.1–8.2): the effector follows a closed
-//! EFD curve or an open path ([`ContourCurve`]) at a constant tangential speed, in the
-//! cutting plane z = const, driven by one of three laws on the per-joint disturbance
-//! observers ([`ContourLaw`]).
+//! EFD curve or an open path ([`ContourCurve`]) at a constant tangential speed, or a
+//! program of straight moves with sharp corners as the look-ahead planner plans it
+//! (the `moves` module), in the cutting plane z = const, driven by one of three laws on
+//! the per-joint disturbance observers ([`ContourLaw`]).
 //!
-//! Planning (the slower context, `f64`): the curve's length and curvature against the
-//! speed ([`CurveFollower::new`]), then [`PLAN_SAMPLES_PER_LAP`] points per lap (per
-//! open path), in path order, each checked for reach, travel, singularity and the carriages' speed and
-//! acceleration at cruise (centripetal V²κ plus the ramp's tangential acceleration, a
+//! Planning (the slower context, `f64`, the `plan` submodule): the curve's length and
+//! curvature against the speed ([`CurveFollower::new`]), then [`PLAN_SAMPLES_PER_LAP`]
+//! points per lap (per open path), in path order, each checked for reach, travel,
+//! singularity and the carriages' speed and acceleration at cruise (centripetal V²κ plus the ramp's tangential acceleration, a
 //! bound of what the ramps and cruise ask). The first point that fails is named in the
 //! error with its coordinates. Samples 2π/512 apart in θ are a few tens of
 //! micrometres of path on the test contours, far closer than the workspace boundary
@@ -26,22 +27,21 @@
 //! reference's tangent (T 9.2's adaptive mode: constant energy per length), and only in
 //! a period that passed its supervision; the approach, a stop and a fault keep it off.
 
-use super::{
-    joint_references, ContourTelemetry, DeltaFault, DeltaJobError, DeltaSlave, DeltaSlaveConfig,
-};
+use super::moves::{MovePoint, MovesRun};
+use super::{joint_references, ContourTelemetry, DeltaFault, DeltaJobError, DeltaSlave};
 use crate::app::supervisor::{Machine, Step};
 use crate::control::contouring::ContouringError;
 use crate::control::contouring::{ContouringConfig, TaskReference};
 use crate::control::laser::{Laser, LaserMode};
 use crate::control::preview::{PreviewConfig, PreviewWindow};
-use crate::error::{positive, ConfigError};
+use crate::error::ConfigError;
 use crate::kinematics::delta::DeltaGeometry;
 use crate::scalar::{lit, norm, Float};
 use crate::trajectory::curve::{Curve, CurveSample};
 use crate::trajectory::efd::Efd;
 use crate::trajectory::open_path::OpenPath;
 use crate::trajectory::tangential::{
-    ContourReference, CurveFollower, FollowerConfig, SpeedRamp, SpeedRampConfig,
+    ContourReference, CurveFollower, FollowerConfig, SpeedRampConfig,
 };
 use crate::trajectory::ContourError;
 use crate::trajectory::Reference;
@@ -63,6 +63,11 @@ const DRAIN_PERIODS: u32 = 1;
 /// Points per lap (per open path) at which a plan checks reach and limits.
 pub const PLAN_SAMPLES_PER_LAP: usize = 512;
 
+mod plan;
+
+pub(super) use plan::ContourJob;
+use plan::JobPath;
+
 /// What a contour job follows.
 #[derive(Copy, Clone, Debug)]
 pub enum ContourCurve<'a> {
@@ -78,6 +83,15 @@ pub enum ContourCurve<'a> {
     /// An open path, from its first point to its last (T 8.1's letters), relative to
     /// the centroid of its points.
     Open(&'a OpenPath<f64, OPEN_PATH_POINTS>),
+    /// A program of straight moves with sharp corners, relative to the job's centre,
+    /// each move at its feed (at most the plan's speed) and each corner at the speed
+    /// a circle `junction_deviation_m` from it allows (the `moves` module).
+    Moves {
+        /// The points, the first where the cut starts.
+        points: &'a [MovePoint],
+        /// How far from a corner the circle that sets its speed passes, m.
+        junction_deviation_m: f64,
+    },
 }
 
 /// The curve of a job (`f64`, planned) or of a run (`T`). `Copy`: a job's curve is
@@ -248,20 +262,6 @@ pub struct ContourPlan<'a> {
     pub laser: LaserMode,
 }
 
-/// A planned contour: everything a period needs, checked. `Copy`: loading a job copies
-/// it in place, with no temporary on the control period's stack.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub(super) struct ContourJob {
-    curve: PathCurve<f64>,
-    centre_m: [f64; 3],
-    theta0_rad: f64,
-    follower: FollowerConfig,
-    /// Periods from the start of the ramp to the start of the stop ramp.
-    stop_after_periods: u32,
-    law: ContourLaw,
-    laser: LaserMode,
-}
-
 /// The effector's reference from the follower's sample (relative to the curve centre).
 fn task_reference<T: Float>(centre: &Vector3<T>, r: &ContourReference<T>) -> TaskReference<T> {
     let planar = |v: nalgebra::Vector2<T>| Vector3::new(v.x, v.y, T::zero());
@@ -273,177 +273,19 @@ fn task_reference<T: Float>(centre: &Vector3<T>, r: &ContourReference<T>) -> Tas
     }
 }
 
-impl ContourJob {
-    /// Plans `plan` for `config` (module docs). Returns the job and the start point.
-    pub(super) fn plan(
-        config: &DeltaSlaveConfig,
-        plan: &ContourPlan<'_>,
-    ) -> Result<(Self, [f64; 3]), DeltaJobError> {
-        let contour = DeltaJobError::Contour;
-        let config_error = |e: ConfigError| DeltaJobError::Contour(ContourError::Config(e));
-        if !plan.centre_m.iter().all(|c| c.is_finite()) {
-            return Err(config_error(ConfigError::not_finite("centre_m")));
-        }
-        let (curve, theta0_rad, laps) = match plan.curve {
-            ContourCurve::Closed {
-                efd,
-                theta0_rad,
-                laps,
-            } => (
-                PathCurve::Closed(*efd),
-                theta0_rad,
-                positive("laps", laps).map_err(config_error)?,
-            ),
-            ContourCurve::Open(path) => (PathCurve::Open(*path), 0.0, 1.0),
-        };
-        Laser::<f64>::new(&config.laser)
-            .and_then(|laser| laser.mode(&plan.laser))
-            .map_err(|e| DeltaJobError::Laser(e.kind))?;
-        let period_s = config.joints.period_s;
-        let follower = FollowerConfig {
-            ramp: SpeedRampConfig {
-                speed_m_s: plan.speed_m_s,
-                accel_m_s2: plan.accel_m_s2,
-                jerk_m_s3: plan.jerk_m_s3,
-                ts_s: period_s,
-            },
-            accel_limit_m_s2: config.joints.accel_limit_m_s2,
-            newton_steps: config.contour.newton_steps,
-        };
-        // Length against the step, curvature against the speed, the ramp, θ0.
-        CurveFollower::new(curve, &follower, theta0_rad).map_err(contour)?;
-        let ramp = SpeedRamp::<f64>::new(&follower.ramp).map_err(config_error)?;
-        let span = curve.span();
-        let lap_m = curve.arc_length(0.0, span, curve.pieces().saturating_mul(64));
-        let length_m = laps * lap_m;
-        let cruise_m = length_m - 2.0 * ramp.ramp_distance_m();
-        let cruise_periods = cruise_m / (plan.speed_m_s * period_s);
-        if !(cruise_m >= 0.0 && cruise_periods < f64::from(u32::MAX / 2)) {
-            // Too short for the ramps (or too long to count).
-            let field = if curve.is_closed() { "laps" } else { "curve" };
-            return Err(config_error(ConfigError::out_of_range(field)));
-        }
-        let field = if curve.is_closed() { "laps" } else { "curve" };
-        let stop_after_periods = ramp
-            .ramp_periods()
-            .checked_add(libm::round(cruise_periods) as u32)
-            .ok_or(config_error(ConfigError::out_of_range(field)))?;
-
-        let geometry =
-            DeltaGeometry::<f64>::new(&config.delta).map_err(|_| DeltaJobError::OtherMachine)?;
-        let centre = Vector3::from(plan.centre_m);
-        let limits = &config.joints;
-        let samples = libm::ceil(laps * PLAN_SAMPLES_PER_LAP as f64) as usize;
-        let (v, a) = (plan.speed_m_s, plan.accel_m_s2);
-        let mut start = [0.0; 3];
-        for i in 0..=samples {
-            let theta = theta0_rad + span * laps * i as f64 / samples as f64;
-            let s = curve.evaluate(theta);
-            let point = centre + Vector3::new(s.position.x, s.position.y, 0.0);
-            let point_m: [f64; 3] = point.into();
-            if i == 0 {
-                start = point_m;
-            }
-            let sigma = s.d1.norm();
-            let tangent = s.d1 / sigma;
-            let normal = nalgebra::Vector2::new(-tangent.y, tangent.x);
-            let curvature = s.d1.perp(&s.d2) / (sigma * sigma * sigma);
-            let planar = |w: nalgebra::Vector2<f64>| Vector3::new(w.x, w.y, 0.0);
-            let velocity = planar(tangent * v);
-            let acceleration = planar(normal * (v * v * curvature) + tangent * a);
-            let joints = joint_references(&geometry, &point, &velocity, &acceleration)
-                .map_err(|error| DeltaJobError::ContourUnreachable { point_m, error })?;
-            for (axis, r) in joints.iter().enumerate() {
-                if libm::fabs(r.velocity) > limits.speed_limit_m_s
-                    || libm::fabs(r.acceleration) > limits.accel_limit_m_s2
-                {
-                    return Err(DeltaJobError::ContourTooFast {
-                        point_m,
-                        axis: axis as u8,
-                    });
-                }
-            }
-        }
-        Ok((
-            Self {
-                curve,
-                centre_m: plan.centre_m,
-                theta0_rad,
-                follower,
-                stop_after_periods,
-                law: plan.law,
-                laser: plan.laser,
-            },
-            start,
-        ))
-    }
-
-    /// The law.
-    pub(super) fn law(&self) -> ContourLaw {
-        self.law
-    }
-
-    /// Periods from the end of the approach until the job is done: the ramps and the
-    /// cruise, and [`DRAIN_PERIODS`] more.
-    fn periods(&self) -> u32 {
-        // Checked when the job was planned.
-        let ramp_periods =
-            SpeedRamp::<f64>::new(&self.follower.ramp).map_or(0, |r| r.ramp_periods());
-        self.stop_after_periods
-            .saturating_add(ramp_periods)
-            .saturating_add(DRAIN_PERIODS)
-    }
-
-    /// The cut's point at `fraction` of one lap (a closed curve, from θ0) or of the
-    /// open path, m.
-    fn point_m(&self, fraction: f64) -> [f64; 3] {
-        let theta = self.theta0_rad + self.curve.span() * fraction;
-        let p = self.curve.evaluate(theta).position;
-        let [x, y, z] = self.centre_m;
-        [x + p.x, y + p.y, z]
-    }
-}
-
-impl super::DeltaJob {
-    /// Time from `Start` until the job is over, s: the approach, then the straight
-    /// moves, or the contour's two speed ramps and its cruise between (in whole
-    /// control periods, as the machine counts them).
-    pub fn duration_s(&self) -> f64 {
-        let moves_s: f64 = self.moves.iter().map(|m| m.duration_s).sum();
-        let contour_s = self
-            .contour
-            .as_ref()
-            .map_or(0.0, |c| f64::from(c.periods()) * c.follower.ramp.ts_s);
-        self.approach_s + moves_s + contour_s
-    }
-
-    /// Where a contour job cuts: the point at `fraction` (0 at the start, 1 at the end)
-    /// of one lap of a closed contour or of an open path, m (what a preview draws).
-    /// `None` for straight moves, or a fraction outside [0, 1].
-    pub fn contour_point_m(&self, fraction: f64) -> Option<[f64; 3]> {
-        let contour = self.contour.as_ref()?;
-        (0.0..=1.0)
-            .contains(&fraction)
-            .then(|| contour.point_m(fraction))
-    }
-
-    /// Whether a contour job's curve is closed (`None` for straight moves).
-    pub fn contour_is_closed(&self) -> Option<bool> {
-        self.contour.as_ref().map(|c| c.curve.is_closed())
-    }
-}
-
-/// A contour in progress.
+/// A contour in progress. In declaration order (`repr(C)`): what every period reads
+/// first, the program of moves (a kilobyte of f64, which the default layout would put
+/// first for its alignment) last, so the period's loads keep short offsets.
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub(super) struct ContourRun<T: Float> {
-    follower: CurveFollower<T, PathCurve<T>>,
-    centre: Vector3<T>,
-    law: ContourLaw,
-    laser: LaserMode<T>,
     /// Task references at k, k+1, k+2.
     pub(super) task: PreviewWindow<TaskReference<T>>,
     /// The joint references of the same taps.
     pub(super) joints: PreviewWindow<[Reference<T>; 3]>,
+    centre: Vector3<T>,
+    law: ContourLaw,
+    laser: LaserMode<T>,
     started: bool,
     period: u32,
     stop_after_periods: u32,
@@ -451,6 +293,11 @@ pub(super) struct ContourRun<T: Float> {
     drained: u8,
     /// Consecutive periods with a force at its limit.
     pub(super) saturated_periods: u32,
+    follower: CurveFollower<T, PathCurve<T>>,
+    /// Whether the moves below make the reference (not the curve follower).
+    on_moves: bool,
+    /// The moves of a program.
+    moves: MovesRun,
 }
 
 impl<T: Float> ContourRun<T> {
@@ -484,6 +331,8 @@ impl<T: Float> ContourRun<T> {
         };
         Ok(Self {
             follower,
+            moves: MovesRun::idle()?,
+            on_moves: false,
             centre: zero,
             law: ContourLaw::Joint,
             laser: LaserMode::Off,
@@ -508,19 +357,37 @@ impl<T: Float> ContourRun<T> {
         geometry: &DeltaGeometry<T>,
         laser: &Laser<T>,
     ) -> Result<(), DeltaJobError> {
-        self.follower
-            .curve_mut()
-            .assign_f64(&job.curve)
-            .map_err(DeltaJobError::Contour)?;
-        self.follower
-            .restart(&job.follower, job.theta0_rad)
-            .map_err(DeltaJobError::Contour)?;
         self.centre = Vector3::new(
             lit(job.centre_m[0]),
             lit(job.centre_m[1]),
             lit(job.centre_m[2]),
         );
-        let first = task_reference(&self.centre, &self.follower.at_rest());
+        let first = match &job.path {
+            JobPath::Curve {
+                curve,
+                theta0_rad,
+                follower,
+                stop_after_periods,
+            } => {
+                self.follower
+                    .curve_mut()
+                    .assign_f64(curve)
+                    .map_err(DeltaJobError::Contour)?;
+                self.follower
+                    .restart(follower, *theta0_rad)
+                    .map_err(DeltaJobError::Contour)?;
+                self.stop_after_periods = *stop_after_periods;
+                self.on_moves = false;
+                task_reference(&self.centre, &self.follower.at_rest())
+            }
+            JobPath::Moves { plan, period_s } => {
+                self.moves
+                    .start(plan, *period_s)
+                    .map_err(|e| DeltaJobError::Contour(ContourError::Config(e)))?;
+                self.on_moves = true;
+                self.moves.at_rest(&self.centre)
+            }
+        };
         let joints = joint_references(
             geometry,
             &first.position,
@@ -539,7 +406,6 @@ impl<T: Float> ContourRun<T> {
         self.joints = PreviewWindow::filled(joints);
         self.started = false;
         self.period = 0;
-        self.stop_after_periods = job.stop_after_periods;
         self.drained = 0;
         self.saturated_periods = 0;
         Ok(())
@@ -550,13 +416,9 @@ impl<T: Float> ContourRun<T> {
         self.law
     }
 
-    /// Steps the reference one period (the newest tap, two periods ahead) and shifts the
-    /// windows. Returns `true` once the follower has stopped and the present tap is at
-    /// rest at the end.
-    pub(super) fn advance(
-        &mut self,
-        geometry: &DeltaGeometry<T>,
-    ) -> Result<bool, super::DeltaFault> {
+    /// Pushes the curve follower's reference a period further; whether it is at rest
+    /// after its stop ramp.
+    fn curve_step(&mut self) -> Result<bool, super::DeltaFault> {
         if !self.started {
             self.follower.start();
             self.started = true;
@@ -566,12 +428,29 @@ impl<T: Float> ContourRun<T> {
         }
         self.period = self.period.saturating_add(1);
         let r = self.follower.step().map_err(super::DeltaFault::Contour)?;
-        let task = task_reference(&self.centre, &r);
+        self.task.push(task_reference(&self.centre, &r));
+        Ok(self.period > self.stop_after_periods && self.follower.ramp().is_at_rest())
+    }
+
+    /// Steps the reference one period (the newest tap, two periods ahead) and shifts the
+    /// windows. Returns `true` once the follower has stopped and the present tap is at
+    /// rest at the end.
+    pub(super) fn advance(
+        &mut self,
+        geometry: &DeltaGeometry<T>,
+    ) -> Result<bool, super::DeltaFault> {
+        let ended = if self.on_moves {
+            let (task, ended) = self.moves.step(&self.centre);
+            self.task.push(task);
+            ended
+        } else {
+            self.curve_step()?
+        };
+        let task = self.task.newest();
         let joints = joint_references(geometry, &task.position, &task.velocity, &task.acceleration)
             .map_err(super::DeltaFault::Kinematics)?;
-        self.task.push(task);
         self.joints.push(joints);
-        if self.period > self.stop_after_periods && self.follower.ramp().is_at_rest() {
+        if ended {
             self.drained = self.drained.saturating_add(1);
         }
         Ok(self.drained > 2)

@@ -21,7 +21,7 @@
 
 use super::{
     ContourCurve, ContourLaw, DeltaFault, DeltaJob, DeltaJobError, DeltaSlave, DeltaSlaveConfig,
-    DeltaTelemetry, CONTOUR_HARMONICS, OPEN_PATH_POINTS,
+    DeltaTelemetry, MovePoint, CONTOUR_HARMONICS, MOVE_POINTS, OPEN_PATH_POINTS,
 };
 pub use crate::app::axis::settings::{AxisSettings, DobSettings, PdSettings, VelocitySettings};
 use crate::app::axis::{AxisConfig, AxisLaw};
@@ -76,6 +76,8 @@ pub struct ContourDefaults {
     pub approach_s: f64,
     /// Laps of the contour.
     pub laps: f64,
+    /// The corners' junction deviation of a program of moves, m.
+    pub junction_deviation_m: f64,
     /// The law.
     pub law: ContourLaw,
     /// Laser power at the cutting speed (held at constant energy per length), W.
@@ -192,23 +194,23 @@ const JOB_REFUSALS: [CodeWords; 19] = [
     ),
     words(
         load_codes::KIND,
-        "this machine cuts contours only (EFD jobs closed, points jobs open)",
+        "this machine cuts contours only (EFD jobs closed, points jobs open, moves jobs with sharp corners)",
         "",
     ),
     words(
         load_codes::TOO_MANY_POINTS,
-        "more points than an open path holds (32)",
+        "more points than an open path or a program of moves holds (32, passes included)",
         "",
     ),
     words(
         load_codes::BAD_PATH,
-        "the points do not make a path (fewer than 3, or a point repeated)",
+        "the points do not make a path (fewer than 3, or 2 for moves, or a point repeated)",
         "",
     ),
     words(load_codes::SPEED, "the part's speed is not above zero", ""),
     words(
         load_codes::PASSES,
-        "an open path is cut in one pass (passes are for closed contours)",
+        "an open path is cut in one pass (passes are for closed contours and programs)",
         "",
     ),
     words(
@@ -272,7 +274,7 @@ impl<T: Float> LinkMachine for DeltaSlave<T> {
     type JobContext = ContourDefaults;
     const NAME: &'static str = "keops-slave";
     const CHANNELS: &'static [Channel] = &CHANNELS;
-    const JOB_KINDS: &'static [JobKind] = &[JobKind::Efd, JobKind::Points];
+    const JOB_KINDS: &'static [JobKind] = &[JobKind::Efd, JobKind::Points, JobKind::Moves];
     const FAULTS: &'static [CodeWords] = &FAULTS;
     const JOB_REFUSALS: &'static [CodeWords] = &JOB_REFUSALS;
 
@@ -288,6 +290,7 @@ impl<T: Float> LinkMachine for DeltaSlave<T> {
         match file {
             JobFile::Efd { centre_m, .. } => load_closed(context, file, *centre_m, job),
             JobFile::Points { .. } => load_open(context, file, job),
+            JobFile::Moves { .. } => load_moves(context, file, job),
             _ => Err(load_codes::KIND),
         }
     }
@@ -417,6 +420,63 @@ fn load_open(context: &ContourDefaults, file: &JobFile<'_>, job: &mut DeltaJob) 
     )
 }
 
+/// A moves file as a program of straight moves with sharp corners, each point where
+/// the file puts it, for its passes (a closed program again from its start).
+fn load_moves(
+    context: &ContourDefaults,
+    file: &JobFile<'_>,
+    job: &mut DeltaJob,
+) -> Result<(), u16> {
+    let n = file.count();
+    if n > MOVE_POINTS {
+        return Err(load_codes::TOO_MANY_POINTS);
+    }
+    if n < 2 {
+        return Err(load_codes::BAD_PATH);
+    }
+    let passes = usize::from(file.settings().passes.unwrap_or(1));
+    let mut points = [MovePoint {
+        point_m: [0.0; 2],
+        feed_m_s: 0.0,
+    }; MOVE_POINTS];
+    for (k, point) in points.iter_mut().enumerate().take(n) {
+        let [x, y, feed] = file
+            .move_point(k)
+            .ok_or(load_codes::BAD_PATH)?
+            .map(f64::from);
+        *point = MovePoint {
+            point_m: [x, y],
+            feed_m_s: feed,
+        };
+    }
+    let closed = points.first().map(|p| p.point_m) == points.get(n - 1).map(|p| p.point_m);
+    if passes > 1 && !closed {
+        return Err(load_codes::PASSES);
+    }
+    // Passes of a closed program: its moves again after the first (the start point
+    // repeated at each end).
+    let total = 1 + (n - 1) * passes;
+    if total > MOVE_POINTS {
+        return Err(load_codes::TOO_MANY_POINTS);
+    }
+    for k in n..total {
+        let again = points.get(1 + (k - 1) % (n - 1)).copied();
+        if let (Some(again), Some(point)) = (again, points.get_mut(k)) {
+            *point = again;
+        }
+    }
+    plan_into(
+        context,
+        ContourCurve::Moves {
+            points: points.get(..total).unwrap_or(&[]),
+            junction_deviation_m: context.junction_deviation_m,
+        },
+        [0.0; 2],
+        file.settings(),
+        job,
+    )
+}
+
 /// Plans `curve` (relative to its centre, at `centre_m` in the file's x and y) with
 /// the context's ramps and law into `job`, at the part's speed and laser where its
 /// settings give them, the context's otherwise (its laser: the energy per length its
@@ -528,10 +588,11 @@ mod tests {
         assert!(items.contains(&"setting /slave/dob/compensate  true or false".into()));
         assert_eq!(
             items.len(),
-            CHANNELS.len() + 2 + 6 + FAULTS.len() + JOB_REFUSALS.len()
+            CHANNELS.len() + 3 + 6 + FAULTS.len() + JOB_REFUSALS.len()
         );
         assert!(items[0].contains("\"x\"") && items[CHANNELS.len()] == "JobKind(Efd)");
         assert_eq!(items[CHANNELS.len() + 1], "JobKind(Points)");
+        assert_eq!(items[CHANNELS.len() + 2], "JobKind(Moves)");
         // The bound announced for the observers' bandwidths, at the Keops period.
         let mut settings = SlaveSettings::of(&AxisConfig::LM1247_SLAVE);
         for (path, ok) in [

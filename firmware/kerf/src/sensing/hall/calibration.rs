@@ -678,7 +678,14 @@ impl<const N: usize> HallCalibrator<N> {
         let mut rhs = rho_time;
         for (g, rho) in coupling.iter().zip(rho_theta.column_iter()) {
             let b_inv_g = chol.solve(g);
-            schur -= g.transpose() * b_inv_g;
+            // Column by column, the count opaque to the optimiser: unrolled whole, this
+            // product was a third of the board image's largest routine (which runs once
+            // per calibration, in the link task, not in the control period).
+            for j in 0..core::hint::black_box(PHASE_UNKNOWNS).min(PHASE_UNKNOWNS) {
+                let product = g.transpose() * b_inv_g.column(j);
+                let mut column = schur.column_mut(j);
+                column -= product;
+            }
             rhs -= b_inv_g.transpose() * rho;
         }
         // Unused segments' columns are empty: 1 on their diagonal keeps them at zero.
