@@ -52,7 +52,23 @@ pub fn run(
     }
     let parts = laser::parts(&program, &PlanConfig::default(), centre, &beam, corners)
         .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
-    say!(report, "{name}: {} parts for keops-slave", parts.len());
+    match parts.len() {
+        1 => say!(report, "{name}: 1 part for keops-slave"),
+        n => say!(report, "{name}: {n} parts for keops-slave"),
+    }
+    let (lo, hi) = bounds_mm(parts.iter().flat_map(|p| p.run.path_mm.iter()));
+    if !centre && !(lo[0] <= 0.0 && hi[0] >= 0.0 && lo[1] <= 0.0 && hi[1] >= 0.0) {
+        say!(
+            report,
+            "note       the cuts span X {:.1} to {:.1} mm, Y {:.1} to {:.1} mm, away from the \
+             workspace's centre (0, 0): --centre moves them there (a laser bed's origin is \
+             its corner)",
+            lo[0],
+            hi[0],
+            lo[1],
+            hi[1]
+        );
+    }
     for note in &program.notes {
         say!(report, "note       {note}");
     }
@@ -99,4 +115,17 @@ pub fn run(
     }
     let bytes = laser::to_bytes(&parts).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
     crate::cli_cut::write_program(&name, &bytes, cut, out.as_ref(), report)
+}
+
+/// The smallest box holding `points`, mm: (lowest x and y, highest x and y).
+fn bounds_mm<'a>(points: impl Iterator<Item = &'a [f64; 2]>) -> ([f64; 2], [f64; 2]) {
+    points.fold(
+        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+        |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        },
+    )
 }

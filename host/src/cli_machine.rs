@@ -5,6 +5,7 @@ use crate::{distinct, prepare, Failure};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use kerf::codec::link::Request;
+use kerf_host::description::{job_kind_words, mode_words};
 use kerf_host::job::{Job, JobKind};
 use kerf_host::link::{Heard, LinkError};
 use kerf_host::output::{io_words, OutputFile};
@@ -420,7 +421,7 @@ pub fn status(machine: &MachineArgs, report: &mut Report) -> Result<(), Failure>
         hello.period_s * 1e6,
         hello.max_chunk
     );
-    say!(report, "mode         {:?}", st.mode);
+    say!(report, "mode         {}", mode_words(st.mode));
     say!(
         report,
         "machine time {:.4} s (period {})",
@@ -456,7 +457,7 @@ pub fn status(machine: &MachineArgs, report: &mut Report) -> Result<(), Failure>
     let kinds: Vec<String> = description
         .job_kinds
         .iter()
-        .map(|k| format!("{k:?}"))
+        .map(|&k| job_kind_words(k).to_owned())
         .collect();
     say!(report, "job kinds    {}", kinds.join(", "));
     for setting in &description.settings {
@@ -508,7 +509,7 @@ pub fn log(args: &LogArgs, report: &mut Report) -> Result<(), Failure> {
                     break;
                 }
             }
-            Some(Heard::Event(e)) => bar.println(format!("{e:?}")),
+            Some(Heard::Event(e)) => bar.println(s.machine.description().event_words(&e)),
             _ => {}
         }
         if last_heard.elapsed() > Duration::from_secs(30) {

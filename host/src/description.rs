@@ -4,7 +4,10 @@
 //! from here, or from the link's own codes that every machine shares (board faults,
 //! the link's job refusals).
 
-use kerf::codec::link::{board_fault, CodeWords, Description, JobKind, Refusal, LINK_JOB_REFUSALS};
+use kerf::codec::link::{
+    board_fault, CodeWords, Description, Event, JobKind, ModeCode, Refusal, LINK_JOB_REFUSALS,
+    VERSION,
+};
 
 /// A telemetry channel.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -149,6 +152,21 @@ impl MachineDescription {
         }
     }
 
+    /// An event as the operator reads it (a fault in the machine's words).
+    pub fn event_words(&self, event: &Event) -> String {
+        match *event {
+            Event::Mode { from, to } => format!("mode {} -> {}", mode_words(from), mode_words(to)),
+            Event::Fault { code, detail } => {
+                format!("fault {code}: {}", self.fault_words(code, detail))
+            }
+            Event::HostLost => "the machine lost the host".to_owned(),
+            Event::NextJob => "the next part begins (its approach)".to_owned(),
+            Event::VersionRefused { version } => format!(
+                "the machine refused a frame of link version {version} (it speaks {VERSION})"
+            ),
+        }
+    }
+
     /// A job refusal code in words: the machine's own, or the link's.
     pub fn job_refusal_words(&self, code: u16) -> String {
         if let Some(r) = self.job_refusals.iter().find(|r| r.code == code) {
@@ -197,6 +215,30 @@ impl MachineDescription {
             },
             Refusal::Busy => "the machine's command queue is full; try again".into(),
         }
+    }
+}
+
+/// A mode as the operator reads it.
+pub fn mode_words(mode: ModeCode) -> &'static str {
+    match mode {
+        ModeCode::Idle => "idle",
+        ModeCode::Calibrating => "calibrating",
+        ModeCode::Ready => "ready",
+        ModeCode::Running => "running",
+        ModeCode::Stopping => "stopping",
+        ModeCode::Fault => "fault",
+    }
+}
+
+/// A job kind as the operator reads it (what `kerf` makes of it).
+pub fn job_kind_words(kind: JobKind) -> &'static str {
+    match kind {
+        JobKind::Efd => "closed contours (EFD)",
+        JobKind::Points => "open paths (points)",
+        JobKind::Gcode => "G-code programs",
+        JobKind::Recording => "recorded master sessions",
+        JobKind::Schedule => "setpoint schedules",
+        JobKind::Moves => "programs of straight moves (sharp corners)",
     }
 }
 
@@ -278,5 +320,49 @@ mod tests {
         assert_eq!(d.channel("feed"), Some(2));
         let columns: Vec<String> = d.channels.iter().map(ChannelInfo::column).collect();
         assert_eq!(columns, ["x_m", "count", "feed_m_per_s"]);
+    }
+
+    #[test]
+    fn events_modes_and_kinds_read_as_words() {
+        let d = described();
+        let mode = Event::Mode {
+            from: ModeCode::Ready,
+            to: ModeCode::Running,
+        };
+        assert_eq!(d.event_words(&mode), "mode ready -> running");
+        let fault = Event::Fault { code: 5, detail: 1 };
+        assert_eq!(
+            d.event_words(&fault),
+            "fault 5: a carriage fell behind (carriage 1)"
+        );
+        let refused = d.event_words(&Event::VersionRefused { version: 9 });
+        assert!(
+            refused.ends_with(&format!("(it speaks {VERSION})")),
+            "{refused}"
+        );
+        assert!(d.event_words(&Event::HostLost).contains("lost the host"));
+        assert!(d.event_words(&Event::NextJob).contains("next part"));
+        let modes = [
+            ModeCode::Idle,
+            ModeCode::Calibrating,
+            ModeCode::Ready,
+            ModeCode::Running,
+            ModeCode::Stopping,
+            ModeCode::Fault,
+        ]
+        .map(mode_words);
+        assert_eq!(
+            modes,
+            [
+                "idle",
+                "calibrating",
+                "ready",
+                "running",
+                "stopping",
+                "fault"
+            ]
+        );
+        assert!(job_kind_words(JobKind::Moves).contains("sharp corners"));
+        assert!(job_kind_words(JobKind::Gcode).contains("G-code"));
     }
 }

@@ -4,12 +4,14 @@
 //! [`JOB_POINTS`] points, [`PROGRAM_POINTS`] points read). [`diagnose`] first lists
 //! every warning and error of the program in one pass.
 
-use kerf::kinematics::arrow::ArrowError;
+use kerf::kinematics::arrow::{ArrowConfig, ArrowError};
 use kerf::machines::arrow::job::ArrowJobErrorKind;
 use kerf::machines::arrow::product::{load_job, JOB_MOVES, JOB_POINTS, PROGRAM_POINTS};
+use kerf::trajectory::feed::FeedError;
 use kerf::trajectory::gcode::{
     self, Diagnostic, GcodeErrorKind, GcodePoint, MoveKind, ReaderConfig, Severity,
 };
+use kerf::trajectory::task_spline::TaskSplineError;
 
 /// The job as the machine holds it.
 pub type Job = kerf::machines::arrow::product::Job<f64>;
@@ -154,33 +156,90 @@ pub fn describe_gcode(kind: GcodeErrorKind) -> String {
     }
 }
 
-fn axis(i: u8) -> &'static str {
-    ["x", "y", "z", "θz (B)", "θx (A)"]
-        .get(usize::from(i))
-        .copied()
-        .unwrap_or("?")
+/// Where ARROW's preset workspace ends on each axis of [`ArrowError::OutsideWorkspace`],
+/// in the units a program uses (mm, degrees).
+fn workspace_words(axis: u8) -> String {
+    let w = ArrowConfig::ARROW.workspace;
+    let mm = |m: f64| m * 1e3;
+    match axis {
+        0 => format!(
+            "an actuator would run past the end of its rail (±{:.0} mm of travel)",
+            mm(w.q_half_m)
+        ),
+        1 => format!(
+            "Y must stay between {:.0} and {:.0} mm",
+            mm(w.y0_m - w.y_half_m),
+            mm(w.y0_m + w.y_half_m)
+        ),
+        2 => format!("Z must stay within ±{:.0} mm", mm(w.z_half_m)),
+        3 => format!(
+            "the tool's rotation B must stay within ±{:.0}°",
+            w.theta_z_half_rad.to_degrees()
+        ),
+        _ => format!(
+            "the turntable A must stay within ±{:.0}°",
+            w.theta_x_half_rad.to_degrees()
+        ),
+    }
 }
 
-/// The loader's refusal of a parsed program in words.
-fn describe_job(kind: ArrowJobErrorKind) -> String {
+/// Why ARROW cannot take a pose, in words.
+fn pose_words(e: ArrowError) -> String {
+    match e {
+        ArrowError::OutsideWorkspace(axis) => {
+            format!("the path leaves the workspace: {}", workspace_words(axis))
+        }
+        ArrowError::OutOfReach(i) => format!("arm {} cannot reach the tool there", i + 1),
+        ArrowError::ArmAcrossRails(i) | ArrowError::ArmVertical(i) => format!(
+            "arm {} reaches a singular pose there (its actuator no longer moves the tool)",
+            i + 1
+        ),
+        ArrowError::PlateSingular => {
+            "the tool plate reaches a singular pose there (it could no longer be held)".into()
+        }
+        ArrowError::NotFinite => "a coordinate is not a number".into(),
+        ArrowError::NotConverged | ArrowError::InconsistentJoints => {
+            "the machine cannot solve the pose there".into()
+        }
+    }
+}
+
+/// The loader's refusal of a parsed program in words (no equation numbers, no type
+/// names: what a machinist can act on).
+pub fn describe_job(kind: ArrowJobErrorKind) -> String {
     match kind {
         ArrowJobErrorKind::Gcode { kind, .. } => describe_gcode(kind),
         ArrowJobErrorKind::Empty => "the program has no move".into(),
         ArrowJobErrorKind::TooLarge => {
             format!("more than {JOB_MOVES} moves, or more than {JOB_POINTS} points in one move")
         }
-        ArrowJobErrorKind::Spline(e) => format!("the move's spline cannot be built: {e:?}"),
-        ArrowJobErrorKind::Feed(e) => format!("the move cannot be planned: {e:?}"),
-        ArrowJobErrorKind::Workspace(e) => match e {
-            ArrowError::OutsideWorkspace(i) => {
-                format!("the path leaves the workspace (axis {}, A eq. 25)", axis(i))
+        ArrowJobErrorKind::Spline(e) => match e {
+            TaskSplineError::Config(e) => format!("the move's spline: {e}"),
+            TaskSplineError::TooFewPoints => "the move has fewer than 2 points".into(),
+            TaskSplineError::Capacity => {
+                format!("more than {JOB_POINTS} points in one move")
             }
-            ArrowError::OutOfReach(i) => format!("arm {} cannot reach (A eq. 7)", i + 1),
-            other => format!("the path is not reachable: {other:?}"),
+            TaskSplineError::NotFinitePoint(_) => "a coordinate is not a number".into(),
+            TaskSplineError::RepeatedPoint(_) => {
+                "a point falls on the one before it (the move has no direction there)".into()
+            }
+            TaskSplineError::NotRepresentable => {
+                "the move's points lie too close together to be followed".into()
+            }
         },
-        ArrowJobErrorKind::Singular => {
-            "the path comes within the singularity margin (A eq. 30-32)".into()
+        ArrowJobErrorKind::Feed(FeedError::Config(e)) => format!("the move's feed: {e}"),
+        ArrowJobErrorKind::Feed(FeedError::TooLong) => {
+            "the move takes longer than the machine can count (2^31 control periods)".into()
         }
-        ArrowJobErrorKind::Config(e) => format!("job configuration: {e}"),
+        ArrowJobErrorKind::Feed(FeedError::NoLength | FeedError::Lost) => {
+            "the move has no length the machine can follow".into()
+        }
+        ArrowJobErrorKind::Workspace(e) => pose_words(e),
+        ArrowJobErrorKind::Singular => {
+            "the path comes too near a singular pose (an arm across its rails or upright, \
+             or the plate's arms in one plane)"
+                .into()
+        }
+        ArrowJobErrorKind::Config(e) => format!("the machine's configuration: {e}"),
     }
 }

@@ -186,7 +186,20 @@ fn contour_words(e: &ContourError) -> String {
         ContourError::Collinear => {
             "every point lies on one line: a stroke, not a contour to cut round".into()
         }
-        other => format!("{other:?}"),
+        ContourError::FarFromContour | ContourError::LostContour => {
+            "the contour cannot be followed (it nearly doubles back on itself)".into()
+        }
+        ContourError::TooManyHarmonics | ContourError::Capacity => {
+            "the contour needs more terms or points than a job holds (try --harmonics lower)".into()
+        }
+        ContourError::StepLongerThanContour => {
+            "the contour is shorter than one control period's step (is --width-mm too small?)"
+                .into()
+        }
+        ContourError::SpeedAboveCurvatureLimit { max_speed_m_s } => format!(
+            "the contour bends too tightly for the speed (at most {:.1} mm/s there)",
+            max_speed_m_s * 1e3
+        ),
     }
 }
 

@@ -387,24 +387,7 @@ impl Session {
                 Some(Heard::Event(e)) => {
                     last_heard = Instant::now();
                     let now = log.since_cut_s();
-                    let fault = match e {
-                        Event::Fault { code, detail } => {
-                            Some(description.fault_words(code, detail))
-                        }
-                        _ => None,
-                    };
-                    let text = match e {
-                        Event::Mode { from, to } => format!("mode {from:?} -> {to:?}"),
-                        Event::Fault { code, .. } => {
-                            format!("fault {code}: {}", fault.as_deref().unwrap_or_default())
-                        }
-                        Event::HostLost => "the machine lost the host".to_owned(),
-                        Event::NextJob => "the next part begins (its approach)".to_owned(),
-                        Event::VersionRefused { version } => format!(
-                            "the machine refused a frame of link version {version} (it speaks {})",
-                            kerf::codec::link::VERSION
-                        ),
-                    };
+                    let text = description.event_words(&e);
                     // Marked on the plots: faults and the like, not the mode changes
                     // and the parts of a program (they would crowd the plot's labels).
                     if !matches!(e, Event::Mode { .. } | Event::NextJob) {
@@ -443,8 +426,8 @@ impl Session {
                         Event::NextJob => parts.begun += 1,
                         // The fault's reason follows its mode change: the run ends
                         // when it has come.
-                        Event::Fault { .. } => {
-                            return Err(SessionError::Fault(fault.unwrap_or_default()))
+                        Event::Fault { code, detail } => {
+                            return Err(SessionError::Fault(description.fault_words(code, detail)))
                         }
                         Event::HostLost => return Err(SessionError::HostLost),
                         _ => {}

@@ -206,8 +206,20 @@ fn the_laser_rigs_square_is_a_part_the_slave_takes() {
         said.contains("4 moves, sharp corners, starts at (-2.00, -2.00) mm; 100.0 mm/s"),
         "{said}"
     );
+    assert!(!said.contains("--centre moves them"), "{said}");
     let moves = std::fs::read(&job).unwrap();
     let cut_mm = check(&moves, None).unwrap().cut_length_m * 1e3;
+    // Where the bed's corner is the origin, the refusal comes with the option to use.
+    let cornered = gcode(&[]);
+    let said = String::from_utf8_lossy(&cornered.stdout);
+    assert_eq!(cornered.status.code(), Some(1), "{said}");
+    assert!(
+        said.contains(
+            "note       the cuts span X 55.5 to 59.5 mm, Y 55.5 to 59.5 mm, away from the \
+             workspace's centre (0, 0): --centre moves them there"
+        ),
+        "{said}"
+    );
     assert!((cut_mm - 16.0).abs() < 0.01, "{cut_mm}");
     std::fs::remove_file(&job).unwrap();
     let fast = gcode(&["--centre", "--corners", "fit"]);
@@ -226,7 +238,7 @@ fn the_laser_rigs_square_is_a_part_the_slave_takes() {
     );
     let said = String::from_utf8_lossy(&out.stdout);
     assert!(
-        said.contains("1 parts for keops-slave")
+        said.contains("1 part for keops-slave")
             && said.contains(
                 "closed (EFD), the fit within 0.038 mm of the program, starts at (-2.00, -2.00) mm"
             )

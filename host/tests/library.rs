@@ -3,9 +3,15 @@
 //! telemetry log's marks and pictures.
 
 use kerf::codec::link::{ModeCode, Refusal, TelemetrySample};
+use kerf::kinematics::arrow::{ArrowConfig, ArrowError};
+use kerf::machines::arrow::job::ArrowJobErrorKind;
+use kerf::trajectory::feed::FeedError;
 use kerf::trajectory::gcode::GcodeErrorKind;
+use kerf::trajectory::task_spline::TaskSplineError;
 use kerf_host::description::{ChannelInfo, Item, MachineDescription};
-use kerf_host::gcode::{describe_gcode, diagnose, format_diagnostic, has_errors};
+use kerf_host::gcode::{
+    check, describe_gcode, describe_job, diagnose, format_diagnostic, has_errors,
+};
 use kerf_host::mask::{Mask, Px};
 use kerf_host::telemetry::TelemetryLog;
 use std::collections::BTreeSet;
@@ -168,6 +174,76 @@ fn gcode_refusals_spell_the_code_and_the_byte() {
     assert_eq!(
         describe_gcode(GcodeErrorKind::DuplicateWord(b'X')),
         "word 'X' given twice"
+    );
+}
+
+/// ARROW's refusals say what to change in a machinist's words: where the workspace
+/// ends (from the preset, in mm and degrees), which arm; never an equation number or
+/// a type's name.
+#[test]
+fn arrow_refusals_name_the_limit_in_words() {
+    let ws = ArrowConfig::ARROW.workspace;
+    // A real program written around its own zero: Y below the workspace.
+    let cap = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../data/gcode/cap.ngc"
+    ))
+    .expect("the corpus file");
+    let refused = check(&cap).expect_err("outside ARROW's workspace");
+    let y_words = format!(
+        "Y must stay between {:.0} and {:.0} mm",
+        (ws.y0_m - ws.y_half_m) * 1e3,
+        (ws.y0_m + ws.y_half_m) * 1e3
+    );
+    assert_eq!(
+        refused.message,
+        format!("the path leaves the workspace: {y_words}")
+    );
+    assert_eq!(refused.to_string(), format!("7:1: {}", refused.message));
+    let kinds = [
+        ArrowJobErrorKind::Workspace(ArrowError::OutsideWorkspace(0)),
+        ArrowJobErrorKind::Workspace(ArrowError::OutsideWorkspace(2)),
+        ArrowJobErrorKind::Workspace(ArrowError::OutsideWorkspace(3)),
+        ArrowJobErrorKind::Workspace(ArrowError::OutsideWorkspace(4)),
+        ArrowJobErrorKind::Workspace(ArrowError::OutOfReach(2)),
+        ArrowJobErrorKind::Workspace(ArrowError::ArmVertical(0)),
+        ArrowJobErrorKind::Workspace(ArrowError::PlateSingular),
+        ArrowJobErrorKind::Workspace(ArrowError::NotConverged),
+        ArrowJobErrorKind::Spline(TaskSplineError::RepeatedPoint(3)),
+        ArrowJobErrorKind::Feed(FeedError::TooLong),
+        ArrowJobErrorKind::Feed(FeedError::NoLength),
+        ArrowJobErrorKind::Singular,
+        ArrowJobErrorKind::Empty,
+        ArrowJobErrorKind::TooLarge,
+    ];
+    let words: Vec<String> = kinds.into_iter().map(describe_job).collect();
+    for w in &words {
+        assert!(
+            !w.contains("eq.") && !w.contains('{') && !w.contains("Error"),
+            "{w}"
+        );
+    }
+    let z = format!("Z must stay within ±{:.0} mm", ws.z_half_m * 1e3);
+    assert!(words[1].ends_with(&z), "{}", words[1]);
+    let rail = format!("(±{:.0} mm of travel)", ws.q_half_m * 1e3);
+    assert!(words[0].contains(&rail), "{}", words[0]);
+    let b = format!("±{:.0}°", ws.theta_z_half_rad.to_degrees());
+    assert!(
+        words[2].contains("B") && words[2].ends_with(&b),
+        "{}",
+        words[2]
+    );
+    assert!(words[3].contains("turntable A"), "{}", words[3]);
+    assert_eq!(words[4], "arm 3 cannot reach the tool there");
+    assert!(
+        words[5].starts_with("arm 1 reaches a singular pose"),
+        "{}",
+        words[5]
+    );
+    assert!(
+        words[8].starts_with("a point falls on the one before it"),
+        "{}",
+        words[8]
     );
 }
 

@@ -285,10 +285,13 @@ impl fmt::Display for Diagnostic {
             Severity::Warning => "warning",
             Severity::Error => "error",
         };
+        // A cause that is the whole line is shown at its first column, as compilers do.
         write!(
             f,
             "{}:{}: {severity}: {}",
-            self.line, self.column, self.kind
+            self.line,
+            self.column.max(1),
+            self.kind
         )
     }
 }
