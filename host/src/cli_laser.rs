@@ -57,7 +57,8 @@ pub fn run(
         n => say!(report, "{name}: {n} parts for keops-slave"),
     }
     let (lo, hi) = bounds_mm(parts.iter().flat_map(|p| p.run.path_mm.iter()));
-    if !centre && !(lo[0] <= 0.0 && hi[0] >= 0.0 && lo[1] <= 0.0 && hi[1] >= 0.0) {
+    let holds_origin = lo[0] <= 0.0 && hi[0] >= 0.0 && lo[1] <= 0.0 && hi[1] >= 0.0;
+    if !(centre || holds_origin) {
         say!(
             report,
             "note       the cuts span X {:.1} to {:.1} mm, Y {:.1} to {:.1} mm, away from the \
