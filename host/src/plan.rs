@@ -121,6 +121,18 @@ pub enum PlanError {
     /// A setting is out of range (names it).
     #[error("bad setting: {0}")]
     Config(&'static str),
+    /// The start of an open contour lies outside the image.
+    #[error("--start {x},{y} lies outside the image ({w} × {h} pixels, x from the left, y from the top)")]
+    Start {
+        /// The start asked for, pixels.
+        x: f64,
+        /// The start asked for, pixels.
+        y: f64,
+        /// The image's width, pixels.
+        w: f64,
+        /// The image's height, pixels.
+        h: f64,
+    },
     /// The image could not be read or decoded.
     #[error("cannot read the image: {}", image_words(.0))]
     Image(#[from] image::ImageError),
@@ -581,6 +593,13 @@ pub fn plan_image(
     stage: &mut dyn FnMut(&str),
 ) -> Result<Plan, PlanError> {
     check(config)?;
+    let (w, h) = (f64::from(gray.width()), f64::from(gray.height()));
+    if let Some([x, y]) = config
+        .start_px
+        .filter(|&[x, y]| !(0.0..=w).contains(&x) || !(0.0..=h).contains(&y))
+    {
+        return Err(PlanError::Start { x, y, w, h });
+    }
     stage("smoothing, edges and gap closing");
     let closed_edges = edges(gray, config)?;
     stage("thinning");

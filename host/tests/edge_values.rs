@@ -209,7 +209,12 @@ fn every_subcommand_at_its_edges_ends_in_a_message_and_its_exit_code() {
         (
             "plan-start-huge",
             plan(&["--start=1e300,-1e300"]),
-            Fails(1, "leave out --start"),
+            Fails(1, "lies outside the image"),
+        ),
+        (
+            "plan-start-past-the-edge",
+            plan(&["--start=-0.5,3"]),
+            Fails(1, "--start -0.5,3 lies outside the image ("),
         ),
         (
             "plan-format",
