@@ -168,6 +168,30 @@ pub(crate) fn write_program(
     Ok(())
 }
 
+/// The kerf offset and the lead-in of closed contours, from the command line.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct KerfArgs {
+    /// The width of the cut, mm: closed contours are moved off the drawn line by half
+    /// of it, to the scrap's side, so the part comes out the size drawn.
+    #[arg(long, value_name = "MM", default_value_t = 0.0)]
+    pub kerf_mm: f64,
+    /// Which side of the drawn line is scrap: outside an outline and inside its holes
+    /// (the part is kept), or the other way (the hole is kept).
+    #[arg(long, value_enum, default_value = "outside")]
+    pub kerf_side: kerf_host::kerf_offset::KerfSide,
+    /// A straight lead-in of this length, mm, from the scrap's side (as --kerf-side
+    /// says) to each closed contour's start, so the beam comes on away from the part.
+    #[arg(long, value_name = "MM", default_value_t = 0.0)]
+    pub lead_in_mm: f64,
+}
+
+impl KerfArgs {
+    /// Whether a kerf or a lead-in is asked for.
+    pub fn is_set(&self) -> bool {
+        self.kerf_mm != 0.0 || self.lead_in_mm != 0.0
+    }
+}
+
 /// A part's settings in a machinist's words, the machine's own values where the part
 /// leaves them to it.
 pub(crate) fn settings_words(settings: &CutSettings) -> String {

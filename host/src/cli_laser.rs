@@ -1,39 +1,57 @@
 //! `kerf gcode FILE --machine keops-slave`: a laser program as the parts of a Keops
 //! slave job ([`kerf_host::laser`]).
 
-use crate::cli_cut::CutArgs;
 use crate::report::{say, Report};
-use crate::{prepare, Failure};
+use crate::{prepare, Failure, GcodeArgs};
 use kerf::machines::delta_slave::DeltaSlaveConfig;
+use kerf_host::kerf_offset::KerfSide;
 use kerf_host::laser::{self, Beam, Corners};
 use kerf_host::output::io_words;
 use kerf_host::plan::PlanConfig;
 use std::io::Write;
-use std::path::Path;
 
-/// Reads the laser program `file`, reports its parts (their settings from the
-/// program, `S` of `s_max` as the source's full power, and `cut` over them), checks
-/// them as the slave would and writes them to `out`.
-pub fn run(
-    file: &Path,
-    out: Option<&Path>,
-    centre: bool,
-    s_max: f64,
-    corners: Corners,
-    cut: &CutArgs,
-    report: &mut Report,
-) -> Result<(), Failure> {
+/// Reads the laser program of `args` (`--machine keops-slave`), reports its parts
+/// (their settings from the program, `S` of `--s-max` as the source's full power, the
+/// kerf and lead-in of its closed runs, and the cut settings over them), checks them
+/// as the slave would and writes them to `--out`.
+pub fn run(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
+    let (file, centre, s_max, corners, cut) =
+        (&args.file, args.centre, args.s_max, args.corners, &args.cut);
     let name = file.display().to_string();
     if !(s_max.is_finite() && s_max > 0.0) {
         return Err(Failure::Input(format!(
             "--s-max {s_max}: the S value of full power, above zero"
         )));
     }
+    let kerf = &args.kerf;
+    for (option, mm) in [
+        ("--kerf-mm", kerf.kerf_mm),
+        ("--lead-in-mm", kerf.lead_in_mm),
+    ] {
+        if !(mm.is_finite() && mm >= 0.0) {
+            return Err(Failure::Input(format!(
+                "{option} {mm}: a length of 0 or more, mm"
+            )));
+        }
+    }
+    if kerf.lead_in_mm > 0.0 && cut.settings()?.passes.is_some_and(|p| p > 1) {
+        return Err(Failure::Input(
+            "--passes with --lead-in-mm: a contour with its lead-in is cut once (the lead-in \
+             would be cut again on every pass)"
+                .into(),
+        ));
+    }
+    let config = PlanConfig {
+        kerf_mm: kerf.kerf_mm,
+        kerf_side: kerf.kerf_side,
+        lead_in_mm: kerf.lead_in_mm,
+        ..PlanConfig::default()
+    };
     let beam = Beam {
         s_max,
         max_power_w: DeltaSlaveConfig::KEOPS.laser.max_power_w,
     };
-    let out = prepare(out, "job file")?;
+    let out = prepare(args.out.as_deref(), "job file")?;
     let text = std::fs::read(file).map_err(|e| {
         Failure::Input(format!("{name}: cannot read the program: {}", io_words(&e)))
     })?;
@@ -50,7 +68,7 @@ pub fn run(
         // Standard error may be closed: the report still follows.
         let _ = writeln!(std::io::stderr(), "{line}");
     }
-    let parts = laser::parts(&program, &PlanConfig::default(), centre, &beam, corners)
+    let parts = laser::parts(&program, &config, centre, &beam, corners)
         .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
     match parts.len() {
         1 => say!(report, "{name}: 1 part for keops-slave"),
@@ -68,6 +86,33 @@ pub fn run(
             hi[0],
             lo[1],
             hi[1]
+        );
+    }
+    let (outline, hole) = match kerf.kerf_side {
+        KerfSide::Outside => ("outside", "inside"),
+        KerfSide::Inside => ("inside", "outside"),
+    };
+    if kerf.kerf_mm > 0.0 {
+        say!(
+            report,
+            "kerf       {:.3} mm wide: each closed run {:.3} mm {outline} its drawn outline \
+             ({hole} a hole), corners kept sharp",
+            kerf.kerf_mm,
+            kerf.kerf_mm / 2.0
+        );
+    }
+    if kerf.lead_in_mm > 0.0 {
+        say!(
+            report,
+            "lead-in    {:.2} mm straight into each closed run's start from {outline} an \
+             outline ({hole} a hole): the part's first move",
+            kerf.lead_in_mm
+        );
+    }
+    if args.kerf.is_set() && program.runs.iter().any(|r| !r.closed) {
+        say!(
+            report,
+            "note       the kerf and lead-in are for closed runs: the open ones are cut as drawn"
         );
     }
     for note in &program.notes {

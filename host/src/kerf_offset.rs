@@ -146,6 +146,116 @@ pub fn offset_ring(ring: &[[f64; 2]], distance_mm: f64) -> Result<Vec<[f64; 2]>,
     Ok(path)
 }
 
+/// Largest ratio of a mitred corner's distance from the drawn corner to the offset:
+/// a corner sharper than 60° is rounded instead (a mitre's spike would run far out).
+pub const MITRE_LIMIT: f64 = 2.0;
+
+/// Largest angle between the points of a rounded corner, radians (15°: the arc's chords
+/// stay within 0.9 % of the offset of it).
+const ROUND_STEP_RAD: f64 = std::f64::consts::PI / 12.0;
+
+/// The closed polygon `ring` (mm, either orientation, its first point not repeated)
+/// moved by `distance_mm` off its edges, its corners kept sharp: away from its inside
+/// when positive, into it when negative. Each point comes with the index of the corner
+/// of `ring` it was made from.
+///
+/// Each edge moves along its normal and neighbouring edges meet where their moved lines
+/// cross (the mitre). A corner that the moved path goes round (outside the turn) and
+/// that is sharper than [`MITRE_LIMIT`] allows is rounded about the drawn corner at the
+/// offset instead, so the beam never comes nearer the drawn line than the offset.
+/// Where the moved lines of short edges cross beyond each other (a corner's loop), the
+/// points nearer the drawn line than the offset are dropped.
+///
+/// Errors: a ring of fewer than three points, one of no area or a number not finite
+/// (`Degenerate`); an edge of the result passing nearer the drawn line than the
+/// offset (`Collision`: a gap or neck narrower than the kerf; a rounded corner's
+/// chords may pass inside its arc by their sagitta, 0.9 % of the offset).
+pub fn offset_polygon(
+    ring: &[[f64; 2]],
+    distance_mm: f64,
+) -> Result<Vec<([f64; 2], usize)>, OffsetError> {
+    let n = ring.len();
+    let area2 = signed_area2(ring);
+    if n < 3 || !area2.is_finite() || area2 == 0.0 || !distance_mm.is_finite() {
+        return Err(OffsetError::Degenerate);
+    }
+    let unit = |a: [f64; 2], b: [f64; 2]| {
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let length = dx.hypot(dy);
+        (length > 0.0).then(|| [dx / length, dy / length])
+    };
+    // The normal that points away from the inside (module docs of `offset_ring`).
+    let outward = area2.signum();
+    let normal = |t: [f64; 2]| [outward * t[1], -outward * t[0]];
+    let d = distance_mm;
+    let mut moved = Vec::with_capacity(n);
+    for i in 0..n {
+        let (before, p, after) = (ring[(i + n - 1) % n], ring[i], ring[(i + 1) % n]);
+        let (Some(t1), Some(t2)) = (unit(before, p), unit(p, after)) else {
+            return Err(OffsetError::Degenerate);
+        };
+        let (n1, n2) = (normal(t1), normal(t2));
+        let cos = n1[0] * n2[0] + n1[1] * n2[1];
+        // The path goes round the corner where the turn's outside is the offset's side.
+        let turn = t1[0] * t2[1] - t1[1] * t2[0];
+        let around = turn * outward * d > 0.0;
+        if around && 1.0 + cos < 2.0 / (MITRE_LIMIT * MITRE_LIMIT) {
+            let (a1, a2) = (n1[1].atan2(n1[0]), n2[1].atan2(n2[0]));
+            let sweep = (a2 - a1 + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
+            let steps = (sweep.abs() / ROUND_STEP_RAD).ceil().max(1.0) as usize;
+            for k in 0..=steps {
+                let a = a1 + sweep * k as f64 / steps as f64;
+                moved.push(([p[0] + d * a.cos(), p[1] + d * a.sin()], i));
+            }
+        } else if 1.0 + cos > 1e-12 {
+            let scale = d / (1.0 + cos);
+            let mitre = [
+                p[0] + scale * (n1[0] + n2[0]),
+                p[1] + scale * (n1[1] + n2[1]),
+            ];
+            moved.push((mitre, i));
+        }
+        // A full reversal inside the offset's side adds no point: its loop is dropped.
+    }
+    let nearest = |q: [f64; 2]| {
+        (0..n)
+            .map(|k| segment_distance(q, ring[k], ring[(k + 1) % n]))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let magnitude = d.abs();
+    let tolerance = 1e-6 * magnitude + 1e-9;
+    let kept: Vec<([f64; 2], usize)> = moved
+        .into_iter()
+        .filter(|&(q, _)| nearest(q) >= magnitude - tolerance)
+        .collect();
+    if kept.len() < 3 {
+        // Every corner fell into a loop: a contour narrower than the kerf all through.
+        return Err(OffsetError::Collision {
+            offset_mm: magnitude,
+            at_mm: ring[0],
+        });
+    }
+    // A rounded corner's chords pass inside its arc by their sagitta.
+    let chord = 1.0 - (0.5 * ROUND_STEP_RAD).cos();
+    let closest = magnitude * (1.0 - chord) - tolerance;
+    for (k, &(a, _)) in kept.iter().enumerate() {
+        let b = kept[(k + 1) % kept.len()].0;
+        // Sampled along the edge: a neck shows as a point nearer the drawn line.
+        for j in 1..8 {
+            let t = j as f64 / 8.0;
+            let q = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+            if nearest(q) < closest {
+                return Err(OffsetError::Collision {
+                    offset_mm: magnitude,
+                    at_mm: a,
+                });
+            }
+        }
+    }
+    Ok(kept)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -260,5 +370,149 @@ mod tests {
         ring.extend(arc([0.0, 0.0], 3.0, 2.0 * pi - end, end));
         ring.extend(arc(cap(end), 1.0, end + pi, end + 2.0 * pi));
         ring
+    }
+
+    /// Area by the shoelace formula of the offset's points.
+    fn area(points: &[([f64; 2], usize)]) -> f64 {
+        let ring: Vec<[f64; 2]> = points.iter().map(|&(p, _)| p).collect();
+        signed_area2(&ring).abs() / 2.0
+    }
+
+    /// Steiner's formula, computed from the drawn polygon alone: a polygon of area A
+    /// and perimeter P moved out by d, each corner of exterior angle β mitred, gains
+    /// P d + d² Σ tan(β/2) (β < 0 at a corner turning the other way).
+    #[test]
+    fn mitred_offsets_have_steiners_area_and_sharp_corners() {
+        let square = [[-5.0, -5.0], [5.0, -5.0], [5.0, 5.0], [-5.0, 5.0]];
+        for ring in [square.to_vec(), square.iter().rev().copied().collect()] {
+            let out = offset_polygon(&ring, 0.1).unwrap();
+            assert_eq!(out.len(), 4);
+            for (p, i) in &out {
+                let corner = ring[*i];
+                assert!((p[0] - corner[0] * 5.1 / 5.0).abs() < 1e-12, "{p:?}");
+                assert!((p[1] - corner[1] * 5.1 / 5.0).abs() < 1e-12, "{p:?}");
+            }
+            let inner = offset_polygon(&ring, -0.1).unwrap();
+            assert!((area(&inner) - 9.8 * 9.8).abs() < 1e-9);
+        }
+        // An L: five corners turning one way, one the other.
+        let l = [
+            [0.0, 0.0],
+            [6.0, 0.0],
+            [6.0, 2.0],
+            [2.0, 2.0],
+            [2.0, 5.0],
+            [0.0, 5.0],
+        ];
+        let (a, p, d) = (6.0 * 2.0 + 2.0 * 3.0, 22.0, 0.25);
+        let steiner = a + p * d + d * d * (5.0 - 1.0);
+        assert!((area(&offset_polygon(&l, d).unwrap()) - steiner).abs() < 1e-9);
+        let steiner_in = a - p * d + d * d * (5.0 - 1.0);
+        assert!((area(&offset_polygon(&l, -d).unwrap()) - steiner_in).abs() < 1e-9);
+    }
+
+    /// A corner sharper than the mitre limit is rounded: its points lie on the circle
+    /// of the offset about the drawn corner, and the area is Steiner's with the
+    /// rounded corner's fan of chords in place of its mitre.
+    #[test]
+    fn sharp_corners_are_rounded_at_the_offset() {
+        // A thin triangle: a 20° corner at the origin.
+        let tip = 20f64.to_radians();
+        let tri = [
+            [0.0, 0.0],
+            [10.0, 0.0],
+            [10.0 * tip.cos(), 10.0 * tip.sin()],
+        ];
+        let d = 0.2;
+        let out = offset_polygon(&tri, d).unwrap();
+        let at_tip: Vec<[f64; 2]> = out
+            .iter()
+            .filter(|(_, i)| *i == 0)
+            .map(|&(p, _)| p)
+            .collect();
+        assert!(at_tip.len() > 2);
+        for p in &at_tip {
+            assert!((p[0].hypot(p[1]) - d).abs() < 1e-12, "{p:?}");
+        }
+        let exterior = |k: usize| {
+            let (a, b, c) = (tri[(k + 2) % 3], tri[k], tri[(k + 1) % 3]);
+            let (t1, t2) = ([b[0] - a[0], b[1] - a[1]], [c[0] - b[0], c[1] - b[1]]);
+            (t1[0] * t2[1] - t1[1] * t2[0]).atan2(t1[0] * t2[0] + t1[1] * t2[1])
+        };
+        let perimeter: f64 = (0..3)
+            .map(|k| (tri[(k + 1) % 3][0] - tri[k][0]).hypot(tri[(k + 1) % 3][1] - tri[k][1]))
+            .sum();
+        let mut steiner = signed_area2(&tri).abs() / 2.0 + perimeter * d;
+        for k in 0..3 {
+            let beta = exterior(k);
+            // The normals of the two edges are β apart.
+            let mitred = 1.0 + beta.cos() >= 2.0 / (MITRE_LIMIT * MITRE_LIMIT);
+            steiner += if mitred {
+                d * d * (beta / 2.0).tan()
+            } else {
+                let steps = (beta / ROUND_STEP_RAD).ceil();
+                steps * 0.5 * d * d * (beta / steps).sin()
+            };
+        }
+        assert!(
+            (area(&out) - steiner).abs() < 1e-9,
+            "{} {steiner}",
+            area(&out)
+        );
+    }
+
+    /// Short edges whose moved lines cross beyond each other leave no loop; a neck
+    /// narrower than the kerf is refused where it is.
+    #[test]
+    fn loops_are_dropped_and_necks_refused() {
+        // A square with a notch 0.1 mm wide and deep, moved out by 0.3 mm: the notch
+        // closes over.
+        let notched = [
+            [0.0, 0.0],
+            [4.95, 0.0],
+            [4.95, 0.1],
+            [5.05, 0.1],
+            [5.05, 0.0],
+            [10.0, 0.0],
+            [10.0, 10.0],
+            [0.0, 10.0],
+        ];
+        let out = offset_polygon(&notched, 0.3).unwrap();
+        for (p, _) in &out {
+            let nearest = (0..notched.len())
+                .map(|k| segment_distance(*p, notched[k], notched[(k + 1) % notched.len()]))
+                .fold(f64::INFINITY, f64::min);
+            assert!(nearest >= 0.3 - 1e-9, "{p:?} {nearest}");
+        }
+        // Two squares joined by a bridge 0.2 mm wide, moved in by 0.15 mm.
+        let dumbbell = [
+            [0.0, 0.0],
+            [4.0, 0.0],
+            [4.0, 1.9],
+            [6.0, 1.9],
+            [6.0, 0.0],
+            [10.0, 0.0],
+            [10.0, 4.0],
+            [6.0, 4.0],
+            [6.0, 2.1],
+            [4.0, 2.1],
+            [4.0, 4.0],
+            [0.0, 4.0],
+        ];
+        assert!(matches!(
+            offset_polygon(&dumbbell, -0.15),
+            Err(OffsetError::Collision { .. })
+        ));
+        // A hole narrower than the kerf has no path inside it.
+        let small = [[0.0, 0.0], [0.1, 0.0], [0.1, 0.1], [0.0, 0.1]];
+        assert!(matches!(
+            offset_polygon(&small, -0.1),
+            Err(OffsetError::Collision { .. })
+        ));
+        assert!(offset_polygon(&dumbbell, -0.05).is_ok());
+        assert_eq!(
+            offset_polygon(&[[0.0, 0.0], [1.0, 0.0]], 0.1),
+            Err(OffsetError::Degenerate)
+        );
     }
 }

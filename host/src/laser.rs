@@ -29,9 +29,15 @@
 //! gcode` says where `S` passes `S_max` (full power).
 //! `centre` moves the program so that the box around its cuts is centred on the
 //! workspace's centre (a laser bed's origin is its corner, the slave's its centre).
+//! [`PlanConfig`]'s kerf moves each closed run off its drawn line to the scrap's side,
+//! corners sharp, and its lead-in enters each closed run from the scrap
+//! (`kerf_and_lead_in`).
 
 use crate::job::{with_settings, CutLaser, CutSettings, Job, JobFileError};
-use crate::plan::{self, efd_job, path_job, Fit, PlanConfig, PlanError};
+use crate::kerf_offset::{offset_polygon, signed_area2};
+use crate::plan::{
+    self, efd_job, kerf_distance_mm, kerf_sign, path_job, Fit, PlanConfig, PlanError,
+};
 use kerf::machines::delta_slave::MOVE_POINTS;
 use kerf::trajectory::gcode::{Diagnostic, GcodePoint, MoveKind, Parser, Severity, Spindle};
 
@@ -245,15 +251,14 @@ pub fn parts(
             .collect(),
         ..run.clone()
     };
+    let runs = kerf_and_lead_in(program.runs.iter().map(shifted).collect(), config)?;
     if corners == Corners::Sharp {
-        let pieces = program.runs.iter().map(shifted).flat_map(|r| pieces(&r));
+        let pieces = runs.iter().flat_map(pieces);
         return Ok(pieces.map(|run| moves_part(run, beam)).collect());
     }
-    program
-        .runs
-        .iter()
+    runs.iter()
         .map(|run| {
-            let path = shifted(run).path_mm;
+            let path = run.path_mm.clone();
             let (fit, job) = if run.closed {
                 efd_job(&path, config.harmonics)?
             } else {
@@ -274,6 +279,78 @@ pub fn parts(
             })
         })
         .collect()
+}
+
+/// The closed runs of `runs` moved off the drawn line by half the kerf to the scrap's
+/// side, corners kept sharp ([`offset_polygon`]; the side alternates from an outline
+/// to its holes, [`PlanConfig::kerf_side`]), each move at its feed; then, with a
+/// lead-in, each closed run begins with a straight move of [`PlanConfig::lead_in_mm`]
+/// from the scrap's side along its first corner's bisector (the run is then open, its
+/// start point repeated at its end). Open runs are cut as drawn.
+///
+/// Errors: an offset that runs into the contour (a gap or neck narrower than the
+/// kerf), or a run too small to have one.
+fn kerf_and_lead_in(runs: Vec<LaserRun>, config: &PlanConfig) -> Result<Vec<LaserRun>, PlanError> {
+    if config.kerf_mm <= 0.0 && config.lead_in_mm <= 0.0 {
+        return Ok(runs);
+    }
+    let closed: Vec<usize> = (0..runs.len()).filter(|&i| runs[i].closed).collect();
+    let rings: Vec<Vec<[f64; 2]>> = closed.iter().map(|&i| runs[i].path_mm.clone()).collect();
+    let around = crate::parts::enclosing(&rings);
+    let mut runs = runs;
+    for (k, &i) in closed.iter().enumerate() {
+        let depth = around[k].len();
+        let run = &mut runs[i];
+        let n = run.path_mm.len();
+        // The feed of the move ending at corner j (corner 0's: the move back to it).
+        let feed_to = |feeds: &[f64], j: usize| match j {
+            0 => feeds.get(n).copied().unwrap_or(run.feed_m_s),
+            j => feeds.get(j).copied().unwrap_or(run.feed_m_s),
+        };
+        if config.kerf_mm > 0.0 {
+            let moved = offset_polygon(&run.path_mm, kerf_distance_mm(config, depth))?;
+            let mut feeds: Vec<f64> = moved
+                .iter()
+                .map(|&(_, j)| feed_to(&run.feeds_m_s, j))
+                .collect();
+            let back = feeds.first().copied().unwrap_or(run.feed_m_s);
+            if let Some(first) = feeds.first_mut() {
+                *first = 0.0;
+            }
+            feeds.push(back);
+            run.path_mm = moved.into_iter().map(|(p, _)| p).collect();
+            run.feeds_m_s = feeds;
+        }
+        if config.lead_in_mm > 0.0 {
+            let ring = &run.path_mm;
+            let (Some(&start), Some(&next), Some(&before)) =
+                (ring.first(), ring.get(1), ring.last())
+            else {
+                return Err(PlanError::TooSmall(ring.len()));
+            };
+            let unit = |a: [f64; 2], b: [f64; 2]| {
+                let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+                let length = dx.hypot(dy).max(f64::MIN_POSITIVE);
+                [dx / length, dy / length]
+            };
+            let (t1, t2) = (unit(before, start), unit(start, next));
+            // The outward normal of a counter-clockwise ring is its tangent turned
+            // clockwise; the bisector of the two edges' normals, to the scrap's side.
+            let outward = signed_area2(ring).signum() * kerf_sign(config, depth);
+            let bisector = [t1[1] + t2[1], -(t1[0] + t2[0])];
+            let b = unit([0.0; 2], bisector);
+            let from = [
+                start[0] + outward * config.lead_in_mm * b[0],
+                start[1] + outward * config.lead_in_mm * b[1],
+            ];
+            let first_feed = run.feeds_m_s.get(1).copied().unwrap_or(run.feed_m_s);
+            run.path_mm.insert(0, from);
+            run.path_mm.push(start);
+            run.feeds_m_s.insert(1, first_feed);
+            run.closed = false;
+        }
+    }
+    Ok(runs)
 }
 
 /// `run` as open pieces of at most [`MOVE_POINTS`] points each, the next beginning

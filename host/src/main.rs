@@ -207,52 +207,43 @@ struct PlanArgs {
     /// With --all: leave out contours smaller than this across, mm (specks, noise).
     #[arg(long, value_name = "MM", default_value_t = 0.0, requires = "all")]
     min_size_mm: f64,
-    /// The width of the cut, mm: closed contours are moved off the drawn line by half
-    /// of it, to the scrap's side, so the part comes out the size drawn.
-    #[arg(long, value_name = "MM", default_value_t = 0.0)]
-    kerf_mm: f64,
-    /// Which side of the drawn line is scrap: outside an outline and inside its holes
-    /// (the part is kept), or the other way (the hole is kept).
-    #[arg(long, value_enum, default_value = "outside")]
-    kerf_side: kerf_host::kerf_offset::KerfSide,
     /// Cut the picture into ink (darker than this grey level, 1 to 255) and paper
     /// before its edges are sought: for photographs and faint drawings.
     #[arg(long, value_name = "GREY", value_parser = clap::value_parser!(u8).range(1..))]
     threshold: Option<u8>,
-    /// A straight lead-in of this length, mm, from the scrap's side (as --kerf-side
-    /// says) to each closed contour's start: a part of its own, cut just before the
-    /// contour, so the beam comes on away from the part.
-    #[arg(long, value_name = "MM", default_value_t = 0.0)]
-    lead_in_mm: f64,
+    #[command(flatten)]
+    kerf: cli_cut::KerfArgs,
     #[command(flatten)]
     cut: cli_cut::CutArgs,
 }
 
 #[derive(Debug, clap::Args)]
-struct GcodeArgs {
+pub(crate) struct GcodeArgs {
     /// The G-code program.
-    file: PathBuf,
+    pub(crate) file: PathBuf,
     /// Write the job file here (without it, nothing is written).
     #[arg(long, value_name = "JOB")]
-    out: Option<PathBuf>,
+    pub(crate) out: Option<PathBuf>,
     /// The machine the program is for: ARROW (its loader checks the program), or the
     /// Keops slave (a laser program: each run with the beam on becomes a part).
     #[arg(long, value_enum, default_value = "arrow")]
-    machine: kerf_host::check::Machine,
+    pub(crate) machine: kerf_host::check::Machine,
     /// For the Keops slave: move the program so that its cuts are centred on the
     /// workspace's centre (a laser bed's origin is its corner).
     #[arg(long)]
-    centre: bool,
+    pub(crate) centre: bool,
     /// For the Keops slave: the S value of full power (grbl's $30).
     #[arg(long, value_name = "S", default_value_t = 1000.0)]
-    s_max: f64,
+    pub(crate) s_max: f64,
     /// For the Keops slave: cut the program's corners sharp, as straight moves each at
     /// its feed (planned by the machine's look-ahead planner), or fit each run with a
     /// smooth curve (an EFD or a spline) cut at one speed.
     #[arg(long, value_enum, default_value = "sharp")]
-    corners: kerf_host::laser::Corners,
+    pub(crate) corners: kerf_host::laser::Corners,
     #[command(flatten)]
-    cut: cli_cut::CutArgs,
+    pub(crate) cut: cli_cut::CutArgs,
+    #[command(flatten)]
+    pub(crate) kerf: cli_cut::KerfArgs,
 }
 
 fn main() -> ExitCode {
@@ -262,15 +253,9 @@ fn main() -> ExitCode {
     let r = &mut report;
     let result = match cli.command {
         Command::Plan(args) => run_plan(&args, r),
-        Command::Gcode(GcodeArgs {
-            file,
-            out,
-            machine: kerf_host::check::Machine::KeopsSlave,
-            centre,
-            s_max,
-            corners,
-            cut,
-        }) => cli_laser::run(&file, out.as_deref(), centre, s_max, corners, &cut, r),
+        Command::Gcode(args) if args.machine == kerf_host::check::Machine::KeopsSlave => {
+            cli_laser::run(&args, r)
+        }
         Command::Gcode(args) => run_gcode(&args, r),
         Command::Check(args) => cli_check::run(&args, r),
         Command::Run(args) => cli_machine::run(&args, r),
@@ -312,9 +297,9 @@ fn run_plan(args: &PlanArgs, report: &mut Report) -> Result<(), Failure> {
         harmonics: args.harmonics,
         start_px: args.start.map(|p| [p.0, p.1]),
         contour: usize::from(args.contour) - 1,
-        kerf_mm: args.kerf_mm,
-        kerf_side: args.kerf_side,
-        lead_in_mm: args.lead_in_mm,
+        kerf_mm: args.kerf.kerf_mm,
+        kerf_side: args.kerf.kerf_side,
+        lead_in_mm: args.kerf.lead_in_mm,
         threshold: args.threshold,
         format: args.format.map(|f| match f {
             FormatArg::Efd => Format::Efd,
@@ -439,10 +424,11 @@ pub(crate) fn kerf_line(config: &PlanConfig, report: &mut Report) {
 
 fn run_gcode(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
     let name = args.file.display().to_string();
-    if args.cut.settings()? != kerf_host::job::CutSettings::MACHINE {
+    if args.cut.settings()? != kerf_host::job::CutSettings::MACHINE || args.kerf.is_set() {
         return Err(Failure::Input(format!(
-            "{name}: an ARROW program carries its own feeds; --speed-mm-s, --power-w, \
-             --energy-j-per-mm, --beam-off and --passes are for the laser delta's parts"
+            "{name}: an ARROW program carries its own feeds and path; --speed-mm-s, \
+             --power-w, --energy-j-per-mm, --beam-off, --passes, --kerf-mm and \
+             --lead-in-mm are for the laser delta's parts"
         )));
     }
     let out = prepare(args.out.as_deref(), "job file")?;

@@ -72,7 +72,7 @@ fn area2(ring: &[[f64; 2]]) -> f64 {
 }
 
 /// For each of `rings`, the rings that enclose it (larger, and containing its start).
-fn enclosing(rings: &[Vec<[f64; 2]>]) -> Vec<Vec<usize>> {
+pub(crate) fn enclosing(rings: &[Vec<[f64; 2]>]) -> Vec<Vec<usize>> {
     let n = rings.len();
     (0..n)
         .map(|a| {

@@ -525,7 +525,7 @@ pub(crate) fn offset_fit(
 
 /// 1 where the scrap lies outside a contour inside `depth` others, −1 where inside
 /// ([`KerfSide`]: the side alternates from an outline to its holes).
-fn kerf_sign(config: &PlanConfig, depth: usize) -> f64 {
+pub(crate) fn kerf_sign(config: &PlanConfig, depth: usize) -> f64 {
     if (config.kerf_side == KerfSide::Outside) == (depth % 2 == 0) {
         1.0
     } else {

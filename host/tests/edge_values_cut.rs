@@ -29,6 +29,15 @@ fn cut_settings_and_the_kerf_at_their_edges() {
         v.extend_from_slice(extra);
         v
     };
+    let plate = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../data/gcode/lightburn-style-plate.gcode"
+    );
+    let laser = |extra: &[&'static str]| -> Vec<&str> {
+        let mut v = vec!["gcode", plate, "--machine", "keops-slave", "--centre"];
+        v.extend_from_slice(extra);
+        v
+    };
     let planned: &[&str] = &["p.kjob"];
     let cases: Vec<(&str, Vec<&str>, Expect)> = vec![
         ("speed", plan(&["--speed-mm-s", "4"]), Done(planned)),
@@ -219,6 +228,46 @@ fn cut_settings_and_the_kerf_at_their_edges() {
             "gcode-s-max-0",
             vec!["gcode", gcode, "--machine", "keops-slave", "--s-max", "0"],
             Fails(1, "--s-max 0"),
+        ),
+        (
+            "gcode-kerf-lead-in",
+            laser(&[
+                "--kerf-mm",
+                "0.2",
+                "--lead-in-mm",
+                "1",
+                "--out",
+                "{}/k.kjob",
+            ]),
+            Done(&["k.kjob"]),
+        ),
+        (
+            "gcode-kerf-neg",
+            laser(&["--kerf-mm=-0.1"]),
+            Fails(1, "--kerf-mm -0.1: a length of 0 or more, mm"),
+        ),
+        (
+            "gcode-lead-in-nan",
+            laser(&["--lead-in-mm", "NaN"]),
+            Fails(1, "--lead-in-mm NaN: a length of 0 or more"),
+        ),
+        (
+            "gcode-kerf-wider-than-the-hole",
+            laser(&["--kerf-mm", "7", "--out", "{}/k2.kjob"]),
+            Fails(1, "runs into the contour"),
+        ),
+        (
+            "gcode-lead-in-passes",
+            laser(&["--lead-in-mm", "1", "--passes", "2"]),
+            Fails(1, "--passes with --lead-in-mm"),
+        ),
+        (
+            "gcode-arrow-kerf",
+            vec!["gcode", gcode, "--kerf-mm", "0.1"],
+            Fails(
+                1,
+                "--kerf-mm and --lead-in-mm are for the laser delta's parts",
+            ),
         ),
         (
             "run-gcode-settings",

@@ -306,3 +306,70 @@ fn each_layer_of_a_lightburn_style_program_keeps_its_settings() {
     let checked = check(&laser::to_bytes(&parts).unwrap(), None).unwrap();
     assert_eq!(checked.parts, 2);
 }
+
+/// With a kerf, the hexagonal hole shrinks and the outline grows by half of it, corners
+/// sharp (a regular hexagon's corner moves by d / cos 30°, a square's by d √2), each
+/// move keeping its feed; a lead-in enters each from the scrap's side, 1 mm along its
+/// first corner's bisector, as the part's first move; the slave takes them.
+#[test]
+fn the_kerf_and_lead_in_move_a_programs_closed_runs_to_the_scrap() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../data/gcode/lightburn-style-plate.gcode"
+    );
+    let program = laser::read(&std::fs::read(path).unwrap());
+    let (kerf_mm, lead_in_mm) = (0.2, 1.0);
+    let d = kerf_mm / 2.0;
+    let config = |lead_in_mm| PlanConfig {
+        kerf_mm,
+        lead_in_mm,
+        ..PlanConfig::default()
+    };
+    let parts = laser::parts(&program, &config(0.0), true, &BEAM, Corners::Sharp).unwrap();
+    let hole = &parts[0].run;
+    // A closed part's path comes back to its start.
+    assert!(hole.closed && hole.path_mm.len() == 7 && hole.path_mm[0] == hole.path_mm[6]);
+    let corner_r = 3.0 - d / 30f64.to_radians().cos();
+    // The program writes 3 sin 60° = 2.5981 as 2.598: its corners lie within 0.1 µm
+    // of 3 mm, and the moved ones within twice that of theirs.
+    for p in &hole.path_mm {
+        assert!((p[0].hypot(p[1]) - corner_r).abs() < 2e-4, "{p:?}");
+    }
+    let outline = &parts[1].run;
+    for p in &outline.path_mm {
+        assert!(
+            (p[0].abs() - 6.1).abs() < 1e-9 && (p[1].abs() - 6.1).abs() < 1e-9,
+            "{p:?}"
+        );
+    }
+    assert_eq!(outline.feeds_m_s.len(), 5);
+    assert!(outline.feeds_m_s[1..]
+        .iter()
+        .all(|&f| (f - 6e-3).abs() < 1e-12));
+    // Inside, with the kerf's side turned: the hole grows, the outline shrinks.
+    let inside = PlanConfig {
+        kerf_side: kerf_host::kerf_offset::KerfSide::Inside,
+        ..config(0.0)
+    };
+    let turned = laser::parts(&program, &inside, true, &BEAM, Corners::Sharp).unwrap();
+    let grown = 3.0 + d / 30f64.to_radians().cos();
+    let hole_start = turned[0].run.path_mm[0];
+    assert!((hole_start[0].hypot(hole_start[1]) - grown).abs() < 2e-4);
+    assert!((turned[1].run.path_mm[0][0].abs() - 5.9).abs() < 1e-9);
+    let led = laser::parts(&program, &config(lead_in_mm), true, &BEAM, Corners::Sharp).unwrap();
+    for (with, without) in led.iter().zip(&parts) {
+        let (from, start) = (with.run.path_mm[0], without.run.path_mm[0]);
+        assert!(!with.run.closed);
+        assert_eq!(with.run.path_mm[1], start);
+        assert_eq!(with.run.path_mm.last(), Some(&start));
+        assert_eq!(with.run.feeds_m_s.len(), with.run.path_mm.len());
+        let gap = (from[0] - start[0]).hypot(from[1] - start[1]);
+        assert!((gap - lead_in_mm).abs() < 1e-9, "{gap}");
+    }
+    // Into the hole (towards its centre), out of the outline (away from its corner).
+    let (hole_from, hole_start) = (led[0].run.path_mm[0], parts[0].run.path_mm[0]);
+    assert!(hole_from[0].hypot(hole_from[1]) < hole_start[0].hypot(hole_start[1]));
+    assert!((led[1].run.path_mm[0][0] - (-6.1 - lead_in_mm / 2f64.sqrt())).abs() < 1e-9);
+    let checked = check(&laser::to_bytes(&led).unwrap(), None).unwrap();
+    assert_eq!(checked.parts, 2);
+}
