@@ -16,6 +16,10 @@
 //! - ARROW (`arrow`) takes G-code: its check is [`crate::gcode::check`] (line and
 //!   column of the first problem, the job's moves and duration); its preview is seen
 //!   along its tool (x and z), with the edge of its workspace at y0.
+//! - The grinding cell (`grinding`) and the single axis (`single-axis`) take G-code:
+//!   their own loaders (the cell's pass at its preset law and force, the axis' moves
+//!   within its travel), with the pass's or the moves' duration and length; no
+//!   preview.
 //!
 //! A file of several parts (their job files back to back, [`crate::job::split`]) is
 //! checked part by part, as the machine loads them one after the other: the first
@@ -28,32 +32,50 @@
 
 use crate::job::{split, JobFileError, JobKind};
 use kerf::app::host_link::LinkMachine;
+use kerf::app::joints::JointJob;
 use kerf::codec::job::JobFile;
 use kerf::codec::link::{CodeWords, LINK_JOB_REFUSALS};
 use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry, Pose};
 use kerf::kinematics::delta::DeltaGeometry;
 use kerf::machines::delta_slave::product::{contour_defaults, JOB_LAPS};
 use kerf::machines::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
+use kerf::machines::grinding::product::PASS;
+use kerf::machines::grinding::GrindingJob;
+use kerf::machines::single_axis::product::CONFIG as AXIS;
 use kerf::trajectory::gcode::MoveKind;
 use nalgebra::Vector3;
 
 /// The machines a job can be checked for on the host (on the command line by the
-/// names `keops-slave` and `arrow`).
+/// names they announce: `keops-slave`, `arrow`, `grinding`, `single-axis`).
 #[derive(Copy, Clone, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Machine {
     /// The Keops slave, the laser delta: contours (EFD, points and moves files).
     KeopsSlave,
     /// ARROW: G-code programs.
     Arrow,
+    /// The grinding cell: a G-code pass along X.
+    Grinding,
+    /// The single axis: G-code moves along X.
+    SingleAxis,
 }
 
-/// Every machine [`Machine`] names, in the order the help lists them.
-pub const MACHINES: [Machine; 2] = [Machine::KeopsSlave, Machine::Arrow];
+/// Every machine [`Machine`] names, in the order the help lists them (a G-code job
+/// with no machine named is ARROW's).
+pub const MACHINES: [Machine; 4] = [
+    Machine::KeopsSlave,
+    Machine::Arrow,
+    Machine::Grinding,
+    Machine::SingleAxis,
+];
 
 /// The Keops slave as the link and the board images run it (its scalar).
 type Keops = DeltaSlave<f32>;
 /// ARROW as the link runs it.
 type ArrowMachine = kerf::machines::arrow::product::Arrow<f32>;
+/// The grinding cell as the link runs it.
+type GrindingMachine = kerf::machines::grinding::product::Cell<f32>;
+/// The single axis as the link runs it.
+type AxisMachine = kerf::machines::single_axis::product::Axis<f32>;
 
 impl Machine {
     /// The name the machine announces on the link.
@@ -61,6 +83,8 @@ impl Machine {
         match self {
             Machine::KeopsSlave => Keops::NAME,
             Machine::Arrow => ArrowMachine::NAME,
+            Machine::Grinding => GrindingMachine::NAME,
+            Machine::SingleAxis => AxisMachine::NAME,
         }
     }
 
@@ -69,6 +93,8 @@ impl Machine {
         match self {
             Machine::KeopsSlave => Keops::JOB_KINDS,
             Machine::Arrow => ArrowMachine::JOB_KINDS,
+            Machine::Grinding => GrindingMachine::JOB_KINDS,
+            Machine::SingleAxis => AxisMachine::JOB_KINDS,
         }
     }
 
@@ -188,7 +214,8 @@ pub struct Checked {
     pub parts: usize,
     /// From start to the end of the job, s (the approach included).
     pub duration_s: f64,
-    /// Length of the cut (one lap of a closed contour), m.
+    /// Length of the cut (one lap of a closed contour; the single axis: its travel
+    /// between its targets), m.
     pub cut_length_m: f64,
     /// What the preview draws (`None` where the machine has no preview yet).
     pub preview: Option<Preview>,
@@ -231,6 +258,8 @@ pub fn check(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckErr
                 workspace_outline(&config, [centre[0], centre[1]], centre[2])
             }
             Machine::Arrow => arrow_outline(&ArrowConfig::ARROW),
+            // No preview is drawn for them.
+            Machine::Grinding | Machine::SingleAxis => Vec::new(),
         };
     }
     Ok(all)
@@ -286,6 +315,45 @@ fn check_part(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckEr
         // ARROW's kinds are G-code only: refused above, refused the same here.
         (Machine::Arrow, _) => Err(kind_refused(machine, kind)),
         (Machine::KeopsSlave, file) => check_keops(&file),
+        (Machine::Grinding, file) => {
+            let mut pass = GrindingJob::default();
+            GrindingMachine::load_job(&PASS, &file, &mut pass)
+                .map_err(refused::<GrindingMachine>)?;
+            Ok(Checked {
+                machine,
+                kind,
+                parts: 1,
+                duration_s: pass.length_m / pass.feed_m_s,
+                cut_length_m: pass.length_m,
+                preview: None,
+            })
+        }
+        (Machine::SingleAxis, file) => {
+            let mut moves = Box::<JointJob<1>>::default();
+            AxisMachine::load_job(&AXIS, &file, &mut moves).map_err(refused::<AxisMachine>)?;
+            // Between its targets: the first move starts where the carriage stands.
+            let travel_m = moves
+                .windows(2)
+                .map(|w| (w[1].target_m[0] - w[0].target_m[0]).abs())
+                .fold(0.0, |sum, d| sum + d);
+            Ok(Checked {
+                machine,
+                kind,
+                parts: 1,
+                duration_s: moves.iter().map(|m| m.duration_s).sum(),
+                cut_length_m: travel_m,
+                preview: None,
+            })
+        }
+    }
+}
+
+/// `M`'s refusal `code` with its words.
+fn refused<M: LinkMachine>(code: u16) -> CheckError {
+    CheckError::Refused {
+        machine: M::NAME,
+        code,
+        words: words(M::JOB_REFUSALS, code),
     }
 }
 
@@ -314,11 +382,7 @@ fn check_keops(file: &JobFile<'_>) -> Result<Checked, CheckError> {
     let machine = DeltaSlaveConfig::KEOPS;
     let context = contour_defaults(&machine, JOB_LAPS);
     let mut job = Box::<DeltaJob>::default();
-    Keops::load_job(&context, file, &mut job).map_err(|code| CheckError::Refused {
-        machine: Keops::NAME,
-        code,
-        words: words(Keops::JOB_REFUSALS, code),
-    })?;
+    Keops::load_job(&context, file, &mut job).map_err(refused::<Keops>)?;
     let cut_m: Vec<[f64; 2]> = (0..=PREVIEW_POINTS)
         .filter_map(|i| job.contour_point_m(i as f64 / PREVIEW_POINTS as f64))
         .map(|p| [p[0], p[1]])

@@ -4,9 +4,13 @@
 //! [`JOB_POINTS`] points, [`PROGRAM_POINTS`] points read). [`diagnose`] first lists
 //! every warning and error of the program in one pass.
 
+use crate::check::{CheckError, Checked, Machine};
+use kerf::app::joints::JointJob;
 use kerf::kinematics::arrow::{ArrowConfig, ArrowError};
 use kerf::machines::arrow::job::ArrowJobErrorKind;
 use kerf::machines::arrow::product::{load_job, JOB_MOVES, JOB_POINTS, PROGRAM_POINTS};
+use kerf::machines::grinding::product::{load_pass, PASS};
+use kerf::machines::single_axis::product::{load_moves, CONFIG as AXIS};
 use kerf::trajectory::feed::FeedError;
 use kerf::trajectory::gcode::{
     self, Diagnostic, GcodeErrorKind, GcodePoint, MoveKind, ReaderConfig, Severity,
@@ -122,6 +126,48 @@ pub fn check(text: &[u8]) -> Result<GcodeReport, GcodeCheckError> {
         duration_s: job.periods() as f64 * job.period_s(),
         moves,
     })
+}
+
+/// Checks `text` for the grinding cell or the single axis with the machine's own
+/// loader ([`crate::check`]): a refusal in the machine's words at the line its loader
+/// names (column 1: the loader blames a line).
+///
+/// Errors: the refusal; for ARROW and the Keops slave, which have their own checks
+/// ([`check`], [`crate::laser`]), that this is not one.
+pub fn check_on(machine: Machine, text: &[u8]) -> Result<Checked, GcodeCheckError> {
+    let whole = |message: String| GcodeCheckError {
+        line: 0,
+        column: 1,
+        message,
+    };
+    let bytes = crate::job::Job::Gcode {
+        text: text.to_vec(),
+    }
+    .to_bytes()
+    .map_err(|e| whole(e.to_string()))?;
+    let line = || match machine {
+        Machine::Grinding => load_pass(&PASS, text).err().map(|e| e.line),
+        Machine::SingleAxis => {
+            let mut job = Box::<JointJob<1>>::default();
+            load_moves(&AXIS, text, &mut job).err().map(|e| e.line)
+        }
+        Machine::Arrow | Machine::KeopsSlave => None,
+    };
+    match machine {
+        Machine::Grinding | Machine::SingleAxis => crate::check::check(&bytes, Some(machine))
+            .map_err(|e| GcodeCheckError {
+                line: line().unwrap_or(0),
+                column: 1,
+                message: match e {
+                    CheckError::Refused { words, .. } => words.to_owned(),
+                    other => other.to_string(),
+                },
+            }),
+        Machine::Arrow | Machine::KeopsSlave => Err(whole(format!(
+            "{} has its own G-code check",
+            machine.name()
+        ))),
+    }
 }
 
 /// Every warning and error of `text` read for ARROW's axes (all five), in the order of

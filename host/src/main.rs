@@ -43,9 +43,10 @@ enum Command {
     /// counter-clockwise; give --start for an open one. The workspace's x points
     /// right and y up, the origin at the contour's centroid.
     Plan(PlanArgs),
-    /// Check a G-code program with ARROW's parser and job loader (A §4) and pack it
-    /// as a job, or (--machine keops-slave) turn a laser program into the parts of a
-    /// Keops slave job. Errors are printed as FILE:LINE:COLUMN: message.
+    /// Check a G-code program with the machine's own loader and pack it as a job
+    /// (ARROW by default; the grinding cell, the single axis), or (--machine
+    /// keops-slave) turn a laser program into the parts of a Keops slave job. Errors
+    /// are printed as FILE:LINE:COLUMN: message.
     Gcode(GcodeArgs),
     /// Check a job file as the machine will check it at load (its own loader and
     /// presets: workspace, carriage limits, curvature, length, capacity), with its
@@ -224,8 +225,9 @@ pub(crate) struct GcodeArgs {
     /// Write the job file here (without it, nothing is written).
     #[arg(long, value_name = "JOB")]
     pub(crate) out: Option<PathBuf>,
-    /// The machine the program is for: ARROW (its loader checks the program), or the
-    /// Keops slave (a laser program: each run with the beam on becomes a part).
+    /// The machine the program is for: ARROW, the grinding cell or the single axis
+    /// (each machine's loader checks the program), or the Keops slave (a laser
+    /// program: each run with the beam on becomes a part).
     #[arg(long, value_enum, default_value = "arrow")]
     pub(crate) machine: kerf_host::check::Machine,
     /// For the Keops slave: move the program so that its cuts are centred on the
@@ -426,9 +428,10 @@ fn run_gcode(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
     let name = args.file.display().to_string();
     if args.cut.settings()? != kerf_host::job::CutSettings::MACHINE || args.kerf.is_set() {
         return Err(Failure::Input(format!(
-            "{name}: an ARROW program carries its own feeds and path; --speed-mm-s, \
+            "{name}: a program for {} carries its own feeds and path; --speed-mm-s, \
              --power-w, --energy-j-per-mm, --beam-off, --passes, --kerf-mm and \
-             --lead-in-mm are for the laser delta's parts"
+             --lead-in-mm are for the laser delta's parts",
+            args.machine.name()
         )));
     }
     let out = prepare(args.out.as_deref(), "job file")?;
@@ -447,13 +450,28 @@ fn run_gcode(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
         // Standard error may be closed: the report still follows.
         let _ = writeln!(std::io::stderr(), "{line}");
     }
-    let checked = gcode::check(&text).map_err(|e: GcodeCheckError| {
+    let located = |e: GcodeCheckError| {
         if e.line == 0 {
             format!("{name}: error: {}", e.message)
         } else {
             format!("{name}:{}:{}: error: {}", e.line, e.column, e.message)
         }
-    })?;
+    };
+    if args.machine != kerf_host::check::Machine::Arrow {
+        let checked = gcode::check_on(args.machine, &text).map_err(located)?;
+        say!(
+            report,
+            "{name}: {} takes it: {:.1} mm of travel (from its first target), about {:.2} s",
+            args.machine.name(),
+            checked.cut_length_m * 1e3,
+            checked.duration_s
+        );
+        if let Some(out) = &out {
+            write_job(out, &Job::Gcode { text }, report)?;
+        }
+        return Ok(());
+    }
+    let checked = gcode::check(&text).map_err(located)?;
     say!(report, "{name}: accepted, {} moves", checked.moves.len());
     say!(
         report,

@@ -344,3 +344,62 @@ fn kerf_check_says_how_each_part_is_cut() {
         "{said}"
     );
 }
+
+/// The grinding cell and the single axis check G-code with their own loaders: a pass
+/// of 0.5 mm at F6 (0.1 mm/s) takes 5 s; the axis' moves are accepted; a program a
+/// machine cannot run is refused in its words at the line its loader names, on the
+/// command line as FILE:LINE:COLUMN.
+#[test]
+fn every_gcode_machine_checks_its_programs() {
+    use kerf_host::gcode::check_on;
+    let data = |name: &str| {
+        std::fs::read(
+            PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("../data")
+                .join(name),
+        )
+        .unwrap()
+    };
+    let pass = check_on(Machine::Grinding, &data("grinding_pass.gcode")).unwrap();
+    assert!((pass.cut_length_m - 0.5e-3).abs() < 1e-12);
+    assert!(
+        (pass.duration_s - 0.5 / 0.1).abs() < 1e-9,
+        "{}",
+        pass.duration_s
+    );
+    assert!(pass.preview.is_none());
+    let moves = check_on(Machine::SingleAxis, &data("axis_moves.gcode")).unwrap();
+    assert_eq!(moves.machine, Machine::SingleAxis);
+    assert!(moves.duration_s > 0.0 && moves.cut_length_m > 0.0);
+    let rapid = check_on(Machine::Grinding, &data("axis_moves.gcode")).unwrap_err();
+    assert_eq!(rapid.line, 4);
+    assert!(rapid.message.starts_with("a rapid move (G0)"), "{rapid}");
+    let off_axis = check_on(Machine::SingleAxis, &data("gcode/cap.ngc")).unwrap_err();
+    assert_eq!((off_axis.line, off_axis.column), (7, 1));
+    assert!(off_axis.message.contains("X axis only"), "{off_axis}");
+    assert!(check_on(Machine::Arrow, b"G1 X1 F60\n").is_err());
+    assert_eq!(Machine::from_name("grinding"), Some(Machine::Grinding));
+    assert_eq!(Machine::from_name("single-axis"), Some(Machine::SingleAxis));
+    // A G-code job with no machine named is ARROW's.
+    assert_eq!(
+        Machine::for_kind(kerf_host::job::JobKind::Gcode),
+        Some(Machine::Arrow)
+    );
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/gcode/cap.ngc");
+    let out = kerf(&["gcode", path.to_str().unwrap(), "--machine", "single-axis"]);
+    assert_eq!(out.status.code(), Some(1));
+    let said = text(&out.stderr);
+    assert!(
+        said.contains("cap.ngc:7:1: error: a move of Y, Z, A or B"),
+        "{said}"
+    );
+    let kerfed = kerf(&[
+        "gcode",
+        path.to_str().unwrap(),
+        "--machine",
+        "grinding",
+        "--kerf-mm",
+        "1",
+    ]);
+    assert!(text(&kerfed.stderr).contains("a program for grinding carries its own feeds"));
+}
