@@ -205,6 +205,8 @@ impl Planned {
             Self::Moves(points) => ContourCurve::Moves {
                 points,
                 junction_deviation_m: JUNCTION_DEVIATION_M,
+                lookahead: 0,
+                before: None,
             },
         }
     }

@@ -236,7 +236,8 @@ fn the_loader_takes_moves_files_and_refuses_in_its_codes() {
         let m = with_settings(&buf[..n], &settings, &mut out).unwrap();
         let file = JobFile::read(&out[..m]).unwrap();
         let mut job = DeltaJob::default();
-        <DeltaSlave<f64> as LinkMachine>::load_job(&context, &file, &mut job).map(|()| job)
+        <DeltaSlave<f64> as LinkMachine>::load_job(&mut context.into(), &file, &mut job)
+            .map(|()| job)
     };
     let program = square(8e-3);
     let once = load(&program, None).unwrap().duration_s();

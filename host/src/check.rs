@@ -37,6 +37,7 @@ use kerf::codec::job::JobFile;
 use kerf::codec::link::{CodeWords, LINK_JOB_REFUSALS};
 use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry, Pose};
 use kerf::kinematics::delta::DeltaGeometry;
+use kerf::machines::delta_slave::link::SlaveJobContext;
 use kerf::machines::delta_slave::product::{contour_defaults, JOB_LAPS};
 use kerf::machines::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
 use kerf::machines::grinding::product::PASS;
@@ -232,9 +233,10 @@ pub fn check(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckErr
     let parts = split(bytes).map_err(CheckError::File)?;
     let of = parts.len();
     let mut all: Option<Checked> = None;
+    let mut keops = SlaveJobContext::from(contour_defaults(&DeltaSlaveConfig::KEOPS, JOB_LAPS));
     for (k, part) in parts.into_iter().enumerate() {
         let machine = machine.or(all.as_ref().map(|c| c.machine));
-        let checked = check_part(part, machine).map_err(|error| match of {
+        let checked = check_part(part, machine, &mut keops).map_err(|error| match of {
             1 => error,
             _ => CheckError::Part {
                 part: k + 1,
@@ -289,8 +291,13 @@ impl Checked {
     }
 }
 
-/// Checks one job file for `machine`, or for the machine that takes its kind.
-fn check_part(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckError> {
+/// Checks one job file for `machine`, or for the machine that takes its kind (the
+/// Keops slave's parts with `keops`, which carries one part's join to the next).
+fn check_part(
+    bytes: &[u8],
+    machine: Option<Machine>,
+    keops: &mut SlaveJobContext,
+) -> Result<Checked, CheckError> {
     let file = JobFile::read(bytes).map_err(CheckError::File)?;
     let kind = file.kind();
     let machine = match machine {
@@ -314,10 +321,10 @@ fn check_part(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckEr
         }
         // ARROW's kinds are G-code only: refused above, refused the same here.
         (Machine::Arrow, _) => Err(kind_refused(machine, kind)),
-        (Machine::KeopsSlave, file) => check_keops(&file),
+        (Machine::KeopsSlave, file) => check_keops(&file, keops),
         (Machine::Grinding, file) => {
             let mut pass = GrindingJob::default();
-            GrindingMachine::load_job(&PASS, &file, &mut pass)
+            GrindingMachine::load_job(&mut PASS.clone(), &file, &mut pass)
                 .map_err(refused::<GrindingMachine>)?;
             Ok(Checked {
                 machine,
@@ -330,7 +337,8 @@ fn check_part(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckEr
         }
         (Machine::SingleAxis, file) => {
             let mut moves = Box::<JointJob<1>>::default();
-            AxisMachine::load_job(&AXIS, &file, &mut moves).map_err(refused::<AxisMachine>)?;
+            AxisMachine::load_job(&mut AXIS.clone(), &file, &mut moves)
+                .map_err(refused::<AxisMachine>)?;
             // Between its targets: the first move starts where the carriage stands.
             let travel_m = moves
                 .windows(2)
@@ -378,11 +386,12 @@ fn words(table: &'static [CodeWords], code: u16) -> &'static str {
         .map_or("a refusal the machine does not describe", |c| c.words)
 }
 
-fn check_keops(file: &JobFile<'_>) -> Result<Checked, CheckError> {
-    let machine = DeltaSlaveConfig::KEOPS;
-    let context = contour_defaults(&machine, JOB_LAPS);
+/// The Keops slave's check of one part, `context` carrying what a part loaded before it
+/// left (where a program of moves goes on).
+fn check_keops(file: &JobFile<'_>, context: &mut SlaveJobContext) -> Result<Checked, CheckError> {
     let mut job = Box::<DeltaJob>::default();
-    Keops::load_job(&context, file, &mut job).map_err(refused::<Keops>)?;
+    Keops::load_job(context, file, &mut job).map_err(refused::<Keops>)?;
+    let context = &context.defaults;
     let cut_m: Vec<[f64; 2]> = (0..=PREVIEW_POINTS)
         .filter_map(|i| job.contour_point_m(i as f64 / PREVIEW_POINTS as f64))
         .map(|p| [p[0], p[1]])

@@ -86,6 +86,7 @@ impl CutArgs {
             speed_m_s,
             laser,
             passes: self.passes,
+            ..CutSettings::MACHINE
         })
     }
 }

@@ -134,10 +134,18 @@ pub fn run(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
     for (k, p) in parts.iter().enumerate() {
         let start = p.run.path_mm.first().copied().unwrap_or([0.0; 2]);
         let shape = match (&p.fit, p.run.closed) {
-            (None, _) => format!(
-                "{} moves, sharp corners",
-                p.run.path_mm.len().saturating_sub(1)
-            ),
+            (None, _) => {
+                let ahead = usize::from(p.settings.continuity.lookahead_points);
+                let moves = p.run.path_mm.len().saturating_sub(1 + ahead);
+                match (p.settings.continuity.continues, ahead) {
+                    (false, 0) => format!("{moves} moves, sharp corners"),
+                    (true, 0) => format!("{moves} moves, sharp corners, on from the part before"),
+                    (false, _) => format!("{moves} moves, sharp corners, {ahead} ahead"),
+                    (true, _) => format!(
+                        "{moves} moves, sharp corners, on from the part before, {ahead} ahead"
+                    ),
+                }
+            }
             (Some(_), closed) => format!(
                 "{}, the fit within {:.3} mm of the program",
                 if closed {

@@ -160,7 +160,7 @@ impl MachineDescription {
                 format!("fault {code}: {}", self.fault_words(code, detail))
             }
             Event::HostLost => "the machine lost the host".to_owned(),
-            Event::NextJob => "the next part begins (its approach)".to_owned(),
+            Event::NextJob => "the next part begins".to_owned(),
             Event::VersionRefused { version } => format!(
                 "the machine refused a frame of link version {version} (it speaks {VERSION})"
             ),

@@ -27,7 +27,9 @@ use kerf::codec::job::{
     file_len, write_efd, write_gcode, write_moves, write_points, write_recording, write_schedule,
     JobFile,
 };
-pub use kerf::codec::job::{CutLaser, CutSettings, JobFileError, HEADER_BYTES, JOB_FORMAT_VERSION};
+pub use kerf::codec::job::{
+    Continuity, CutLaser, CutSettings, JobFileError, HEADER_BYTES, JOB_FORMAT_VERSION,
+};
 pub use kerf::codec::link::JobKind;
 
 /// What a job file carries.
@@ -169,6 +171,23 @@ pub fn split(bytes: &[u8]) -> Result<Vec<&[u8]>, JobFileError> {
     }
 }
 
+/// The part `part` (one job file) made to start at rest: the same points and settings,
+/// no longer continuing the part before it (what the machine takes when the part before
+/// stopped without it); any other part unchanged.
+///
+/// Errors: a part that does not read.
+pub fn starting_at_rest(part: &[u8]) -> Result<Vec<u8>, JobFileError> {
+    let mut settings = JobFile::read(part)?.settings();
+    if !settings.continuity.continues {
+        return Ok(part.to_vec());
+    }
+    settings.continuity.continues = false;
+    let mut buf = vec![0u8; part.len() + CUT_SETTINGS_BYTES];
+    let n = kerf::codec::job::with_settings(part, &settings, &mut buf)?;
+    buf.truncate(n);
+    Ok(buf)
+}
+
 /// `settings` over each part's own, field by field (a field `settings` gives replaces
 /// the part's; the others stay), for every part of the program `bytes`; the program
 /// unchanged (not read) where `settings` gives none.
@@ -188,6 +207,12 @@ pub fn with_settings(bytes: &[u8], settings: &CutSettings) -> Result<Vec<u8>, Jo
             speed_m_s: settings.speed_m_s.or(own.speed_m_s),
             laser: settings.laser.or(own.laser),
             passes: settings.passes.or(own.passes),
+            // A part's place in its program: the one given, else its own (the
+            // command line gives none).
+            continuity: match settings.continuity {
+                Continuity::NONE => own.continuity,
+                given => given,
+            },
         };
         let mut buf = vec![0u8; part.len() + CUT_SETTINGS_BYTES];
         let n = kerf::codec::job::with_settings(part, &merged, &mut buf)?;

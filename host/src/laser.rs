@@ -10,8 +10,10 @@
 //!
 //! How a run becomes parts ([`Corners`]): by default as the program draws it, straight
 //! moves with sharp corners, each at its own feed, planned by the slave's look-ahead
-//! planner (a moves job of at most 32 points; a longer run is cut as several parts
-//! back to back, each ending at rest where the next begins). Or fitted with a smooth
+//! planner (a moves job of at most 32 points; a longer run is cut as parts of 24
+//! points and 8 more of the next part's, the look-ahead: the machine plans each part
+//! to go on at speed into the next, and does so when it has the next part in time,
+//! stopping in the look-ahead, beam off, when it has not). Or fitted with a smooth
 //! curve: a closed run an EFD of [`PlanConfig`]'s harmonics, an open one the
 //! firmware's spline through at most 32 of its points, chosen along the path sampled
 //! every [`SAMPLE_MM`]; each fit is measured against the program's path (both ways,
@@ -33,7 +35,8 @@
 //! corners sharp, and its lead-in enters each closed run from the scrap
 //! (`kerf_and_lead_in`).
 
-use crate::job::{with_settings, CutLaser, CutSettings, Job, JobFileError};
+use crate::job::{with_settings, Continuity, CutLaser, CutSettings, Job, JobFileError};
+
 use crate::kerf_offset::{offset_polygon, signed_area2};
 use crate::plan::{
     self, efd_job, kerf_distance_mm, kerf_sign, path_job, Fit, PlanConfig, PlanError,
@@ -90,7 +93,7 @@ impl Beam {
         CutSettings {
             speed_m_s: feed.map(|v| v as f32),
             laser: Some(laser),
-            passes: None,
+            ..CutSettings::MACHINE
         }
     }
 }
@@ -353,9 +356,16 @@ fn kerf_and_lead_in(runs: Vec<LaserRun>, config: &PlanConfig) -> Result<Vec<Lase
     Ok(runs)
 }
 
-/// `run` as open pieces of at most [`MOVE_POINTS`] points each, the next beginning
-/// where one ends (a closed run's move back to its start included).
-fn pieces(run: &LaserRun) -> Vec<LaserRun> {
+/// Points of the next piece a piece of a longer run carries as its look-ahead: room
+/// to stop in, so the machine plans the piece to go on into the next at speed.
+pub const LOOKAHEAD_POINTS: usize = 8;
+
+/// `run` as pieces of at most [`MOVE_POINTS`] points each, the next beginning where
+/// one's cut ends (a closed run's move back to its start included). Each piece but the
+/// last carries up to [`LOOKAHEAD_POINTS`] of the next one's points after its own as
+/// its look-ahead; each but the first continues the one before (the machine goes on
+/// into it without a stop when it has it in time).
+fn pieces(run: &LaserRun) -> Vec<(LaserRun, Continuity)> {
     let mut path = run.path_mm.clone();
     if run.closed {
         path.push(path[0]);
@@ -363,26 +373,41 @@ fn pieces(run: &LaserRun) -> Vec<LaserRun> {
     let feeds = &run.feeds_m_s;
     let mut out = Vec::new();
     let mut start = 0;
+    let whole = path.len() <= MOVE_POINTS;
+    let cut_points = if whole {
+        MOVE_POINTS
+    } else {
+        MOVE_POINTS - LOOKAHEAD_POINTS
+    };
     while start + 1 < path.len() {
-        let end = (start + MOVE_POINTS).min(path.len());
-        let mut feeds_m_s = feeds.get(start..end).unwrap_or_default().to_vec();
+        let end = (start + cut_points).min(path.len());
+        let ahead = (end + LOOKAHEAD_POINTS).min(path.len());
+        let ahead = if whole { end } else { ahead };
+        let mut feeds_m_s = feeds.get(start..ahead).unwrap_or_default().to_vec();
         if let Some(first) = feeds_m_s.first_mut() {
             *first = 0.0;
         }
-        out.push(LaserRun {
-            path_mm: path[start..end].to_vec(),
-            feeds_m_s,
-            closed: run.closed && start == 0 && end == path.len(),
-            ..run.clone()
-        });
+        let continuity = Continuity {
+            lookahead_points: (ahead - end) as u8,
+            continues: start > 0,
+        };
+        out.push((
+            LaserRun {
+                path_mm: path[start..ahead].to_vec(),
+                feeds_m_s,
+                closed: run.closed && whole,
+                ..run.clone()
+            },
+            continuity,
+        ));
         start = end - 1;
     }
     out
 }
 
 /// A piece of a run as a moves part: its settings the program's, at the speed of its
-/// fastest move.
-fn moves_part(run: LaserRun, beam: &Beam) -> LaserPart {
+/// fastest move (its look-ahead's included), in its place in the run.
+fn moves_part((run, continuity): (LaserRun, Continuity), beam: &Beam) -> LaserPart {
     let points = run
         .path_mm
         .iter()
@@ -392,6 +417,7 @@ fn moves_part(run: LaserRun, beam: &Beam) -> LaserPart {
     let fastest = run.feeds_m_s.iter().copied().fold(0.0, f64::max);
     let settings = CutSettings {
         speed_m_s: (fastest > 0.0).then_some(fastest as f32),
+        continuity,
         ..beam.settings(&run)
     };
     LaserPart {

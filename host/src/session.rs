@@ -268,6 +268,26 @@ struct Parts<'j> {
 }
 
 impl Parts<'_> {
+    /// Gives the machine the next part (committed, not begun) again as one that starts
+    /// at rest, where it was to continue the part before at speed
+    /// ([`crate::job::starting_at_rest`]).
+    fn at_rest(&mut self, m: &mut MachineLink) -> Result<(), SessionError> {
+        let Some(&(kind, bytes)) = self.parts.get(self.begun) else {
+            return Ok(());
+        };
+        // It was read before it was sent: it reads.
+        let fresh = crate::job::starting_at_rest(bytes).unwrap_or_else(|_| bytes.to_vec());
+        if fresh.as_slice() == bytes {
+            return Ok(());
+        }
+        m.upload(kind, &fresh, &mut |_| {})
+            .map_err(|error| SessionError::Part {
+                part: self.begun + 1,
+                of: self.parts.len(),
+                error,
+            })
+    }
+
     /// Gives the machine the next part if it has room for it (one part queued behind
     /// the running one at most); a commit the machine finds busy is tried again.
     fn feed(&mut self, m: &mut MachineLink) -> Result<(), SessionError> {
@@ -410,13 +430,16 @@ impl Session {
                                 return Ok(());
                             }
                             // The machine rests between parts: the next one is given
-                            // (if it was not yet) and started.
+                            // (if it was not yet) and started; one that was to go on
+                            // from the part before at speed came too late, and starts
+                            // at rest instead.
                             for _ in 0..START_TRIES {
                                 if parts.committed > parts.begun {
                                     break;
                                 }
                                 parts.feed(m)?;
                             }
+                            parts.at_rest(m)?;
                             start_at_rest(m, progress)?;
                             parts.begun += 1;
                             let text =

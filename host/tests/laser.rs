@@ -50,7 +50,7 @@ fn the_runs_with_the_beam_on_are_the_parts() {
     let square = CutSettings {
         speed_m_s: Some(0.01),
         laser: Some(CutLaser::PowerW(10.0)),
-        passes: None,
+        ..CutSettings::MACHINE
     };
     assert_eq!(parts[0].settings, square);
     assert_eq!(parts[2].settings.laser, Some(CutLaser::PowerW(4.0)));

@@ -104,7 +104,7 @@ pub fn with_linked_slave<T: Float, R>(
     let link = HostLink::new(
         &config,
         SlaveSettings::of(&machine.joints.axis),
-        contour_defaults(machine, laps),
+        contour_defaults(machine, laps).into(),
         &jobs,
     )
     .map_err(SlaveError::Config)?;

@@ -177,6 +177,7 @@ pub fn job_file_seeds() -> Vec<Vec<u8>> {
         speed_m_s: Some(5e-3),
         laser: Some(CutLaser::EnergyJPerM(800.0)),
         passes: Some(2),
+        ..CutSettings::MACHINE
     };
     let n = with_settings(&octagon_job(), &settings, &mut out).unwrap();
     files.push(out[..n].to_vec());

@@ -66,7 +66,7 @@ kerf_board::hall_image! {
     startup: nominal,
     link: (
         SlaveSettings::of(&DeltaSlaveConfig::KEOPS.joints.axis),
-        contour_defaults(&DeltaSlaveConfig::KEOPS, JOB_LAPS),
+        contour_defaults(&DeltaSlaveConfig::KEOPS, JOB_LAPS).into(),
     ),
     new: || DeltaSlave::<f32>::new(&DeltaSlaveConfig::KEOPS).ok(),
 }

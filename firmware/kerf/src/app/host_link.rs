@@ -74,9 +74,11 @@ pub trait LinkMachine: Machine {
         settings: &Self::Settings,
         period_s: f64,
     ) -> Result<Self::Coefficients, ConfigError>;
-    /// Builds the machine's job from a job file, in place; a code for the refusal.
+    /// Builds the machine's job from a job file, in place; a code for the refusal. The
+    /// context may keep what the next job needs of this one (where a program cut as
+    /// several parts goes on).
     fn load_job(
-        context: &Self::JobContext,
+        context: &mut Self::JobContext,
         file: &JobFile<'_>,
         job: &mut Self::Job,
     ) -> Result<(), u16>;
@@ -507,7 +509,7 @@ impl<'q, M: LinkMachine, const J: usize> HostLink<'q, M, J> {
                 if file.kind() != up.kind {
                     return Err(JOB_KIND_MISMATCH);
                 }
-                M::load_job(&self.context, &file, &mut job)
+                M::load_job(&mut self.context, &file, &mut job)
             });
         // Released before the supervisor is asked to take it.
         drop(job);

@@ -190,6 +190,9 @@ pub trait Machine {
     fn finish_calibration(&mut self, calibration: &Self::Calibration);
     /// Whether `job` fits the machine (limits, workspace, capacity).
     fn check_job(&self, job: &Self::Job) -> Result<(), Self::JobError>;
+    /// A job was queued to follow the running one (transition 6b): a machine that can
+    /// go on into it without stopping prepares for that here (nothing by default).
+    fn queued(&mut self, _next: &Self::Job) {}
     /// Prepares `job` from the present state (for example: it must start where the
     /// machine is).
     fn begin_job(&mut self, job: &Self::Job) -> Result<(), Self::JobError>;
@@ -617,6 +620,7 @@ impl<M: Machine> Core<'_, M> {
             (Mode::Running, Command::LoadJob(slot)) if self.next.is_none() => {
                 let job = self.jobs.take(*slot).ok_or(CommandError::JobBufferBusy)?;
                 self.machine.check_job(&job).map_err(CommandError::Job)?;
+                self.machine.queued(&job);
                 self.next = Some(job);
                 Ok(())
             }

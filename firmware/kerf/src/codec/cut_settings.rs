@@ -11,10 +11,11 @@
 //! | 4 | 4 | the laser's value, f32: W (power) or J/m (energy per length) |
 //! | 8 | 1 | the laser: 0 the machine's, 1 off, 2 constant power, 3 constant energy per length |
 //! | 9 | 1 | passes: times a closed contour is cut (0: the machine's, one) |
-//! | 10 | 2 | reserved, 0 |
+//! | 10 | 1 | look-ahead: of a program of moves cut as several parts, the last points that are the next part's first, room to stop in (0: none, the part ends at rest) |
+//! | 11 | 1 | bit 0: the part continues the one before without a stop (its join); bits 1–7 reserved, 0 |
 //!
 //! The reader checks the form only (finite numbers, a known laser byte, zero reserved
-//! bytes, one block for each setting: a zero value where the laser has none, and
+//! bits, one block for each setting: a zero value where the laser has none, and
 //! "the machine's" speed as +0 alone); whether a machine can cut at that speed, power or number of passes is the
 //! machine's own check when it loads the part.
 
@@ -34,6 +35,27 @@ pub enum CutLaser {
     EnergyJPerM(f32),
 }
 
+/// A part's place in a program of moves cut as several parts without a stop: the
+/// machine plans each part with room to stop at its end (the look-ahead), and goes on
+/// into the next part there when it has it in time.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Continuity {
+    /// Of the part's points, the last this many are the next part's first: room to
+    /// stop in, not cut (0: the part ends at rest at its last point).
+    pub lookahead_points: u8,
+    /// Whether the part continues the one before at its join (it then starts moving).
+    pub continues: bool,
+}
+
+impl Continuity {
+    /// A part on its own: it starts and ends at rest.
+    pub const NONE: Self = Self {
+        lookahead_points: 0,
+        continues: false,
+    };
+}
+
 /// A part's cut settings; `None` where the machine's own apply.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -44,6 +66,8 @@ pub struct CutSettings {
     pub laser: Option<CutLaser>,
     /// Times a closed contour is cut, one after the other without a stop.
     pub passes: Option<u8>,
+    /// Its place in a program cut as several parts.
+    pub continuity: Continuity,
 }
 
 /// Why a settings block does not read.
@@ -61,12 +85,13 @@ impl CutSettings {
         speed_m_s: None,
         laser: None,
         passes: None,
+        continuity: Continuity::NONE,
     };
 
     /// Reads the block at the start of `bytes` (`None`: shorter than a block).
     pub(crate) fn read(bytes: &[u8]) -> Option<Result<Self, BlockError>> {
         let block: &[u8; CUT_SETTINGS_BYTES] = bytes.get(..CUT_SETTINGS_BYTES)?.try_into().ok()?;
-        let [s0, s1, s2, s3, v0, v1, v2, v3, laser, passes, r0, r1] = *block;
+        let [s0, s1, s2, s3, v0, v1, v2, v3, laser, passes, lookahead, flags] = *block;
         let speed = f32::from_le_bytes([s0, s1, s2, s3]);
         let value = f32::from_le_bytes([v0, v1, v2, v3]);
         if !speed.is_finite() || !value.is_finite() {
@@ -81,13 +106,17 @@ impl CutSettings {
             (3, _) => Some(CutLaser::EnergyJPerM(value)),
             _ => return Some(Err(BlockError::Unknown)),
         };
-        if [r0, r1] != [0, 0] || (speed == 0.0 && speed.to_bits() != 0) {
+        if flags & !1 != 0 || (speed == 0.0 && speed.to_bits() != 0) {
             return Some(Err(BlockError::Unknown));
         }
         Some(Ok(Self {
             speed_m_s: (speed != 0.0).then_some(speed),
             laser,
             passes: (passes != 0).then_some(passes),
+            continuity: Continuity {
+                lookahead_points: lookahead,
+                continues: flags & 1 != 0,
+            },
         }))
     }
 
@@ -115,7 +144,22 @@ impl CutSettings {
         }
         let [s0, s1, s2, s3] = speed.to_le_bytes();
         let [v0, v1, v2, v3] = value.to_le_bytes();
-        Some([s0, s1, s2, s3, v0, v1, v2, v3, laser, passes, 0, 0])
+        let c = self.continuity;
+        let flags = u8::from(c.continues);
+        Some([
+            s0,
+            s1,
+            s2,
+            s3,
+            v0,
+            v1,
+            v2,
+            v3,
+            laser,
+            passes,
+            c.lookahead_points,
+            flags,
+        ])
     }
 }
 
@@ -131,6 +175,10 @@ mod tests {
             speed_m_s: Some(4e-3),
             laser: Some(CutLaser::EnergyJPerM(1250.0)),
             passes: Some(3),
+            continuity: Continuity {
+                lookahead_points: 7,
+                continues: true,
+            },
         };
         let block = settings.block().unwrap();
         let mut by_hand = [0u8; 12];
@@ -138,6 +186,8 @@ mod tests {
         by_hand[4..8].copy_from_slice(&1250.0f32.to_le_bytes());
         by_hand[8] = 3;
         by_hand[9] = 3;
+        by_hand[10] = 7;
+        by_hand[11] = 1;
         assert_eq!(block, by_hand);
         assert_eq!(CutSettings::read(&block), Some(Ok(settings)));
         assert_eq!(CutSettings::MACHINE.block(), Some([0; 12]));
@@ -158,6 +208,7 @@ mod tests {
             speed_m_s: speed,
             laser,
             passes,
+            continuity: Continuity::NONE,
         };
         assert_eq!(with(Some(0.0), None, None).block(), None);
         assert_eq!(with(Some(f32::NAN), None, None).block(), None);
@@ -172,7 +223,7 @@ mod tests {
         bad[8] = 4;
         assert_eq!(CutSettings::read(&bad), Some(Err(BlockError::Unknown)));
         bad = good;
-        bad[11] = 1;
+        bad[11] = 2;
         assert_eq!(CutSettings::read(&bad), Some(Err(BlockError::Unknown)));
         // A value beside the machine's laser or the beam off, and a speed of −0, would
         // be a second block for the same settings.

@@ -34,7 +34,7 @@
 //! feed that of the move ending at the point (the first point's is not used, and is
 //! written 0).
 
-pub use super::cut_settings::{CutLaser, CutSettings};
+pub use super::cut_settings::{Continuity, CutLaser, CutSettings};
 pub use super::link::JobKind;
 
 use super::cut_settings::{BlockError, CUT_SETTINGS_BYTES};
@@ -625,6 +625,7 @@ mod tests {
             speed_m_s: Some(4e-3),
             laser: Some(CutLaser::PowerW(5.0)),
             passes: Some(2),
+            ..CutSettings::MACHINE
         };
         let mut v2 = [0u8; 256];
         let m = with_settings(&v1[..n], &settings, &mut v2).unwrap();

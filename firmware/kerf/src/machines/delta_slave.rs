@@ -39,6 +39,7 @@ use crate::hal::ForceAndLaser;
 use crate::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
 use crate::scalar::{Float, Real};
 use crate::sensing::hall::{HallConfig, SelfCalibration};
+use crate::trajectory::planner::Continuation;
 use crate::trajectory::ContourError;
 pub use contour::{
     ContourConfig, ContourCurve, ContourLaw, ContourPlan, CONTOUR_HARMONICS, OPEN_PATH_POINTS,
@@ -164,6 +165,10 @@ pub enum DeltaJobError {
     /// not suit the machine's source: not finite, negative or above the maximum
     /// power (`OutOfRange`), or not representable in the machine's scalar.
     Laser(ConfigErrorKind),
+    /// A part that continues the one before at its join, begun where that one did
+    /// not hand over to it (it came too late: the part before stopped in its
+    /// look-ahead).
+    NotAtJoin,
 }
 
 /// A planned job: a start point, the approach time to reach it, and straight moves or
@@ -230,6 +235,12 @@ impl Limits {
 }
 
 impl DeltaJob {
+    /// Where a program of moves' cut ends (relative to the job's centre, m) and how
+    /// the next part takes over there; `None` when the job ends at rest.
+    pub(crate) fn join(&self) -> Option<([f64; 2], Continuation<2>)> {
+        self.contour.as_ref().and_then(ContourJob::join)
+    }
+
     /// Plans a job for `config`: reach `start_m` by a joint-space approach of
     /// `approach_s`, then the straight `moves` (effector targets in m). Every move is
     /// checked at [`PLAN_SAMPLES`] instants: reachable, inside travel, away from
@@ -680,8 +691,27 @@ impl<T: Float> Machine for DeltaSlave<T> {
         }
     }
 
+    fn queued(&mut self, next: &DeltaJob) {
+        let continues = match &next.contour {
+            Some(contour) if self.contour_active => self.contour.arm(contour),
+            _ => false,
+        };
+        if !continues {
+            self.contour.disarm();
+        }
+    }
+
     fn begin_job(&mut self, job: &DeltaJob) -> Result<(), DeltaJobError> {
         self.check_job(job)?;
+        if let Some(contour) = job.contour.as_ref().filter(|c| c.continues()) {
+            // The part before handed over at its join: the references go on, no
+            // approach.
+            self.contour.resume(contour, &self.laser)?;
+            self.contour_active = true;
+            self.phase = Some(Phase::Contour);
+            return Ok(());
+        }
+        self.contour.disarm();
         self.approach.clear();
         // Capacity MAX_SEGMENTS ≥ 1.
         let _ = self.approach.push(Segment {
@@ -720,6 +750,7 @@ impl<T: Float> Machine for DeltaSlave<T> {
     }
 
     fn begin_stop(&mut self) {
+        self.contour.disarm();
         self.phase = None;
         self.contour_active = false;
         self.effector_reference_m = None;
@@ -740,6 +771,7 @@ impl<T: Float> Machine for DeltaSlave<T> {
     }
 
     fn reset(&mut self) {
+        self.contour.disarm();
         self.joints.reset();
         self.laser_power_w = T::zero();
         self.phase = None;

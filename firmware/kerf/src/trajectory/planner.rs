@@ -403,6 +403,20 @@ impl<const D: usize> Block<D> {
     }
 }
 
+/// Where a plan takes over from moves planned before it, not at rest: the last of
+/// those moves (its direction and feed, which set the corner's speed) and the speed
+/// planned at its end. A program cut as several plans (parts) passes it from one to the
+/// next.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Continuation<const D: usize> {
+    /// The direction of the move before (unit).
+    pub unit: [f64; D],
+    /// Its feed, at most the machine's largest speed, m/s.
+    pub nominal_m_s: f64,
+    /// The speed at its end, where the plan begins, m/s.
+    pub speed_m_s: f64,
+}
+
 /// The look-ahead planner over a buffer of `N` moves in `D` axes (module docs).
 pub struct Planner<const D: usize, const N: usize> {
     limits: PlannerLimits,
@@ -411,6 +425,10 @@ pub struct Planner<const D: usize, const N: usize> {
     position_m: [f64; D],
     /// The entry speed of the front move, fixed once the move before it was taken.
     front_entry_m_s: f64,
+    /// The moves before the first one added, while none is ([`Planner::continuing`]).
+    before: Option<Continuation<D>>,
+    /// The largest entry speed of the front move the backward pass allows, m/s.
+    front_limit_m_s: f64,
 }
 
 impl<const D: usize, const N: usize> Planner<D, N> {
@@ -427,7 +445,40 @@ impl<const D: usize, const N: usize> Planner<D, N> {
             blocks: Deque::new(),
             position_m: start_m,
             front_entry_m_s: 0.0,
+            before: None,
+            front_limit_m_s: 0.0,
         })
+    }
+
+    /// An empty buffer at `start_m` that continues the moves before it, as `before`
+    /// says: its first move enters at their end speed, its corner with them limited as
+    /// any corner.
+    ///
+    /// Errors: as [`Planner::new`], and a `before` that is not finite (its speed may
+    /// be zero).
+    pub fn continuing(
+        limits: &PlannerLimits,
+        start_m: [f64; D],
+        before: Continuation<D>,
+    ) -> Result<Self, ConfigError> {
+        let finite = before.unit.iter().all(|u| u.is_finite())
+            && before.nominal_m_s.is_finite()
+            && before.speed_m_s.is_finite()
+            && before.speed_m_s >= 0.0;
+        if !finite {
+            return Err(ConfigError::not_finite("before"));
+        }
+        let mut planner = Self::new(limits, start_m)?;
+        planner.before = Some(before);
+        Ok(planner)
+    }
+
+    /// The largest speed at which the front move can be entered under the plan (the
+    /// backward pass: every corner's limit, and the last move stopping), m/s. A plan
+    /// that continues others ([`Planner::continuing`]) is feasible when their end
+    /// speed is at most this.
+    pub fn front_limit_m_s(&self) -> f64 {
+        self.front_limit_m_s
     }
 
     /// The limits it plans with.
@@ -466,8 +517,13 @@ impl<const D: usize, const N: usize> Planner<D, N> {
                 .corner_speed_m_s(&prev.unit, &unit)
                 .min(prev.nominal_m_s)
                 .min(nominal_m_s),
-            // After the buffer ran empty the machine is at rest.
-            None => 0.0,
+            // The moves before this plan, or after the buffer ran empty: at rest.
+            None => self.before.map_or(0.0, |b| {
+                self.limits
+                    .corner_speed_m_s(&b.unit, &unit)
+                    .min(b.nominal_m_s)
+                    .min(nominal_m_s)
+            }),
         };
         let block = Block {
             start_m: self.position_m,
@@ -483,7 +539,7 @@ impl<const D: usize, const N: usize> Planner<D, N> {
             return Err(PlanError::Full);
         }
         if self.blocks.len() == 1 {
-            self.front_entry_m_s = 0.0;
+            self.front_entry_m_s = self.before.take().map_or(0.0, |b| b.speed_m_s);
         }
         self.position_m = target_m;
         self.replan();
@@ -537,6 +593,7 @@ impl<const D: usize, const N: usize> Planner<D, N> {
             b.entry_m_s = b.max_entry_m_s.min(limits.reach_m_s(exit, b.length_m));
             exit = b.entry_m_s;
         }
+        self.front_limit_m_s = exit;
         let mut entry = self.front_entry_m_s;
         for b in self.blocks.iter_mut() {
             b.entry_m_s = entry;
@@ -589,6 +646,8 @@ pub struct PlanFollower<const D: usize> {
     current: Option<(Block<D>, SpeedProfile, f64)>,
     /// Where the last move ended (held when there is none), m.
     rest_m: [f64; D],
+    /// The time into the first move taken, s (0: a start from rest).
+    resume_s: f64,
 }
 
 impl<const D: usize> PlanFollower<D> {
@@ -604,7 +663,27 @@ impl<const D: usize> PlanFollower<D> {
             period_s,
             current: None,
             rest_m: start_m,
+            resume_s: 0.0,
         })
+    }
+
+    /// A follower that takes over a plan begun elsewhere: its first move is taken
+    /// `since_s` past its start plus a period (the step after the one that was made
+    /// `since_s` past it).
+    ///
+    /// Errors: as [`PlanFollower::new`], and a `since_s` not finite or negative.
+    pub fn resuming(period_s: f64, start_m: [f64; D], since_s: f64) -> Result<Self, ConfigError> {
+        if !(since_s.is_finite() && since_s >= 0.0) {
+            return Err(ConfigError::out_of_range("since_s"));
+        }
+        let mut follower = Self::new(period_s, start_m)?;
+        follower.resume_s = since_s + period_s;
+        Ok(follower)
+    }
+
+    /// The time since the move being followed began, s (`None` at rest).
+    pub fn time_in_move_s(&self) -> Option<f64> {
+        self.current.map(|(_, _, t)| t)
     }
 
     /// Whether a move is being followed (false: at rest, waiting for one).
@@ -618,7 +697,7 @@ impl<const D: usize> PlanFollower<D> {
     pub fn step(&mut self, moves: &mut impl MoveSource<D>) -> PlanSample<D> {
         let mut t = match self.current {
             Some((_, _, t)) => t + self.period_s,
-            None => 0.0,
+            None => core::mem::take(&mut self.resume_s),
         };
         // Each pass ends in a move or crosses one whole: bounded by the source's
         // moves.

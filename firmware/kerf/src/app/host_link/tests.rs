@@ -127,7 +127,7 @@ impl LinkMachine for Toy {
         positive("limits.speed_m_s", f64::from(s.limits.speed_m_s))?;
         Ok(s.gain)
     }
-    fn load_job(_: &(), file: &JobFile<'_>, job: &mut u32) -> Result<(), u16> {
+    fn load_job(_: &mut (), file: &JobFile<'_>, job: &mut u32) -> Result<(), u16> {
         match file {
             JobFile::Points { .. } if file.count() > 0 => {
                 *job = file.count() as u32;

@@ -345,7 +345,7 @@ impl<T: Float> LinkMachine for Arrow<T> {
 
     /// The program read into the job on the nominal model; the parse buffer is on
     /// the link task's stack for the call.
-    fn load_job(_: &(), file: &JobFile<'_>, job: &mut Job<T>) -> Result<(), u16> {
+    fn load_job(_: &mut (), file: &JobFile<'_>, job: &mut Job<T>) -> Result<(), u16> {
         let JobFile::Gcode { text } = file else {
             return Err(load_codes::KIND);
         };

@@ -256,7 +256,7 @@ impl<T: Float> LinkMachine for FocusStage<T> {
 
     /// The schedule read for the stage of `config`.
     fn load_job(
-        config: &StageConfig,
+        config: &mut StageConfig,
         file: &JobFile<'_>,
         job: &mut ZoomSchedule,
     ) -> Result<(), u16> {

@@ -27,7 +27,7 @@
 //! reference's tangent (T 9.2's adaptive mode: constant energy per length), and only in
 //! a period that passed its supervision; the approach, a stop and a fault keep it off.
 
-use super::moves::{MovePoint, MovesRun};
+use super::moves::{MovePoint, MovesRun, MovesStep};
 use super::{joint_references, ContourTelemetry, DeltaFault, DeltaJobError, DeltaSlave};
 use crate::app::supervisor::{Machine, Step};
 use crate::control::contouring::ContouringError;
@@ -40,6 +40,7 @@ use crate::scalar::{lit, norm, Float};
 use crate::trajectory::curve::{Curve, CurveSample};
 use crate::trajectory::efd::Efd;
 use crate::trajectory::open_path::OpenPath;
+use crate::trajectory::planner::Continuation;
 use crate::trajectory::tangential::{
     ContourReference, CurveFollower, FollowerConfig, SpeedRampConfig,
 };
@@ -91,6 +92,11 @@ pub enum ContourCurve<'a> {
         points: &'a [MovePoint],
         /// How far from a corner the circle that sets its speed passes, m.
         junction_deviation_m: f64,
+        /// Of the points, the last this many are room to stop in, which the next part
+        /// cuts (0: the part ends at rest at its last point).
+        lookahead: usize,
+        /// The part before, which this one continues without a stop at its join.
+        before: Option<Continuation<2>>,
     },
 }
 
@@ -296,6 +302,8 @@ pub(super) struct ContourRun<T: Float> {
     follower: CurveFollower<T, PathCurve<T>>,
     /// Whether the moves below make the reference (not the curve follower).
     on_moves: bool,
+    /// The time past the join where the moves handed over to the next part, s.
+    joined_s: Option<f64>,
     /// The moves of a program.
     moves: MovesRun,
 }
@@ -333,6 +341,7 @@ impl<T: Float> ContourRun<T> {
             follower,
             moves: MovesRun::idle()?,
             on_moves: false,
+            joined_s: None,
             centre: zero,
             law: ContourLaw::Joint,
             laser: LaserMode::Off,
@@ -402,6 +411,7 @@ impl<T: Float> ContourRun<T> {
         self.laser = laser
             .mode(&job.laser)
             .map_err(|e| DeltaJobError::Laser(e.kind))?;
+        self.joined_s = None;
         self.task = PreviewWindow::filled(first);
         self.joints = PreviewWindow::filled(joints);
         self.started = false;
@@ -409,6 +419,59 @@ impl<T: Float> ContourRun<T> {
         self.drained = 0;
         self.saturated_periods = 0;
         Ok(())
+    }
+
+    /// Makes this the run of `job`, a program of moves that continues the one this run
+    /// handed over at its join: the references and the state go on, the moves are
+    /// the new part's (its law and laser too). Refused when the run did not hand over
+    /// or `job` is not a program of moves at the same centre.
+    #[inline(never)]
+    pub(super) fn resume(
+        &mut self,
+        job: &ContourJob,
+        laser: &Laser<T>,
+    ) -> Result<(), DeltaJobError> {
+        let (JobPath::Moves { plan, period_s }, Some(since_s)) = (&job.path, self.joined_s.take())
+        else {
+            return Err(DeltaJobError::NotAtJoin);
+        };
+        let centre = Vector3::new(
+            lit(job.centre_m[0]),
+            lit(job.centre_m[1]),
+            lit(job.centre_m[2]),
+        );
+        if centre != self.centre {
+            return Err(DeltaJobError::NotAtJoin);
+        }
+        self.moves
+            .resume(plan, *period_s, since_s)
+            .map_err(|e| DeltaJobError::Contour(ContourError::Config(e)))?;
+        self.law = job.law;
+        self.laser = laser
+            .mode(&job.laser)
+            .map_err(|e| DeltaJobError::Laser(e.kind))?;
+        self.drained = 0;
+        Ok(())
+    }
+
+    /// Whether `next` continues this run's program of moves at its join (not yet
+    /// passed); if so, the run hands over to it there.
+    pub(super) fn arm(&mut self, next: &ContourJob) -> bool {
+        match &next.path {
+            JobPath::Moves { plan, .. } if self.on_moves => self.moves.arm(plan),
+            _ => false,
+        }
+    }
+
+    /// No part continues this run: its moves brake in their look-ahead.
+    pub(super) fn disarm(&mut self) {
+        self.moves.disarm();
+        self.joined_s = None;
+    }
+
+    /// Whether the present reference is cut (the beam may be on).
+    pub(super) fn cutting(&self) -> bool {
+        !self.on_moves || self.moves.cutting()
     }
 
     /// The law.
@@ -440,9 +503,18 @@ impl<T: Float> ContourRun<T> {
         geometry: &DeltaGeometry<T>,
     ) -> Result<bool, super::DeltaFault> {
         let ended = if self.on_moves {
-            let (task, ended) = self.moves.step(&self.centre);
+            let (task, step) = self.moves.step(&self.centre);
             self.task.push(task);
-            ended
+            if let MovesStep::Join(since_s) = step {
+                // The next part goes on from here: no draining.
+                self.joined_s = Some(since_s);
+                let joints =
+                    joint_references(geometry, &task.position, &task.velocity, &task.acceleration)
+                        .map_err(super::DeltaFault::Kinematics)?;
+                self.joints.push(joints);
+                return Ok(true);
+            }
+            step == MovesStep::AtRest
         } else {
             self.curve_step()?
         };
@@ -572,7 +644,10 @@ impl<T: Float> DeltaSlave<T> {
         if run.saturated_periods > self.saturation_periods {
             return Err(DeltaFault::Saturated);
         }
-        self.laser_power_w = self.laser.power_w(&run.laser, tangential_speed_m_s);
+        // A look-ahead is room to stop in, cut by the next part: the beam is off there.
+        if run.cutting() {
+            self.laser_power_w = self.laser.power_w(&run.laser, tangential_speed_m_s);
+        }
         Ok(if done {
             self.contour_active = false;
             self.phase = None;

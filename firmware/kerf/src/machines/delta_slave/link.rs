@@ -35,6 +35,7 @@ use crate::error::ConfigError;
 use crate::scalar::{to_f64, Float};
 use crate::trajectory::efd::Efd;
 use crate::trajectory::open_path::OpenPath;
+use crate::trajectory::planner::Continuation;
 use miniconf::Tree;
 
 /// The slave's settings tree.
@@ -103,6 +104,29 @@ pub mod load_codes {
     pub const PASSES: u16 = 0x207;
     /// The part's energy per length needs more power at its speed than the source has.
     pub const ENERGY: u16 = 0x208;
+    /// A part that continues another, which is not the one loaded just before it or
+    /// does not end where it starts.
+    pub const NO_JOIN: u16 = 0x209;
+}
+
+/// What the slave's link builds jobs with: the contour defaults, and where the last
+/// program of moves it loaded goes on (its join), for a part that continues it.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct SlaveJobContext {
+    /// The contour defaults: speed, ramps, laser, law, height.
+    pub defaults: ContourDefaults,
+    /// Where the last part loaded ends its cut (relative to the job's centre, m) and
+    /// how the next part takes over there; `None` when it ends at rest.
+    last_join: Option<([f64; 2], Continuation<2>)>,
+}
+
+impl From<ContourDefaults> for SlaveJobContext {
+    fn from(defaults: ContourDefaults) -> Self {
+        Self {
+            defaults,
+            last_join: None,
+        }
+    }
 }
 
 /// What the fault codes of [`LinkMachine::fault_code`] mean.
@@ -142,7 +166,7 @@ const FAULTS: [CodeWords; 7] = [
 
 /// What the job refusal codes of the planner ([`LinkMachine::job_error_code`]) and
 /// the loader ([`load_codes`]) mean.
-const JOB_REFUSALS: [CodeWords; 19] = [
+const JOB_REFUSALS: [CodeWords; 21] = [
     words(
         1,
         "the job has no move, or more moves than the machine holds",
@@ -218,6 +242,16 @@ const JOB_REFUSALS: [CodeWords; 19] = [
         "the energy per length needs more than the laser's power at the part's speed",
         "",
     ),
+    words(
+        load_codes::NO_JOIN,
+        "the part continues another that was not loaded just before it, or that ends elsewhere",
+        "",
+    ),
+    words(
+        12,
+        "the part before stopped without it (it came too late): upload it again to start from rest",
+        "",
+    ),
 ];
 
 /// The telemetry channels.
@@ -271,7 +305,7 @@ const _: () = assert!(CHANNELS.len() <= crate::codec::link::MAX_CHANNELS);
 
 impl<T: Float> LinkMachine for DeltaSlave<T> {
     type Settings = SlaveSettings;
-    type JobContext = ContourDefaults;
+    type JobContext = SlaveJobContext;
     const NAME: &'static str = "keops-slave";
     const CHANNELS: &'static [Channel] = &CHANNELS;
     const JOB_KINDS: &'static [JobKind] = &[JobKind::Efd, JobKind::Points, JobKind::Moves];
@@ -283,14 +317,20 @@ impl<T: Float> LinkMachine for DeltaSlave<T> {
     }
 
     fn load_job(
-        context: &ContourDefaults,
+        context: &mut SlaveJobContext,
         file: &JobFile<'_>,
         job: &mut DeltaJob,
     ) -> Result<(), u16> {
+        let last_join = context.last_join.take();
+        let defaults = &context.defaults;
         match file {
-            JobFile::Efd { centre_m, .. } => load_closed(context, file, *centre_m, job),
-            JobFile::Points { .. } => load_open(context, file, job),
-            JobFile::Moves { .. } => load_moves(context, file, job),
+            JobFile::Efd { centre_m, .. } => load_closed(defaults, file, *centre_m, job),
+            JobFile::Points { .. } => load_open(defaults, file, job),
+            JobFile::Moves { .. } => {
+                load_moves(defaults, file, last_join, job)?;
+                context.last_join = job.join();
+                Ok(())
+            }
             _ => Err(load_codes::KIND),
         }
     }
@@ -354,6 +394,7 @@ fn refusal_code(error: &DeltaJobError) -> u16 {
         DeltaJobError::ContourUnreachable { .. } => 9,
         DeltaJobError::ContourTooFast { .. } => 10,
         DeltaJobError::Laser(_) => 11,
+        DeltaJobError::NotAtJoin => 12,
     }
 }
 
@@ -425,16 +466,22 @@ fn load_open(context: &ContourDefaults, file: &JobFile<'_>, job: &mut DeltaJob) 
 fn load_moves(
     context: &ContourDefaults,
     file: &JobFile<'_>,
+    last_join: Option<([f64; 2], Continuation<2>)>,
     job: &mut DeltaJob,
 ) -> Result<(), u16> {
     let n = file.count();
     if n > MOVE_POINTS {
         return Err(load_codes::TOO_MANY_POINTS);
     }
-    if n < 2 {
+    let continuity = file.settings().continuity;
+    let lookahead = usize::from(continuity.lookahead_points);
+    if n < 2 + lookahead {
         return Err(load_codes::BAD_PATH);
     }
     let passes = usize::from(file.settings().passes.unwrap_or(1));
+    if passes > 1 && (lookahead > 0 || continuity.continues) {
+        return Err(load_codes::PASSES);
+    }
     let mut points = [MovePoint {
         point_m: [0.0; 2],
         feed_m_s: 0.0,
@@ -465,11 +512,19 @@ fn load_moves(
             *point = again;
         }
     }
+    // A part that continues another starts where that one's cut ends, at its speed.
+    let before = match (continuity.continues, last_join) {
+        (false, _) => None,
+        (true, Some((at_m, join))) if points.first().map(|p| p.point_m) == Some(at_m) => Some(join),
+        (true, _) => return Err(load_codes::NO_JOIN),
+    };
     plan_into(
         context,
         ContourCurve::Moves {
             points: points.get(..total).unwrap_or(&[]),
             junction_deviation_m: context.junction_deviation_m,
+            lookahead,
+            before,
         },
         [0.0; 2],
         file.settings(),

@@ -20,7 +20,7 @@ use crate::control::contouring::TaskReference;
 use crate::error::ConfigError;
 use crate::scalar::{lit, Float};
 use crate::trajectory::planner::{
-    Block, MoveSource, PlanError, PlanFollower, Planner, PlannerLimits, SpeedProfile,
+    Block, Continuation, MoveSource, PlanError, PlanFollower, Planner, PlannerLimits, SpeedProfile,
 };
 use crate::trajectory::ContourError;
 use nalgebra::Vector3;
@@ -42,14 +42,23 @@ pub struct MovePoint {
 }
 
 /// A part's moves as planned: the points and, per move (from point k to k + 1), its
-/// entry and cruise speeds. `Copy`: a job is copied in place.
+/// entry and cruise speeds; the points that are cut (the rest, the look-ahead, are
+/// room to stop in, which the next part cuts), and where the next part takes over.
+/// `Copy`: a job is copied in place.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub(super) struct MovesPlan {
     points_m: [[f64; 2]; MOVE_POINTS],
     entry_m_s: [f64; MOVE_POINTS],
     cruise_m_s: [f64; MOVE_POINTS],
     points: usize,
+    /// Points cut (the first `cut` of `points`).
+    cut: usize,
     limits: PlannerLimits,
+    /// What the next part continues from: the last cut move and the speed at its end
+    /// (`None` without a look-ahead: the part ends at rest).
+    join: Option<Continuation<2>>,
+    /// The part before this one, when it continues one.
+    before: Option<Continuation<2>>,
 }
 
 impl MovesPlan {
@@ -60,22 +69,35 @@ impl MovesPlan {
     /// Errors: fewer than two points or more than [`MOVE_POINTS`]; a point or feed not
     /// finite (`NotFinitePoint`); every point on the first (`ZeroLength`); a feed not
     /// above zero or a limit that is not a limit (`Config`, naming it).
-    pub(super) fn plan(points: &[MovePoint], limits: &PlannerLimits) -> Result<Self, ContourError> {
-        if points.len() < 2 {
+    pub(super) fn plan(
+        points: &[MovePoint],
+        limits: &PlannerLimits,
+        lookahead: usize,
+        before: Option<Continuation<2>>,
+    ) -> Result<Self, ContourError> {
+        if points.len() < 2 || lookahead + 2 > points.len() {
             return Err(ContourError::TooFewPoints);
         }
         if points.len() > MOVE_POINTS {
             return Err(ContourError::Capacity);
         }
         let first = points.first().map_or([0.0; 2], |p| p.point_m);
-        let mut planner = Planner::<2, MOVE_POINTS>::new(limits, first)?;
+        let mut planner = match before {
+            Some(b) => Planner::<2, MOVE_POINTS>::continuing(limits, first, b)?,
+            None => Planner::<2, MOVE_POINTS>::new(limits, first)?,
+        };
         let mut plan = Self {
             points_m: [[0.0; 2]; MOVE_POINTS],
             entry_m_s: [0.0; MOVE_POINTS],
             cruise_m_s: [0.0; MOVE_POINTS],
             points: 1,
+            cut: 1,
             limits: *limits,
+            join: None,
+            before,
         };
+        // Points of the file that are cut: those before the look-ahead.
+        let cut_in_file = points.len() - lookahead;
         plan.points_m[0] = first;
         for (i, p) in points.iter().enumerate() {
             if !(p.point_m.iter().all(|c| c.is_finite()) && p.feed_m_s.is_finite()) {
@@ -97,19 +119,65 @@ impl MovesPlan {
                 *stored = p.point_m;
                 plan.points += 1;
             }
+            if i < cut_in_file {
+                plan.cut = plan.points;
+            }
         }
-        if plan.points < 2 {
+        if plan.cut < 2 {
             return Err(ContourError::ZeroLength);
         }
-        for (k, block) in planner.blocks().enumerate() {
+        // The part before ends at its speed: the plan must be able to take it.
+        if let Some(b) = before {
+            let limit = planner.front_limit_m_s();
+            if b.speed_m_s > limit * (1.0 + 1e-9) + 1e-12 {
+                return Err(ContourError::SpeedAboveCurvatureLimit {
+                    max_speed_m_s: limit,
+                });
+            }
+        }
+        let blocks = planner.blocks();
+        let mut last_cut = None;
+        for (k, block) in blocks.enumerate() {
             if let (Some(entry), Some(cruise)) =
                 (plan.entry_m_s.get_mut(k), plan.cruise_m_s.get_mut(k))
             {
                 *entry = block.entry_m_s;
                 *cruise = block.profile(limits).cruise_m_s;
             }
+            // Move k ends at point k + 1: the last cut move ends at the last cut point.
+            if k + 2 == plan.cut && plan.cut < plan.points {
+                last_cut = Some(Continuation {
+                    unit: block.unit,
+                    nominal_m_s: block.nominal_m_s,
+                    speed_m_s: block.exit_m_s,
+                });
+            }
         }
+        plan.join = last_cut;
         Ok(plan)
+    }
+
+    /// What the next part continues from (`None`: this part ends at rest).
+    pub(super) fn join(&self) -> Option<Continuation<2>> {
+        self.join
+    }
+
+    /// The part this one continues (`None`: it starts at rest).
+    pub(super) fn before(&self) -> Option<Continuation<2>> {
+        self.before
+    }
+
+    /// Where the cut ends, m (relative to the job's centre).
+    pub(super) fn cut_end_m(&self) -> [f64; 2] {
+        self.points_m
+            .get(self.cut.saturating_sub(1))
+            .copied()
+            .unwrap_or([0.0; 2])
+    }
+
+    /// Moves cut (those before the look-ahead).
+    pub(super) fn cut_moves(&self) -> usize {
+        self.cut.saturating_sub(1)
     }
 
     /// Move `k` (from point k to k + 1) and its profile; `None` past the last.
@@ -149,9 +217,12 @@ impl MovesPlan {
         self.limits.accel_m_s2
     }
 
-    /// Duration of the moves, s.
+    /// Duration of the moves cut (a look-ahead is the next part's), s.
     pub(super) fn duration_s(&self) -> f64 {
-        self.moves().map(|(_, p)| p.duration_s()).sum()
+        self.moves()
+            .take(self.cut_moves())
+            .map(|(_, p)| p.duration_s())
+            .sum()
     }
 
     /// Where the part starts, m (relative to the job's centre).
@@ -159,17 +230,18 @@ impl MovesPlan {
         self.points_m[0]
     }
 
-    /// Whether it ends where it starts.
+    /// Whether its cut ends where it starts.
     pub(super) fn is_closed(&self) -> bool {
-        self.points_m.get(self.points - 1) == Some(&self.points_m[0])
+        self.cut_end_m() == self.points_m[0]
     }
 
-    /// The point at `fraction` of its length, m (relative to the job's centre).
+    /// The point at `fraction` of the cut's length, m (relative to the job's centre).
     pub(super) fn point_at(&self, fraction: f64) -> [f64; 2] {
-        let total: f64 = self.moves().map(|(b, _)| b.length_m).sum();
+        let cut = self.cut_moves();
+        let total: f64 = self.moves().take(cut).map(|(b, _)| b.length_m).sum();
         let mut left = fraction.clamp(0.0, 1.0) * total;
         let mut last = self.start_m();
-        for (block, _) in self.moves() {
+        for (block, _) in self.moves().take(cut) {
             if left <= block.length_m {
                 return block.point_at(left);
             }
@@ -199,11 +271,31 @@ impl MoveSource<2> for MovesCursor {
     }
 }
 
+/// How a period of a program of moves ends.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub(super) enum MovesStep {
+    /// Moving, or coming to rest.
+    Moving,
+    /// At rest where its last move ended.
+    AtRest,
+    /// The reference has passed the join and the next part continues from it: the
+    /// time since the join, s (the next part's follower takes it over).
+    Join(f64),
+}
+
+/// Taps between the newest reference and the present one (the preview's window).
+const LEAD_TAPS: u8 = 2;
+
 /// A program of moves in progress.
 #[derive(Clone, Debug)]
 pub(super) struct MovesRun {
     follower: PlanFollower<2>,
     pub(super) cursor: MovesCursor,
+    /// Whether the next part continues this one at its join (queued in time).
+    handover: bool,
+    /// References made in the look-ahead (the present one lags the newest by
+    /// [`LEAD_TAPS`]): the beam is off from the first there.
+    lookahead_taps: u8,
 }
 
 impl MovesRun {
@@ -220,12 +312,39 @@ impl MovesRun {
             entry_m_s: [0.0; MOVE_POINTS],
             cruise_m_s: [0.0; MOVE_POINTS],
             points: 0,
+            cut: 0,
             limits,
+            join: None,
+            before: None,
         };
         Ok(Self {
             follower: PlanFollower::new(1e-3, [0.0; 2])?,
             cursor: MovesCursor { plan, next: 0 },
+            handover: false,
+            lookahead_taps: 0,
         })
+    }
+
+    /// Whether the present reference is cut (not yet in the look-ahead).
+    pub(super) fn cutting(&self) -> bool {
+        self.lookahead_taps <= LEAD_TAPS
+    }
+
+    /// Whether `next` continues this run at its join, not yet passed; if so the run
+    /// hands over there instead of braking in its look-ahead.
+    pub(super) fn arm(&mut self, next: &MovesPlan) -> bool {
+        let join = self.cursor.plan.join();
+        let ahead = self.cursor.next <= self.cursor.plan.cut_moves();
+        self.handover = ahead
+            && join.is_some()
+            && next.before() == join
+            && next.start_m() == self.cursor.plan.cut_end_m();
+        self.handover
+    }
+
+    /// The next part does not come (it was dropped): brake in the look-ahead.
+    pub(super) fn disarm(&mut self) {
+        self.handover = false;
     }
 
     /// Makes this the run of `plan` at rest at its start, stepping every `period_s`
@@ -235,6 +354,22 @@ impl MovesRun {
         self.follower = PlanFollower::new(period_s, plan.start_m())?;
         self.cursor.plan = *plan;
         self.cursor.next = 0;
+        self.handover = false;
+        self.lookahead_taps = 0;
+        Ok(())
+    }
+
+    /// Makes this the run of `plan`, which continues the part before at its join, the
+    /// newest reference `since_join_s` past it: the next step is a period further.
+    #[inline(never)]
+    pub(super) fn resume(
+        &mut self,
+        plan: &MovesPlan,
+        period_s: f64,
+        since_join_s: f64,
+    ) -> Result<(), ConfigError> {
+        self.start(plan, period_s)?;
+        self.follower = PlanFollower::resuming(period_s, plan.start_m(), since_join_s)?;
         Ok(())
     }
 
@@ -249,12 +384,17 @@ impl MovesRun {
         }
     }
 
-    /// One period's reference (relative to `centre`); `true` with it once the last
-    /// move has ended. Out of line: its frame (a move and its profile, in f64) is
-    /// paid only by a program of moves, not by every contour's period.
+    /// One period's reference (relative to `centre`) and how the run stands. Out of
+    /// line: its frame (a move and its profile, in f64) is paid only by a program of
+    /// moves, not by every contour's period.
     #[inline(never)]
-    pub(super) fn step<T: Float>(&mut self, centre: &Vector3<T>) -> (TaskReference<T>, bool) {
+    pub(super) fn step<T: Float>(&mut self, centre: &Vector3<T>) -> (TaskReference<T>, MovesStep) {
         let s = self.follower.step(&mut self.cursor);
+        let cut = self.cursor.plan.cut_moves();
+        let in_lookahead = self.cursor.next > cut || !self.follower.is_moving();
+        if in_lookahead && self.cursor.plan.join().is_some() {
+            self.lookahead_taps = self.lookahead_taps.saturating_add(1);
+        }
         let planar =
             |v: [f64; 2], scale: f64| Vector3::new(lit(v[0] * scale), lit(v[1] * scale), T::zero());
         let reference = TaskReference {
@@ -263,7 +403,20 @@ impl MovesRun {
             acceleration: planar(s.unit, s.accel_m_s2),
             jerk: Vector3::zeros(),
         };
+        if self.handover && self.cursor.next > cut {
+            // Time past the join: into the move taken, and any look-ahead move crossed
+            // whole within this period.
+            let crossed: f64 = (cut..self.cursor.next.saturating_sub(1))
+                .filter_map(|k| self.cursor.plan.planned(k))
+                .map(|(_, p)| p.duration_s())
+                .sum();
+            let since = self.follower.time_in_move_s().unwrap_or(0.0) + crossed;
+            return (reference, MovesStep::Join(since));
+        }
         let taken = self.cursor.next.saturating_add(1) >= self.cursor.plan.points;
-        (reference, taken && !self.follower.is_moving())
+        match taken && !self.follower.is_moving() {
+            true => (reference, MovesStep::AtRest),
+            false => (reference, MovesStep::Moving),
+        }
     }
 }

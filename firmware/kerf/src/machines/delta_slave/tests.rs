@@ -450,7 +450,8 @@ fn a_parts_cut_settings_are_planned_or_refused_in_their_codes() {
         let m = with_settings(file, &settings, &mut bytes).unwrap();
         let mut job = DeltaJob::default();
         let read = crate::codec::job::JobFile::read(&bytes[..m]).unwrap();
-        DeltaSlave::<f32>::load_job(&context, &read, &mut job).map(|()| job.duration_s())
+        let mut context = context.into();
+        DeltaSlave::<f32>::load_job(&mut context, &read, &mut job).map(|()| job.duration_s())
     };
     let once = load(CutSettings::MACHINE, &plain[..n]).unwrap();
     let twice = CutSettings {
@@ -466,7 +467,7 @@ fn a_parts_cut_settings_are_planned_or_refused_in_their_codes() {
     let speed = |v: f32, laser| CutSettings {
         speed_m_s: Some(v),
         laser,
-        passes: None,
+        ..CutSettings::MACHINE
     };
     assert_eq!(
         load(speed(-1e-3, None), &plain[..n]),

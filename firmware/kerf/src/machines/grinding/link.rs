@@ -364,7 +364,11 @@ impl<T: Float + FalPower> LinkMachine for GrindingCell<T> {
     }
 
     /// The program read into a pass of the cell's law and force.
-    fn load_job(pass: &GrindingPass, file: &JobFile<'_>, job: &mut GrindingJob) -> Result<(), u16> {
+    fn load_job(
+        pass: &mut GrindingPass,
+        file: &JobFile<'_>,
+        job: &mut GrindingJob,
+    ) -> Result<(), u16> {
         let JobFile::Gcode { text } = file else {
             return Err(load_codes::KIND);
         };

@@ -278,7 +278,7 @@ impl<T: Float> LinkMachine for Master<T> {
 
     /// The points read into the session's fixture job.
     fn load_job(
-        session: &FixtureSession,
+        session: &mut FixtureSession,
         file: &JobFile<'_>,
         job: &mut FixtureJob<T>,
     ) -> Result<(), u16> {

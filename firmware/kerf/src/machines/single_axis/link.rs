@@ -248,7 +248,7 @@ impl<T: Real> LinkMachine for Axis<T> {
 
     /// The program read into a job of moves for the axis of `config`.
     fn load_job(
-        config: &JointsConfig<1>,
+        config: &mut JointsConfig<1>,
         file: &JobFile<'_>,
         job: &mut JointJob<1>,
     ) -> Result<(), u16> {

@@ -22,7 +22,7 @@ fn job_file(gcode: &[u8]) -> Vec<u8> {
 fn load(bytes: &[u8]) -> Result<std::boxed::Box<Job<f64>>, u16> {
     let file = JobFile::read(bytes).unwrap();
     let mut job = std::boxed::Box::<Job<f64>>::default();
-    <A as LinkMachine>::load_job(&(), &file, &mut job).map(|()| job)
+    <A as LinkMachine>::load_job(&mut (), &file, &mut job).map(|()| job)
 }
 
 /// The presets' settings give back the presets, and their law is the product's.

@@ -25,7 +25,7 @@ fn schedule_file(steps: &[[f64; 2]]) -> Vec<u8> {
 fn load(bytes: &[u8]) -> Result<ZoomSchedule, u16> {
     let file = JobFile::read(bytes).unwrap();
     let mut job = ZoomSchedule::new();
-    <S as LinkMachine>::load_job(&CONFIG, &file, &mut job).map(|()| job)
+    <S as LinkMachine>::load_job(&mut CONFIG.clone(), &file, &mut job).map(|()| job)
 }
 
 /// The words a refusal code is told in.

@@ -11,7 +11,7 @@ use crate::control::laser::{Laser, LaserMode};
 use crate::error::{positive, ConfigError};
 use crate::kinematics::delta::DeltaGeometry;
 use crate::trajectory::curve::Curve;
-use crate::trajectory::planner::PlannerLimits;
+use crate::trajectory::planner::{Continuation, PlannerLimits};
 use crate::trajectory::tangential::{CurveFollower, FollowerConfig, SpeedRamp, SpeedRampConfig};
 use crate::trajectory::ContourError;
 use nalgebra::Vector3;
@@ -45,6 +45,21 @@ pub(super) enum JobPath {
 }
 
 impl ContourJob {
+    /// Where its cut ends (relative to the job's centre, m) and how the next part
+    /// takes over there; `None` when it ends at rest.
+    pub(in crate::machines::delta_slave) fn join(&self) -> Option<([f64; 2], Continuation<2>)> {
+        match &self.path {
+            JobPath::Moves { plan, .. } => plan.join().map(|j| (plan.cut_end_m(), j)),
+            JobPath::Curve { .. } => None,
+        }
+    }
+
+    /// Whether it continues the part before at its join (a program of moves cut as
+    /// several parts).
+    pub(in crate::machines::delta_slave) fn continues(&self) -> bool {
+        matches!(&self.path, JobPath::Moves { plan, .. } if plan.before().is_some())
+    }
+
     /// Plans `plan` for `config` (module docs). Returns the job and the start point.
     pub(in crate::machines::delta_slave) fn plan(
         config: &DeltaSlaveConfig,
@@ -67,7 +82,16 @@ impl ContourJob {
             ContourCurve::Moves {
                 points,
                 junction_deviation_m,
-            } => plan_moves(&check, plan, points, junction_deviation_m)?,
+                lookahead,
+                before,
+            } => plan_moves(
+                &check,
+                plan,
+                points,
+                junction_deviation_m,
+                lookahead,
+                before,
+            )?,
             ContourCurve::Closed {
                 efd,
                 theta0_rad,
@@ -272,6 +296,8 @@ fn plan_moves(
     plan: &ContourPlan<'_>,
     points: &[MovePoint],
     junction_deviation_m: f64,
+    lookahead: usize,
+    before: Option<Continuation<2>>,
 ) -> Result<(JobPath, [f64; 3]), DeltaJobError> {
     let limits = PlannerLimits {
         max_speed_m_s: plan.speed_m_s,
@@ -279,7 +305,8 @@ fn plan_moves(
         junction_deviation_m,
         jerk_m_s3: plan.jerk_m_s3,
     };
-    let moves = MovesPlan::plan(points, &limits).map_err(DeltaJobError::Contour)?;
+    let moves =
+        MovesPlan::plan(points, &limits, lookahead, before).map_err(DeltaJobError::Contour)?;
     let period_s = check.config.joints.period_s;
     let periods = moves.duration_s() / period_s;
     if periods.partial_cmp(&f64::from(u32::MAX / 2)) != Some(core::cmp::Ordering::Less) {
@@ -306,16 +333,22 @@ fn plan_moves(
 }
 
 impl super::super::DeltaJob {
-    /// Time from `Start` until the job is over, s: the approach, then the straight
-    /// moves, or the contour's two speed ramps and its cruise between (in whole
-    /// control periods, as the machine counts them).
+    /// Time from `Start` until the job is over, s: the approach (none for a part that
+    /// continues another), then the straight moves, the contour's two speed ramps and
+    /// its cruise between (in whole control periods, as the machine counts them), or
+    /// the program of moves up to the end of its cut.
     pub fn duration_s(&self) -> f64 {
         let moves_s: f64 = self.moves.iter().map(|m| m.duration_s).sum();
         let contour_s = self
             .contour
             .as_ref()
             .map_or(0.0, |c| f64::from(c.periods()) * c.period_s());
-        self.approach_s + moves_s + contour_s
+        // A part that continues another goes on from its join: no approach.
+        let approach_s = match self.contour.as_ref().is_some_and(ContourJob::continues) {
+            true => 0.0,
+            false => self.approach_s,
+        };
+        approach_s + moves_s + contour_s
     }
 
     /// Where a contour job cuts: the point at `fraction` (0 at the start, 1 at the end)

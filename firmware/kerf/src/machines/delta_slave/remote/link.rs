@@ -268,7 +268,7 @@ impl<T: Float> LinkMachine for SessionSlave<T> {
     }
 
     /// The recording read and its frames copied into the job.
-    fn load_job(_: &(), file: &JobFile<'_>, job: &mut SessionJob) -> Result<(), u16> {
+    fn load_job(_: &mut (), file: &JobFile<'_>, job: &mut SessionJob) -> Result<(), u16> {
         let JobFile::Recording { bytes } = file else {
             return Err(load_codes::KIND);
         };

@@ -26,7 +26,8 @@ fn job_file(gcode: &[u8]) -> Vec<u8> {
 fn load(bytes: &[u8]) -> Result<GrindingJob, u16> {
     let file = JobFile::read(bytes).unwrap();
     let mut job = GrindingJob::default();
-    <G as LinkMachine>::load_job(&super::super::product::PASS, &file, &mut job).map(|()| job)
+    <G as LinkMachine>::load_job(&mut super::super::product::PASS.clone(), &file, &mut job)
+        .map(|()| job)
 }
 
 fn gcode(text: &str) -> Result<GrindingJob, u16> {

@@ -31,7 +31,7 @@ fn points_file(points: &[[f64; 2]]) -> Vec<u8> {
 fn load(bytes: &[u8]) -> Result<FixtureJob<f64>, u16> {
     let file = JobFile::read(bytes).unwrap();
     let mut job = FixtureJob::default();
-    <M as LinkMachine>::load_job(&session().unwrap(), &file, &mut job).map(|()| job)
+    <M as LinkMachine>::load_job(&mut session().unwrap(), &file, &mut job).map(|()| job)
 }
 
 /// The words of a refusal code: the machine's table, else the link's.

@@ -29,7 +29,7 @@ fn job_file(gcode: &[u8]) -> Vec<u8> {
 fn load(bytes: &[u8]) -> Result<JointJob<1>, u16> {
     let file = JobFile::read(bytes).unwrap();
     let mut job = JointJob::new();
-    <A as LinkMachine>::load_job(&CONFIG, &file, &mut job).map(|()| job)
+    <A as LinkMachine>::load_job(&mut CONFIG.clone(), &file, &mut job).map(|()| job)
 }
 
 /// The words a refusal code is told in.

@@ -33,7 +33,7 @@ fn session_file(periods: u32) -> Vec<u8> {
 fn load(bytes: &[u8]) -> Result<Box<SessionJob>, u16> {
     let file = JobFile::read(bytes).unwrap();
     let mut job = Box::<SessionJob>::default();
-    <S as LinkMachine>::load_job(&(), &file, &mut job).map(|()| job)
+    <S as LinkMachine>::load_job(&mut (), &file, &mut job).map(|()| job)
 }
 
 fn refusal_words(code: u16) -> &'static str {
