@@ -98,7 +98,7 @@ fn run_parts_streams_a_program_and_ends_after_its_last_part() {
     assert_eq!(
         lines
             .iter()
-            .filter(|l| l.contains("Running -> Ready"))
+            .filter(|l| l.contains("running -> ready"))
             .count(),
         1,
         "{lines:?}"
