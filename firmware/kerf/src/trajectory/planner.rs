@@ -425,7 +425,7 @@ pub struct Planner<const D: usize, const N: usize> {
     position_m: [f64; D],
     /// The entry speed of the front move, fixed once the move before it was taken.
     front_entry_m_s: f64,
-    /// The moves before the first one added, while none is ([`Planner::continuing`]).
+    /// The moves before the first one added, while none is ([`Planner::continue_from`]).
     before: Option<Continuation<D>>,
     /// The largest entry speed of the front move the backward pass allows, m/s.
     front_limit_m_s: f64,
@@ -450,32 +450,25 @@ impl<const D: usize, const N: usize> Planner<D, N> {
         })
     }
 
-    /// An empty buffer at `start_m` that continues the moves before it, as `before`
-    /// says: its first move enters at their end speed, its corner with them limited as
-    /// any corner.
+    /// Makes the empty buffer continue the moves before it, as `before` says: its first
+    /// move enters at their end speed, its corner with them limited as any corner.
     ///
-    /// Errors: as [`Planner::new`], and a `before` that is not finite (its speed may
-    /// be zero).
-    pub fn continuing(
-        limits: &PlannerLimits,
-        start_m: [f64; D],
-        before: Continuation<D>,
-    ) -> Result<Self, ConfigError> {
+    /// Errors: a `before` that is not finite or a negative speed; moves already added.
+    pub fn continue_from(&mut self, before: Continuation<D>) -> Result<(), ConfigError> {
         let finite = before.unit.iter().all(|u| u.is_finite())
             && before.nominal_m_s.is_finite()
             && before.speed_m_s.is_finite()
             && before.speed_m_s >= 0.0;
-        if !finite {
-            return Err(ConfigError::not_finite("before"));
+        if !finite || !self.blocks.is_empty() {
+            return Err(ConfigError::out_of_range("before"));
         }
-        let mut planner = Self::new(limits, start_m)?;
-        planner.before = Some(before);
-        Ok(planner)
+        self.before = Some(before);
+        Ok(())
     }
 
     /// The largest speed at which the front move can be entered under the plan (the
     /// backward pass: every corner's limit, and the last move stopping), m/s. A plan
-    /// that continues others ([`Planner::continuing`]) is feasible when their end
+    /// that continues others ([`Planner::continue_from`]) is feasible when their end
     /// speed is at most this.
     pub fn front_limit_m_s(&self) -> f64 {
         self.front_limit_m_s

@@ -82,10 +82,10 @@ impl MovesPlan {
             return Err(ContourError::Capacity);
         }
         let first = points.first().map_or([0.0; 2], |p| p.point_m);
-        let mut planner = match before {
-            Some(b) => Planner::<2, MOVE_POINTS>::continuing(limits, first, b)?,
-            None => Planner::<2, MOVE_POINTS>::new(limits, first)?,
-        };
+        let mut planner = Planner::<2, MOVE_POINTS>::new(limits, first)?;
+        if let Some(b) = before {
+            planner.continue_from(b)?;
+        }
         let mut plan = Self {
             points_m: [[0.0; 2]; MOVE_POINTS],
             entry_m_s: [0.0; MOVE_POINTS],
@@ -403,15 +403,15 @@ impl MovesRun {
             acceleration: planar(s.unit, s.accel_m_s2),
             jerk: Vector3::zeros(),
         };
-        if self.handover && self.cursor.next > cut {
-            // Time past the join: into the move taken, and any look-ahead move crossed
-            // whole within this period.
-            let crossed: f64 = (cut..self.cursor.next.saturating_sub(1))
-                .filter_map(|k| self.cursor.plan.planned(k))
-                .map(|(_, p)| p.duration_s())
-                .sum();
-            let since = self.follower.time_in_move_s().unwrap_or(0.0) + crossed;
+        if self.handover && self.cursor.next == cut + 1 {
+            // Past the join, in the first move of the look-ahead: the next part's first.
+            let since = self.follower.time_in_move_s().unwrap_or(0.0);
             return (reference, MovesStep::Join(since));
+        }
+        if self.cursor.next > cut + 1 {
+            // A first look-ahead move shorter than a period's travel was crossed whole:
+            // the time past the join is not the next part's, which then starts at rest.
+            self.handover = false;
         }
         let taken = self.cursor.next.saturating_add(1) >= self.cursor.plan.points;
         match taken && !self.follower.is_moving() {
