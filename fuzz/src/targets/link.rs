@@ -131,7 +131,7 @@ pub fn host_link(data: &[u8]) -> usize {
     let settings = SlaveSettings::of(&machine.joints.axis);
     let context = contour_defaults(&machine, 1.0);
     let jobs = kerf::app::jobs::JobSlots::default();
-    let mut link = HostLink::<Slave, LINK_JOB_BYTES>::new(&config, settings, context, &jobs)
+    let mut link = HostLink::<Slave, LINK_JOB_BYTES>::new(&config, settings, context.into(), &jobs)
         .expect("the slave's link configuration");
     let mut commands = Queue::<Command<Slave>, 4>::new();
     let (mut to_machine, mut from_link) = commands.split();
@@ -343,7 +343,7 @@ fn replay_answers(data: &[u8], out: &mut Vec<u8>) {
     let jobs = kerf::app::jobs::JobSlots::default();
     let context = contour_defaults(&machine, 1.0);
     let mut link =
-        HostLink::<Slave, LINK_JOB_BYTES>::new(&config, settings, context, &jobs).unwrap();
+        HostLink::<Slave, LINK_JOB_BYTES>::new(&config, settings, context.into(), &jobs).unwrap();
     let mut commands = Queue::<Command<Slave>, 4>::new();
     let (mut to_machine, mut from_link) = commands.split();
     let mut send = |frame: &[u8]| {

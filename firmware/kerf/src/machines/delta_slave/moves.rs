@@ -15,6 +15,21 @@
 //! Running (each period): the planner's follower takes the moves one after another,
 //! each profile rebuilt from its stored speeds (two ramps, no search); the reference is
 //! the point along the move, the velocity and acceleration along its direction.
+//!
+//! # A run longer than a part: streamed parts
+//!
+//! A part may end with a look-ahead: its last points are the next part's first, room
+//! to stop in. It is planned over all its points, ending at rest after the look-ahead,
+//! so the cut reaches its last point (the join) at the speed that room allows; what
+//! the next part needs of it is kept ([`Continuation`]: the last cut move's direction
+//! and feed, the speed at the join), and the next part, loaded after it, is planned
+//! from the join at that speed ([`Planner::continue_from`]; refused when its own moves
+//! cannot take that speed). When that part is queued before the join is passed
+//! (`MovesRun::arm`), the run hands over there: the period in which the reference
+//! enters the look-ahead is its last, and the next part's follower takes over at the
+//! same time past the join, the references going on without a gap. Otherwise the run
+//! brakes in its look-ahead with the beam off (the next part cuts it) and the part that
+//! comes too late is refused at its start.
 
 use crate::control::contouring::TaskReference;
 use crate::error::ConfigError;
