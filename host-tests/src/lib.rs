@@ -8,6 +8,7 @@ pub mod fixed_point;
 pub mod grinding;
 pub mod hall;
 pub mod link;
+pub mod link_host;
 pub mod machining;
 pub mod plot;
 pub mod remote;

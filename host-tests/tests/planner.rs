@@ -572,3 +572,67 @@ fn time_is_carried_across_a_junction() {
         assert!((d - 0.01 * period).abs() < 1e-12, "a step of {d} m");
     }
 }
+
+/// A plan continued from another's join: a straight line of 1 mm moves at 40 mm/s
+/// (a = 0.5 m/s², constant-acceleration ramps) planned as moves 1–10, ending at rest
+/// after move 10, reaches the end of move 6 at the speed that can still stop in the
+/// 4 mm left, √(2·a·4 mm) = 63 mm/s capped at the feed; a plan of moves 7–20 from there
+/// continues at exactly that speed; a follower resumed 0.3 ms past the join is at
+/// 0.3 ms + one period of travel at it. A turn at the join limits the continuing plan
+/// to the corner's speed, below the join's: it cannot take it.
+#[test]
+fn a_plan_continues_another_at_its_join() {
+    use kerf::trajectory::planner::{Continuation, PlanFollower};
+    let feed = 0.04;
+    let mut first = Planner::<2, 16>::new(&LIMITS, [0.0; 2]).unwrap();
+    for k in 1..=10 {
+        first.push([k as f64 * 1e-3, 0.0], feed).unwrap();
+    }
+    let blocks: Vec<Block<2>> = first.blocks().copied().collect();
+    let join = blocks[5];
+    let expected = feed.min((2.0 * LIMITS.accel_m_s2 * 4e-3).sqrt());
+    assert!(
+        (join.exit_m_s - expected).abs() < 1e-12,
+        "{}",
+        join.exit_m_s
+    );
+    let before = Continuation {
+        unit: join.unit,
+        nominal_m_s: join.nominal_m_s,
+        speed_m_s: join.exit_m_s,
+    };
+    let mut next = Planner::<2, 16>::new(&LIMITS, join.end_m).unwrap();
+    next.continue_from(before).unwrap();
+    for k in 7..=20 {
+        next.push([k as f64 * 1e-3, 0.0], feed).unwrap();
+    }
+    let front = *next.blocks().next().unwrap();
+    assert_eq!(front.entry_m_s, join.exit_m_s);
+    assert!(next.front_limit_m_s() >= join.exit_m_s);
+    // Moves already added: too late to say what came before.
+    assert!(next.continue_from(before).is_err());
+    let period = 1e-4;
+    let since = 3e-4;
+    let mut follower = PlanFollower::resuming(period, join.end_m, since).unwrap();
+    assert_eq!(follower.time_in_move_s(), None);
+    let sample = follower.step(&mut next);
+    assert_eq!(follower.time_in_move_s(), Some(since + period));
+    let travel = sample.position_m[0] - join.end_m[0];
+    assert!((travel - feed * (since + period)).abs() < 1e-12, "{travel}");
+    assert!(PlanFollower::<2>::resuming(period, [0.0; 2], -1.0).is_err());
+    // A square turn at the join: its corner speed is the most the next plan takes.
+    let mut turned = Planner::<2, 16>::new(&LIMITS, join.end_m).unwrap();
+    turned.continue_from(before).unwrap();
+    turned.push([join.end_m[0], 5e-3], feed).unwrap();
+    let corner = LIMITS.corner_speed_m_s(&[1.0, 0.0], &[0.0, 1.0]);
+    assert!((turned.front_limit_m_s() - corner).abs() < 1e-15);
+    assert!(turned.front_limit_m_s() < before.speed_m_s);
+    let bad = Continuation {
+        speed_m_s: f64::NAN,
+        ..before
+    };
+    assert!(Planner::<2, 16>::new(&LIMITS, [0.0; 2])
+        .unwrap()
+        .continue_from(bad)
+        .is_err());
+}

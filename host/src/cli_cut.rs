@@ -188,7 +188,7 @@ pub struct KerfArgs {
 
 impl KerfArgs {
     /// Whether a kerf or a lead-in is asked for.
-    pub fn is_set(&self) -> bool {
+    pub(crate) fn is_set(&self) -> bool {
         self.kerf_mm != 0.0 || self.lead_in_mm != 0.0
     }
 }

@@ -351,6 +351,7 @@ mod tests {
             ModeCode::Fault,
         ]
         .map(mode_words);
+        assert_eq!(mode_words(ModeCode::Fault), "fault");
         assert_eq!(
             modes,
             [

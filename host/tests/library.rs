@@ -216,7 +216,10 @@ fn arrow_refusals_name_the_limit_in_words() {
         ArrowJobErrorKind::Empty,
         ArrowJobErrorKind::TooLarge,
     ];
-    let words: Vec<String> = kinds.into_iter().map(describe_job).collect();
+    let mut words = Vec::new();
+    for kind in kinds {
+        words.push(describe_job(kind));
+    }
     for w in &words {
         assert!(
             !w.contains("eq.") && !w.contains('{') && !w.contains("Error"),
