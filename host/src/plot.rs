@@ -78,9 +78,9 @@ pub(crate) fn line<'a, DB: DrawingBackend + 'a>(
     Ok(())
 }
 
-/// A white picture titled `title` with a square chart in workspace millimetres, its
-/// axes labelled `axes`, around the box `lo`–`hi` (mm), widened by `margin` (1.02:
-/// 2 %).
+/// A white picture titled `title` with a chart in workspace millimetres at one scale
+/// on both axes, labelled `axes`, around the box `lo`–`hi` (mm), widened by `margin`
+/// (1.02: 2 %).
 pub(crate) fn workspace_chart<'a, DB: DrawingBackend>(
     root: &'a DrawingArea<DB, Shift>,
     title: &str,
@@ -91,14 +91,27 @@ pub(crate) fn workspace_chart<'a, DB: DrawingBackend>(
 ) -> Result<Chart<'a, DB>, PlotError> {
     let half = ((hi[0] - lo[0]).max(hi[1] - lo[1]) / 2.0 * margin).max(1e-3);
     let mid = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
-    root.fill(&WHITE).map_err(err)?;
-    let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", 20))
-        .margin(10)
-        .x_label_area_size(45)
-        .y_label_area_size(45)
-        .build_cartesian_2d(mid[0] - half..mid[0] + half, mid[1] - half..mid[1] + half)
-        .map_err(err)?;
+    let build = |half_x: f64, half_y: f64| {
+        root.fill(&WHITE).map_err(err)?;
+        ChartBuilder::on(root)
+            .caption(title, ("sans-serif", 20))
+            .margin(10)
+            .x_label_area_size(45)
+            .y_label_area_size(45)
+            .build_cartesian_2d(
+                mid[0] - half_x..mid[0] + half_x,
+                mid[1] - half_y..mid[1] + half_y,
+            )
+            .map_err(err)
+    };
+    // A millimetre as long across as up: the longer side of the plotting area gets the
+    // wider range (the layout does not depend on the ranges).
+    let (w, h) = build(half, half)?.plotting_area().dim_in_pixel();
+    let aspect = f64::from(w.max(1)) / f64::from(h.max(1));
+    let mut chart = match aspect >= 1.0 {
+        true => build(half * aspect, half)?,
+        false => build(half, half / aspect)?,
+    };
     chart
         .configure_mesh()
         .x_desc(axes[0])
