@@ -274,3 +274,26 @@ fn draw<DB: DrawingBackend>(
     root.present().map_err(err)?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// On a wide picture and on a tall one, a millimetre takes as many pixels across as
+    /// up, and the box asked for is inside the ranges.
+    #[test]
+    fn a_millimetre_is_as_long_across_as_up() {
+        for size in [(900, 560), (500, 900)] {
+            let mut text = String::new();
+            let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
+            let (lo, hi) = ([-5.0, -2.0], [5.0, 3.0]);
+            let chart = workspace_chart(&root, "t", ["x", "y"], lo, hi, 1.0).unwrap();
+            let (w, h) = chart.plotting_area().dim_in_pixel();
+            let (x, y) = (chart.x_range(), chart.y_range());
+            let across = f64::from(w) / (x.end - x.start);
+            let up = f64::from(h) / (y.end - y.start);
+            assert!((across / up - 1.0).abs() < 1e-12, "{size:?}: {across} {up}");
+            assert!(x.start <= lo[0] && x.end >= hi[0] && y.start <= lo[1] && y.end >= hi[1]);
+        }
+    }
+}
