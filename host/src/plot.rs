@@ -78,23 +78,30 @@ pub(crate) fn line<'a, DB: DrawingBackend + 'a>(
     Ok(())
 }
 
-/// A white picture titled `title` with a chart in workspace millimetres at one scale
-/// on both axes, labelled `axes`, around the box `lo`–`hi` (mm), widened by `margin`
-/// (1.02: 2 %).
+/// A white picture (titled `title`, if any) with a chart in workspace millimetres at
+/// one scale on both axes, labelled `axes`, around the box `lo`–`hi` (mm; a box that
+/// is not finite, of no points, is taken as ±0.1 mm), widened by `margin` (1.02: 2 %).
 pub(crate) fn workspace_chart<'a, DB: DrawingBackend>(
     root: &'a DrawingArea<DB, Shift>,
-    title: &str,
+    title: Option<&str>,
     axes: [&str; 2],
     lo: [f64; 2],
     hi: [f64; 2],
     margin: f64,
 ) -> Result<Chart<'a, DB>, PlotError> {
+    let (lo, hi) = match lo.iter().chain(&hi).all(|v| v.is_finite()) {
+        true => (lo, hi),
+        false => ([-0.1; 2], [0.1; 2]),
+    };
     let half = ((hi[0] - lo[0]).max(hi[1] - lo[1]) / 2.0 * margin).max(1e-3);
     let mid = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
     let build = |half_x: f64, half_y: f64| {
         root.fill(&WHITE).map_err(err)?;
-        ChartBuilder::on(root)
-            .caption(title, ("sans-serif", 20))
+        let mut builder = ChartBuilder::on(root);
+        if let Some(title) = title {
+            builder.caption(title, ("sans-serif", 20));
+        }
+        builder
             .margin(10)
             .x_label_area_size(45)
             .y_label_area_size(45)
@@ -188,7 +195,7 @@ fn draw<DB: DrawingBackend>(
         .chain(fit.iter())
         .chain(extra.iter().flat_map(|o| o.points_mm.iter()));
     let (lo, hi) = crate::plan::bounds(all);
-    let mut chart = workspace_chart(&root, title, ["x, mm", "y, mm"], lo, hi, 1.02)?;
+    let mut chart = workspace_chart(&root, Some(title), ["x, mm", "y, mm"], lo, hi, 1.02)?;
 
     // The image, lightened: cells of f × f pixels.
     let f = w.max(h).div_ceil(MAX_CELLS).max(1);
@@ -287,7 +294,7 @@ mod tests {
             let mut text = String::new();
             let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
             let (lo, hi) = ([-5.0, -2.0], [5.0, 3.0]);
-            let chart = workspace_chart(&root, "t", ["x", "y"], lo, hi, 1.0).unwrap();
+            let chart = workspace_chart(&root, Some("t"), ["x", "y"], lo, hi, 1.0).unwrap();
             let (w, h) = chart.plotting_area().dim_in_pixel();
             let (x, y) = (chart.x_range(), chart.y_range());
             let across = f64::from(w) / (x.end - x.start);
@@ -295,5 +302,15 @@ mod tests {
             assert!((across / up - 1.0).abs() < 1e-12, "{size:?}: {across} {up}");
             assert!(x.start <= lo[0] && x.end >= hi[0] && y.start <= lo[1] && y.end >= hi[1]);
         }
+        // Untitled, and a box of no points: ±0.1 mm about the origin.
+        let mut text = String::new();
+        let root = SVGBackend::with_string(&mut text, (900, 560)).into_drawing_area();
+        let none = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        let chart = workspace_chart(&root, None, ["x", "y"], none.0, none.1, 1.0).unwrap();
+        let y = chart.y_range();
+        assert!(
+            (y.start + 0.1).abs() < 1e-12 && (y.end - 0.1).abs() < 1e-12,
+            "{y:?}"
+        );
     }
 }

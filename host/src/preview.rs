@@ -56,7 +56,7 @@ fn draw<DB: DrawingBackend>(
     }
     let to_mm = |p: [f64; 2]| p.map(|v| v * 1e3);
     let view = &preview.view;
-    let mut chart = workspace_chart(&root, caption, view.axes, to_mm(lo), to_mm(hi), 1.05)?;
+    let mut chart = workspace_chart(&root, Some(caption), view.axes, to_mm(lo), to_mm(hi), 1.05)?;
     let grey = RGBColor(120, 120, 120);
     let mut edge: Vec<[f64; 2]> = preview.workspace_m.clone();
     if let Some(&first) = edge.first() {

@@ -360,24 +360,8 @@ impl TelemetryLog {
                 )
             },
         );
-        let half = ((hi[0] - lo[0]).max(hi[1] - lo[1]) / 2.0 * 1.05).max(0.1);
-        let mid = if lo[0].is_finite() {
-            [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0]
-        } else {
-            [0.0, 0.0]
-        };
-        let mut chart = ChartBuilder::on(area)
-            .margin(10)
-            .x_label_area_size(40)
-            .y_label_area_size(50)
-            .build_cartesian_2d(mid[0] - half..mid[0] + half, mid[1] - half..mid[1] + half)
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc("x, mm")
-            .y_desc("y, mm")
-            .draw()
-            .map_err(err)?;
+        let axes = ["x, mm", "y, mm"];
+        let mut chart = crate::plot::workspace_chart(area, None, axes, lo, hi, 1.05)?;
         for (label, points, color, width) in [
             ("reference", &reference, RGBColor(120, 120, 120), 4),
             ("measured", &measured, RGBColor(0, 114, 178), 1),
