@@ -6,7 +6,7 @@ use crate::input::same_bits;
 use crate::targets::link::octagon_job;
 use kerf::codec::job::{
     with_settings, write_efd, write_gcode, write_moves, write_points, write_recording,
-    write_schedule, CutLaser, CutSettings, JobFile, HEADER_BYTES,
+    write_schedule, Continuity, CutLaser, CutSettings, JobFile, HEADER_BYTES,
 };
 use kerf::codec::link::crc32;
 use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry};
@@ -198,6 +198,17 @@ pub fn job_file_seeds() -> Vec<Vec<u8>> {
     let n = write_moves(&square, &mut out).unwrap();
     let moves = out[..n].to_vec();
     let n = with_settings(&moves, &settings, &mut out).unwrap();
+    files.push(out[..n].to_vec());
+    // The square as a part of a streamed run: its last two points ahead, continuing
+    // the part before.
+    let streamed = CutSettings {
+        continuity: Continuity {
+            lookahead_points: 2,
+            continues: true,
+        },
+        ..CutSettings::MACHINE
+    };
+    let n = with_settings(&moves, &streamed, &mut out).unwrap();
     files.push(moves);
     files.push(out[..n].to_vec());
     files
