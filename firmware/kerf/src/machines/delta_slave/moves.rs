@@ -77,13 +77,16 @@ pub(super) struct MovesPlan {
 }
 
 impl MovesPlan {
-    /// Plans `points` under `limits` (module docs).
+    /// Plans `points` under `limits` (module docs), the last `lookahead` of them room to
+    /// stop in, continuing `before` when it is given.
     ///
     /// A point on the one before adds no move and is left out.
     ///
-    /// Errors: fewer than two points or more than [`MOVE_POINTS`]; a point or feed not
-    /// finite (`NotFinitePoint`); every point on the first (`ZeroLength`); a feed not
-    /// above zero or a limit that is not a limit (`Config`, naming it).
+    /// Errors: fewer than two points to cut, or more than [`MOVE_POINTS`] in all; a
+    /// point or feed not finite (`NotFinitePoint`); every point to cut on the first
+    /// (`ZeroLength`); a feed not above zero, a limit that is not a limit or a `before`
+    /// not finite (`Config`, naming it); `before`'s speed more than the moves can take
+    /// (`SpeedAboveCurvatureLimit`, with the most they can).
     pub(super) fn plan(
         points: &[MovePoint],
         limits: &PlannerLimits,
