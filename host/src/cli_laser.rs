@@ -125,6 +125,12 @@ pub fn run(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
             "note       F changes within a part: a fitted part is cut at its first move's feed"
         );
     }
+    if corners == Corners::Fit && program.runs.iter().any(|r| r.joined) {
+        say!(
+            report,
+            "note       S or M3/M4 changes within a run: fitted, each power is a part of its own, with a stop between"
+        );
+    }
     if program.runs.iter().any(|r| r.s > s_max) {
         say!(
             report,

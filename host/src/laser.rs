@@ -25,10 +25,12 @@
 //! under `M3` and as energy per length under `M4` (grbl's laser mode: the power scaled
 //! with the speed, `S` at the programmed feed), so `P/F`.
 //!
-//! What the slave does not take from the program is said once each: Z (it cuts in its
-//! own plane), a power that changes within a part (the slave cuts a part at one laser
-//! setting: its first move's; a fitted part at its first move's feed too); `kerf
-//! gcode` says where `S` passes `S_max` (full power).
+//! A power that changes within a run (`S`, or `M3`/`M4`) ends a run there, and the
+//! next run, at its own power, is joined to it ([`LaserRun::joined`]): cut as moves,
+//! the two go on into each other without a stop (the streamed parts above); fitted,
+//! each is a part of its own. What the slave does not take from the program is said
+//! once each: Z (it cuts in its own plane; a fitted part at its first move's feed);
+//! `kerf gcode` says where `S` passes `S_max` (full power).
 //! `centre` moves the program so that the box around its cuts is centred on the
 //! workspace's centre (a laser bed's origin is its corner, the slave's its centre).
 //! [`PlanConfig`]'s kerf moves each closed run off its drawn line to the scrap's side,
@@ -66,6 +68,9 @@ pub struct LaserRun {
     pub s: f64,
     /// Whether the beam is grbl's dynamic power (`M4`) rather than constant (`M3`).
     pub dynamic: bool,
+    /// Whether it begins where the run before ends, going on from it without a stop
+    /// (the power changed there: `S`, or `M3`/`M4`).
+    pub joined: bool,
 }
 
 /// How a program's `S` becomes power.
@@ -152,8 +157,9 @@ pub fn read(text: &[u8]) -> LaserProgram {
     let finish = |run: Option<LaserRun>, runs: &mut Vec<LaserRun>| {
         if let Some(mut run) = run.filter(|r| r.path_mm.len() >= 2) {
             let (first, last) = (run.path_mm[0], run.path_mm[run.path_mm.len() - 1]);
-            run.closed =
-                run.path_mm.len() >= 4 && (first[0] - last[0]).hypot(first[1] - last[1]) < 1e-3;
+            run.closed = !run.joined
+                && run.path_mm.len() >= 4
+                && (first[0] - last[0]).hypot(first[1] - last[1]) < 1e-3;
             if run.closed {
                 // The move back keeps its feed (`feeds_m_s` has one more).
                 run.path_mm.pop();
@@ -181,6 +187,19 @@ pub fn read(text: &[u8]) -> LaserProgram {
                 p.kind == MoveKind::Feed && p.spindle != Spindle::Off && p.spindle_s > 0.0;
             if beam_on {
                 let dynamic = p.spindle == Spindle::CounterClockwise;
+                // A power change: a run of its own, going on from this one's end.
+                let changed = current
+                    .as_ref()
+                    .is_some_and(|r| (r.s, r.dynamic) != (p.spindle_s, dynamic));
+                let joined = changed && current.as_ref().is_some_and(|r| r.path_mm.len() >= 2);
+                if changed {
+                    finish(current.take(), &mut runs);
+                    // The run goes on: the one before ends here, not closed.
+                    if let Some(before) = runs.last_mut().filter(|r| joined && r.closed) {
+                        before.path_mm.push(before.path_mm[0]);
+                        before.closed = false;
+                    }
+                }
                 let run = current.get_or_insert_with(|| {
                     let path_mm: Vec<[f64; 2]> = at
                         .map(|a| vec![[a[0] * 1e3, a[1] * 1e3]])
@@ -193,11 +212,9 @@ pub fn read(text: &[u8]) -> LaserProgram {
                         feed_m_s: p.feed_m_s,
                         s: p.spindle_s,
                         dynamic,
+                        joined,
                     }
                 });
-                if (run.s, run.dynamic) != (p.spindle_s, dynamic) {
-                    note("S or M3/M4 changes within a part: each part is cut at its first move's power");
-                }
                 run.lines[1] = p.line;
                 if run.path_mm.last() != Some(&mm) {
                     run.path_mm.push(mm);
@@ -256,7 +273,7 @@ pub fn parts(
     };
     let runs = kerf_and_lead_in(program.runs.iter().map(shifted).collect(), config)?;
     if corners == Corners::Sharp {
-        let pieces = runs.iter().flat_map(pieces);
+        let pieces = pieces(&runs).into_iter();
         return Ok(pieces.map(|run| moves_part(run, beam)).collect());
     }
     runs.iter()
@@ -360,49 +377,75 @@ fn kerf_and_lead_in(runs: Vec<LaserRun>, config: &PlanConfig) -> Result<Vec<Lase
 /// to stop in, so the machine plans the piece to go on into the next at speed.
 pub const LOOKAHEAD_POINTS: usize = 8;
 
-/// `run` as pieces of at most [`MOVE_POINTS`] points each, the next beginning where
-/// one's cut ends (a closed run's move back to its start included). Each piece but the
-/// last carries up to [`LOOKAHEAD_POINTS`] of the next one's points after its own as
-/// its look-ahead; each but the first continues the one before (the machine goes on
-/// into it without a stop when it has it in time).
-fn pieces(run: &LaserRun) -> Vec<(LaserRun, Continuity)> {
-    let mut path = run.path_mm.clone();
-    if run.closed {
-        path.push(path[0]);
-    }
-    let feeds = &run.feeds_m_s;
+/// `runs` as pieces of at most [`MOVE_POINTS`] points each. A run, with the runs joined
+/// to it (its chain), is cut in pieces of one run each, the next beginning where one's
+/// cut ends (a closed run's move back to its start included); a chain of one run that
+/// fits one piece is one piece. Otherwise each piece but the chain's last carries up to
+/// [`LOOKAHEAD_POINTS`] of the chain's next points after its own as its look-ahead, and
+/// each but the first continues the one before (the machine goes on into it without a
+/// stop when it has it in time).
+fn pieces(runs: &[LaserRun]) -> Vec<(LaserRun, Continuity)> {
     let mut out = Vec::new();
-    let mut start = 0;
-    let whole = path.len() <= MOVE_POINTS;
+    let mut first = 0;
+    while first < runs.len() {
+        let last = first + runs[first + 1..].iter().take_while(|r| r.joined).count();
+        chain_pieces(&runs[first..=last], &mut out);
+        first = last + 1;
+    }
+    out
+}
+
+/// The pieces of one chain of runs (see [`pieces`]) appended to `out`.
+fn chain_pieces(chain: &[LaserRun], out: &mut Vec<(LaserRun, Continuity)>) {
+    // The chain's path and feeds, and where each run's points begin in it.
+    let (mut path, mut feeds, mut begins) = (Vec::new(), Vec::new(), Vec::new());
+    for run in chain {
+        let mut own = run.path_mm.clone();
+        let mut own_feeds = run.feeds_m_s.clone();
+        if run.closed {
+            own.push(own[0]);
+        }
+        own_feeds.resize(own.len(), run.feed_m_s);
+        // A joined run begins at the end of the one before: its first point is there.
+        let skip = usize::from(!path.is_empty());
+        begins.push(path.len().saturating_sub(skip));
+        path.extend_from_slice(&own[skip..]);
+        feeds.extend_from_slice(&own_feeds[skip..]);
+    }
+    begins.push(path.len() - 1);
+    let whole = chain.len() == 1 && path.len() <= MOVE_POINTS;
     let cut_points = if whole {
         MOVE_POINTS
     } else {
         MOVE_POINTS - LOOKAHEAD_POINTS
     };
-    while start + 1 < path.len() {
-        let end = (start + cut_points).min(path.len());
-        let ahead = (end + LOOKAHEAD_POINTS).min(path.len());
-        let ahead = if whole { end } else { ahead };
-        let mut feeds_m_s = feeds.get(start..ahead).unwrap_or_default().to_vec();
-        if let Some(first) = feeds_m_s.first_mut() {
-            *first = 0.0;
+    for (k, run) in chain.iter().enumerate() {
+        let (mut start, run_end) = (begins[k], begins[k + 1]);
+        while start < run_end {
+            let end = (start + cut_points).min(run_end + 1);
+            let ahead = if whole {
+                end
+            } else {
+                (end + LOOKAHEAD_POINTS).min(path.len())
+            };
+            let mut feeds_m_s = feeds[start..ahead].to_vec();
+            feeds_m_s[0] = 0.0;
+            let continuity = Continuity {
+                lookahead_points: (ahead - end) as u8,
+                continues: start > 0,
+            };
+            out.push((
+                LaserRun {
+                    path_mm: path[start..ahead].to_vec(),
+                    feeds_m_s,
+                    closed: run.closed && whole,
+                    ..run.clone()
+                },
+                continuity,
+            ));
+            start = end - 1;
         }
-        let continuity = Continuity {
-            lookahead_points: (ahead - end) as u8,
-            continues: start > 0,
-        };
-        out.push((
-            LaserRun {
-                path_mm: path[start..ahead].to_vec(),
-                feeds_m_s,
-                closed: run.closed && whole,
-                ..run.clone()
-            },
-            continuity,
-        ));
-        start = end - 1;
     }
-    out
 }
 
 /// A piece of a run as a moves part: its settings the program's, at the speed of its

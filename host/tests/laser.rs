@@ -10,7 +10,7 @@ mod common;
 use common::kerf;
 use kerf::codec::job::JobFile;
 use kerf_host::check::check;
-use kerf_host::job::{split, CutLaser, CutSettings};
+use kerf_host::job::{split, Continuity, CutLaser, CutSettings};
 use kerf_host::laser::{self, Beam, Corners, LaserProgram};
 use kerf_host::plan::PlanConfig;
 
@@ -81,25 +81,22 @@ const BEAM: Beam = Beam {
     max_power_w: 20.0,
 };
 
-/// `M4` is grbl's dynamic power: the energy per length that S gives at the feed, so
-/// the depth holds where the slave slows; `S` past `S_max` is full power; a power that
-/// changes within a part is said (the part is cut at its first move's). As moves, each
-/// move keeps its feed and the part's speed is its fastest; fitted, the part is cut at
-/// its first move's feed.
+/// `M4` is energy per length (the power at the programmed feed over that feed); a
+/// power change within a run (`S300` on the third move) ends the part there and the
+/// next part, at its own power, goes on from it without a stop: the first carries the
+/// second's points as its look-ahead (its speed the fastest feed among them), the
+/// second continues it; fitted, each power is a part of its own.
 #[test]
-fn m4_is_energy_per_length_and_a_change_within_a_part_is_said() {
-    // F300 = 5 mm/s; S250 of 1000 = 5 W at 5 mm/s: 1,000 J/m.
-    let program = laser::read(b"G21 M4 S250\nG1 X1 F300\nG1 X1 Y1\nG1 X0 Y1 F600 S300\nM5\nG0 X5\nM3 S2000\nG1 X6 F300\nG1 X7 Y1\n");
+fn m4_is_energy_per_length_and_a_power_change_is_a_joined_part() {
+    // F300 = 5 mm/s; S250 of 1000 = 5 W at 5 mm/s: 1,000 J/m; S300 at F600: 600 J/m.
+    let program = laser::read(b"G21 M4 S250\nG1 X1 F300\nG1 X1 Y1\nG1 X0 Y1\nG1 X0 Y2 F600 S300\nG1 X2 Y2\nM5\nG0 X5\nM3 S2000\nG1 X6 F300\nG1 X7 Y1\n");
     assert!(!laser::has_errors(&program), "{:?}", program.diagnostics);
-    assert_eq!(program.notes.len(), 1, "{:?}", program.notes);
-    assert!(program.notes[0].contains("within a part"));
-    let parts = laser::parts(&program, &PlanConfig::default(), false, &BEAM, Corners::Fit).unwrap();
-    assert_eq!(parts[0].settings.speed_m_s, Some(0.005));
-    let Some(CutLaser::EnergyJPerM(e)) = parts[0].settings.laser else {
-        panic!("{:?}", parts[0].settings)
+    assert!(program.notes.is_empty(), "{:?}", program.notes);
+    assert!(!program.runs[0].joined && program.runs[1].joined && !program.runs[2].joined);
+    let energy = |settings: &CutSettings| match settings.laser {
+        Some(CutLaser::EnergyJPerM(e)) => e,
+        other => panic!("{other:?}"),
     };
-    assert!((e - 1000.0).abs() < 1e-3, "{e}");
-    assert_eq!(parts[1].settings.laser, Some(CutLaser::PowerW(20.0)));
     let moves = laser::parts(
         &program,
         &PlanConfig::default(),
@@ -108,24 +105,54 @@ fn m4_is_energy_per_length_and_a_change_within_a_part_is_said() {
         Corners::Sharp,
     )
     .unwrap();
+    assert_eq!(moves.len(), 3);
+    assert!((energy(&moves[0].settings) - 1000.0).abs() < 1e-3);
+    assert!((energy(&moves[1].settings) - 600.0).abs() < 1e-3);
+    assert_eq!(moves[2].settings.laser, Some(CutLaser::PowerW(20.0)));
+    let (first, second) = (moves[0].settings.continuity, moves[1].settings.continuity);
+    assert_eq!((first.lookahead_points, first.continues), (2, false));
+    assert_eq!((second.lookahead_points, second.continues), (0, true));
     assert_eq!(moves[0].settings.speed_m_s, Some(0.01));
-    assert_eq!(moves[0].settings.laser, parts[0].settings.laser);
+    assert_eq!(moves[2].settings.continuity, Continuity::NONE);
     let bytes = laser::to_bytes(&moves).unwrap();
     let files = split(&bytes).unwrap();
-    let file = JobFile::read(files[0]).unwrap();
-    // The run begins at its first move's end: no move put the tool anywhere before.
-    let points: Vec<[f32; 3]> = (0..file.count())
-        .filter_map(|k| file.move_point(k))
-        .collect();
+    let points = |k: usize| -> Vec<[f32; 3]> {
+        let file = JobFile::read(files[k]).unwrap();
+        (0..file.count())
+            .filter_map(|i| file.move_point(i))
+            .collect()
+    };
+    // The run begins at its first move's end: no move put the tool anywhere before;
+    // the second part begins where the first's cut ends.
     assert_eq!(
-        points,
-        [[1e-3, 0.0, 0.0], [1e-3, 1e-3, 5e-3], [0.0, 1e-3, 1e-2]]
+        points(0),
+        [
+            [1e-3, 0.0, 0.0],
+            [1e-3, 1e-3, 5e-3],
+            [0.0, 1e-3, 5e-3],
+            [0.0, 2e-3, 1e-2],
+            [2e-3, 2e-3, 1e-2]
+        ]
     );
+    assert_eq!(
+        points(1),
+        [[0.0, 1e-3, 0.0], [0.0, 2e-3, 1e-2], [2e-3, 2e-3, 1e-2]]
+    );
+    // The machine takes the second from the first's join.
+    assert_eq!(check(&bytes, None).unwrap().parts, 3);
+    let fitted =
+        laser::parts(&program, &PlanConfig::default(), false, &BEAM, Corners::Fit).unwrap();
+    assert_eq!(fitted.len(), 3);
+    assert_eq!(fitted[0].settings.speed_m_s, Some(0.005));
+    assert!(fitted
+        .iter()
+        .all(|p| p.settings.continuity == Continuity::NONE));
 }
 
 /// A run longer than a moves job holds is cut in pieces of at most 32 points, each
-/// beginning where the one before ends; a closed run's last piece ends at its start,
-/// and only a run in one piece is closed.
+/// beginning where the one before's cut ends and continuing it; each but the last
+/// carries the next one's first points as its look-ahead; a closed run's last piece
+/// ends at its start, and only a run in one piece is closed.
 #[test]
 fn a_long_run_is_cut_in_pieces_that_meet() {
     use kerf::machines::delta_slave::MOVE_POINTS;
@@ -143,12 +170,29 @@ fn a_long_run_is_cut_in_pieces_that_meet() {
         Corners::Sharp,
     )
     .unwrap();
-    let pieces: Vec<&Vec<[f64; 2]>> = parts.iter().map(|p| &p.run.path_mm).collect();
+    assert!(parts.iter().all(|p| p.run.path_mm.len() <= MOVE_POINTS));
+    // The points each piece cuts, and those it carries ahead.
+    let cut = |p: &laser::LaserPart| {
+        let ahead = usize::from(p.settings.continuity.lookahead_points);
+        let path = &p.run.path_mm;
+        (
+            path[..path.len() - ahead].to_vec(),
+            path[path.len() - ahead..].to_vec(),
+        )
+    };
+    let pieces: Vec<Vec<[f64; 2]>> = parts.iter().map(|p| cut(p).0).collect();
     assert!(pieces.len() >= 2, "{}", pieces.len());
-    assert!(pieces.iter().all(|p| p.len() <= MOVE_POINTS));
-    for w in pieces.windows(2) {
-        assert_eq!(w[0].last(), w[1].first());
+    for (k, w) in parts.windows(2).enumerate() {
+        let ((cut_before, ahead), (cut_next, _)) = (cut(&w[0]), cut(&w[1]));
+        assert_eq!(cut_before.last(), cut_next.first());
+        assert_eq!(ahead.len(), laser::LOOKAHEAD_POINTS.min(cut_next.len() - 1));
+        assert_eq!(ahead[..], cut_next[1..=ahead.len()], "piece {k}");
+        assert!(w[1].settings.continuity.continues && !parts[0].settings.continuity.continues);
     }
+    assert_eq!(
+        parts.last().unwrap().settings.continuity.lookahead_points,
+        0
+    );
     assert_eq!(pieces[0].first(), Some(&[0.0, 0.0]));
     // Every programmed point once (the meeting points twice), the run's end last.
     let total: usize = pieces.iter().map(|p| p.len()).sum();
