@@ -2,7 +2,8 @@
 //! inverse kinematics (a different computation from the Jacobian route).
 
 use super::*;
-use crate::app::joints::MAX_SEGMENTS;
+use crate::app::joints::{JobError, MAX_SEGMENTS};
+use crate::error::ConfigErrorKind;
 use crate::control::laser::LaserMode;
 use crate::machines::delta_slave::ContourCurve;
 use crate::trajectory::efd::Efd;
