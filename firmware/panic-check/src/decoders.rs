@@ -123,7 +123,7 @@ fn host_link() {
     let Ok(link) = HostLink::<DeltaSlave<f32>, 1024>::new(
         &config,
         SlaveSettings::of(&machine.joints.axis),
-        context,
+        context.into(),
         &jobs,
     ) else {
         return;
