@@ -3,8 +3,8 @@
 
 use super::*;
 use crate::app::joints::{JobError, MAX_SEGMENTS};
-use crate::error::ConfigErrorKind;
 use crate::control::laser::LaserMode;
+use crate::error::ConfigErrorKind;
 use crate::machines::delta_slave::ContourCurve;
 use crate::trajectory::efd::Efd;
 use std::format;
