@@ -222,7 +222,7 @@ fn cut_settings_and_the_kerf_at_their_edges() {
         (
             "gcode-arrow-settings",
             vec!["gcode", gcode, "--speed-mm-s", "4"],
-            Fails(1, "an ARROW program carries its own feeds"),
+            Fails(1, "a program for arrow carries its own feeds"),
         ),
         (
             "gcode-s-max-0",
