@@ -14,6 +14,59 @@ pub struct Host {
 }
 
 impl Host {
+    /// After three idle periods: uploads `job` as a `kind` file, asks for telemetry
+    /// every `every_periods` and starts the job; each must be acknowledged.
+    pub fn start_job(
+        &mut self,
+        slave: &mut LinkedSlave<'_, f64>,
+        kind: JobKind,
+        job: &[u8],
+        every_periods: u32,
+    ) {
+        for _ in 0..3 {
+            self.period(slave, &[]);
+        }
+        assert_eq!(self.upload_as(slave, kind, job), "Ack");
+        let telemetry = Request::Telemetry { every_periods };
+        assert_eq!(self.ask(slave, telemetry, 2), "Ack");
+        assert_eq!(self.ask(slave, Request::Start, 5), "Ack");
+    }
+
+    /// The parts begun so far: the first, and one more for each [`Event::NextJob`].
+    pub fn parts_begun(&self) -> usize {
+        1 + self
+            .events()
+            .iter()
+            .filter(|e| **e == Event::NextJob)
+            .count()
+    }
+
+    /// Runs periods, a heartbeat every hundredth, until the job ends (running to
+    /// ready) or `limit` periods have run; `before` is called before each period (a
+    /// host that gives the next part).
+    pub fn run_to_end(
+        &mut self,
+        slave: &mut LinkedSlave<'_, f64>,
+        limit: u32,
+        mut before: impl FnMut(&mut Self, &mut LinkedSlave<'_, f64>),
+    ) {
+        let end = Event::Mode {
+            from: ModeCode::Running,
+            to: ModeCode::Ready,
+        };
+        for k in 0..limit {
+            before(self, slave);
+            let bytes = match k % 100 {
+                0 => self.frame(Request::Heartbeat).1,
+                _ => Vec::new(),
+            };
+            self.period(slave, &bytes);
+            if self.events().contains(&end) {
+                break;
+            }
+        }
+    }
+
     /// The next request number and `request`'s frame.
     pub fn frame(&mut self, request: Request<'_>) -> (u16, Vec<u8>) {
         self.seq = self.seq.wrapping_add(1);
@@ -152,4 +205,13 @@ pub fn scenario() -> SlaveScenario {
     s.sensors = [hal_mock::hall_sensor::HallSensorParams::LM1247_16BIT; 3];
     s.substeps = 1;
     s
+}
+
+/// The largest contour error of the samples while running, m.
+pub fn worst_error(samples: &[TelemetrySample]) -> f32 {
+    samples
+        .iter()
+        .filter(|s| s.mode == ModeCode::Running)
+        .map(|s| channel(s, "error"))
+        .fold(0.0f32, f32::max)
 }

@@ -6,7 +6,7 @@
 //! once from its first point to its last.
 
 use host_tests::link::{efd_job_file, octagon_job_file};
-use host_tests::link_host::{channel, ran_s, scenario, Host};
+use host_tests::link_host::{channel, ran_s, scenario, worst_error, Host};
 use kerf::codec::link::{Event, JobKind, ModeCode, Request, TelemetrySample};
 use kerf_sim::linked::with_linked_slave;
 
@@ -293,23 +293,10 @@ fn the_parts_of_a_program_follow_each_other_without_rest() {
         .sum();
     let mut host = Host::default();
     with_linked_slave::<f64, _>(&scenario(), 1.0, |slave| {
-        for _ in 0..3 {
-            host.period(slave, &[]);
-        }
-        host.upload(slave, &parts[0]);
-        assert_eq!(
-            host.ask(slave, Request::Telemetry { every_periods: 10 }, 2),
-            "Ack"
-        );
-        assert_eq!(host.ask(slave, Request::Start, 5), "Ack");
+        host.start_job(slave, JobKind::Efd, &parts[0], 10);
         let mut given = 1;
-        for k in 0..200_000u32 {
-            let begun = 1 + host
-                .events()
-                .iter()
-                .filter(|e| **e == Event::NextJob)
-                .count();
-            if given < parts.len() && given == begun {
+        host.run_to_end(slave, 200_000, |host, slave| {
+            if given < parts.len() && given == host.parts_begun() {
                 assert_eq!(host.upload_as(slave, JobKind::Efd, &parts[given]), "Ack");
                 given += 1;
                 if given < parts.len() {
@@ -318,19 +305,7 @@ fn the_parts_of_a_program_follow_each_other_without_rest() {
                     assert!(refused.contains("Busy"), "{refused}");
                 }
             }
-            let bytes = if k % 100 == 0 {
-                host.frame(Request::Heartbeat).1
-            } else {
-                Vec::new()
-            };
-            host.period(slave, &bytes);
-            if host.events().contains(&Event::Mode {
-                from: ModeCode::Running,
-                to: ModeCode::Ready,
-            }) {
-                break;
-            }
-        }
+        });
         let events = host.events();
         let modes: Vec<&Event> = events
             .iter()
@@ -369,11 +344,7 @@ fn the_parts_of_a_program_follow_each_other_without_rest() {
             (ran - planned).abs() <= 1.1e-3,
             "planned {planned} s, ran {ran} s"
         );
-        let worst = samples
-            .iter()
-            .filter(|s| s.mode == ModeCode::Running)
-            .map(|s| channel(s, "error"))
-            .fold(0.0f32, f32::max);
+        let worst = worst_error(&samples);
         assert!(worst < 5e-6, "{worst}");
     })
     .unwrap();

@@ -2,7 +2,7 @@
 //! parts of a streamed program taken at their joins at speed, and a part that comes
 //! too late taken again from rest.
 
-use host_tests::link_host::{channel, ran_s, scenario, Host};
+use host_tests::link_host::{channel, ran_s, scenario, worst_error, Host};
 use kerf::codec::link::{Event, JobKind, ModeCode, Request, TelemetrySample};
 use kerf_sim::linked::with_linked_slave;
 
@@ -41,39 +41,14 @@ fn a_run_streamed_in_parts_goes_on_at_its_joins() {
         .duration_s;
     let mut host = Host::default();
     with_linked_slave::<f64, _>(&scenario(), 1.0, |slave| {
-        for _ in 0..3 {
-            host.period(slave, &[]);
-        }
-        assert_eq!(host.upload_as(slave, JobKind::Moves, &parts[0]), "Ack");
-        assert_eq!(
-            host.ask(slave, Request::Telemetry { every_periods: 10 }, 2),
-            "Ack"
-        );
-        assert_eq!(host.ask(slave, Request::Start, 5), "Ack");
+        host.start_job(slave, JobKind::Moves, &parts[0], 10);
         let mut given = 1;
-        for k in 0..200_000u32 {
-            let begun = 1 + host
-                .events()
-                .iter()
-                .filter(|e| **e == Event::NextJob)
-                .count();
-            if given < parts.len() && given == begun {
+        host.run_to_end(slave, 200_000, |host, slave| {
+            if given < parts.len() && given == host.parts_begun() {
                 assert_eq!(host.upload_as(slave, JobKind::Moves, &parts[given]), "Ack");
                 given += 1;
             }
-            let bytes = match k % 100 {
-                0 => host.frame(Request::Heartbeat).1,
-                _ => Vec::new(),
-            };
-            host.period(slave, &bytes);
-            let end = Event::Mode {
-                from: ModeCode::Running,
-                to: ModeCode::Ready,
-            };
-            if host.events().contains(&end) {
-                break;
-            }
-        }
+        });
         let events = host.events();
         let next_jobs = events.iter().filter(|e| **e == Event::NextJob).count();
         assert_eq!(next_jobs, parts.len() - 1, "{events:?}");
@@ -124,11 +99,7 @@ fn a_run_streamed_in_parts_goes_on_at_its_joins() {
             at_speed_m > 0.9 * std::f64::consts::TAU * 5e-3,
             "{at_speed_m}"
         );
-        let worst = samples
-            .iter()
-            .filter(|s| s.mode == ModeCode::Running)
-            .map(|s| channel(s, "error"))
-            .fold(0.0f32, f32::max);
+        let worst = worst_error(&samples);
         assert!(worst < 5e-6, "{worst}");
     })
     .unwrap();
@@ -142,29 +113,8 @@ fn a_part_too_late_for_its_join_starts_at_rest() {
     let parts = streamed_circle();
     let mut host = Host::default();
     with_linked_slave::<f64, _>(&scenario(), 1.0, |slave| {
-        for _ in 0..3 {
-            host.period(slave, &[]);
-        }
-        assert_eq!(host.upload_as(slave, JobKind::Moves, &parts[0]), "Ack");
-        assert_eq!(
-            host.ask(slave, Request::Telemetry { every_periods: 1 }, 2),
-            "Ack"
-        );
-        assert_eq!(host.ask(slave, Request::Start, 5), "Ack");
-        let end = Event::Mode {
-            from: ModeCode::Running,
-            to: ModeCode::Ready,
-        };
-        for k in 0..100_000u32 {
-            let bytes = match k % 100 {
-                0 => host.frame(Request::Heartbeat).1,
-                _ => Vec::new(),
-            };
-            host.period(slave, &bytes);
-            if host.events().contains(&end) {
-                break;
-            }
-        }
+        host.start_job(slave, JobKind::Moves, &parts[0], 1);
+        host.run_to_end(slave, 100_000, |_, _| {});
         // Where the first part's cut ends: the second part's first point.
         let join = kerf::codec::job::JobFile::read(&parts[1])
             .unwrap()

@@ -74,7 +74,7 @@ pub fn run(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
         1 => say!(report, "{name}: 1 part for keops-slave"),
         n => say!(report, "{name}: {n} parts for keops-slave"),
     }
-    let (lo, hi) = bounds_mm(parts.iter().flat_map(|p| p.run.path_mm.iter()));
+    let (lo, hi) = kerf_host::plan::bounds(parts.iter().flat_map(|p| p.run.path_mm.iter()));
     let holds_origin = lo[0] <= 0.0 && hi[0] >= 0.0 && lo[1] <= 0.0 && hi[1] >= 0.0;
     if !(centre || holds_origin) {
         say!(
@@ -175,17 +175,4 @@ pub fn run(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
     }
     let bytes = laser::to_bytes(&parts).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
     crate::cli_cut::write_program(&name, &bytes, cut, out.as_ref(), report)
-}
-
-/// The smallest box holding `points`, mm: (lowest x and y, highest x and y).
-fn bounds_mm<'a>(points: impl Iterator<Item = &'a [f64; 2]>) -> ([f64; 2], [f64; 2]) {
-    points.fold(
-        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
-        |(lo, hi), p| {
-            (
-                [lo[0].min(p[0]), lo[1].min(p[1])],
-                [hi[0].max(p[0]), hi[1].max(p[1])],
-            )
-        },
-    )
 }
