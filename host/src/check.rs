@@ -37,6 +37,8 @@ use kerf::codec::job::JobFile;
 use kerf::codec::link::{CodeWords, LINK_JOB_REFUSALS};
 use kerf::kinematics::arrow::{ArrowConfig, ArrowGeometry, Pose};
 use kerf::kinematics::delta::DeltaGeometry;
+use kerf::machines::arrow::job::split_pose;
+use kerf::machines::arrow::machine::ArrowLimits;
 use kerf::machines::delta_slave::link::SlaveJobContext;
 use kerf::machines::delta_slave::product::{contour_defaults, JOB_LAPS};
 use kerf::machines::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
@@ -44,6 +46,7 @@ use kerf::machines::grinding::product::PASS;
 use kerf::machines::grinding::GrindingJob;
 use kerf::machines::single_axis::product::CONFIG as AXIS;
 use kerf::trajectory::gcode::MoveKind;
+use kerf::trajectory::task_spline::Pose as TaskPose;
 use nalgebra::Vector3;
 
 /// The machines a job can be checked for on the host (on the command line by the
@@ -145,6 +148,21 @@ pub enum CheckError {
     /// ARROW's G-code check (line and column).
     #[error("{0}")]
     Gcode(#[from] crate::gcode::GcodeCheckError),
+    /// A part of ARROW's program that does not start where the machine stands after
+    /// the part before it.
+    #[error(
+        "arrow would refuse to start it: it starts {gap_mm:.3} mm from where the part \
+         before ends (a joint {joint_mm:.3} mm away; the machine starts a job within \
+         {tolerance_mm:.1} mm of its joints)"
+    )]
+    ArrowStart {
+        /// Between the tool points, mm.
+        gap_mm: f64,
+        /// The farthest joint, mm.
+        joint_mm: f64,
+        /// The machine's start tolerance, mm.
+        tolerance_mm: f64,
+    },
     /// A part of a program of several.
     #[error("part {part} of {of}: {error}")]
     Part {
@@ -233,10 +251,13 @@ pub fn check(bytes: &[u8], machine: Option<Machine>) -> Result<Checked, CheckErr
     let parts = split(bytes).map_err(CheckError::File)?;
     let of = parts.len();
     let mut all: Option<Checked> = None;
-    let mut keops = SlaveJobContext::from(contour_defaults(&DeltaSlaveConfig::KEOPS, JOB_LAPS));
+    let mut carried = Carried {
+        keops: SlaveJobContext::from(contour_defaults(&DeltaSlaveConfig::KEOPS, JOB_LAPS)),
+        arrow_end: None,
+    };
     for (k, part) in parts.into_iter().enumerate() {
         let machine = machine.or(all.as_ref().map(|c| c.machine));
-        let checked = check_part(part, machine, &mut keops).map_err(|error| match of {
+        let checked = check_part(part, machine, &mut carried).map_err(|error| match of {
             1 => error,
             _ => CheckError::Part {
                 part: k + 1,
@@ -291,12 +312,50 @@ impl Checked {
     }
 }
 
+/// What one part leaves to the next: the Keops slave's join, ARROW's last point.
+struct Carried {
+    keops: SlaveJobContext,
+    arrow_end: Option<[f64; 5]>,
+}
+
+/// ARROW's own test at a job's start ([`ArrowLimits::start_tolerance_m`], on the
+/// nominal model): the part starting at `start` (x, y, z in m, A and B in rad) may
+/// follow the part that ended at `end`.
+fn arrow_continues(end: &[f64; 5], start: &[f64; 5]) -> Result<(), CheckError> {
+    let limits = ArrowLimits::ARROW;
+    let geometry = ArrowGeometry::<f64>::new(&ArrowConfig::ARROW).ok();
+    let joints = |p: &[f64; 5]| {
+        let (pose, theta_x) = split_pose(&TaskPose::new(p[0], p[1], p[2], p[3], p[4]));
+        let q = geometry.as_ref().and_then(|g| g.inverse(&pose).ok());
+        (q, theta_x)
+    };
+    let ((qa, ta), (qb, tb)) = (joints(end), joints(start));
+    let joint_m = match (qa, qb) {
+        (Some(a), Some(b)) => (a - b).amax(),
+        // A pose off the model was refused by the part's own check.
+        _ => 0.0,
+    };
+    let gap_m = (0..3)
+        .map(|k| (end[k] - start[k]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    if joint_m > limits.start_tolerance_m || (ta - tb).abs() > limits.start_tolerance_rad {
+        return Err(CheckError::ArrowStart {
+            gap_mm: gap_m * 1e3,
+            joint_mm: joint_m * 1e3,
+            tolerance_mm: limits.start_tolerance_m * 1e3,
+        });
+    }
+    Ok(())
+}
+
 /// Checks one job file for `machine`, or for the machine that takes its kind (the
-/// Keops slave's parts with `keops`, which carries one part's join to the next).
+/// Keops slave's parts with `carried`, which carries one part's join or end to the
+/// next).
 fn check_part(
     bytes: &[u8],
     machine: Option<Machine>,
-    keops: &mut SlaveJobContext,
+    carried: &mut Carried,
 ) -> Result<Checked, CheckError> {
     let file = JobFile::read(bytes).map_err(CheckError::File)?;
     let kind = file.kind();
@@ -310,6 +369,10 @@ fn check_part(
     match (machine, file) {
         (Machine::Arrow, JobFile::Gcode { text }) => {
             let report = crate::gcode::check(text)?;
+            if let Some(end) = carried.arrow_end {
+                arrow_continues(&end, &report.start)?;
+            }
+            carried.arrow_end = Some(report.end);
             Ok(Checked {
                 machine,
                 kind,
@@ -321,7 +384,7 @@ fn check_part(
         }
         // ARROW's kinds are G-code only: refused above, refused the same here.
         (Machine::Arrow, _) => Err(kind_refused(machine, kind)),
-        (Machine::KeopsSlave, file) => check_keops(&file, keops),
+        (Machine::KeopsSlave, file) => check_keops(&file, &mut carried.keops),
         (Machine::Grinding, file) => {
             let mut pass = GrindingJob::default();
             GrindingMachine::load_job(&mut PASS.clone(), &file, &mut pass)

@@ -12,9 +12,7 @@ use kerf::machines::arrow::product::{load_job, JOB_MOVES, JOB_POINTS, PROGRAM_PO
 use kerf::machines::grinding::product::{load_pass, PASS};
 use kerf::machines::single_axis::product::{load_moves, CONFIG as AXIS};
 use kerf::trajectory::feed::FeedError;
-use kerf::trajectory::gcode::{
-    self, Diagnostic, GcodeErrorKind, GcodePoint, MoveKind, ReaderConfig, Severity,
-};
+use kerf::trajectory::gcode::{Diagnostic, GcodeErrorKind, GcodePoint, MoveKind, Parser, Severity};
 use kerf::trajectory::task_spline::TaskSplineError;
 
 /// The job as the machine holds it.
@@ -52,6 +50,11 @@ pub struct GcodeReport {
     pub length_m: f64,
     /// Total duration, s (whole control periods).
     pub duration_s: f64,
+    /// Its first point, where the machine must stand to start it: x, y, z in m, A and
+    /// B in rad.
+    pub start: [f64; 5],
+    /// Its last point, where it leaves the machine (as `start`).
+    pub end: [f64; 5],
 }
 
 /// A refused program: where and why. `column` is 1-based; it is 1 where the cause is
@@ -120,7 +123,15 @@ pub fn check(text: &[u8]) -> Result<GcodeReport, GcodeCheckError> {
             path
         })
         .collect();
+    let axes = |p: Option<&GcodePoint>| {
+        p.map_or([0.0; 5], |p| {
+            let ([x, y, z], [a, b]) = (p.position_m, p.angles_rad);
+            [x, y, z, a, b]
+        })
+    };
     Ok(GcodeReport {
+        start: axes(points.first()),
+        end: axes(points.last()),
         paths_m,
         length_m: moves.iter().map(|m| m.length_m).sum(),
         duration_s: job.periods() as f64 * job.period_s(),
@@ -171,14 +182,14 @@ pub fn check_on(machine: Machine, text: &[u8]) -> Result<Checked, GcodeCheckErro
 }
 
 /// Every warning and error of `text` read for ARROW's axes (all five), in the order of
-/// the file.
+/// the file, however many points it has (a program longer than the machine holds
+/// goes as parts, [`crate::arrow_parts`]).
 pub fn diagnose(text: &[u8]) -> Vec<Diagnostic> {
-    let mut points = Box::new(heapless::Vec::<GcodePoint, PROGRAM_POINTS>::new());
+    let mut parser = Parser::new();
     let mut found = Vec::new();
-    // The default configuration is valid: `read` cannot refuse it.
-    let _ = gcode::read(text, &ReaderConfig::DEFAULT, &mut points, &mut |d| {
-        found.push(*d)
-    });
+    for line in text.split(|&b| b == b'\n') {
+        parser.read_line(line, &mut |_| true, &mut |d| found.push(*d));
+    }
     found
 }
 
@@ -195,9 +206,10 @@ pub fn has_errors(found: &[Diagnostic]) -> bool {
 /// The parser's refusal in words.
 pub fn describe_gcode(kind: GcodeErrorKind) -> String {
     match kind {
-        GcodeErrorKind::TooManyPoints => {
-            format!("more than {PROGRAM_POINTS} points (the machine's buffer)")
-        }
+        GcodeErrorKind::TooManyPoints => format!(
+            "more than {PROGRAM_POINTS} points (the machine's buffer): `kerf gcode` writes \
+             a longer program as parts"
+        ),
         other => other.to_string(),
     }
 }
@@ -256,9 +268,10 @@ pub fn describe_job(kind: ArrowJobErrorKind) -> String {
     match kind {
         ArrowJobErrorKind::Gcode { kind, .. } => describe_gcode(kind),
         ArrowJobErrorKind::Empty => "the program has no move".into(),
-        ArrowJobErrorKind::TooLarge => {
-            format!("more than {JOB_MOVES} moves, or more than {JOB_POINTS} points in one move")
-        }
+        ArrowJobErrorKind::TooLarge => format!(
+            "more than {JOB_MOVES} moves, or more than {JOB_POINTS} points in one move: \
+             `kerf gcode` writes a longer program as parts"
+        ),
         ArrowJobErrorKind::Spline(e) => match e {
             TaskSplineError::Config(e) => format!("the move's spline: {e}"),
             TaskSplineError::TooFewPoints => "the move has fewer than 2 points".into(),
@@ -267,7 +280,10 @@ pub fn describe_job(kind: ArrowJobErrorKind) -> String {
             }
             TaskSplineError::NotFinitePoint(_) => "a coordinate is not a number".into(),
             TaskSplineError::RepeatedPoint(_) => {
-                "a point falls on the one before it (the move has no direction there)".into()
+                "the tool point does not move between this point and the one before (a \
+                 move of A or B alone, or to the same point): the machine's moves follow \
+                 the tool point's path"
+                    .into()
             }
             TaskSplineError::NotRepresentable => {
                 "the move's points lie too close together to be followed".into()

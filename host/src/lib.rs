@@ -22,6 +22,7 @@
 //! Redundant Parallel Robotic Machining Tool: Design, Control and Real-Time
 //! Experiments", 2019), as the repository's docs/equations.md names them.
 
+pub mod arrow_parts;
 pub mod check;
 pub mod description;
 pub mod gcode;

@@ -230,10 +230,16 @@ pub(crate) struct GcodeArgs {
     /// program: each run with the beam on becomes a part).
     #[arg(long, value_enum, default_value = "arrow")]
     pub(crate) machine: kerf_host::check::Machine,
-    /// For the Keops slave: move the program so that its cuts are centred on the
-    /// workspace's centre (a laser bed's origin is its corner).
+    /// Move the program so that it is centred on the workspace's centre: for the Keops
+    /// slave its cuts (a laser bed's origin is its corner), for ARROW the box around
+    /// its points (a program written about its own zero).
     #[arg(long)]
     pub(crate) centre: bool,
+    /// For ARROW: the program is written for a three-axis mill (Z its tool axis, its
+    /// zero on the part): turned so that its Z runs along ARROW's tool (the machine's
+    /// y) and its Y along the machine's z, its zero at the workspace's centre.
+    #[arg(long)]
+    pub(crate) mill: bool,
     /// For the Keops slave: the S value of full power (grbl's $30).
     #[arg(long, value_name = "S", default_value_t = 1000.0)]
     pub(crate) s_max: f64,
@@ -255,6 +261,12 @@ fn main() -> ExitCode {
     let r = &mut report;
     let result = match cli.command {
         Command::Plan(args) => run_plan(&args, r),
+        Command::Gcode(args) if args.mill && args.machine != kerf_host::check::Machine::Arrow => {
+            Err(Failure::Input(format!(
+                "--mill turns a mill's program onto ARROW's tool axis; {} takes programs in its own axes",
+                args.machine.name()
+            )))
+        }
         Command::Gcode(args) if args.machine == kerf_host::check::Machine::KeopsSlave => {
             cli_laser::run(&args, r)
         }
@@ -426,6 +438,12 @@ pub(crate) fn kerf_line(config: &PlanConfig, report: &mut Report) {
 
 fn run_gcode(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
     let name = args.file.display().to_string();
+    if args.centre && args.machine != kerf_host::check::Machine::Arrow {
+        return Err(Failure::Input(format!(
+            "--centre moves a laser program or ARROW's; {} takes programs where they are written",
+            args.machine.name()
+        )));
+    }
     if args.cut.settings()? != kerf_host::job::CutSettings::MACHINE || args.kerf.is_set() {
         return Err(Failure::Input(format!(
             "{name}: a program for {} carries its own feeds and path; --speed-mm-s, \
@@ -471,36 +489,110 @@ fn run_gcode(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
         }
         return Ok(());
     }
-    let checked = gcode::check(&text).map_err(located)?;
-    say!(report, "{name}: accepted, {} moves", checked.moves.len());
+    let placement = kerf_host::arrow_parts::Placement {
+        centre: args.centre,
+        mill: args.mill,
+    };
+    let program = kerf_host::arrow_parts::parts(&text, placement).map_err(located)?;
+    let moves: usize = program.parts.iter().map(|p| p.report.moves.len()).sum();
     say!(
         report,
-        "  move  line  kind   points  length mm  speed mm/s  time s"
+        "{name}: accepted, {moves} moves in {} part{}",
+        program.parts.len(),
+        if program.parts.len() == 1 { "" } else { "s" }
     );
-    for (i, m) in checked.moves.iter().enumerate() {
-        say!(
-            report,
-            "  {:>4}  {:>4}  {:<5}  {:>6}  {:>9.1}  {:>10.1}  {:>6.2}",
-            i + 1,
-            m.line,
-            match m.kind {
-                MoveKind::Rapid => "rapid",
-                MoveKind::Feed => "feed",
-            },
-            m.points,
-            m.length_m * 1e3,
-            m.speed_m_s * 1e3,
-            m.duration_s
-        );
+    arrow_notes(&program, report);
+    say!(
+        report,
+        "  part  move  line  kind   points  length mm  speed mm/s  time s"
+    );
+    for (k, part) in program.parts.iter().enumerate() {
+        for (i, m) in part.report.moves.iter().enumerate() {
+            say!(
+                report,
+                "  {:>4}  {:>4}  {:>4}  {:<5}  {:>6}  {:>9.1}  {:>10.1}  {:>6.2}",
+                k + 1,
+                i + 1,
+                m.line,
+                match m.kind {
+                    MoveKind::Rapid => "rapid",
+                    MoveKind::Feed => "feed",
+                },
+                m.points,
+                m.length_m * 1e3,
+                m.speed_m_s * 1e3,
+                m.duration_s
+            );
+        }
     }
     say!(
         report,
         "  total length {:.1} mm, duration {:.2} s",
-        checked.length_m * 1e3,
-        checked.duration_s
+        program.length_m() * 1e3,
+        program.duration_s()
     );
     if let Some(out) = &out {
-        write_job(out, &Job::Gcode { text }, report)?;
+        // A program the machine takes as it is goes as written.
+        let as_written = program.parts.len() == 1
+            && !program.from_home
+            && program.shift_m == [0.0; 3]
+            && program.left_out.is_empty();
+        let bytes = if as_written {
+            Job::Gcode { text }.to_bytes()
+        } else {
+            program.to_bytes()
+        }
+        .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+        out.write_bytes(&bytes)?;
+        say!(report, "wrote {} ({} bytes)", out.shown(), bytes.len());
     }
     Ok(())
+}
+
+/// What was done to an ARROW program to run it, in lines of the report.
+fn arrow_notes(program: &kerf_host::arrow_parts::ArrowProgram, report: &mut Report) {
+    let lines = |l: &[u32]| {
+        let shown: Vec<String> = l.iter().take(8).map(u32::to_string).collect();
+        let more = if l.len() > 8 { ", …" } else { "" };
+        format!("{}{more}", shown.join(", "))
+    };
+    if program.shift_m != [0.0; 3] {
+        let [x, y, z] = program.shift_m.map(|v| v * 1e3);
+        say!(
+            report,
+            "  centred: moved by ({x:.3}, {y:.3}, {z:.3}) mm to the workspace's centre"
+        );
+    }
+    if program.mill {
+        say!(
+            report,
+            "  a mill's program: its X Y Z are the machine's x, z and y0 − y (its Z along the tool)"
+        );
+    }
+    if program.from_home {
+        let [x, y, z, a, b] = kerf::machines::arrow::product::HOME;
+        say!(
+            report,
+            "  starts from the machine's home (X {:.3} Y {:.3} Z {:.3} mm, A {:.1}° B {:.1}°): a rapid to the program's first point comes first",
+            x * 1e3,
+            y * 1e3,
+            z * 1e3,
+            a.to_degrees(),
+            b.to_degrees()
+        );
+    }
+    if !program.left_out.is_empty() {
+        say!(
+            report,
+            "  left out: the moves of line {} go nowhere (to where the tool already is)",
+            lines(&program.left_out)
+        );
+    }
+    if !program.stops.is_empty() {
+        say!(
+            report,
+            "  a move longer than a part is cut at line {}: the machine stops there",
+            lines(&program.stops)
+        );
+    }
 }

@@ -18,10 +18,12 @@ pub fn svg(title: &str, checked: &Checked) -> Result<Option<String>, PlotError> 
         return Ok(None);
     };
     let mut text = String::new();
-    let what = match preview.closed.as_slice() {
-        [true] => "closed contour".to_owned(),
-        [false] => "open path".to_owned(),
-        parts => format!("{} parts", parts.len()),
+    // The job's parts, as `kerf check` counts them; one part by what it cuts.
+    let what = match (checked.parts, preview.closed.as_slice()) {
+        (1, [true]) => "closed contour".to_owned(),
+        (1, [false]) => "open path".to_owned(),
+        (1, cuts) => format!("{} cuts", cuts.len()),
+        (parts, _) => format!("{parts} parts"),
     };
     let caption = format!(
         "{title}: {what} on {}, about {:.1} s",

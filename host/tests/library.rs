@@ -244,7 +244,7 @@ fn arrow_refusals_name_the_limit_in_words() {
         words[5]
     );
     assert!(
-        words[8].starts_with("a point falls on the one before it"),
+        words[8].starts_with("the tool point does not move between this point"),
         "{}",
         words[8]
     );

@@ -3,7 +3,8 @@
 //! [`HostLink`] only, so a host (a test's, or the host tool over the QEMU image's
 //! serial port) uploads G-code, starts, retunes and follows it with frames alone.
 //!
-//! The plate stands at the pyramid's start (the first point of
+//! The plate stands at ARROW's home, the pyramid's start
+//! ([`HOME`](kerf::machines::arrow::product::HOME), the first point of
 //! `data/pyramid.gcode`: X 13.333, Y 464.604, Z −13.333 mm, θx −15°, θz 15°), where
 //! a job must begin. While the machine does not run a job its outputs are the safe
 //! ones (no force) and the actuators' brakes hold the plate: the plant moves only
@@ -18,17 +19,14 @@ use kerf::app::supervisor::{Command, Mode, Report, Supervisor};
 use kerf::kinematics::arrow::{ArrowError, Pose};
 use kerf::machines::arrow::link::ArrowSettings;
 use kerf::machines::arrow::machine::{ArrowInputs, ArrowLimits, ArrowOutputs};
-use kerf::machines::arrow::product::{Arrow, LINK_JOB_BYTES, PERIOD_S, TELEMETRY_DECIMATION};
+use kerf::machines::arrow::product::{Arrow, HOME, LINK_JOB_BYTES, PERIOD_S, TELEMETRY_DECIMATION};
 use kerf::scalar::{Float, Real};
 
-/// Where the plate stands at power-up: the pyramid's first point (pose in m and rad,
-/// the table's θx in rad).
+/// Where the plate stands at power-up, [`HOME`] (pose in m and rad, the table's θx in
+/// rad).
 pub fn home() -> (Pose<f64>, f64) {
-    let deg = core::f64::consts::PI / 180.0;
-    (
-        Pose::new(13.333e-3, 464.604e-3, -13.333e-3, 15.0 * deg),
-        -15.0 * deg,
-    )
+    let [x, y, z, theta_x, theta_z] = HOME;
+    (Pose::new(x, y, z, theta_z), theta_x)
 }
 
 /// ARROW, its plant and its host link.

@@ -10,7 +10,9 @@
 //! maximal run of consecutive points of one kind — feed moves at one feed, or rapid
 //! moves — is one move from the point before the run to the run's last point, from
 //! rest to rest: a feed run at its `F`, a rapid run at the machine's rapid speed. A
-//! change of feed or of kind is a stop, as at A's path ends (A 4.3).
+//! change of feed or of kind is a stop, as at A's path ends (A 4.3). A feed above the
+//! rapid speed is followed at the rapid speed, the machine's fastest (as grbl holds a
+//! feed to its axes' largest rate).
 //!
 //! # Checks at load
 //!
@@ -334,7 +336,7 @@ impl<T: Float, const N: usize, const R: usize> ArrowJob<T, N, R> {
             let run = points.get(next - 1..next + len).unwrap_or(&[]);
             let feed = match target.kind {
                 MoveKind::Rapid => config.rapid_m_s,
-                MoveKind::Feed => target.feed_m_s,
+                MoveKind::Feed => target.feed_m_s.min(config.rapid_m_s),
             };
             let slot = job
                 .moves

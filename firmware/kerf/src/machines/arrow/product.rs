@@ -24,6 +24,21 @@ pub const JOB_MOVES: usize = 4;
 /// Points the G-code buffer holds while a program is read.
 pub const PROGRAM_POINTS: usize = 256;
 
+/// Where ARROW stands when it is switched on and where a program starts from unless
+/// the machine was left elsewhere: the plate at the pyramid's first point
+/// (`data/pyramid.gcode`), as `x, y, z` in m and the angles `A` (the turntable's
+/// θx) and `B` (the plate's θz) in rad, the axes of a G-code point.
+pub const HOME: [f64; 5] = [
+    13.333e-3,
+    464.604e-3,
+    -13.333e-3,
+    -15.0 * DEGREE,
+    15.0 * DEGREE,
+];
+
+/// One degree in radians.
+const DEGREE: f64 = core::f64::consts::PI / 180.0;
+
 /// Bytes of an uploaded job the machine holds: the pyramid's G-code file is 9.0 KB.
 pub const LINK_JOB_BYTES: usize = 12 * 1024;
 
