@@ -53,7 +53,7 @@ pub struct ArrowPart {
     pub text: Vec<u8>,
     /// The lines of the original program its moves come from (first, last).
     pub lines: [u32; 2],
-    /// The machine's check of it.
+    /// The machine's check of it, its moves named by their lines in the original.
     pub report: GcodeReport,
 }
 
@@ -373,17 +373,23 @@ pub fn parts(text: &[u8], placement: Placement) -> Result<ArrowProgram, GcodeChe
     for (k, &(s, e)) in bounds.iter().enumerate() {
         let text = part_text(&all, s, e, k + 1, of);
         let lines = lines_of(&all, s, e);
-        let report = check(&text).map_err(|mut error| {
-            // A line of the part is one of its points (the original's line), or its
-            // heading (the part's first line); home has none (the part's first).
-            let point = error.line.checked_sub(START_LINE).map(|j| s + j as usize);
-            error.line = point
+        // A line of the part is one of its points (the original's line), or its
+        // heading (the part's first line); home has none (the part's first).
+        let original = |line: u32| {
+            let point = line.checked_sub(START_LINE).map(|j| s + j as usize);
+            point
                 .and_then(|i| all.get(i))
                 .map_or(0, |p| p.line)
-                .max(lines[0]);
+                .max(lines[0])
+        };
+        let mut report = check(&text).map_err(|mut error| {
+            error.line = original(error.line);
             error.column = 1;
             error
         })?;
+        for m in &mut report.moves {
+            m.line = original(m.line);
+        }
         parts.push(ArrowPart {
             text,
             lines,
