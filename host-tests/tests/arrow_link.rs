@@ -166,3 +166,92 @@ fn a_force_limit_too_low_to_cut_is_heard_as_the_machines_fault() {
         other => panic!("{other:?}"),
     }
 }
+
+/// A real mill program longer than ARROW holds (`data/gcode/cap.ngc`, turned onto its
+/// tool axis and centred), given as the parts `kerf gcode` writes: the session loads
+/// each part while the one before runs and the machine goes from part to part; its
+/// reference ends on the program's last point and visits the program's whole box.
+#[test]
+fn a_mill_program_longer_than_arrow_holds_runs_as_parts() {
+    let text = std::fs::read(
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/gcode/cap.ngc"),
+    )
+    .unwrap();
+    let placement = kerf_host::arrow_parts::Placement {
+        centre: true,
+        mill: true,
+    };
+    let program = kerf_host::arrow_parts::parts(&text, placement).unwrap();
+    let n = program.parts.len();
+    assert!(n > 4, "{n}");
+    let jobs: Vec<Vec<u8>> = program
+        .parts
+        .iter()
+        .map(|p| {
+            let mut out = vec![0u8; p.text.len() + 64];
+            let len = write_gcode(&p.text, &mut out).unwrap();
+            out.truncate(len);
+            out
+        })
+        .collect();
+    let given: Vec<(JobKind, &[u8])> = jobs.iter().map(|j| (JobKind::Gcode, &j[..])).collect();
+    let mut rig = rig();
+    let channels = rig.session.machine.description().channels.clone();
+    let mut log = TelemetryLog::new(2e-4, &channels);
+    let mut lines = Vec::new();
+    let ended = rig
+        .session
+        .run_parts(&given, &plan(&[]), &mut log, None, &mut |p| {
+            if let Progress::Line(t, text) = p {
+                lines.push(format!("{t:.3} {text}"));
+            }
+        });
+    println!("arrow parts: {}", log.summary());
+    ended.unwrap_or_else(|e| panic!("{e}: {lines:?}"));
+    // The references of the running machine (at rest it reports none).
+    let reference: Vec<[f64; 3]> = log
+        .entries()
+        .iter()
+        .filter(|e| e.sample.mode == kerf::codec::link::ModeCode::Running)
+        .filter_map(|e| {
+            let at = |c| log.value(e, c);
+            Some([at("x_ref")?, at("y_ref")?, at("z_ref")?])
+        })
+        .collect();
+    // The last sample's reference is the last part's end.
+    let end = program.parts[n - 1].report.end;
+    let last = reference.last().unwrap();
+    for k in 0..3 {
+        assert!((last[k] - end[k]).abs() < 1e-6, "{last:?} {end:?}");
+    }
+    // The reference spans the program's box (sampled at 100 Hz along moves of up to
+    // the 100 mm/s rapids: within 1 mm of each face).
+    for k in 0..3 {
+        let points = program
+            .parts
+            .iter()
+            .flat_map(|p| p.report.paths_m.iter().flatten());
+        let lo = points.clone().map(|p| p[k]).fold(f64::INFINITY, f64::min);
+        let hi = points.map(|p| p[k]).fold(f64::NEG_INFINITY, f64::max);
+        let r_lo = reference.iter().map(|p| p[k]).fold(f64::INFINITY, f64::min);
+        let r_hi = reference
+            .iter()
+            .map(|p| p[k])
+            .fold(f64::NEG_INFINITY, f64::max);
+        assert!(
+            (r_lo - lo).abs() < 1e-3 && (r_hi - hi).abs() < 1e-3,
+            "{k}: {lo} {hi} {r_lo} {r_hi}"
+        );
+    }
+    // As on the pyramid: the joints within the assembled machine's inconsistency.
+    let worst = log
+        .entries()
+        .iter()
+        .filter_map(|e| log.value(e, "joint_error"))
+        .fold(0.0f64, f64::max);
+    println!(
+        "arrow parts: {n} parts, largest joint error sampled {:.1} µm",
+        worst * 1e6
+    );
+    assert!(worst < 0.35e-3, "{worst}");
+}
