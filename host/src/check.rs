@@ -102,6 +102,15 @@ impl Machine {
         }
     }
 
+    /// The plane its paths are seen in, as indices of x, y, z: ARROW's along its tool
+    /// (x and z: the tool points along y), the others from above (x and y).
+    pub fn path_plane(self) -> [usize; 2] {
+        match self {
+            Machine::Arrow => [0, 2],
+            Machine::KeopsSlave | Machine::Grinding | Machine::SingleAxis => [0, 1],
+        }
+    }
+
     /// The machine of `name` (as it announces itself).
     pub fn from_name(name: &str) -> Option<Self> {
         MACHINES.into_iter().find(|m| m.name() == name)
@@ -554,7 +563,8 @@ fn outline(centre: [f64; 2], reaches: impl Fn([f64; 2]) -> bool) -> Vec<[f64; 2]
 /// ARROW's program seen along its tool (x right, z up): each run of feed moves one
 /// cut, the rapids between them travels.
 fn arrow_preview(report: &crate::gcode::GcodeReport) -> Preview {
-    let xz = |p: &[f64; 3]| [p[0], p[2]];
+    let [a, b] = Machine::Arrow.path_plane();
+    let xz = |p: &[f64; 3]| [p[a], p[b]];
     let mut cuts_m: Vec<Vec<[f64; 2]>> = Vec::new();
     let mut travels_m: Vec<Vec<[f64; 2]>> = Vec::new();
     let mut cutting = false;

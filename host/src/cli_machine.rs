@@ -259,6 +259,14 @@ impl Outputs {
     }
 }
 
+/// An empty log for `machine`'s telemetry, its path drawn in the machine's plane.
+fn new_log(machine: &kerf_host::link::MachineLink) -> TelemetryLog {
+    let hello = machine.hello();
+    let plane = kerf_host::check::Machine::from_name(&hello.machine)
+        .map_or([0, 1], kerf_host::check::Machine::path_plane);
+    TelemetryLog::new(hello.period_s, &machine.description().channels).with_plane(plane)
+}
+
 /// `kerf run JOB`: upload, start, follow to the end; the summary, CSV and SVG are
 /// written whatever the end.
 pub fn run(args: &RunArgs, report: &mut Report) -> Result<(), Failure> {
@@ -320,7 +328,7 @@ pub fn run(args: &RunArgs, report: &mut Report) -> Result<(), Failure> {
         bar.set_style(style);
     }
     bar.set_message("upload");
-    let mut log = TelemetryLog::new(hello.period_s, &session.machine.description().channels);
+    let mut log = new_log(&session.machine);
     let lines = console();
     if lines.is_some() {
         let _ = writeln!(
@@ -489,9 +497,8 @@ pub fn log(args: &LogArgs, report: &mut Report) -> Result<(), Failure> {
     }
     let outputs = Outputs::prepare(args.csv.as_deref(), args.svg.as_deref())?;
     let mut s = args.machine.open()?;
-    let period_s = s.machine.hello().period_s;
     s.machine.telemetry(hz).map_err(link_failure)?;
-    let mut log = TelemetryLog::new(period_s, &s.machine.description().channels);
+    let mut log = new_log(&s.machine);
     let bar = ProgressBar::new_spinner();
     let mut last_heard = Instant::now();
     loop {

@@ -45,6 +45,8 @@ pub struct TelemetryLog {
     /// Index of the first entry that cut.
     cut_start: Option<usize>,
     marks: Vec<(f64, String)>,
+    /// The path's plane, indices of x, y, z.
+    plane: [usize; 2],
 }
 
 impl TelemetryLog {
@@ -57,7 +59,15 @@ impl TelemetryLog {
             entries: Vec::new(),
             cut_start: None,
             marks: Vec::new(),
+            plane: [0, 1],
         }
+    }
+
+    /// The log drawing its path in `plane` (indices of x, y, z,
+    /// [`crate::check::Machine::path_plane`]) instead of x and y.
+    pub fn with_plane(mut self, plane: [usize; 2]) -> Self {
+        self.plane = plane;
+        self
     }
 
     /// Marks the time of the latest sample with `label` (a setting changed, a
@@ -335,22 +345,30 @@ impl TelemetryLog {
         Ok(())
     }
 
+    /// The path drawn: the names of its plane's axes, the measured and the reference
+    /// points in it (mm), of the samples while the machine moves along its job (at
+    /// rest it reports no reference, zeros, which the tool never travelled to).
+    fn path_mm(&self) -> ([&'static str; 2], PathMm, PathMm) {
+        let moving = self
+            .entries
+            .iter()
+            .filter(|e| matches!(e.sample.mode, ModeCode::Running | ModeCode::Stopping));
+        let [a, b] = self
+            .plane
+            .map(|k| ["x", "y", "z"].get(k).copied().unwrap_or("x"));
+        let mm =
+            |e: &Entry, x: &str, y: &str| Some((self.value(e, x)? * 1e3, self.value(e, y)? * 1e3));
+        let (a_ref, b_ref) = (format!("{a}_ref"), format!("{b}_ref"));
+        let measured = moving.clone().filter_map(|e| mm(e, a, b)).collect();
+        let reference = moving.filter_map(|e| mm(e, &a_ref, &b_ref)).collect();
+        ([a, b], measured, reference)
+    }
+
     fn draw_path<DB: DrawingBackend>(
         &self,
         area: &DrawingArea<DB, plotters::coord::Shift>,
     ) -> Result<(), PlotError> {
-        let mm =
-            |e: &Entry, x: &str, y: &str| Some((self.value(e, x)? * 1e3, self.value(e, y)? * 1e3));
-        let measured: Vec<(f64, f64)> = self
-            .entries
-            .iter()
-            .filter_map(|e| mm(e, "x", "y"))
-            .collect();
-        let reference: Vec<(f64, f64)> = self
-            .entries
-            .iter()
-            .filter_map(|e| mm(e, "x_ref", "y_ref"))
-            .collect();
+        let ([a, b], measured, reference) = self.path_mm();
         let (lo, hi) = measured.iter().chain(&reference).fold(
             ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
             |(lo, hi), p| {
@@ -360,17 +378,25 @@ impl TelemetryLog {
                 )
             },
         );
-        let axes = ["x, mm", "y, mm"];
+        let (a_words, b_words) = (format!("{a}, mm"), format!("{b}, mm"));
+        let axes = [a_words.as_str(), b_words.as_str()];
         let mut chart = crate::plot::workspace_chart(area, None, axes, lo, hi, 1.05)?;
         for (label, points, color, width) in [
             ("reference", &reference, RGBColor(120, 120, 120), 4),
             ("measured", &measured, RGBColor(0, 114, 178), 1),
         ] {
+            // A machine that reports no measured position (ARROW) has no such line.
+            if points.is_empty() {
+                continue;
+            }
             line(&mut chart, points.iter().copied(), label, color, width)?;
         }
         legend(&mut chart)
     }
 }
+
+/// Points of a path in its plane, mm.
+type PathMm = Vec<(f64, f64)>;
 
 /// A line of a panel.
 struct Series<'a> {
@@ -532,6 +558,47 @@ mod tests {
                 .into_iter()
                 .collect(),
         }
+    }
+
+    #[test]
+    fn the_path_is_drawn_in_the_machines_plane_while_it_moves_only() {
+        let names = ["x_ref", "y_ref", "z_ref"];
+        let arrow: Vec<ChannelInfo> = names
+            .map(|name| ChannelInfo {
+                name: name.into(),
+                unit: "m".into(),
+            })
+            .to_vec();
+        let mut log = TelemetryLog::new(1e-3, &arrow).with_plane([0, 2]);
+        let at = |period, mode, v: [f32; 3]| TelemetrySample {
+            period,
+            mode,
+            values: v.into_iter().collect(),
+        };
+        log.push(at(0, ModeCode::Ready, [0.0; 3]));
+        log.push(at(1, ModeCode::Running, [0.01, 0.5, -0.02]));
+        log.push(at(2, ModeCode::Stopping, [0.02, 0.5, -0.01]));
+        log.push(at(3, ModeCode::Ready, [0.0; 3]));
+        let (axes, measured, reference) = log.path_mm();
+        assert_eq!(axes, ["x", "z"]);
+        assert!(measured.is_empty());
+        let want = [(10.0, -20.0), (20.0, -10.0)];
+        assert_eq!(reference.len(), want.len());
+        for (got, want) in reference.iter().zip(want) {
+            // f32 samples: within 1e-7 of a 20 mm value.
+            assert!(
+                (got.0 - want.0).abs() < 1e-5 && (got.1 - want.1).abs() < 1e-5,
+                "{got:?}"
+            );
+        }
+        // Without a plane: x and y, as a laser cuts.
+        let (axes, _, reference) = TelemetryLog {
+            plane: [0, 1],
+            ..log
+        }
+        .path_mm();
+        assert_eq!(axes, ["x", "y"]);
+        assert!((reference[0].1 - 500.0).abs() < 1e-4);
     }
 
     #[test]
