@@ -149,6 +149,45 @@ fn a_long_mill_program_read_back_from_its_parts_is_the_program() {
     let checked = check(&bytes, Some(Machine::Arrow)).expect("its parts continue");
     assert_eq!(checked.parts, program.parts.len());
     assert!((checked.duration_s - program.duration_s()).abs() < 1e-9);
+    // Its preview is seen along the tool: the plane of x and z, where the spiral lies
+    // (turned from the mill's x and y), spans the feed moves' paths in it.
+    let [a, b] = Machine::Arrow.path_plane();
+    assert_eq!([a, b], [0, 2]);
+    let preview = checked.preview.unwrap();
+    let feed_paths = program.parts.iter().flat_map(|p| {
+        p.report
+            .moves
+            .iter()
+            .zip(&p.report.paths_m)
+            .filter(|(m, _)| m.kind == MoveKind::Feed)
+            .flat_map(|(_, path)| path.iter().map(|q| [q[a], q[b]]))
+    });
+    let cuts = preview.cuts_m.iter().flatten().copied();
+    let span = |points: &mut dyn Iterator<Item = [f64; 2]>| {
+        points.fold(
+            [
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+            ],
+            |s, p| {
+                [
+                    s[0].min(p[0]),
+                    s[1].max(p[0]),
+                    s[2].min(p[1]),
+                    s[3].max(p[1]),
+                ]
+            },
+        )
+    };
+    let (want, got) = (span(&mut feed_paths.clone()), span(&mut cuts.clone()));
+    assert_eq!(want, got);
+    // The spiral's 4-inch width lies in that plane.
+    assert!(
+        want[1] - want[0] > 0.09 && want[3] - want[2] > 0.09,
+        "{want:?}"
+    );
 }
 
 #[test]
