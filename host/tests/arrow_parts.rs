@@ -317,3 +317,39 @@ fn placing_options_of_other_machines_are_refused_and_nothing_is_written() {
         assert!(!out.exists());
     }
 }
+
+#[test]
+fn every_corpus_program_for_a_mill_or_a_laser_loads_on_arrow_as_parts() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../data/gcode");
+    let mut loaded = 0;
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "md") {
+            continue;
+        }
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        let placement = Placement {
+            centre: true,
+            mill: true,
+        };
+        match (
+            name.as_str(),
+            parts(&std::fs::read(&path).unwrap(), placement),
+        ) {
+            // Written for a six-axis arm: A and B turn with the tool point still.
+            ("puma_seam_weld.ngc", Err(e)) => {
+                assert_eq!(e.line, 7, "{e}");
+                assert!(e.message.contains("a move of A or B alone"), "{e}");
+            }
+            (_, Ok(program)) => {
+                assert!(program.duration_s() > 0.0, "{name}");
+                // A rest-to-rest move is no faster than its length at the rapid speed.
+                let rapid = ArrowJobConfig::ARROW.rapid_m_s;
+                assert!(program.duration_s() >= program.length_m() / rapid, "{name}");
+                loaded += 1;
+            }
+            (_, Err(e)) => panic!("{name}: {e}"),
+        }
+    }
+    assert_eq!(loaded, 12);
+}
