@@ -255,3 +255,73 @@ fn a_mill_program_longer_than_arrow_holds_runs_as_parts() {
     );
     assert!(worst < 0.35e-3, "{worst}");
 }
+
+/// A planned change the run cannot make is not lost in the run's lines: one of a
+/// setting the machine does not have fails before anything is sent; one the machine
+/// refuses lets the job run to its end and then fails the run, in the machine's words.
+#[test]
+fn a_planned_change_that_cannot_be_made_fails_the_run() {
+    let mut rig = rig();
+    let channels = rig.session.machine.description().channels.clone();
+    let mut log = TelemetryLog::new(2e-4, &channels);
+    let mut uploaded = 0;
+    let ended = rig.session.run_job(
+        JobKind::Gcode,
+        &pyramid_job(),
+        &plan(&[(0.1, "/parallel/kp_typo", "1")]),
+        &mut log,
+        None,
+        &mut |p| {
+            if let Progress::Uploaded(n) = p {
+                uploaded = n;
+            }
+        },
+    );
+    match ended {
+        Err(e @ SessionError::UnknownSetting { .. }) => {
+            let words = e.to_string();
+            assert!(
+                words.starts_with("/parallel/kp_typo: the machine has no such setting"),
+                "{words}"
+            );
+            assert!(words.contains("/parallel/kp,"), "{words}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(uploaded, 0);
+    assert!(log.entries().is_empty());
+    // The machine's range refuses a negative gain: the job still runs to its end.
+    let job = kerf_host::arrow_parts::parts(
+        b"G21 G90\nG0 X13.333 Y464.604 Z-13.333 A-15 B15\nG1 X20 F600\n",
+        Default::default(),
+    )
+    .unwrap();
+    let part = &job.parts[0].text;
+    let mut bytes = vec![0u8; part.len() + 64];
+    let n = write_gcode(part, &mut bytes).unwrap();
+    bytes.truncate(n);
+    let mut lines = Vec::new();
+    let ended = rig.session.run_job(
+        JobKind::Gcode,
+        &bytes,
+        &plan(&[(0.1, "/parallel/kp", "-5")]),
+        &mut log,
+        None,
+        &mut |p| {
+            if let Progress::Line(_, text) = p {
+                lines.push(text.to_owned());
+            }
+        },
+    );
+    match ended {
+        Err(SessionError::ChangeRefused(words)) => {
+            assert!(words.starts_with("set /parallel/kp = -5: "), "{words}");
+            assert!(words.ends_with("takes > 0 N/m"), "{words}");
+        }
+        other => panic!("{other:?}: {lines:?}"),
+    }
+    assert!(
+        lines.iter().any(|l| l == "mode running -> ready"),
+        "{lines:?}"
+    );
+}

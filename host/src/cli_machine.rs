@@ -152,7 +152,10 @@ fn session_failure(e: SessionError) -> Failure {
         SessionError::Link(LinkError::Refused { .. }) | SessionError::Fault(_) => {
             Failure::Refused(e.to_string())
         }
-        SessionError::Stopped | SessionError::HostLost => Failure::Refused(e.to_string()),
+        SessionError::Stopped | SessionError::HostLost | SessionError::ChangeRefused(_) => {
+            Failure::Refused(e.to_string())
+        }
+        SessionError::UnknownSetting { .. } => Failure::Input(e.to_string()),
         other => Failure::Link(other.to_string()),
     }
 }
@@ -314,16 +317,20 @@ pub fn run(args: &RunArgs, report: &mut Report) -> Result<(), Failure> {
         hello.period_s * 1e6
     );
     // A job the machine would refuse is refused before the upload, in its words.
+    let mut planned_s = None;
     if let Some(machine) = kerf_host::check::Machine::from_name(&hello.machine) {
-        kerf_host::check::check(&bytes, Some(machine))
+        let checked = kerf_host::check::check(&bytes, Some(machine))
             .map_err(|e| Failure::Refused(format!("{name}: {e}")))?;
         say!(
             report,
-            "checked    {} accepts it (its own load check, here)",
-            hello.machine
+            "checked    {} accepts it (its own load check, here): about {:.2} s",
+            hello.machine,
+            checked.duration_s
         );
+        planned_s = Some(checked.duration_s);
     }
-    let bar = ProgressBar::new(bytes.len() as u64);
+    let first_len = parts.first().map_or(0, |p| p.1.len());
+    let bar = ProgressBar::new(first_len as u64);
     if let Ok(style) = ProgressStyle::with_template("{msg:12} {bar:30} {pos}/{len}") {
         bar.set_style(style);
     }
@@ -336,41 +343,69 @@ pub fn run(args: &RunArgs, report: &mut Report) -> Result<(), Failure> {
             "during the run: set PATH VALUE, get PATH, stop"
         );
     }
-    let mut cutting = false;
-    let ended = session.run_parts(&parts, &plan, &mut log, lines.as_ref(), &mut |p| match p {
-        Progress::Uploaded(n) => bar.set_position(u64::from(n)),
-        Progress::Sample(t) => {
-            if !cutting {
-                cutting = true;
-                bar.set_style(
-                    ProgressStyle::with_template("{msg:12} {spinner} machine time {prefix} s")
-                        .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-                );
-                bar.set_message("running");
-            }
-            bar.set_prefix(format!("{t:.3}"));
-            bar.tick();
-        }
-        Progress::Line(t, text) => bar.suspend(|| say!(report, "{t:9.4} s   {text}")),
-    });
-    bar.finish_and_clear();
     let kinds: Vec<&str> = parts
         .iter()
         .map(|&(k, _)| kerf_host::check::kind_words(k))
         .collect();
-    match kinds.as_slice() {
-        [one] => say!(
-            report,
-            "uploaded   {name}: {} bytes, {one} job",
-            bytes.len()
-        ),
-        many => say!(
-            report,
-            "uploaded   {name}: {} bytes, {} parts ({})",
+    let uploaded = match kinds.as_slice() {
+        [one] => format!("uploaded   {name}: {} bytes, {one} job", bytes.len()),
+        many => format!(
+            "uploaded   {name}: {first_len} of {} bytes, the first of {} parts ({}); the others while it runs",
             bytes.len(),
             many.len(),
             kinds[0]
         ),
+    };
+    let mut cutting = false;
+    let mut sampled = false;
+    // Said once the machine has taken the upload (its commit answered: the run goes
+    // on to what follows it), not when the last chunk is sent.
+    let mut untold = Some(uploaded);
+    let mut sent = false;
+    let ended = session.run_parts(&parts, &plan, &mut log, lines.as_ref(), &mut |p| {
+        if sent && !matches!(p, Progress::Uploaded(_)) {
+            if let Some(text) = untold.take() {
+                bar.suspend(|| say!(report, "{text}"));
+            }
+        }
+        match p {
+            Progress::Uploaded(n) => {
+                bar.set_position(u64::from(n));
+                sent |= n as usize == first_len;
+            }
+            Progress::Sample(t) => {
+                sampled = true;
+                if !cutting {
+                    cutting = true;
+                    bar.set_style(
+                        ProgressStyle::with_template("{msg:12} {spinner} {prefix}")
+                            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+                    );
+                    bar.set_message("running");
+                }
+                bar.set_prefix(match planned_s {
+                    Some(d) => format!(
+                        "cut {t:.1} s of about {d:.1} s, {:.1} s left",
+                        (d - t).max(0.0)
+                    ),
+                    None => format!("cut {t:.1} s"),
+                });
+                bar.tick();
+            }
+            // Machine time, as the plots; before the first sample there is none.
+            Progress::Line(t, text) if sampled => {
+                bar.suspend(|| say!(report, "{t:9.4} s   {text}"))
+            }
+            Progress::Line(_, text) => bar.suspend(|| say!(report, "             {text}")),
+        }
+    });
+    bar.finish_and_clear();
+    if log.entries().is_empty() {
+        // Refused, or lost before it ran: there is nothing to write.
+        return match ended {
+            Ok(()) => Err(Failure::Link("the machine sent no telemetry".into())),
+            Err(e) => Err(session_failure(e)),
+        };
     }
     say!(report, "summary    {}", log.summary());
     outputs.write(

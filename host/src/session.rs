@@ -57,6 +57,18 @@ pub enum SessionError {
     /// The machine stopped the job (an operator's stop).
     #[error("the job was stopped before its end")]
     Stopped,
+    /// A change of the run's plan names a setting the machine does not have.
+    #[error("{path}: the machine has no such setting (it has {known})")]
+    UnknownSetting {
+        /// The path asked for.
+        path: String,
+        /// The machine's settings.
+        known: String,
+    },
+    /// The job ran to its end, but the machine refused a change of the run's plan
+    /// (the first such, in words).
+    #[error("the job ran to its end, but a planned change was refused: {0}")]
+    ChangeRefused(String),
     /// A part of the job after the first could not be given to the machine.
     #[error("part {part} of {of}: {error}")]
     Part {
@@ -157,9 +169,12 @@ pub struct RunPlan {
 pub enum Progress<'a> {
     /// Bytes of the job the machine holds.
     Uploaded(u32),
-    /// Machine time since the cut began, s, at a telemetry sample.
+    /// Machine time since the cut began, s, at a telemetry sample (the clock of
+    /// [`RunPlan::changes`]).
     Sample(f64),
-    /// An event, a change or an operator's command, with its machine time, s.
+    /// An event, a change or an operator's command, with the machine's time of the
+    /// latest sample, s (the time axis of the run's plots; 0 before the first
+    /// sample).
     Line(f64, &'a str),
 }
 
@@ -362,6 +377,24 @@ impl Session {
         let Some(&(kind, job)) = parts.first() else {
             return Ok(());
         };
+        // A change of a setting the machine does not have fails before anything
+        // is sent, not in the middle of the cut.
+        let settings = &m.description().settings;
+        if let Some(c) = plan
+            .changes
+            .iter()
+            .find(|c| !settings.iter().any(|s| s.path == c.path))
+        {
+            return Err(SessionError::UnknownSetting {
+                path: c.path.clone(),
+                known: settings
+                    .iter()
+                    .map(|s| s.path.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            });
+        }
+        let mut refused_change: Option<String> = None;
         let status = m.status()?;
         let mode = wait_calibrated(m, status.mode, progress)?;
         if mode == ModeCode::Fault {
@@ -398,15 +431,19 @@ impl Session {
                     while let Some(c) = changes.next_if(|c| c.at_s <= now) {
                         let text = match m.set(&c.path, &c.value) {
                             Ok(()) => format!("set {} = {}", c.path, c.value),
-                            Err(e) => format!("set {} = {}: {e}", c.path, c.value),
+                            Err(e) => {
+                                let text = format!("set {} = {}: {e}", c.path, c.value);
+                                refused_change.get_or_insert(text.clone());
+                                text
+                            }
                         };
                         log.mark(&text);
-                        progress(Progress::Line(now, &text));
+                        progress(Progress::Line(log.latest_s(), &text));
                     }
                 }
                 Some(Heard::Event(e)) => {
                     last_heard = Instant::now();
-                    let now = log.since_cut_s();
+                    let now = log.latest_s();
                     let text = description.event_words(&e);
                     // Marked on the plots: faults and the like, not the mode changes
                     // and the parts of a program (they would crowd the plot's labels).
@@ -427,7 +464,10 @@ impl Session {
                                 return Err(SessionError::Stopped);
                             }
                             if parts.begun == parts.parts.len() {
-                                return Ok(());
+                                return match refused_change {
+                                    Some(text) => Err(SessionError::ChangeRefused(text)),
+                                    None => Ok(()),
+                                };
                             }
                             // The machine rests between parts: the next one is given
                             // (if it was not yet) and started; one that was to go on
@@ -471,7 +511,7 @@ impl Session {
             }
             if let Some(lines) = console_lines {
                 while let Ok(line) = lines.try_recv() {
-                    let now = log.since_cut_s();
+                    let now = log.latest_s();
                     stopped |= console(m, &line, now, log, progress);
                 }
             }

@@ -100,6 +100,11 @@ impl TelemetryLog {
         &self.entries[n - 1]
     }
 
+    /// Machine time of the latest sample, s; 0 before the first.
+    pub fn latest_s(&self) -> f64 {
+        self.entries.last().map_or(0.0, |e| e.time_s)
+    }
+
     /// Machine time from the first sample that cut ([`ModeCode::Running`]) to the
     /// latest, s; 0 before the cut.
     pub fn since_cut_s(&self) -> f64 {
@@ -260,7 +265,14 @@ impl TelemetryLog {
         root: DrawingArea<DB, plotters::coord::Shift>,
         title: &str,
     ) -> Result<(), PlotError> {
-        let marks = &self.marks;
+        // The cut's start marked on the machine's time axis, with the run's marks.
+        let cut = self.cut_start.and_then(|k| self.entries.get(k));
+        let marks: Vec<(f64, String)> = cut
+            .map(|e| (e.time_s, "cut starts".to_owned()))
+            .into_iter()
+            .chain(self.marks.iter().cloned())
+            .collect();
+        let marks = &marks;
         root.fill(&WHITE).map_err(err)?;
         let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
         let (top, bottom) = root.split_vertically(560);
@@ -405,6 +417,41 @@ struct Series<'a> {
     color: RGBColor,
 }
 
+/// A label row's share of a panel's height (a 12 px label on a panel of some 200).
+const LABEL_ROW_SHARE: f64 = 0.07;
+
+/// Width of a label's character, px (12 px sans-serif), with room after it.
+const LABEL_CHAR_PX: f64 = 6.5;
+
+/// The row of each mark's label (0 the top), so that no two labels of a row overlap:
+/// each goes to the first row whose last label ends before it starts, given a time
+/// axis `span_s` wide over `width_px`. When every row is taken (marks crowded into
+/// less than a label's width), the row whose label ends first is reused.
+fn label_rows(marks: &[(f64, String)], span_s: f64, width_px: f64) -> Vec<usize> {
+    const ROWS: usize = 8;
+    let s_per_px = if span_s > 0.0 && width_px > 0.0 {
+        span_s / width_px
+    } else {
+        0.0
+    };
+    let mut ends = [f64::NEG_INFINITY; ROWS];
+    let mut order: Vec<usize> = (0..marks.len()).collect();
+    order.sort_by(|&a, &b| marks[a].0.total_cmp(&marks[b].0));
+    let mut rows = vec![0; marks.len()];
+    for i in order {
+        let (t, label) = &marks[i];
+        let width_s = (label.chars().count() as f64 + 1.0) * LABEL_CHAR_PX * s_per_px;
+        let row = (0..ROWS).find(|&r| ends[r] <= *t).unwrap_or_else(|| {
+            (0..ROWS)
+                .min_by(|&a, &b| ends[a].total_cmp(&ends[b]))
+                .unwrap_or(0)
+        });
+        ends[row] = t + width_s;
+        rows[i] = row;
+    }
+    rows
+}
+
 /// One panel of time series, with vertical marks.
 fn draw_series<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
@@ -433,7 +480,7 @@ fn draw_series<DB: DrawingBackend>(
         .margin(10)
         .x_label_area_size(40)
         .y_label_area_size(50)
-        .build_cartesian_2d(span, lo..hi)
+        .build_cartesian_2d(span.clone(), lo..hi)
         .map_err(err)?;
     chart
         .configure_mesh()
@@ -441,7 +488,9 @@ fn draw_series<DB: DrawingBackend>(
         .y_desc(y_desc)
         .draw()
         .map_err(err)?;
-    for (t, label) in marks {
+    let (width_px, _) = area.dim_in_pixel();
+    let rows = label_rows(marks, span.end - span.start, f64::from(width_px));
+    for ((t, label), row) in marks.iter().zip(rows) {
         let grey = RGBColor(90, 90, 90);
         chart
             .draw_series(std::iter::once(PathElement::new(
@@ -449,10 +498,12 @@ fn draw_series<DB: DrawingBackend>(
                 grey.stroke_width(1),
             )))
             .map_err(err)?;
+        // Rows from the top down, a label's height apart.
+        let y = hi - (hi - lo) * LABEL_ROW_SHARE * row as f64;
         chart
             .draw_series(std::iter::once(Text::new(
                 label.clone(),
-                (*t, hi),
+                (*t, y),
                 ("sans-serif", 12).into_font().color(&grey),
             )))
             .map_err(err)?;
@@ -558,6 +609,35 @@ mod tests {
                 .into_iter()
                 .collect(),
         }
+    }
+
+    #[test]
+    fn mark_labels_take_rows_where_they_do_not_overlap() {
+        let marks: Vec<(f64, String)> = [
+            (1.0, "cut starts"),
+            (1.1, "set /parallel/kd = 9000"),
+            (1.2, "part 2 of 3 started"),
+            (5.0, "stop"),
+            (1.15, "x"),
+        ]
+        .map(|(t, l)| (t, l.to_owned()))
+        .to_vec();
+        // 10 s over 1,000 px: 0.065 s a character.
+        let rows = label_rows(&marks, 10.0, 1000.0);
+        let extent = |i: usize| {
+            let (t, l) = &marks[i];
+            (*t, t + (l.chars().count() as f64 + 1.0) * 0.065)
+        };
+        for i in 0..marks.len() {
+            for j in i + 1..marks.len() {
+                let ((a0, a1), (b0, b1)) = (extent(i), extent(j));
+                let overlap = a0 < b1 && b0 < a1;
+                assert!(!(overlap && rows[i] == rows[j]), "{i} {j}: {rows:?}");
+            }
+        }
+        // Far from the others, the stop goes to the top row.
+        assert_eq!(rows[3], 0);
+        assert_eq!(rows[0], 0);
     }
 
     #[test]
