@@ -5,7 +5,7 @@ use crate::{distinct, prepare, Failure};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use kerf::codec::link::Request;
-use kerf_host::description::{job_kind_words, mode_words};
+use kerf_host::description::{job_kind_words, mode_words, SettingInfo};
 use kerf_host::job::{Job, JobKind};
 use kerf_host::link::{Heard, LinkError};
 use kerf_host::output::{io_words, OutputFile};
@@ -422,13 +422,117 @@ pub fn run(args: &RunArgs, report: &mut Report) -> Result<(), Failure> {
     }
 }
 
-/// `kerf get PATH`.
-pub fn get(path: &str, machine: &MachineArgs, report: &mut Report) -> Result<(), Failure> {
+/// `kerf get PATH [--json]`: one setting, or every setting under a branch (`/` for
+/// all of them).
+pub fn get(
+    path: &str,
+    json: bool,
+    machine: &MachineArgs,
+    report: &mut Report,
+) -> Result<(), Failure> {
     setting_path(path)?;
     let mut s = machine.open()?;
-    let value = s.machine.get(path).map_err(link_failure)?;
-    say!(report, "{path} = {value}");
+    let listed = read_settings(&mut s.machine, path)?;
+    if json {
+        say!(report, "{}", settings_json(&listed));
+    } else {
+        for (info, value) in &listed {
+            say!(report, "{} = {value}", info.path);
+        }
+    }
     Ok(())
+}
+
+/// `kerf settings [--json]`: every setting with its value, unit and range.
+pub fn settings(json: bool, machine: &MachineArgs, report: &mut Report) -> Result<(), Failure> {
+    let mut s = machine.open()?;
+    let listed = read_settings(&mut s.machine, "/")?;
+    if json {
+        say!(report, "{}", settings_json(&listed));
+        return Ok(());
+    }
+    let width = listed
+        .iter()
+        .map(|(i, _)| i.path.chars().count())
+        .max()
+        .unwrap_or(4);
+    let value_width = listed
+        .iter()
+        .map(|(_, v)| v.chars().count())
+        .max()
+        .unwrap_or(5)
+        .max(5);
+    say!(
+        report,
+        "{:width$}  {:>value_width$}  {:8}  range",
+        "path",
+        "value",
+        "unit"
+    );
+    for (info, value) in &listed {
+        say!(
+            report,
+            "{:width$}  {value:>value_width$}  {:8}  {}",
+            info.path,
+            info.unit,
+            if info.range.is_empty() {
+                "any"
+            } else {
+                &info.range
+            }
+        );
+    }
+    Ok(())
+}
+
+/// The settings at or under `path` with the values the machine reads back.
+fn read_settings(
+    machine: &mut kerf_host::link::MachineLink,
+    path: &str,
+) -> Result<Vec<(SettingInfo, String)>, Failure> {
+    let chosen: Vec<SettingInfo> = machine
+        .description()
+        .settings_under(path)
+        .into_iter()
+        .cloned()
+        .collect();
+    if chosen.is_empty() {
+        let known: Vec<&str> = machine
+            .description()
+            .settings
+            .iter()
+            .map(|s| s.path.as_str())
+            .collect();
+        return Err(Failure::Refused(format!(
+            "{path}: the machine has no setting there (it has {})",
+            known.join(", ")
+        )));
+    }
+    chosen
+        .into_iter()
+        .map(|info| {
+            let value = machine.get(&info.path).map_err(link_failure)?;
+            Ok((info, value))
+        })
+        .collect()
+}
+
+/// Settings and values as a JSON array of `{path, value, unit, range}` (the value as
+/// the machine gives it: a number, true or false).
+fn settings_json(listed: &[(SettingInfo, String)]) -> String {
+    let items: Vec<serde_json::Value> = listed
+        .iter()
+        .map(|(info, value)| {
+            serde_json::json!({
+                "path": info.path,
+                "value": serde_json::from_str::<serde_json::Value>(value)
+                    .unwrap_or_else(|_| serde_json::Value::String(value.clone())),
+                "unit": info.unit,
+                "range": info.range,
+            })
+        })
+        .collect();
+    serde_json::Value::Array(items).to_string()
 }
 
 /// `kerf set PATH VALUE`.

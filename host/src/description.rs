@@ -137,6 +137,24 @@ impl MachineDescription {
         self.settings.iter().find(|s| s.path == path)
     }
 
+    /// The settings at or under `path`: the one setting of that path, or every
+    /// setting of the branch (`/slave/dob` holds `/slave/dob/bandwidth_hz`, not
+    /// `/slave/dobx`; `/` holds them all), in the machine's order.
+    pub fn settings_under(&self, path: &str) -> Vec<&SettingInfo> {
+        if let Some(one) = self.setting(path) {
+            return vec![one];
+        }
+        let branch = path.trim_end_matches('/');
+        self.settings
+            .iter()
+            .filter(|s| {
+                s.path
+                    .strip_prefix(branch)
+                    .is_some_and(|rest| rest.starts_with('/'))
+            })
+            .collect()
+    }
+
     /// A fault (code and detail) in words: the machine's own, or the board's.
     pub fn fault_words(&self, code: u16, detail: u16) -> String {
         if let Some(reason) = board_fault::reason(code) {
@@ -286,6 +304,36 @@ mod tests {
             d.add(&Item::of(&item));
         }
         d
+    }
+
+    #[test]
+    fn a_branch_holds_the_settings_below_it_only() {
+        let mut d = MachineDescription::default();
+        for path in [
+            "/slave/dob/bandwidth_hz",
+            "/slave/dobx",
+            "/slave/kp",
+            "/link/hold_s",
+        ] {
+            d.add(&Item::of(&Description::Setting {
+                path,
+                unit: "",
+                range: "",
+            }));
+        }
+        let paths = |p: &str| -> Vec<String> {
+            d.settings_under(p).iter().map(|s| s.path.clone()).collect()
+        };
+        assert_eq!(paths("/slave/dob"), ["/slave/dob/bandwidth_hz"]);
+        assert_eq!(paths("/slave/dob/"), ["/slave/dob/bandwidth_hz"]);
+        assert_eq!(paths("/slave/dobx"), ["/slave/dobx"]);
+        assert_eq!(
+            paths("/slave"),
+            ["/slave/dob/bandwidth_hz", "/slave/dobx", "/slave/kp"]
+        );
+        assert_eq!(paths("/").len(), 4);
+        assert!(paths("/sla").is_empty());
+        assert!(paths("/nothing").is_empty());
     }
 
     #[test]

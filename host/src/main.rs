@@ -63,8 +63,20 @@ enum Command {
     Run(cli_machine::RunArgs),
     /// Read a setting, such as /slave/dob/bandwidth_hz.
     Get {
-        /// The setting's path in the machine's settings tree.
+        /// The setting's path in the machine's settings tree, or a branch of it (`/`
+        /// for every setting).
         path: String,
+        /// Print a JSON array of {path, value, unit, range} for scripts.
+        #[arg(long)]
+        json: bool,
+        #[command(flatten)]
+        machine: cli_machine::MachineArgs,
+    },
+    /// List every setting of the machine with its value, unit and range.
+    Settings {
+        /// Print a JSON array of {path, value, unit, range} for scripts.
+        #[arg(long)]
+        json: bool,
         #[command(flatten)]
         machine: cli_machine::MachineArgs,
     },
@@ -273,7 +285,12 @@ fn main() -> ExitCode {
         Command::Gcode(args) => run_gcode(&args, r),
         Command::Check(args) => cli_check::run(&args, r),
         Command::Run(args) => cli_machine::run(&args, r),
-        Command::Get { path, machine } => cli_machine::get(&path, &machine, r),
+        Command::Get {
+            path,
+            json,
+            machine,
+        } => cli_machine::get(&path, json, &machine, r),
+        Command::Settings { json, machine } => cli_machine::settings(json, &machine, r),
         Command::Set {
             path,
             value,
