@@ -15,6 +15,7 @@ pub mod jobs;
 pub mod joints;
 pub mod playout;
 pub mod remote_link;
+pub mod settings_store;
 pub mod stream;
 pub mod supervisor;
 
