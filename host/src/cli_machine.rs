@@ -5,7 +5,7 @@ use crate::{distinct, prepare, Failure};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use kerf::codec::link::Request;
-use kerf_host::description::{job_kind_words, mode_words, SettingInfo};
+use kerf_host::description::{job_kind_words, mode_words, settings_origin_words, SettingInfo};
 use kerf_host::job::{Job, JobKind};
 use kerf_host::link::{Heard, LinkError};
 use kerf_host::output::{io_words, OutputFile};
@@ -57,6 +57,15 @@ impl MachineArgs {
             ));
         }
         Ok(())
+    }
+
+    /// The emulated machine's settings file (none for a board: its flash keeps them).
+    fn settings_file(&self) -> Option<PathBuf> {
+        let image = qemu::image_path(self.image.as_deref());
+        let image = std::fs::canonicalize(&image).unwrap_or(image);
+        self.port
+            .is_none()
+            .then(|| qemu::state_dir(&image).join(qemu::SETTINGS_FILE))
     }
 
     fn open(&self) -> Result<Session, Failure> {
@@ -539,6 +548,7 @@ fn settings_json(listed: &[(SettingInfo, String)]) -> String {
 pub fn set(
     path: &str,
     value: &str,
+    save_too: bool,
     machine: &MachineArgs,
     report: &mut Report,
 ) -> Result<(), Failure> {
@@ -548,6 +558,29 @@ pub fn set(
     s.machine.set(path, value).map_err(link_failure)?;
     let now = s.machine.get(path).map_err(link_failure)?;
     say!(report, "{path} = {now}");
+    if save_too {
+        s.machine.command(Request::Save).map_err(link_failure)?;
+        saved(machine, report);
+    }
+    Ok(())
+}
+
+/// Says where the settings were kept.
+fn saved(machine: &MachineArgs, report: &mut Report) {
+    say!(
+        report,
+        "saved      the machine keeps its settings as they are now"
+    );
+    if let Some(file) = machine.settings_file() {
+        say!(report, "           in {}", file.display());
+    }
+}
+
+/// `kerf save`: the machine keeps its settings as they are across resets.
+pub fn save(machine: &MachineArgs, report: &mut Report) -> Result<(), Failure> {
+    let mut s = machine.open()?;
+    s.machine.command(Request::Save).map_err(link_failure)?;
+    saved(machine, report);
     Ok(())
 }
 
@@ -586,6 +619,14 @@ pub fn status(machine: &MachineArgs, report: &mut Report) -> Result<(), Failure>
     match st.upload_received {
         Some(n) => say!(report, "upload       {n} bytes received, not committed"),
         None => say!(report, "upload       none in progress"),
+    }
+    say!(
+        report,
+        "settings     {}",
+        settings_origin_words(st.settings)
+    );
+    if let Some(file) = machine.settings_file() {
+        say!(report, "             kept in {}", file.display());
     }
     say!(
         report,

@@ -5,8 +5,8 @@
 //! the link's job refusals).
 
 use kerf::codec::link::{
-    board_fault, CodeWords, Description, Event, JobKind, ModeCode, Refusal, LINK_JOB_REFUSALS,
-    VERSION,
+    board_fault, CodeWords, Description, Event, JobKind, ModeCode, Refusal, SettingsOrigin,
+    LINK_JOB_REFUSALS, VERSION,
 };
 
 /// A telemetry channel.
@@ -211,6 +211,12 @@ impl MachineDescription {
                 format!("job code {code:#06x}: {}", self.job_refusal_words(*code))
             }
             Refusal::InvalidInMode => "not in the machine's present mode".into(),
+            Refusal::NoStore => {
+                "this machine keeps no settings across resets (its presets at power-up)".into()
+            }
+            Refusal::StoreFailed => {
+                "the machine could not write its settings (the copy saved before is kept)".into()
+            }
             Refusal::UnknownPath => {
                 let paths: Vec<&str> = self.settings.iter().map(|s| s.path.as_str()).collect();
                 format!(
@@ -233,6 +239,33 @@ impl MachineDescription {
             },
             Refusal::Busy => "the machine's command queue is full; try again".into(),
         }
+    }
+}
+
+/// Where the machine's settings came from at power-up, in words.
+pub fn settings_origin_words(origin: SettingsOrigin) -> String {
+    let skipped = |n: u16| match n {
+        0 => String::new(),
+        1 => " (1 value it no longer takes left at its preset)".into(),
+        n => format!(" ({n} values it no longer takes left at their presets)"),
+    };
+    match origin {
+        SettingsOrigin::NoStore => "its presets: this machine keeps no settings".into(),
+        SettingsOrigin::Presets => "its presets: never saved".into(),
+        SettingsOrigin::Saved {
+            sequence,
+            skipped: n,
+        } => {
+            format!("saved (copy {sequence}){}", skipped(n))
+        }
+        SettingsOrigin::FellBack {
+            sequence,
+            skipped: n,
+        } => format!(
+            "the copy before the last save (copy {sequence}): the last save was cut short{}",
+            skipped(n)
+        ),
+        SettingsOrigin::Damaged => "its presets: the saved settings are damaged".into(),
     }
 }
 

@@ -192,6 +192,7 @@ fn name(request: &Request<'_>) -> &'static str {
         Request::Telemetry { .. } => "telemetry",
         Request::Status => "status",
         Request::Describe { .. } => "describe",
+        Request::Save => "save",
     }
 }
 

@@ -88,11 +88,20 @@ enum Command {
         /// Its value, JSON (a number: 120, 2.5e-3, -1).
         #[arg(allow_negative_numbers = true)]
         value: String,
+        /// Then keep the settings as they are across resets (as `kerf save`).
+        #[arg(long)]
+        save: bool,
         #[command(flatten)]
         machine: cli_machine::MachineArgs,
     },
     /// Record the machine's telemetry for a span of machine time.
     Log(cli_machine::LogArgs),
+    /// Keep the machine's settings as they are now across resets (a board in its flash,
+    /// the emulated machine in a file of its state folder).
+    Save {
+        #[command(flatten)]
+        machine: cli_machine::MachineArgs,
+    },
     /// The machine's name, mode, last fault, upload and link counters.
     Status {
         #[command(flatten)]
@@ -294,9 +303,11 @@ fn main() -> ExitCode {
         Command::Set {
             path,
             value,
+            save,
             machine,
-        } => cli_machine::set(&path, &value, &machine, r),
+        } => cli_machine::set(&path, &value, save, &machine, r),
         Command::Log(args) => cli_machine::log(&args, r),
+        Command::Save { machine } => cli_machine::save(&machine, r),
         Command::Status { machine } => cli_machine::status(&machine, r),
     };
     let result = result.and_then(|()| report.lost().map_or(Ok(()), |m| Err(Failure::Output(m))));

@@ -5,6 +5,10 @@
 //! QEMU runs with `-icount shift=0`: guest time advances with instructions, not with
 //! the host's clock, so a run is the same however busy the host is, and the machine's
 //! heartbeat timeout counts control periods, not host seconds.
+//!
+//! QEMU runs in the machine's state folder ([`state_dir`]), one per image, where the
+//! image keeps its saved settings in a file (`kerf-settings.bin`, through
+//! semihosting): settings saved in one command are there in the next, as on a board.
 
 use std::ffi::OsString;
 use std::io;
@@ -32,6 +36,9 @@ pub enum QemuError {
     /// The socket failed.
     #[error("socket: {0}")]
     Io(#[from] io::Error),
+    /// The machine's state folder could not be made.
+    #[error("{0}: cannot make the emulated machine's state folder: {1}")]
+    State(PathBuf, String),
 }
 
 /// A running QEMU; killed when dropped.
@@ -66,11 +73,36 @@ fn image_from(image: Option<&Path>, var: &dyn Fn(&str) -> Option<OsString>) -> P
     }
 }
 
+/// The file in [`state_dir`] where an emulated machine keeps its saved settings.
+pub const SETTINGS_FILE: &str = kerf::app::settings_store::EMULATED_FILE;
+
+/// The folder the emulated machine of `image` keeps its state in (its saved settings):
+/// `$KERF_STATE_DIR`, else `$XDG_STATE_HOME/kerf`, else `$HOME/.local/state/kerf`,
+/// else `.kerf-state` here; then the image's file name (`link`, `arrow-link`).
+pub fn state_dir(image: &Path) -> PathBuf {
+    state_dir_from(image, &|name| std::env::var_os(name))
+}
+
+/// [`state_dir`] with the environment read through `var` (a test's own).
+fn state_dir_from(image: &Path, var: &dyn Fn(&str) -> Option<OsString>) -> PathBuf {
+    let root = var("KERF_STATE_DIR")
+        .map(PathBuf::from)
+        .or_else(|| var("XDG_STATE_HOME").map(|d| PathBuf::from(d).join("kerf")))
+        .or_else(|| var("HOME").map(|d| PathBuf::from(d).join(".local/state/kerf")))
+        .unwrap_or_else(|| PathBuf::from(".kerf-state"));
+    root.join(image.file_name().unwrap_or(image.as_os_str()))
+}
+
 /// Starts QEMU on `image` and returns it with the connected serial socket.
 pub fn start(image: &Path) -> Result<(Qemu, TcpStream), QemuError> {
     if !image.is_file() {
         return Err(QemuError::NoImage(image.to_owned()));
     }
+    // QEMU runs in the state folder: the image by its full path.
+    let image = &std::fs::canonicalize(image)?;
+    let state = state_dir(image);
+    std::fs::create_dir_all(&state)
+        .map_err(|e| QemuError::State(state.clone(), crate::output::io_words(&e)))?;
     let listener = TcpListener::bind("127.0.0.1:0")?;
     let port = listener.local_addr()?.port();
     let child = Command::new("qemu-system-arm")
@@ -81,6 +113,7 @@ pub fn start(image: &Path) -> Result<(Qemu, TcpStream), QemuError> {
         .args(["-semihosting-config", "enable=on,target=native"])
         .arg("-kernel")
         .arg(image)
+        .current_dir(&state)
         .stdin(Stdio::null())
         // The image's own lines (semihosting) go to our standard error.
         .stdout(Stdio::from(io::stderr()))
@@ -111,6 +144,38 @@ pub fn start(image: &Path) -> Result<(Qemu, TcpStream), QemuError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The state folder: `$KERF_STATE_DIR`, `$XDG_STATE_HOME/kerf`,
+    /// `$HOME/.local/state/kerf` in that order, then the image's name.
+    #[test]
+    fn each_image_keeps_its_state_in_a_folder_of_its_own() {
+        let image = Path::new("/t/release/arrow-link");
+        let env = |vars: &'static [(&'static str, &'static str)]| {
+            move |name: &str| {
+                vars.iter()
+                    .find(|v| v.0 == name)
+                    .map(|v| OsString::from(v.1))
+            }
+        };
+        let all = env(&[
+            ("KERF_STATE_DIR", "/s"),
+            ("XDG_STATE_HOME", "/x"),
+            ("HOME", "/h"),
+        ]);
+        assert_eq!(state_dir_from(image, &all), Path::new("/s/arrow-link"));
+        let xdg = env(&[("XDG_STATE_HOME", "/x"), ("HOME", "/h")]);
+        assert_eq!(state_dir_from(image, &xdg), Path::new("/x/kerf/arrow-link"));
+        let home = env(&[("HOME", "/h")]);
+        assert_eq!(
+            state_dir_from(Path::new("link"), &home),
+            Path::new("/h/.local/state/kerf/link")
+        );
+        assert_eq!(
+            state_dir_from(image, &env(&[])),
+            Path::new(".kerf-state/arrow-link")
+        );
+        assert!(state_dir(image).ends_with("arrow-link"));
+    }
 
     /// The order the docs give: the image named, else `$KERF_LINK_ELF`, else the link
     /// image under `$CARGO_TARGET_DIR`, else [`DEFAULT_IMAGE`], which is the same image

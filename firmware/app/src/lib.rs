@@ -4,6 +4,7 @@
 
 pub mod bench;
 pub mod inputs;
+pub mod settings_file;
 pub mod stack;
 pub mod uart;
 

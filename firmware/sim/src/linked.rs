@@ -36,6 +36,12 @@ pub struct LinkedSlave<'q, T: Float> {
 }
 
 impl<'q, T: Float> LinkedSlave<'q, T> {
+    /// The host link: to attach the machine's settings store
+    /// ([`HostLink::attach_store`]) before the first period.
+    pub fn link_mut(&mut self) -> &mut HostLink<'q, DeltaSlave<T>, LINK_JOB_BYTES> {
+        &mut self.link
+    }
+
     /// One control period: the host's bytes of the period read first, then the
     /// period, then the reports answered and forwarded through `to_host` and the
     /// heartbeat checked.
@@ -64,7 +70,7 @@ impl<'q, T: Float> LinkedSlave<'q, T> {
     }
 
     /// The link.
-    pub fn link(&self) -> &HostLink<'_, DeltaSlave<T>, LINK_JOB_BYTES> {
+    pub fn link(&self) -> &HostLink<'q, DeltaSlave<T>, LINK_JOB_BYTES> {
         &self.link
     }
 }

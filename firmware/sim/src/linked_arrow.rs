@@ -40,7 +40,13 @@ pub struct LinkedArrow<'q, T: Float> {
     now_s: f64,
 }
 
-impl<T: Float> LinkedArrow<'_, T> {
+impl<'q, T: Float> LinkedArrow<'q, T> {
+    /// The host link: to attach the machine's settings store
+    /// ([`HostLink::attach_store`]) before the first period.
+    pub fn link_mut(&mut self) -> &mut HostLink<'q, Arrow<T>, LINK_JOB_BYTES> {
+        &mut self.link
+    }
+
     /// One control period: the host's bytes read, the period run, the plant moved
     /// under a job's commands (held otherwise), the reports answered and forwarded
     /// through `to_host`, the heartbeat checked. Returns the outputs written.

@@ -78,7 +78,13 @@ pub struct LinkedAutofocus<'q, T: Float> {
     now_s: f64,
 }
 
-impl<T: Float> LinkedAutofocus<'_, T> {
+impl<'q, T: Float> LinkedAutofocus<'q, T> {
+    /// The host link: to attach the machine's settings store
+    /// ([`HostLink::attach_store`]) before the first period.
+    pub fn link_mut(&mut self) -> &mut HostLink<'q, FocusStage<T>, LINK_JOB_BYTES> {
+        &mut self.link
+    }
+
     /// One control period: the host's bytes read, the frame read out if one is
     /// complete, the period run, the axis moved under a job's command (held
     /// otherwise), the zoom moved toward its setpoint, the reports answered and
@@ -168,7 +174,7 @@ impl<T: Float> LinkedAutofocus<'_, T> {
     }
 
     /// The link.
-    pub fn link(&self) -> &HostLink<'_, FocusStage<T>, LINK_JOB_BYTES> {
+    pub fn link(&self) -> &HostLink<'q, FocusStage<T>, LINK_JOB_BYTES> {
         &self.link
     }
 }

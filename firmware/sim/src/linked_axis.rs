@@ -31,6 +31,12 @@ pub struct LinkedAxis<'q, T: Real> {
 }
 
 impl<'q, T: Real> LinkedAxis<'q, T> {
+    /// The host link: to attach the machine's settings store
+    /// ([`HostLink::attach_store`]) before the first period.
+    pub fn link_mut(&mut self) -> &mut HostLink<'q, Axis<T>, LINK_JOB_BYTES> {
+        &mut self.link
+    }
+
     /// One control period: the host's bytes read, the period run, the reports
     /// answered and forwarded through `to_host`, the heartbeat checked.
     pub fn period(&mut self, from_host: &[u8], to_host: &mut dyn FnMut(&[u8]) -> bool) -> Period {
@@ -54,7 +60,7 @@ impl<'q, T: Real> LinkedAxis<'q, T> {
     }
 
     /// The link.
-    pub fn link(&self) -> &HostLink<'_, Axis<T>, LINK_JOB_BYTES> {
+    pub fn link(&self) -> &HostLink<'q, Axis<T>, LINK_JOB_BYTES> {
         &self.link
     }
 }

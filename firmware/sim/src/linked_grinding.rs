@@ -99,7 +99,13 @@ pub struct LinkedGrinding<'q, T: Float + FalPower> {
     now_s: f64,
 }
 
-impl<T: Float + FalPower> LinkedGrinding<'_, T> {
+impl<'q, T: Float + FalPower> LinkedGrinding<'q, T> {
+    /// The host link: to attach the machine's settings store
+    /// ([`HostLink::attach_store`]) before the first period.
+    pub fn link_mut(&mut self) -> &mut HostLink<'q, GrindingCell<T>, LINK_JOB_BYTES> {
+        &mut self.link
+    }
+
     /// The sensor's gauge voltages for the present reading.
     fn raw_v(&self) -> [T; 6] {
         let raw = self.volts_per_wrench * Vector6::from(self.reading.wrench);

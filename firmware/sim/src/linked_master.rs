@@ -245,7 +245,13 @@ pub struct LinkedMaster<'q, T: Float> {
     glitch: Option<(usize, u16)>,
 }
 
-impl<T: Float> LinkedMaster<'_, T> {
+impl<'q, T: Float> LinkedMaster<'q, T> {
+    /// The host link: to attach the machine's settings store
+    /// ([`HostLink::attach_store`]) before the first period.
+    pub fn link_mut(&mut self) -> &mut HostLink<'q, Master<T>, LINK_JOB_BYTES> {
+        &mut self.link
+    }
+
     /// The hand's force on the effector for this period, N: while no job runs it
     /// holds the handle where it stands, carrying the effector's weight (the master's
     /// safe outputs are no force); while one runs it moves along the drawing (module
@@ -357,7 +363,7 @@ impl<T: Float> LinkedMaster<'_, T> {
     }
 
     /// The link.
-    pub fn link(&self) -> &HostLink<'_, Master<T>, LINK_JOB_BYTES> {
+    pub fn link(&self) -> &HostLink<'q, Master<T>, LINK_JOB_BYTES> {
         &self.link
     }
 

@@ -58,7 +58,13 @@ pub struct LinkedRemoteSlave<'q, T: Float> {
     now_s: f64,
 }
 
-impl<T: Float> LinkedRemoteSlave<'_, T> {
+impl<'q, T: Float> LinkedRemoteSlave<'q, T> {
+    /// The host link: to attach the machine's settings store
+    /// ([`HostLink::attach_store`]) before the first period.
+    pub fn link_mut(&mut self) -> &mut HostLink<'q, SessionSlave<T>, LINK_JOB_BYTES> {
+        &mut self.link
+    }
+
     /// One control period: the host's bytes read, the period run on the plant's Hall
     /// counts, the plant moved, the reports answered and forwarded through `to_host`,
     /// the heartbeat checked. Returns the outputs written.

@@ -226,7 +226,8 @@ pub fn octagon_job() -> Vec<u8> {
     out
 }
 
-/// A host's session: hello, status, settings read and written (one refused), the
+/// A host's session: hello, status, settings read and written (one refused) and
+/// saved, the
 /// octagon uploaded in chunks and committed, started, heartbeats, stopped.
 fn session() -> Vec<(u8, Vec<u8>)> {
     let job = octagon_job();
@@ -254,6 +255,8 @@ fn session() -> Vec<(u8, Vec<u8>)> {
         },
     );
     ask(&mut steps, Request::Set { path, value: b"-1" });
+    // The fuzzed link has no store: refused.
+    ask(&mut steps, Request::Save);
     ask(
         &mut steps,
         Request::Set {

@@ -25,6 +25,10 @@ fn main() -> ! {
     // One RK4 step per period: what the emulated MCU pays for (`ArrowScenario::smoke`).
     let scenario = ArrowScenario::smoke();
     let ended = with_linked_arrow::<f32, _>(&scenario, HEARTBEAT_TIMEOUT_S, |arrow| {
+        // Settings saved in an earlier run of this image (a file QEMU's host keeps).
+        if let Some(store) = kerf_app::settings_file::store() {
+            arrow.link_mut().attach_store(store);
+        }
         serve_link(&mut uart, |bytes, send| {
             arrow.period(bytes, send).map(|_| ())
         })

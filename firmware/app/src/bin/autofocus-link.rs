@@ -24,6 +24,10 @@ fn main() -> ! {
     // SAFETY: UART0 belongs to this image alone.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
     let built = with_linked_autofocus::<f32, _>(CAMERA_SEED, HEARTBEAT_TIMEOUT_S, |stage| {
+        // Settings saved in an earlier run of this image (a file QEMU's host keeps).
+        if let Some(store) = kerf_app::settings_file::store() {
+            stage.link_mut().attach_store(store);
+        }
         serve_link(&mut uart, |bytes, send| {
             stage.period(bytes, send);
             Ok::<(), core::convert::Infallible>(())

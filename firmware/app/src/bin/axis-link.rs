@@ -24,6 +24,10 @@ fn main() -> ! {
     // SAFETY: UART0 belongs to this image alone.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
     let built = with_linked_axis::<f32, _>(&Scenario::TRACKING, HEARTBEAT_TIMEOUT_S, |axis| {
+        // Settings saved in an earlier run of this image (a file QEMU's host keeps).
+        if let Some(store) = kerf_app::settings_file::store() {
+            axis.link_mut().attach_store(store);
+        }
         serve_link(&mut uart, |bytes, send| {
             axis.period(bytes, send);
             Ok::<(), core::convert::Infallible>(())

@@ -23,6 +23,10 @@ fn main() -> ! {
     // SAFETY: UART0 belongs to this image alone.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
     let built = with_linked_grinding::<f32, _>(HEARTBEAT_TIMEOUT_S, |cell| {
+        // Settings saved in an earlier run of this image (a file QEMU's host keeps).
+        if let Some(store) = kerf_app::settings_file::store() {
+            cell.link_mut().attach_store(store);
+        }
         serve_link(&mut uart, |bytes, send| {
             cell.period(bytes, send);
             Ok::<(), core::convert::Infallible>(())

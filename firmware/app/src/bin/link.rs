@@ -24,6 +24,10 @@ fn main() -> ! {
     scenario.sensors = [HallSensorParams::LM1247_16BIT; 3];
     scenario.substeps = 1;
     let ended = with_linked_slave::<f32, _>(&scenario, JOB_LAPS, |slave| {
+        // Settings saved in an earlier run of this image (a file QEMU's host keeps).
+        if let Some(store) = kerf_app::settings_file::store() {
+            slave.link_mut().attach_store(store);
+        }
         serve_link(&mut uart, |bytes, send| {
             slave.period(bytes, send).map(|_| ())
         })

@@ -25,6 +25,10 @@ fn main() -> ! {
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
     // The operator's drawing: the product's sample contour, which the host uploads.
     let built = with_linked_master::<f32, _>(SAMPLE_JOB, HEARTBEAT_TIMEOUT_S, |master| {
+        // Settings saved in an earlier run of this image (a file QEMU's host keeps).
+        if let Some(store) = kerf_app::settings_file::store() {
+            master.link_mut().attach_store(store);
+        }
         serve_link(&mut uart, |bytes, send| {
             master.period(bytes, send);
             Ok::<(), core::convert::Infallible>(())

@@ -24,6 +24,10 @@ fn main() -> ! {
     // SAFETY: UART0 belongs to this image alone.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
     let ended = with_linked_remote_slave::<f32, _>(HEARTBEAT_TIMEOUT_S, |slave| {
+        // Settings saved in an earlier run of this image (a file QEMU's host keeps).
+        if let Some(store) = kerf_app::settings_file::store() {
+            slave.link_mut().attach_store(store);
+        }
         serve_link(&mut uart, |bytes, send| {
             slave.period(bytes, send).map(|_| ())
         })

@@ -19,23 +19,32 @@
 //!   answered when the supervisor reports them carried out or refused.
 //! - **Telemetry** goes out every `every_periods` control periods as the host asked;
 //!   mode changes and faults go out as events.
+//! - **Saved settings** ([`HostLink::attach_store`]): on `Save` the settings as they
+//!   are go to the machine's store ([`crate::app::settings_store`]) as text, a
+//!   `path=value` line per leaf; at power-up the saved copy is read back as `Set`s
+//!   would be, sent to the supervisor at the first tick, and `Status` says where the
+//!   settings came from.
 //! - **Heartbeat**: while a job runs, a host silent for longer than
 //!   [`HostLinkConfig::heartbeat_timeout_s`] (no frame at all) stops the job, and the
 //!   host is told [`Event::HostLost`] should it come back.
 
 use crate::app::jobs::JobSlots;
+use crate::app::settings_store::{Loaded, NoCopy, SettingsPersist};
 use crate::app::supervisor::{Command, CommandError, CommandKind, Machine, Mode, Report};
 use crate::codec::job::JobFile;
 use crate::codec::link::{
     crc32, decode, encode, Channel, ChannelValues, CodeWords, Description, Event, FrameError,
     FrameReader, HostFrame, JobKind, MachineMessage, MachineStatus, ModeCode, Refusal, Reply,
-    Request, TelemetrySample, JOB_FILE_UNREADABLE, JOB_KIND_MISMATCH, MAX_CHUNK, MAX_FRAME,
-    VERSION,
+    Request, SettingsOrigin, TelemetrySample, JOB_FILE_UNREADABLE, JOB_KIND_MISMATCH, MAX_CHUNK,
+    MAX_FRAME, VERSION,
 };
 use crate::error::{positive, ConfigError};
 use heapless::spsc::Producer;
 use heapless::Deque;
 use miniconf::{json_core, ConstPath, NodeIter, TreeDeserialize, TreeSchema, TreeSerialize};
+
+mod persist;
+pub use persist::SAVED_BYTES;
 
 /// Deepest setting path a machine describes (a leaf deeper is not announced; a test
 /// of each machine checks its tree).
@@ -170,6 +179,15 @@ pub struct LinkCounters {
     pub unsent: u32,
 }
 
+/// A settings store attached to the link, and how the link writes its settings into
+/// it. The writer is taken where a store is attached: an image without one (a board
+/// today) links no code to save settings.
+struct Attached<'q, M: LinkMachine> {
+    store: &'q mut (dyn SettingsPersist + Send),
+    write: persist::WriteText<M::Settings>,
+    restore: persist::Restore<M>,
+}
+
 /// The host link of one machine with an upload buffer of `J` bytes, building jobs in
 /// the machine's job buffers.
 pub struct HostLink<'q, M: LinkMachine, const J: usize> {
@@ -190,6 +208,10 @@ pub struct HostLink<'q, M: LinkMachine, const J: usize> {
     last_heard_s: Option<f64>,
     host_lost: bool,
     counters: LinkCounters,
+    store: Option<Attached<'q, M>>,
+    origin: SettingsOrigin,
+    /// Settings read from the store, not yet sent to the supervisor.
+    restored: bool,
 }
 
 /// A period in s as `Hello` carries it, whole ns rounded; `None` when that is 0 or
@@ -248,7 +270,41 @@ impl<'q, M: LinkMachine, const J: usize> HostLink<'q, M, J> {
             last_heard_s: None,
             host_lost: false,
             counters: LinkCounters::default(),
+            store: None,
+            origin: SettingsOrigin::NoStore,
+            restored: false,
         })
+    }
+
+    /// Keeps the settings in `store` from now on and starts from the copy saved in it
+    /// (module docs); where they came from, as `Status` will report it. Call it before
+    /// the first [`HostLink::tick`], which sends them to the supervisor.
+    pub fn attach_store(&mut self, store: &'q mut (dyn SettingsPersist + Send)) -> SettingsOrigin {
+        let mut text = [0u8; SAVED_BYTES];
+        let loaded = store.load(&mut text);
+        let mut restore = |len: usize| {
+            let lines = text.get(..len).unwrap_or(&[]);
+            self.restored = true;
+            persist::read_text::<M>(&mut self.settings, lines, self.config.period_s)
+        };
+        self.origin = match loaded {
+            Some(Loaded::Saved { sequence, len }) => SettingsOrigin::Saved {
+                sequence,
+                skipped: restore(len),
+            },
+            Some(Loaded::FellBack { sequence, len }) => SettingsOrigin::FellBack {
+                sequence,
+                skipped: restore(len),
+            },
+            Some(Loaded::Defaults(NoCopy::NeverSaved)) => SettingsOrigin::Presets,
+            Some(Loaded::Defaults(NoCopy::Damaged)) | None => SettingsOrigin::Damaged,
+        };
+        self.store = Some(Attached {
+            store,
+            write: persist::write_text::<M>,
+            restore: persist::restore::<M>,
+        });
+        self.origin
     }
 
     /// The settings as the link holds them.
@@ -381,6 +437,7 @@ impl<'q, M: LinkMachine, const J: usize> HostLink<'q, M, J> {
                     upload_received: self.upload.as_ref().map(|up| up.bytes.len() as u32),
                     bad_frames: self.counters.bad_frames,
                     unsent: self.counters.unsent,
+                    settings: self.origin,
                 };
                 self.reply(seq, Reply::Status(status), send);
             }
@@ -443,6 +500,21 @@ impl<'q, M: LinkMachine, const J: usize> HostLink<'q, M, J> {
             }
             Request::ResetFault => {
                 self.command(seq, Command::ResetFault, commands, send);
+            }
+            Request::Save => {
+                let reply = match self.store.as_mut() {
+                    None => refuse(Refusal::NoStore),
+                    Some(attached) => {
+                        let mut text = heapless::Vec::new();
+                        match (attached.write)(&self.settings, &mut text)
+                            .and_then(|()| attached.store.save(&text))
+                        {
+                            Some(_) => Reply::Ack,
+                            None => refuse(Refusal::StoreFailed),
+                        }
+                    }
+                };
+                self.reply(seq, reply, send);
             }
             Request::Get { path } => {
                 let mut value = [0u8; 64];
@@ -595,6 +667,13 @@ impl<'q, M: LinkMachine, const J: usize> HostLink<'q, M, J> {
         commands: &mut Producer<'_, Command<M>>,
         send: &mut dyn FnMut(&[u8]) -> bool,
     ) {
+        // The saved settings, once, before any command of the host: the report of
+        // this command answers no request (`answered`).
+        if let Some(attached) = self.store.as_ref().filter(|_| self.restored) {
+            if self.pending.is_empty() {
+                self.restored = !(attached.restore)(&self.settings, self.config.period_s, commands);
+            }
+        }
         if self.mode != ModeCode::Running || self.host_lost {
             return;
         }

@@ -40,6 +40,10 @@
 
 use embedded_storage::nor_flash::NorFlash;
 
+/// The file an emulated machine (a QEMU link image) keeps its store in, in the folder
+/// QEMU runs in, where the host tool looks for it.
+pub const EMULATED_FILE: &str = "kerf-settings.bin";
+
 /// Marks a saved copy.
 const MAGIC: [u8; 4] = *b"KRFS";
 
@@ -311,6 +315,26 @@ impl<F: NorFlash> SettingsStore<F> {
             .write(start, &header)
             .map_err(StoreError::Flash)?;
         Ok(sequence)
+    }
+}
+
+/// A store of settings bytes as the host link holds it: any flash's
+/// [`SettingsStore`], behind one object-safe face.
+pub trait SettingsPersist {
+    /// [`SettingsStore::save`]; the sequence number, or that it failed.
+    fn save(&mut self, payload: &[u8]) -> Option<u32>;
+    /// [`SettingsStore::load`]; `None` when the flash failed or the copy does not fit
+    /// `payload`.
+    fn load(&mut self, payload: &mut [u8]) -> Option<Loaded>;
+}
+
+impl<F: NorFlash> SettingsPersist for SettingsStore<F> {
+    fn save(&mut self, payload: &[u8]) -> Option<u32> {
+        SettingsStore::save(self, payload).ok()
+    }
+
+    fn load(&mut self, payload: &mut [u8]) -> Option<Loaded> {
+        SettingsStore::load(self, payload).ok()
     }
 }
 

@@ -48,8 +48,9 @@ use serde::{Deserialize, Serialize};
 
 /// Version of the frame and the messages in it (2: `Hello` carries the control
 /// period, `Status`; 3: the machine describes itself, telemetry carries its own
-/// channels; 4: a job loaded while one runs is queued behind it, [`Event::NextJob`]).
-pub const VERSION: u8 = 4;
+/// channels; 4: a job loaded while one runs is queued behind it, [`Event::NextJob`];
+/// 5: settings saved across resets, [`Request::Save`], [`MachineStatus::settings`]).
+pub const VERSION: u8 = 5;
 
 /// Most values a telemetry sample carries.
 pub const MAX_CHANNELS: usize = 16;
@@ -158,6 +159,9 @@ pub enum Request<'a> {
         /// From 0; the machine answers `None` past its last item.
         index: u16,
     },
+    /// Keep the settings as they are now across resets ([`Reply::Ack`] once they are
+    /// written; [`Refusal::NoStore`] on a machine that keeps none).
+    Save,
 }
 
 /// A request with its number.
@@ -197,6 +201,11 @@ pub enum Refusal {
     BadValue,
     /// The machine's command queue is full; try again.
     Busy,
+    /// The machine keeps no settings across resets.
+    NoStore,
+    /// The settings could not be written (the store's flash failed, or they do not
+    /// fit it); the copy saved before is kept.
+    StoreFailed,
 }
 
 /// Fault codes of the board itself, the same for every machine (the machines' own
@@ -419,6 +428,37 @@ pub struct MachineStatus {
     pub bad_frames: u32,
     /// Replies, samples or events the link could not send since power-up.
     pub unsent: u32,
+    /// Where the settings the machine started with came from.
+    pub settings: SettingsOrigin,
+}
+
+/// Where the settings a machine runs with came from at power-up
+/// ([`crate::app::settings_store`]).
+#[derive(Serialize, Deserialize, Copy, Clone, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SettingsOrigin {
+    /// The machine keeps no settings: its presets at every power-up.
+    #[default]
+    NoStore,
+    /// Never saved: its presets.
+    Presets,
+    /// The copy last saved; `skipped` of its values the machine no longer takes were
+    /// left at their presets.
+    Saved {
+        /// The copy's sequence number.
+        sequence: u32,
+        /// Values left at their presets.
+        skipped: u16,
+    },
+    /// The copy before the last save, which was cut short (or damaged since).
+    FellBack {
+        /// The copy's sequence number.
+        sequence: u32,
+        /// Values left at their presets.
+        skipped: u16,
+    },
+    /// Every saved copy is damaged (or the store could not be read): the presets.
+    Damaged,
 }
 
 /// A decimated telemetry sample.

@@ -603,6 +603,7 @@ fn a_fault_reaches_the_host_as_an_event_with_its_code() {
             upload_received: Some(0),
             bad_frames: 1,
             unsent: 0,
+            settings: SettingsOrigin::NoStore,
         };
         assert_eq!(
             status,
@@ -636,6 +637,7 @@ fn a_board_fault_is_sent_and_kept_for_a_host_that_asks_later() {
             upload_received: None,
             bad_frames: 0,
             unsent: 0,
+            settings: SettingsOrigin::NoStore,
         };
         assert_eq!(
             status,
@@ -764,3 +766,5 @@ fn a_frame_of_another_version_is_answered_with_both_versions() {
         assert_eq!(rig.link.counters().bad_frames, 1);
     });
 }
+
+mod store;

@@ -102,6 +102,10 @@ fn every_message_round_trips_and_frames_hold_no_zero_before_the_delimiter() {
                 upload_received: Some(192),
                 bad_frames: 3,
                 unsent: u32::MAX,
+                settings: SettingsOrigin::FellBack {
+                    sequence: u32::MAX,
+                    skipped: 2,
+                },
             }),
         },
         MachineMessage::Event(Event::Fault { code: 3, detail: 1 }),
