@@ -340,6 +340,35 @@ mod tests {
     }
 
     #[test]
+    fn where_the_settings_came_from_is_said_in_words() {
+        let words = |o| settings_origin_words(o);
+        assert_eq!(words(SettingsOrigin::Presets), "its presets: never saved");
+        assert_eq!(
+            words(SettingsOrigin::Saved {
+                sequence: 3,
+                skipped: 0
+            }),
+            "saved (copy 3)"
+        );
+        assert_eq!(
+            words(SettingsOrigin::Saved {
+                sequence: 3,
+                skipped: 2
+            }),
+            "saved (copy 3) (2 values it no longer takes left at their presets)"
+        );
+        assert!(words(SettingsOrigin::FellBack {
+            sequence: 7,
+            skipped: 1
+        })
+        .starts_with(
+            "the copy before the last save (copy 7): the last save was cut short (1 value"
+        ));
+        assert!(words(SettingsOrigin::Damaged).contains("damaged"));
+        assert!(words(SettingsOrigin::NoStore).contains("keeps no settings"));
+    }
+
+    #[test]
     fn a_branch_holds_the_settings_below_it_only() {
         let mut d = MachineDescription::default();
         for path in [

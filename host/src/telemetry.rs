@@ -720,6 +720,10 @@ mod tests {
         assert!((s.cut_s - 0.02).abs() < 1e-12, "{s:?}");
         // From the first cutting sample (period 10) to the last (period 40).
         assert!((log.since_cut_s() - 0.03).abs() < 1e-12);
+        // The latest sample's machine time, the time the run's lines carry.
+        let last = log.entries().last().map(|e| e.time_s).unwrap();
+        assert_eq!(log.latest_s(), last);
+        assert_eq!(TelemetryLog::new(1e-3, &channels()).latest_s(), 0.0);
         let mut csv = Vec::new();
         log.write_csv(&mut csv).unwrap();
         let text = String::from_utf8(csv).unwrap();

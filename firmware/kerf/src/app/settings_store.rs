@@ -338,5 +338,69 @@ impl<F: NorFlash> SettingsPersist for SettingsStore<F> {
     }
 }
 
+/// Flash in RAM, `N` bytes in pages of [`RamFlash::PAGE`]: a simulated machine's
+/// store. It behaves as NOR flash does where the store relies on it: erased to `0xFF`,
+/// programmed a bit at a time towards 0.
+#[derive(Clone, Debug)]
+pub struct RamFlash<const N: usize> {
+    bytes: [u8; N],
+}
+
+impl<const N: usize> RamFlash<N> {
+    /// Bytes of a page.
+    pub const PAGE: usize = 256;
+
+    /// All of it erased.
+    pub fn erased() -> Self {
+        Self { bytes: [0xFF; N] }
+    }
+}
+
+impl<const N: usize> embedded_storage::nor_flash::ErrorType for RamFlash<N> {
+    type Error = embedded_storage::nor_flash::NorFlashErrorKind;
+}
+
+impl<const N: usize> embedded_storage::nor_flash::ReadNorFlash for RamFlash<N> {
+    const READ_SIZE: usize = 1;
+
+    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+        let at = offset as usize;
+        let from = self
+            .bytes
+            .get(at..at.saturating_add(bytes.len()))
+            .ok_or(Self::Error::OutOfBounds)?;
+        bytes.copy_from_slice(from);
+        Ok(())
+    }
+
+    fn capacity(&self) -> usize {
+        N
+    }
+}
+
+impl<const N: usize> NorFlash for RamFlash<N> {
+    const WRITE_SIZE: usize = 8;
+    const ERASE_SIZE: usize = Self::PAGE;
+
+    fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
+        let pages = self
+            .bytes
+            .get_mut(from as usize..to as usize)
+            .ok_or(Self::Error::OutOfBounds)?;
+        pages.fill(0xFF);
+        Ok(())
+    }
+
+    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
+        let at = offset as usize;
+        let to = self
+            .bytes
+            .get_mut(at..at.saturating_add(bytes.len()))
+            .ok_or(Self::Error::OutOfBounds)?;
+        to.iter_mut().zip(bytes).for_each(|(b, &new)| *b &= new);
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests;
