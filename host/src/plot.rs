@@ -78,6 +78,30 @@ pub(crate) fn line<'a, DB: DrawingBackend + 'a>(
     Ok(())
 }
 
+/// [`line`] dashed: a travel with the tool off (8 px dashes, 6 px apart).
+pub(crate) fn dashed<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    points: impl Iterator<Item = (f64, f64)> + Clone,
+    label: &str,
+    color: RGBColor,
+    width: u32,
+) -> Result<(), PlotError> {
+    let series = chart
+        .draw_series(DashedLineSeries::new(
+            points,
+            8,
+            6,
+            color.stroke_width(width),
+        ))
+        .map_err(err)?;
+    if !label.is_empty() {
+        series
+            .label(label)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
+    }
+    Ok(())
+}
+
 /// A white picture (titled `title`, if any) with a chart in workspace millimetres at
 /// one scale on both axes, labelled `axes`, around the box `lo`–`hi` (mm; a box that
 /// is not finite, of no points, is taken as ±0.1 mm), widened by `margin` (1.02: 2 %).

@@ -5,7 +5,7 @@
 //! millimetres, x right and y up.
 
 use crate::check::{Checked, Preview};
-use crate::plot::{err, legend, line, workspace_chart, PlotError};
+use crate::plot::{dashed, err, legend, line, workspace_chart, PlotError};
 use plotters::prelude::*;
 
 /// Picture size, px (the plotting area is square).
@@ -67,14 +67,8 @@ fn draw<DB: DrawingBackend>(
     line(&mut chart, mm(&edge), &view.section, grey, 1)?;
     let travel = RGBColor(0, 114, 178);
     for (k, t) in preview.travels_m.iter().enumerate() {
-        let series = chart
-            .draw_series(DashedLineSeries::new(mm(t), 8, 6, travel.stroke_width(2)))
-            .map_err(err)?;
-        if k == 0 {
-            series.label(view.travel).legend(move |(x, y)| {
-                PathElement::new([(x, y), (x + 20, y)], travel.stroke_width(2))
-            });
-        }
+        let label = if k == 0 { view.travel } else { "" };
+        dashed(&mut chart, mm(t), label, travel, 2)?;
     }
     for (k, cut) in preview.cuts_m.iter().enumerate() {
         let label = if k == 0 { view.cut } else { "" };

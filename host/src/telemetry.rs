@@ -15,7 +15,7 @@
 
 use crate::description::ChannelInfo;
 use crate::output::OutputFile;
-use crate::plot::{err, legend, line, PlotError};
+use crate::plot::{dashed, err, legend, line, PlotError};
 use kerf::codec::link::{ModeCode, TelemetrySample};
 use plotters::prelude::*;
 use std::io::Write;
@@ -357,10 +357,13 @@ impl TelemetryLog {
         Ok(())
     }
 
-    /// The path drawn: the names of its plane's axes, the measured and the reference
-    /// points in it (mm), of the samples while the machine moves along its job (at
-    /// rest it reports no reference, zeros, which the tool never travelled to).
-    fn path_mm(&self) -> ([&'static str; 2], PathMm, PathMm) {
+    /// The path drawn: the names of its plane's axes, the measured points and the
+    /// reference's runs (mm), each marked whether the tool cut along it (a laser's
+    /// beam on; a machine without a laser channel cuts all along), of the samples
+    /// while the machine moves along its job (at rest it reports no reference, zeros,
+    /// which the tool never travelled to). A run shares its first point with the end
+    /// of the one before, so the runs join.
+    fn path_mm(&self) -> ([&'static str; 2], PathMm, Vec<(bool, PathMm)>) {
         let moving = self
             .entries
             .iter()
@@ -372,16 +375,30 @@ impl TelemetryLog {
             |e: &Entry, x: &str, y: &str| Some((self.value(e, x)? * 1e3, self.value(e, y)? * 1e3));
         let (a_ref, b_ref) = (format!("{a}_ref"), format!("{b}_ref"));
         let measured = moving.clone().filter_map(|e| mm(e, a, b)).collect();
-        let reference = moving.filter_map(|e| mm(e, &a_ref, &b_ref)).collect();
-        ([a, b], measured, reference)
+        let mut runs: Vec<(bool, PathMm)> = Vec::new();
+        for e in moving {
+            let Some(p) = mm(e, &a_ref, &b_ref) else {
+                continue;
+            };
+            let cutting = self.value(e, "laser").is_none_or(|w| w > 0.0);
+            match runs.last_mut() {
+                Some((c, run)) if *c == cutting => run.push(p),
+                last => {
+                    let join = last.and_then(|(_, run)| run.last().copied());
+                    runs.push((cutting, join.into_iter().chain([p]).collect()));
+                }
+            }
+        }
+        ([a, b], measured, runs)
     }
 
     fn draw_path<DB: DrawingBackend>(
         &self,
         area: &DrawingArea<DB, plotters::coord::Shift>,
     ) -> Result<(), PlotError> {
-        let ([a, b], measured, reference) = self.path_mm();
-        let (lo, hi) = measured.iter().chain(&reference).fold(
+        let ([a, b], measured, runs) = self.path_mm();
+        let reference = runs.iter().flat_map(|(_, run)| run);
+        let (lo, hi) = measured.iter().chain(reference).fold(
             ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
             |(lo, hi), p| {
                 (
@@ -393,15 +410,26 @@ impl TelemetryLog {
         let (a_words, b_words) = (format!("{a}, mm"), format!("{b}, mm"));
         let axes = [a_words.as_str(), b_words.as_str()];
         let mut chart = crate::plot::workspace_chart(area, None, axes, lo, hi, 1.05)?;
-        for (label, points, color, width) in [
-            ("reference", &reference, RGBColor(120, 120, 120), 4),
-            ("measured", &measured, RGBColor(0, 114, 178), 1),
-        ] {
-            // A machine that reports no measured position (ARROW) has no such line.
-            if points.is_empty() {
-                continue;
+        let grey = RGBColor(120, 120, 120);
+        let (mut cut_label, mut travel_label) = ("reference", "travel, beam off");
+        for (cutting, run) in &runs {
+            let points = run.iter().copied();
+            if *cutting {
+                line(&mut chart, points, std::mem::take(&mut cut_label), grey, 4)?;
+            } else {
+                dashed(
+                    &mut chart,
+                    points,
+                    std::mem::take(&mut travel_label),
+                    grey,
+                    2,
+                )?;
             }
-            line(&mut chart, points.iter().copied(), label, color, width)?;
+        }
+        // A machine that reports no measured position (ARROW) has no such line.
+        if !measured.is_empty() {
+            let blue = RGBColor(0, 114, 178);
+            line(&mut chart, measured.iter().copied(), "measured", blue, 1)?;
         }
         legend(&mut chart)
     }
@@ -659,9 +687,13 @@ mod tests {
         log.push(at(1, ModeCode::Running, [0.01, 0.5, -0.02]));
         log.push(at(2, ModeCode::Stopping, [0.02, 0.5, -0.01]));
         log.push(at(3, ModeCode::Ready, [0.0; 3]));
-        let (axes, measured, reference) = log.path_mm();
+        let (axes, measured, runs) = log.path_mm();
         assert_eq!(axes, ["x", "z"]);
         assert!(measured.is_empty());
+        // No laser channel: one run, cut all along.
+        assert_eq!(runs.len(), 1);
+        let (cutting, reference) = &runs[0];
+        assert!(*cutting);
         let want = [(10.0, -20.0), (20.0, -10.0)];
         assert_eq!(reference.len(), want.len());
         for (got, want) in reference.iter().zip(want) {
@@ -672,13 +704,47 @@ mod tests {
             );
         }
         // Without a plane: x and y, as a laser cuts.
-        let (axes, _, reference) = TelemetryLog {
+        let (axes, _, runs) = TelemetryLog {
             plane: [0, 1],
             ..log
         }
         .path_mm();
         assert_eq!(axes, ["x", "y"]);
-        assert!((reference[0].1 - 500.0).abs() < 1e-4);
+        assert!((runs[0].1[0].1 - 500.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn a_travel_with_the_beam_off_is_a_run_of_its_own_joined_to_the_cut() {
+        let laser: Vec<ChannelInfo> = [("x_ref", "m"), ("y_ref", "m"), ("laser", "W")]
+            .map(|(name, unit)| ChannelInfo {
+                name: name.into(),
+                unit: unit.into(),
+            })
+            .to_vec();
+        let mut log = TelemetryLog::new(1e-3, &laser);
+        for (k, (x, w)) in [(0.0, 0.0), (1.0, 0.0), (2.0, 5.0), (3.0, 5.0), (4.0, 0.0)]
+            .into_iter()
+            .enumerate()
+        {
+            log.push(TelemetrySample {
+                period: k as u32,
+                mode: ModeCode::Running,
+                values: [x * 1e-3, 0.0, w].into_iter().collect(),
+            });
+        }
+        let (_, _, runs) = log.path_mm();
+        let shape: Vec<(bool, Vec<f64>)> = runs
+            .iter()
+            .map(|(c, run)| (*c, run.iter().map(|p| (p.0 * 1e3).round() / 1e3).collect()))
+            .collect();
+        assert_eq!(
+            shape,
+            [
+                (false, vec![0.0, 1.0]),
+                (true, vec![1.0, 2.0, 3.0]),
+                (false, vec![3.0, 4.0]),
+            ]
+        );
     }
 
     #[test]
