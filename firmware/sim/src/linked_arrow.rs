@@ -4,7 +4,7 @@
 //! serial port) uploads G-code, starts, retunes and follows it with frames alone.
 //!
 //! The plate stands at ARROW's home, the pyramid's start
-//! ([`HOME`](kerf::machines::arrow::product::HOME), the first point of
+//! ([`HOME`], the first point of
 //! `data/pyramid.gcode`: X 13.333, Y 464.604, Z −13.333 mm, θx −15°, θz 15°), where
 //! a job must begin. While the machine does not run a job its outputs are the safe
 //! ones (no force) and the actuators' brakes hold the plate: the plant moves only
