@@ -34,7 +34,7 @@
 use crate::gcode::{check, GcodeCheckError, GcodeReport};
 use kerf::kinematics::arrow::ArrowConfig;
 use kerf::machines::arrow::product::{HOME, JOB_MOVES, JOB_POINTS, LINK_JOB_BYTES, PROGRAM_POINTS};
-use kerf::trajectory::gcode::{GcodePoint, MoveKind, Parser};
+use kerf::trajectory::gcode::{GcodePoint, MoveKind};
 use std::fmt::Write as _;
 
 /// Where a program goes in ARROW's workspace (module docs).
@@ -131,23 +131,6 @@ impl Point {
             MoveKind::Feed => (MoveKind::Feed, self.feed_m_s.to_bits()),
         }
     }
-}
-
-/// Every point of `text` (the caller has checked it reads without an error).
-fn read_points(text: &[u8]) -> Vec<GcodePoint> {
-    let mut parser = Parser::new();
-    let mut points = Vec::new();
-    for line in text.split(|&b| b == b'\n') {
-        parser.read_line(
-            line,
-            &mut |p| {
-                points.push(*p);
-                true
-            },
-            &mut |_| {},
-        );
-    }
-    points
 }
 
 /// A number as a part writes it: six decimals, trailing zeros dropped.
@@ -301,7 +284,7 @@ const START_LINE: u32 = 3;
 /// Errors: the program has no move; a part the machine refuses, at the line of the
 /// original program the refusal names.
 pub fn parts(text: &[u8], placement: Placement) -> Result<ArrowProgram, GcodeCheckError> {
-    let read = read_points(text);
+    let (read, _) = crate::gcode::read_all(text);
     let mut left_out = Vec::new();
     let mut all: Vec<Point> = Vec::with_capacity(read.len() + 1);
     let y0_m = ArrowConfig::ARROW.workspace.y0_m;

@@ -181,16 +181,28 @@ pub fn check_on(machine: Machine, text: &[u8]) -> Result<Checked, GcodeCheckErro
     }
 }
 
-/// Every warning and error of `text` read for ARROW's axes (all five), in the order of
-/// the file, however many points it has (a program longer than the machine holds
-/// goes as parts, [`crate::arrow_parts`]).
-pub fn diagnose(text: &[u8]) -> Vec<Diagnostic> {
+/// Every point and every warning and error of `text`, read line by line with the
+/// firmware's reader for all five axes, however many points it has (no buffer limit:
+/// a program longer than a machine holds goes as parts, [`crate::arrow_parts`]).
+pub fn read_all(text: &[u8]) -> (Vec<GcodePoint>, Vec<Diagnostic>) {
     let mut parser = Parser::new();
-    let mut found = Vec::new();
+    let (mut points, mut found) = (Vec::new(), Vec::new());
     for line in text.split(|&b| b == b'\n') {
-        parser.read_line(line, &mut |_| true, &mut |d| found.push(*d));
+        parser.read_line(
+            line,
+            &mut |p| {
+                points.push(*p);
+                true
+            },
+            &mut |d| found.push(*d),
+        );
     }
-    found
+    (points, found)
+}
+
+/// Every warning and error of `text` ([`read_all`]), in the order of the file.
+pub fn diagnose(text: &[u8]) -> Vec<Diagnostic> {
+    read_all(text).1
 }
 
 /// `FILE:LINE:COLUMN: warning|error: message`, as compilers print.

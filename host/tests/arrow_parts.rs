@@ -11,7 +11,7 @@ use common::{kerf, tmp};
 use kerf::kinematics::arrow::ArrowConfig;
 use kerf::machines::arrow::job::ArrowJobConfig;
 use kerf::machines::arrow::product::{HOME, JOB_MOVES, JOB_POINTS, LINK_JOB_BYTES, PROGRAM_POINTS};
-use kerf::trajectory::gcode::{GcodePoint, MoveKind, Parser};
+use kerf::trajectory::gcode::{GcodePoint, MoveKind};
 use kerf_host::arrow_parts::{parts, Placement};
 use kerf_host::check::{check, CheckError, Machine};
 use std::path::PathBuf;
@@ -25,19 +25,7 @@ fn corpus(name: &str) -> Vec<u8> {
 
 /// Every point of `text`, through the reader line by line.
 fn read(text: &[u8]) -> Vec<GcodePoint> {
-    let mut parser = Parser::new();
-    let mut points = Vec::new();
-    for line in text.split(|&b| b == b'\n') {
-        parser.read_line(
-            line,
-            &mut |p| {
-                points.push(*p);
-                true
-            },
-            &mut |_| {},
-        );
-    }
-    points
+    kerf_host::gcode::read_all(text).0
 }
 
 fn axes(p: &GcodePoint) -> [f64; 5] {
