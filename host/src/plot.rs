@@ -69,13 +69,22 @@ pub(crate) fn line<'a, DB: DrawingBackend + 'a>(
     let series = chart
         .draw_series(LineSeries::new(points, color.stroke_width(width)))
         .map_err(err)?;
-    // An empty label: no legend entry (the parts after the first of a picture).
+    legend_entry(series, label, color);
+    Ok(())
+}
+
+/// `series`' legend entry, a short line in `color`; none for an empty label (the parts
+/// after the first of a picture).
+fn legend_entry<DB: DrawingBackend>(
+    series: &mut plotters::chart::SeriesAnno<'_, DB>,
+    label: &str,
+    color: RGBColor,
+) {
     if !label.is_empty() {
         series
             .label(label)
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
     }
-    Ok(())
 }
 
 /// [`line`] dashed: a travel with the tool off (8 px dashes, 6 px apart).
@@ -94,11 +103,7 @@ pub(crate) fn dashed<'a, DB: DrawingBackend + 'a>(
             color.stroke_width(width),
         ))
         .map_err(err)?;
-    if !label.is_empty() {
-        series
-            .label(label)
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
-    }
+    legend_entry(series, label, color);
     Ok(())
 }
 
