@@ -190,13 +190,18 @@ impl Modal {
 /// The lines before a part's start point.
 const PREAMBLE: &str = "G21 G90 G94\n";
 
+/// The line that puts a part's start `p` (every axis, as a rapid), and the state after.
+fn start_line(p: &Point) -> (String, Modal) {
+    Modal::NONE.line(&Point {
+        kind: MoveKind::Rapid,
+        ..*p
+    })
+}
+
 /// Where the part that starts at `all[s]` ends, and whether it cuts a move (module
 /// docs).
 fn part_end(all: &[Point], s: usize) -> (usize, bool) {
-    let (start_line, mut modal) = Modal::NONE.line(&Point {
-        kind: MoveKind::Rapid,
-        ..all[s]
-    });
+    let (start_line, mut modal) = start_line(&all[s]);
     // The heading comment: some 60 bytes.
     let mut bytes = 64 + PREAMBLE.len() + start_line.len();
     let (mut targets, mut moves, mut run_first) = (0usize, 0usize, s + 1);
@@ -257,14 +262,17 @@ fn lines_of(all: &[Point], s: usize, e: usize) -> [u32; 2] {
     [lines().min().unwrap_or(0), lines().max().unwrap_or(0)]
 }
 
-/// The text of the part `all[s..=e]`, part `k` of `of`.
-fn part_text(all: &[Point], s: usize, e: usize, k: usize, of: usize) -> Vec<u8> {
-    let [first, last] = lines_of(all, s, e);
+/// The text of the part `all[s..=e]`, part `k` of `of`, from the program's `lines`.
+fn part_text(
+    all: &[Point],
+    s: usize,
+    e: usize,
+    [first, last]: [u32; 2],
+    k: usize,
+    of: usize,
+) -> Vec<u8> {
     let mut out = format!("(part {k} of {of}: lines {first} to {last} of the program)\n{PREAMBLE}");
-    let (line, mut modal) = Modal::NONE.line(&Point {
-        kind: MoveKind::Rapid,
-        ..all[s]
-    });
+    let (line, mut modal) = start_line(&all[s]);
     out.push_str(&line);
     for p in &all[s + 1..=e] {
         let (line, next) = modal.line(p);
@@ -354,8 +362,8 @@ pub fn parts(text: &[u8], placement: Placement) -> Result<ArrowProgram, GcodeChe
     let of = bounds.len();
     let mut parts = Vec::with_capacity(of);
     for (k, &(s, e)) in bounds.iter().enumerate() {
-        let text = part_text(&all, s, e, k + 1, of);
         let lines = lines_of(&all, s, e);
+        let text = part_text(&all, s, e, lines, k + 1, of);
         // A line of the part is one of its points (the original's line), or its
         // heading (the part's first line); home has none (the part's first).
         let original = |line: u32| {
