@@ -252,7 +252,7 @@ fn broken_pass(device: u8) -> (String, (Option<DeviceFault>, Option<DeviceFault>
         &mut log,
         None,
         &mut |p| {
-            if let Progress::Sample(t) = p {
+            if let Progress::Sample(t, _) = p {
                 if t > 1.0 && !broken {
                     breaks.store(device, Ordering::Relaxed);
                     broken = true;

@@ -61,7 +61,7 @@ fn a_host_cuts_retunes_and_hears_a_fault_over_the_emulated_serial_port() {
             &mut |p| match p {
                 kerf_host::session::Progress::Uploaded(n) => uploaded = n,
                 kerf_host::session::Progress::Line(t, s) => lines.push(format!("{t:.3} {s}")),
-                kerf_host::session::Progress::Sample(_) => {}
+                kerf_host::session::Progress::Sample(..) => {}
             },
         )
         .expect("the cut runs to its end");

@@ -443,7 +443,7 @@ fn an_encoder_glitch_is_heard_in_the_masters_words() {
         &mut log,
         None,
         &mut |p| {
-            if let Progress::Sample(t) = p {
+            if let Progress::Sample(t, _) = p {
                 if t > 2.0 && !glitched {
                     glitch.store(true, Ordering::Relaxed);
                     glitched = true;
@@ -485,7 +485,7 @@ fn the_host_stops_a_session() {
         &mut log,
         Some(&lines),
         &mut |p| {
-            if let Progress::Sample(t) = p {
+            if let Progress::Sample(t, _) = p {
                 if t > 1.0 && !asked {
                     console.send("stop".into()).unwrap();
                     asked = true;

@@ -10,7 +10,7 @@ use kerf_host::job::{Job, JobKind};
 use kerf_host::link::{Heard, LinkError};
 use kerf_host::output::{io_words, OutputFile};
 use kerf_host::qemu;
-use kerf_host::session::{Progress, RunPlan, Session, SessionError, Target, TimedChange};
+use kerf_host::session::{Order, Progress, RunPlan, Session, SessionError, Target, TimedChange};
 use kerf_host::telemetry::TelemetryLog;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -25,10 +25,14 @@ pub struct MachineArgs {
     #[arg(
         long,
         value_name = "DEVICE",
-        required_unless_present = "qemu",
+        required_unless_present_any = ["qemu", "session"],
         conflicts_with = "qemu"
     )]
     port: Option<String>,
+    /// The machine that `kerf serve` holds open at this address (such as
+    /// 127.0.0.1:8080): its settings, loaded job and telemetry stay between commands.
+    #[arg(long, value_name = "ADDR:PORT", conflicts_with_all = ["port", "qemu", "image"])]
+    session: Option<String>,
     /// The port's speed, bits per second: the board image's LPUART1 runs at 921 600
     /// (USB CDC ignores it).
     #[arg(long, value_name = "BAUD", default_value_t = 921_600)]
@@ -68,7 +72,17 @@ impl MachineArgs {
             .then(|| qemu::state_dir(&image).join(qemu::SETTINGS_FILE))
     }
 
-    fn open(&self) -> Result<Session, Failure> {
+    /// The `kerf serve` to ask instead of the machine.
+    pub fn session(&self) -> Option<&str> {
+        self.session.as_deref()
+    }
+
+    pub(crate) fn open(&self) -> Result<Session, Failure> {
+        if let Some(url) = &self.session {
+            return Err(Failure::Input(format!(
+                "--session {url}: this command opens the machine itself (give --qemu or --port)"
+            )));
+        }
         self.check()?;
         let target = match &self.port {
             Some(device) => Target::Port {
@@ -209,7 +223,7 @@ fn setting_value(value: &str) -> Result<(), Failure> {
 /// The most samples `kerf log` keeps (in memory until it writes them).
 const MAX_LOG_SAMPLES: f64 = 1e7;
 
-fn positive_rate(hz: f64) -> Result<f64, Failure> {
+pub(crate) fn positive_rate(hz: f64) -> Result<f64, Failure> {
     if hz.is_finite() && hz > 0.0 {
         Ok(hz)
     } else {
@@ -220,14 +234,14 @@ fn positive_rate(hz: f64) -> Result<f64, Failure> {
 }
 
 /// Lines the operator types during a run, when standard input is a terminal.
-fn console() -> Option<Receiver<String>> {
+fn console() -> Option<Receiver<Order>> {
     if !std::io::stdin().is_terminal() {
         return None;
     }
     let (tx, rx) = channel();
     std::thread::spawn(move || {
         for line in std::io::stdin().lines().map_while(Result::ok) {
-            if tx.send(line).is_err() {
+            if tx.send(Order::logged(line)).is_err() {
                 return;
             }
         }
@@ -282,6 +296,9 @@ fn new_log(machine: &kerf_host::link::MachineLink) -> TelemetryLog {
 /// `kerf run JOB`: upload, start, follow to the end; the summary, CSV and SVG are
 /// written whatever the end.
 pub fn run(args: &RunArgs, report: &mut Report) -> Result<(), Failure> {
+    if let Some(url) = args.machine.session() {
+        return crate::cli_serve::run_job(url, &args.job, report);
+    }
     let name = args.job.display().to_string();
     let file_name = args
         .job
@@ -382,7 +399,7 @@ pub fn run(args: &RunArgs, report: &mut Report) -> Result<(), Failure> {
                 bar.set_position(u64::from(n));
                 sent |= n as usize == first_len;
             }
-            Progress::Sample(t) => {
+            Progress::Sample(t, _) => {
                 sampled = true;
                 if !cutting {
                     cutting = true;
@@ -440,8 +457,10 @@ pub fn get(
     report: &mut Report,
 ) -> Result<(), Failure> {
     setting_path(path)?;
-    let mut s = machine.open()?;
-    let listed = read_settings(&mut s.machine, path)?;
+    let listed = match machine.session() {
+        Some(url) => crate::cli_serve::listed(url, path)?,
+        None => read_settings(&mut machine.open()?.machine, path)?,
+    };
     if json {
         say!(report, "{}", settings_json(&listed));
     } else {
@@ -454,8 +473,10 @@ pub fn get(
 
 /// `kerf settings [--json]`: every setting with its value, unit and range.
 pub fn settings(json: bool, machine: &MachineArgs, report: &mut Report) -> Result<(), Failure> {
-    let mut s = machine.open()?;
-    let listed = read_settings(&mut s.machine, "/")?;
+    let listed = match machine.session() {
+        Some(url) => crate::cli_serve::listed(url, "/")?,
+        None => read_settings(&mut machine.open()?.machine, "/")?,
+    };
     if json {
         say!(report, "{}", settings_json(&listed));
         return Ok(());
@@ -554,6 +575,9 @@ pub fn set(
 ) -> Result<(), Failure> {
     setting_path(path)?;
     setting_value(value)?;
+    if let Some(url) = machine.session() {
+        return crate::cli_serve::set(url, path, value, save_too, report);
+    }
     let mut s = machine.open()?;
     s.machine.set(path, value).map_err(link_failure)?;
     let now = s.machine.get(path).map_err(link_failure)?;
@@ -578,6 +602,9 @@ fn saved(machine: &MachineArgs, report: &mut Report) {
 
 /// `kerf save`: the machine keeps its settings as they are across resets.
 pub fn save(machine: &MachineArgs, report: &mut Report) -> Result<(), Failure> {
+    if let Some(url) = machine.session() {
+        return crate::cli_serve::save(url, report);
+    }
     let mut s = machine.open()?;
     s.machine.command(Request::Save).map_err(link_failure)?;
     saved(machine, report);
@@ -585,10 +612,35 @@ pub fn save(machine: &MachineArgs, report: &mut Report) -> Result<(), Failure> {
 }
 
 /// `kerf status`.
-pub fn status(machine: &MachineArgs, report: &mut Report) -> Result<(), Failure> {
+pub fn status(json: bool, machine: &MachineArgs, report: &mut Report) -> Result<(), Failure> {
+    if let Some(url) = machine.session() {
+        return crate::cli_serve::status(url, json, report);
+    }
     let mut s = machine.open()?;
     let hello = s.machine.hello().clone();
     let st = s.machine.status().map_err(link_failure)?;
+    if json {
+        let fault = st
+            .last_fault
+            .map(|(code, detail)| s.machine.description().fault_words(code, detail));
+        say!(
+            report,
+            "{}",
+            serde_json::json!({
+                "machine": {"name": hello.machine, "version": hello.version, "period_s": hello.period_s},
+                "status": {
+                    "mode": mode_words(st.mode),
+                    "last_fault": fault,
+                    "machine_time_s": st.period as f64 * hello.period_s,
+                    "upload_received": st.upload_received,
+                    "settings_origin": settings_origin_words(st.settings),
+                    "bad_frames": st.bad_frames,
+                    "unsent": st.unsent,
+                },
+            })
+        );
+        return Ok(());
+    }
     say!(
         report,
         "machine      {} (link v{})",

@@ -37,6 +37,7 @@ pub mod plan;
 pub mod plot;
 pub mod preview;
 pub mod qemu;
+pub mod serve;
 pub mod session;
 pub mod telemetry;
 pub mod trace;

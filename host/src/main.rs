@@ -18,6 +18,7 @@ mod cli_cut;
 mod cli_laser;
 mod cli_machine;
 mod cli_parts;
+mod cli_serve;
 mod report;
 
 use std::io::Write;
@@ -104,9 +105,16 @@ enum Command {
     },
     /// The machine's name, mode, last fault, upload and link counters.
     Status {
+        /// Print the state as JSON for scripts (with --session: the station's).
+        #[arg(long)]
+        json: bool,
         #[command(flatten)]
         machine: cli_machine::MachineArgs,
     },
+    /// Hold a machine open and serve the operator's web console and an HTTP API on it;
+    /// other commands reach the same machine with --session ADDR:PORT, so settings, a
+    /// loaded job and the telemetry stay between them.
+    Serve(cli_serve::ServeArgs),
 }
 
 /// Why a command failed, and its exit code.
@@ -308,7 +316,8 @@ fn main() -> ExitCode {
         } => cli_machine::set(&path, &value, save, &machine, r),
         Command::Log(args) => cli_machine::log(&args, r),
         Command::Save { machine } => cli_machine::save(&machine, r),
-        Command::Status { machine } => cli_machine::status(&machine, r),
+        Command::Status { json, machine } => cli_machine::status(json, &machine, r),
+        Command::Serve(args) => cli_serve::run(&args, r),
     };
     let result = result.and_then(|()| report.lost().map_or(Ok(()), |m| Err(Failure::Output(m))));
     let (message, code) = match result {

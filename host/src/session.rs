@@ -5,10 +5,10 @@
 
 use crate::link::{Heard, LinkError, MachineLink};
 use crate::qemu::{self, Qemu, QemuError};
-use crate::telemetry::TelemetryLog;
+use crate::telemetry::{Entry, TelemetryLog};
 use kerf::codec::link::{Event, JobKind, ModeCode, Refusal, Request, JOB_NOT_AT_REST};
 use std::path::PathBuf;
-use std::sync::mpsc::Receiver;
+use std::sync::mpsc::{Receiver, Sender};
 use std::time::{Duration, Instant};
 
 /// Where the machine is.
@@ -170,8 +170,8 @@ pub enum Progress<'a> {
     /// Bytes of the job the machine holds.
     Uploaded(u32),
     /// Machine time since the cut began, s, at a telemetry sample (the clock of
-    /// [`RunPlan::changes`]).
-    Sample(f64),
+    /// [`RunPlan::changes`]), and the sample on the log's time axis.
+    Sample(f64, &'a Entry),
     /// An event, a change or an operator's command, with the machine's time of the
     /// latest sample, s (the time axis of the run's plots; 0 before the first
     /// sample).
@@ -240,15 +240,33 @@ fn start_at_rest(
     }
 }
 
+/// An operator's line for the machine during a run (`set PATH VALUE`, `get PATH`,
+/// `stop`), and where its answer goes.
+#[derive(Debug)]
+pub struct Order {
+    /// The line.
+    pub line: String,
+    /// Told what the machine answered, in words (`None`: the answer is only logged).
+    pub answer: Option<Sender<Result<String, String>>>,
+}
+
+impl Order {
+    /// A line whose answer is only logged (the terminal's).
+    pub fn logged(line: String) -> Self {
+        Order { line, answer: None }
+    }
+}
+
 /// An operator's line during a run: `set PATH VALUE`, `get PATH` or `stop`; whether
 /// the machine took a stop.
 fn console(
     machine: &mut MachineLink,
-    line: &str,
+    order: Order,
     t: f64,
     log: &mut TelemetryLog,
     progress: &mut dyn FnMut(Progress<'_>),
 ) -> bool {
+    let line = order.line.as_str();
     let words: Vec<&str> = line.split_whitespace().collect();
     let outcome = match words.as_slice() {
         ["set", path, value] => machine
@@ -257,15 +275,25 @@ fn console(
         ["get", path] => machine.get(path).map(|v| format!("{path} = {v}")),
         ["stop"] => machine.command(Request::Stop).map(|()| "stop".to_owned()),
         [] => return false,
-        _ => Ok(format!(
-            "not understood: {line:?} (set PATH VALUE, get PATH, stop)"
-        )),
+        _ => {
+            let text =
+                format!("not understood during a run: {line:?} (set PATH VALUE, get PATH, stop)");
+            if let Some(answer) = order.answer {
+                let _ = answer.send(Err(text));
+                return false;
+            }
+            Ok(text)
+        }
     };
     let stopped = matches!(&outcome, Ok(s) if s == "stop");
-    let text = match outcome {
-        Ok(s) => s,
-        Err(e) => e.to_string(),
+    let outcome = outcome.map_err(|e| e.to_string());
+    let text = match &outcome {
+        Ok(s) | Err(s) => s.clone(),
     };
+    if let Some(answer) = order.answer {
+        // A client gone before the answer changes nothing on the machine.
+        let _ = answer.send(outcome);
+    }
     log.mark(&text);
     progress(Progress::Line(t, &text));
     stopped
@@ -348,7 +376,7 @@ impl Session {
         job: &[u8],
         plan: &RunPlan,
         log: &mut TelemetryLog,
-        console_lines: Option<&Receiver<String>>,
+        console_lines: Option<&Receiver<Order>>,
         progress: &mut dyn FnMut(Progress<'_>),
     ) -> Result<(), SessionError> {
         self.run_parts(&[(kind, job)], plan, log, console_lines, progress)
@@ -370,7 +398,7 @@ impl Session {
         parts: &[(JobKind, &[u8])],
         plan: &RunPlan,
         log: &mut TelemetryLog,
-        console_lines: Option<&Receiver<String>>,
+        console_lines: Option<&Receiver<Order>>,
         progress: &mut dyn FnMut(Progress<'_>),
     ) -> Result<(), SessionError> {
         let m = &mut self.machine;
@@ -427,7 +455,9 @@ impl Session {
                     m.send(Request::Heartbeat)?;
                     last_heartbeat = Instant::now();
                     let now = log.since_cut_s();
-                    progress(Progress::Sample(now));
+                    if let Some(entry) = log.entries().last() {
+                        progress(Progress::Sample(now, entry));
+                    }
                     while let Some(c) = changes.next_if(|c| c.at_s <= now) {
                         let text = match m.set(&c.path, &c.value) {
                             Ok(()) => format!("set {} = {}", c.path, c.value),
@@ -510,9 +540,9 @@ impl Session {
                 }
             }
             if let Some(lines) = console_lines {
-                while let Ok(line) = lines.try_recv() {
+                while let Ok(order) = lines.try_recv() {
                     let now = log.latest_s();
-                    stopped |= console(m, &line, now, log, progress);
+                    stopped |= console(m, order, now, log, progress);
                 }
             }
             if running && !stopped {
