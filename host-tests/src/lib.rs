@@ -13,3 +13,4 @@ pub mod machining;
 pub mod plot;
 pub mod remote;
 pub mod signals;
+pub mod webdriver;

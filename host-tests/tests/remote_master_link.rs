@@ -476,7 +476,7 @@ fn the_host_stops_a_session() {
     let mut rig = rig();
     let channels = rig.session.machine.description().channels.clone();
     let mut log = TelemetryLog::new(TS, &channels);
-    let (console, lines) = channel::<String>();
+    let (console, lines) = channel::<kerf_host::session::Order>();
     let mut asked = false;
     let ended = rig.session.run_job(
         JobKind::Points,
@@ -487,7 +487,9 @@ fn the_host_stops_a_session() {
         &mut |p| {
             if let Progress::Sample(t, _) = p {
                 if t > 1.0 && !asked {
-                    console.send("stop".into()).unwrap();
+                    console
+                        .send(kerf_host::session::Order::logged("stop".into()))
+                        .unwrap();
                     asked = true;
                 }
             }

@@ -263,7 +263,8 @@ fn a_stop_ends_a_session_and_a_link_loss_is_heard_in_words() {
         &mut |p| {
             if let Progress::Sample(t, _) = p {
                 if t > 1.0 && !sent {
-                    tx.send("stop".to_owned()).unwrap();
+                    tx.send(kerf_host::session::Order::logged("stop".to_owned()))
+                        .unwrap();
                     sent = true;
                 }
             }

@@ -58,7 +58,10 @@ pub fn run(args: &ServeArgs, report: &mut Report) -> Result<(), Failure> {
         report,
         "commands   kerf get|set|settings|save|status|run --session {address}"
     );
-    serve::run(station, listener).map_err(|e| Failure::Link(format!("the console's server: {e}")))
+    serve::run(station, listener, serve::ended())
+        .map_err(|e| Failure::Link(format!("the console's server: {e}")))?;
+    say!(report, "ended      the machine's session is closed");
+    Ok(())
 }
 
 fn failure(e: ClientError) -> Failure {

@@ -89,16 +89,78 @@ fn asset(kind: &'static str, body: &'static str) -> Response {
     ([(header::CONTENT_TYPE, kind)], body).into_response()
 }
 
-/// Serves the console on `listener` until the process ends.
-pub fn run(station: Arc<Station>, listener: std::net::TcpListener) -> std::io::Result<()> {
+/// Serves the console on `listener` until `until` completes; then the station's last
+/// handle goes, and with it the machine's session (a job that runs is stopped first,
+/// the emulated machine ends).
+pub fn run(
+    station: Arc<Station>,
+    listener: std::net::TcpListener,
+    until: impl std::future::Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()> {
     listener.set_nonblocking(true)?;
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?;
     runtime.block_on(async move {
         let listener = tokio::net::TcpListener::from_std(listener)?;
-        axum::serve(listener, router(station)).await
+        // Not a graceful shutdown: the live streams never end by themselves.
+        tokio::select! {
+            served = axum::serve(listener, router(station)) => served,
+            () = until => Ok(()),
+        }
     })
+}
+
+/// A console served from a thread of its own ([`spawn`]); it ends, and its machine's
+/// session with it, when this is dropped.
+pub struct Served {
+    /// Where it listens.
+    pub address: std::net::SocketAddr,
+    end: Option<tokio::sync::oneshot::Sender<()>>,
+    thread: Option<std::thread::JoinHandle<std::io::Result<()>>>,
+}
+
+/// Serves `station` on `listener` from a new thread (a test's console, a tool's).
+pub fn spawn(station: Arc<Station>, listener: std::net::TcpListener) -> std::io::Result<Served> {
+    let address = listener.local_addr()?;
+    let (end, ended) = tokio::sync::oneshot::channel::<()>();
+    let thread = std::thread::spawn(move || {
+        run(station, listener, async {
+            let _ = ended.await;
+        })
+    });
+    Ok(Served {
+        address,
+        end: Some(end),
+        thread: Some(thread),
+    })
+}
+
+impl Drop for Served {
+    fn drop(&mut self) {
+        if let Some(end) = self.end.take() {
+            let _ = end.send(());
+        }
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+/// Completes when the process is asked to end (Ctrl-C, SIGTERM).
+pub async fn ended() {
+    let terminate = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    tokio::select! {
+        _ = tokio::signal::ctrl_c() => {}
+        () = terminate => {}
+    }
 }
 
 async fn machine(State(s): State<Arc<Station>>) -> Answer {
@@ -269,12 +331,40 @@ async fn load_job(
     to_json(&job)
 }
 
-/// A file the operator gave as a job: a job file as it is; a picture planned with the
-/// planner's defaults (every closed contour, as `kerf plan --all`) for a machine that
-/// cuts contours.
+/// A file the operator gave as a job: a job file as it is; a G-code program for a
+/// machine that takes programs, as `kerf gcode` writes it (ARROW's in parts where it is
+/// long); a picture planned with the planner's defaults (every closed contour, as
+/// `kerf plan --all`) for the Keops slave.
 fn job_file(name: &str, body: &[u8], s: &Station) -> Result<Vec<u8>, String> {
+    use crate::check::Machine;
     if crate::job::split(body).is_ok() {
         return Ok(body.to_vec());
+    }
+    let lower = name.to_ascii_lowercase();
+    let program = [".gcode", ".ngc", ".nc", ".tap", ".cnc"]
+        .iter()
+        .any(|e| lower.ends_with(e));
+    if program {
+        let located = |e: crate::gcode::GcodeCheckError| match e.line {
+            0 => format!("{name}: {}", e.message),
+            line => format!("{name}:{line}:{}: {}", e.column, e.message),
+        };
+        return match s.machine {
+            Some(Machine::Arrow) => {
+                crate::arrow_parts::parts(body, crate::arrow_parts::Placement::default())
+                    .map_err(located)?
+                    .to_bytes()
+                    .map_err(|e| format!("{name}: {e}"))
+            }
+            Some(Machine::Grinding | Machine::SingleAxis) => crate::job::Job::Gcode {
+                text: body.to_vec(),
+            }
+            .to_bytes()
+            .map_err(|e| format!("{name}: {e}")),
+            _ => Err(format!(
+                "{name}: a laser program becomes a job with its beam settings: kerf gcode {name} --machine keops-slave --out JOB, then load JOB"
+            )),
+        };
     }
     let picture = image::load_from_memory(body).map_err(|_| {
         format!("{name}: neither a job file (kerf plan --out, kerf gcode --out) nor a picture (PNG, JPEG)")

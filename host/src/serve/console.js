@@ -11,6 +11,7 @@ const state = { machine: null, charts: [], t: [], v: [], dirty: false };
 // Latency from the host reading a sample to the page drawing it, ms.
 window.kerfLatency = { count: 0, sum: 0, max: 0, pending: [] };
 window.kerfSamples = 0;
+window.kerfState = state;  // for the browser test: the plotted samples
 
 async function api(path, options) {
   const r = await fetch(path, options);
@@ -32,34 +33,37 @@ function buildCharts(channels) {
   const names = channels.map((c) => c[0]);
   const used = new Set();
   const charts = [];
-  const pos = [];
   names.forEach((n, i) => {
     const r = names.indexOf(n + "_ref");
     if (r >= 0) {
-      pos.push({ name: n, index: i }, { name: n + "_ref", index: r, dashed: true });
+      charts.push({
+        title: n + " against its reference (" + channels[i][1] + ")",
+        series: [{ name: n, index: i }, { name: n + "_ref", index: r, dashed: true }],
+      });
       used.add(i); used.add(r);
     }
   });
-  if (pos.length) charts.push({ title: "position against reference (" + channels[pos[0].index][1] + ")", series: pos });
+  // Errors apart from the quantities they are errors of (micrometres beside metres).
   const byUnit = new Map();
   channels.forEach(([n, unit], i) => {
     if (used.has(i)) return;
-    if (!byUnit.has(unit)) byUnit.set(unit, []);
-    byUnit.get(unit).push({ name: n, index: i });
+    const key = (n.includes("error") ? "error " : "") + unit;
+    if (!byUnit.has(key)) byUnit.set(key, { unit, series: [] });
+    byUnit.get(key).series.push({ name: n, index: i });
   });
-  for (const [unit, series] of byUnit) {
+  for (const { unit, series } of byUnit.values()) {
     charts.push({ title: series.map((s) => s.name).join(", ") + (unit && unit !== "1" ? " (" + unit + ")" : ""), series });
   }
   const host = $("plots");
   host.innerHTML = "";
-  charts.forEach((c, k) => {
+  charts.forEach((c) => {
     const div = document.createElement("div");
     div.className = "panel plot";
     div.innerHTML = "<h3></h3><canvas></canvas>";
     div.querySelector("h3").textContent = c.title;
     c.canvas = div.querySelector("canvas");
     c.canvas.id = "plot-" + c.series[0].name;
-    c.series.forEach((s, j) => { s.colour = COLOURS[(j >> (pos.length && k === 0 ? 1 : 0)) % COLOURS.length]; });
+    c.series.forEach((s, j) => { s.colour = COLOURS[j % COLOURS.length]; });
     host.appendChild(div);
   });
   state.charts = charts;
@@ -101,7 +105,7 @@ function draw(chart) {
     }
     g.stroke();
     g.fillStyle = s.colour;
-    g.fillText(s.name, pad + 4 + j * 60 * devicePixelRatio, 10 * devicePixelRatio);
+    g.fillText(s.name, pad + (50 + j * 60) * devicePixelRatio, 10 * devicePixelRatio);
   });
 }
 
@@ -141,7 +145,7 @@ function settingsTable(settings, values) {
   table.innerHTML = "";
   for (const s of settings) {
     const tr = document.createElement("tr");
-    tr.innerHTML = "<td class=path></td><td><input> <button>Set</button><div class=error></div></td><td class=unit></td><td class=range></td>";
+    tr.innerHTML = "<td class=path></td><td class=value><input> <button>Set</button><div class=error></div></td><td class=unit></td><td class=range></td>";
     tr.querySelector(".path").textContent = s.path;
     tr.querySelector(".unit").textContent = s.unit;
     tr.querySelector(".range").textContent = s.range || "any";

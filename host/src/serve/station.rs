@@ -146,7 +146,9 @@ pub enum Update {
 
 /// The station's shared half: what clients read without asking the machine.
 pub struct Station {
-    orders: Sender<Order>,
+    /// `None` once the station closes.
+    orders: Option<Sender<Order>>,
+    worker: Option<std::thread::JoinHandle<()>>,
     shared: Arc<Mutex<Snapshot>>,
     updates: broadcast::Sender<Update>,
     /// Who the machine is.
@@ -195,8 +197,9 @@ impl Station {
         };
         let (orders, queue) = channel();
         let (updates, _) = broadcast::channel(4096);
-        let station = Arc::new(Station {
-            orders,
+        let mut station = Station {
+            orders: Some(orders),
+            worker: None,
             shared: Arc::new(Mutex::new(Snapshot {
                 values,
                 mode: mode_words(ModeCode::Idle),
@@ -206,7 +209,7 @@ impl Station {
             settings: description.settings.clone(),
             machine: Machine::from_name(&hello.machine),
             info,
-        });
+        };
         let mut worker = Worker {
             session,
             queue,
@@ -218,8 +221,8 @@ impl Station {
             last_heard: Instant::now(),
         };
         worker.refresh_status();
-        std::thread::spawn(move || worker.serve());
-        Ok(station)
+        station.worker = Some(std::thread::spawn(move || worker.serve()));
+        Ok(Arc::new(station))
     }
 
     /// The state as last heard.
@@ -245,13 +248,30 @@ impl Station {
     pub fn order(&self, line: &str) -> Result<String, String> {
         let (answer, heard) = channel();
         self.orders
+            .as_ref()
+            .ok_or_else(|| self.gone())?
             .send(Order {
                 line: line.to_owned(),
                 answer: Some(answer),
             })
             .map_err(|_| self.gone())?;
         match heard.recv_timeout(ANSWER_WAIT) {
-            Ok(outcome) => outcome,
+            Ok(outcome) => {
+                // A value the running job's session took (between jobs the worker
+                // reads it back itself).
+                if let (Ok(_), ["set", path, value]) = (
+                    &outcome,
+                    line.split_whitespace().collect::<Vec<_>>().as_slice(),
+                ) {
+                    let mut s = lock(&self.shared);
+                    if let Some(v) = s.values.iter_mut().find(|(p, _)| p == path) {
+                        if v.1.parse::<f64>().ok() != value.parse::<f64>().ok() {
+                            v.1 = (*value).to_owned();
+                        }
+                    }
+                }
+                outcome
+            }
             Err(RecvTimeoutError::Timeout) => Err(format!(
                 "the machine did not answer {line:?} within {} s",
                 ANSWER_WAIT.as_secs()
@@ -298,6 +318,21 @@ impl Station {
         drop(s);
         let _ = self.updates.send(Update::State);
         Ok(job)
+    }
+}
+
+impl Drop for Station {
+    /// The last handle: a job that runs is stopped, the session closes (the emulated
+    /// machine ends) before the drop returns.
+    fn drop(&mut self) {
+        if let Some(orders) = self.orders.take() {
+            if lock(&self.shared).running {
+                let _ = orders.send(Order::logged("stop".into()));
+            }
+        }
+        if let Some(worker) = self.worker.take() {
+            let _ = worker.join();
+        }
     }
 }
 
