@@ -169,3 +169,34 @@ pub fn serve(
         }
     }
 }
+
+/// The control period of the simulated axis, s (10 kHz).
+pub const AXIS_PERIOD_S: f64 = 1e-4;
+
+/// The simulated axis of `scenario` on the far end of `socket`, at five times real
+/// time, until `stop` is set or the host hangs up. Bytes from the host come through a
+/// reader thread, so a period never waits for them. Paced, not as fast as it can: a
+/// setting the host sends at a machine time reaches the machine within a few
+/// milliseconds of machine time even on a loaded host (as fast as it could, the
+/// machine ran tenths of a second past it while the tests shared two cores).
+pub fn axis_machine(
+    scenario: kerf_sim::scenario::Scenario,
+    socket: std::os::unix::net::UnixStream,
+    stop: Arc<AtomicBool>,
+) -> JoinHandle<()> {
+    std::thread::spawn(move || {
+        // The heartbeat (tested with the link itself) must not take a busy host for a
+        // lost one.
+        kerf_sim::linked_axis::with_linked_axis::<f64, _>(&scenario, 1e4, |axis| {
+            let pace = Pace::Scaled {
+                period_s: AXIS_PERIOD_S,
+                speedup: 5.0,
+            };
+            serve(socket, &stop, pace, |_, input, send| {
+                axis.period(input, send);
+                true
+            })
+        })
+        .expect("the axis builds");
+    })
+}

@@ -7,46 +7,21 @@
 //! is heard as a fault in the machine's words.
 
 use hal_mock::hall_sensor::ChannelFault;
-use host_tests::link::{run_plan, serve, MachineThread, Pace};
+use host_tests::link::{axis_machine as machine, run_plan, MachineThread};
 use kerf::codec::job::write_gcode;
 use kerf::codec::link::{JobKind, ModeCode, Request};
 use kerf_host::link::{Heard, LinkError, MachineLink};
 use kerf_host::session::{Progress, RunPlan, Session, SessionError};
 use kerf_host::telemetry::TelemetryLog;
-use kerf_sim::linked_axis::{with_linked_axis, AXIS_MOVES_GCODE};
+use kerf_sim::linked_axis::AXIS_MOVES_GCODE;
 use kerf_sim::scenario::Scenario;
 use std::os::unix::net::UnixStream;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
-use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 /// The control period, s (the axis' 10 kHz).
-const PERIOD_S: f64 = 1e-4;
-
-/// The simulated axis of `scenario` on the far end of `socket`, at five times real
-/// time, until `stop` is set or the host hangs up. Bytes from the host come through a
-/// reader thread, so a period never waits for them. Paced, not as fast as it can: a
-/// setting the host sends at a machine time reaches the machine within a few
-/// milliseconds of machine time even on a loaded host (as fast as it could, the
-/// machine ran tenths of a second past it while the tests shared two cores).
-fn machine(scenario: Scenario, socket: UnixStream, stop: Arc<AtomicBool>) -> JoinHandle<()> {
-    std::thread::spawn(move || {
-        // The heartbeat (tested with the link itself) must not take a busy host for a
-        // lost one.
-        with_linked_axis::<f64, _>(&scenario, 1e4, |axis| {
-            let pace = Pace::Scaled {
-                period_s: PERIOD_S,
-                speedup: 5.0,
-            };
-            serve(socket, &stop, pace, |_, input, send| {
-                axis.period(input, send);
-                true
-            })
-        })
-        .expect("the axis builds");
-    })
-}
+const PERIOD_S: f64 = host_tests::link::AXIS_PERIOD_S;
 
 fn moves_job() -> Vec<u8> {
     let mut out = vec![0u8; AXIS_MOVES_GCODE.len() + 64];

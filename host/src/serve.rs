@@ -371,7 +371,7 @@ fn job_file(name: &str, body: &[u8], s: &Station) -> Result<Vec<u8>, String> {
     })?;
     if s.machine != Some(crate::check::Machine::KeopsSlave) {
         return Err(format!(
-            "{name}: a picture is planned for the Keops slave; {} takes {} jobs (plan it with kerf gcode)",
+            "{name}: pictures are planned for the Keops slave only; {} takes {}",
             s.info.name,
             s.info.job_kinds.join(", ")
         ));
