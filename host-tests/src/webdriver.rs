@@ -136,17 +136,21 @@ impl Browser {
             .map(drop)
     }
 
-    /// Clears the element `css` selects and types `text` into it (a file input takes
-    /// the file's path).
+    /// Types `text` into the element `css` selects, replacing what it holds (selected
+    /// with Ctrl-A first, so that the page cannot refill it between a clear and the
+    /// typing); a file input takes the file's path.
     pub fn type_into(&self, css: &str, text: &str) -> Result<(), String> {
         let id = self.find(css)?;
-        if !css.contains("file") {
-            self.call("POST", &format!("/element/{id}/clear"), None)?;
-        }
+        let keys = if css.contains("file") {
+            text.to_owned()
+        } else {
+            // Control down, a, every modifier up, then the text.
+            format!("\u{E009}a\u{E000}{text}")
+        };
         self.call(
             "POST",
             &format!("/element/{id}/value"),
-            Some(json!({ "text": text })),
+            Some(json!({ "text": keys })),
         )
         .map(drop)
     }

@@ -69,6 +69,8 @@ impl Shots {
         let path = self
             .dir
             .join(format!("{}-{}-{what}.png", self.machine, self.step));
+        // The page from its top: the header holds the mode and the last fault.
+        b.script("window.scrollTo(0, 0); return true").unwrap();
         b.screenshot(&path).unwrap();
         println!("console: screenshot {}", path.display());
     }
@@ -107,18 +109,33 @@ fn set_in_page(b: &Browser, path: &str, value: &str) -> String {
     let row = format!("tr:has(input[data-path=\"{path}\"])");
     b.type_into(&format!("{row} input"), value).unwrap();
     b.click(&format!("{row} button")).unwrap();
-    std::thread::sleep(Duration::from_millis(300));
+    let answer = format!(
+        "return document.querySelector('{}').dataset.answer || ''",
+        row.replace('"', "\\\"")
+    );
     b.wait("the setting's answer", Duration::from_secs(30), |b| {
-        let error = b.text(&format!("{row} .error"))?;
-        let now = b.script(&format!(
-            "return document.querySelector('input[data-path=\"{path}\"]').value"
-        ))?;
-        Ok(!error.is_empty()
-            || now
-                .as_str()
-                .is_some_and(|v| v.parse::<f64>().ok() == value.parse().ok()))
+        Ok(b.script(&answer)? != "")
     })
-    .unwrap();
+    .unwrap_or_else(|e| {
+        panic!(
+            "{e}: the row says {:?}, the log {:?}",
+            b.text(&row),
+            b.text("#log")
+        )
+    });
+    let taken = b.script(&answer).unwrap() == "taken";
+    let now = b
+        .script(&format!(
+            "return document.querySelector('input[data-path=\"{path}\"]').value"
+        ))
+        .unwrap();
+    if taken {
+        assert_eq!(
+            now.as_str().and_then(|v| v.parse::<f64>().ok()),
+            value.parse().ok(),
+            "{path}"
+        );
+    }
     b.text(&format!("{row} .error")).unwrap()
 }
 
@@ -141,7 +158,7 @@ fn peak_after(b: &Browser, names: &[&str], from_s: f64) -> (f64, f64) {
 #[ignore = "needs the QEMU link images and Chromium: scripts/console-test"]
 fn the_console_runs_the_horse_on_the_keops_slave_in_a_browser() {
     let (url, _served) = console("link");
-    let b = Browser::start(1400, 900).expect("Chromium starts");
+    let b = Browser::start(1400, 1100).expect("Chromium starts");
     let mut shots = Shots::new("keops");
     b.goto(&url).unwrap();
     wait_mode(&b, "ready");
@@ -233,7 +250,7 @@ fn the_console_runs_the_horse_on_the_keops_slave_in_a_browser() {
 /// Connect, load `job`, start, see the plots grow, change `setting`, stop.
 fn product(image: &str, machine: &'static str, job: &str, setting: (&str, &str)) {
     let (url, _served) = console(image);
-    let b = Browser::start(1400, 900).expect("Chromium starts");
+    let b = Browser::start(1400, 1100).expect("Chromium starts");
     let mut shots = Shots::new(machine);
     b.goto(&url).unwrap();
     wait_mode(&b, "ready");

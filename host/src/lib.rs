@@ -15,6 +15,8 @@
 //! - [`link`]: the host's end of the machine link (requests, replies, typed errors);
 //!   [`session`]: a session with a board or the emulated machine ([`qemu`]) and a
 //!   job's run on it; [`telemetry`]: the samples of a run as CSV, summary and SVG;
+//! - [`serve`]: one process holding a machine open for several clients, with the web
+//!   console and its HTTP API (`kerf serve`, `--session`);
 //! - [`output`]: the files the tool writes, checked before the work and written whole.
 //!
 //! "T" is the thesis the planner comes from (pre-processing and motion control for

@@ -154,18 +154,26 @@ function settingsTable(settings, values) {
     const v = values.find((p) => p[0] === s.path);
     input.value = v ? v[1] : "";
     const err = tr.querySelector(".error");
+    // The row's data-answer says how the machine answered the last change.
     tr.querySelector("button").onclick = async () => {
       err.textContent = "";
+      tr.dataset.answer = "";
       try {
         const r = await post("/api/set", { path: s.path, value: input.value });
         input.value = r.answer.split(" = ").pop();
-      } catch (e) { err.textContent = e.message; }
+        state.lastSet = Date.now();
+        tr.dataset.answer = "taken";
+      } catch (e) {
+        err.textContent = e.message;
+        tr.dataset.answer = "refused";
+      }
     };
     table.appendChild(tr);
   }
 }
 
 async function refresh() {
+  const asked = Date.now();
   const st = await api("/api/status");
   $("mode").textContent = st.mode;
   $("mode").className = "mode " + st.mode.replace(/[^A-Za-z]/g, "");
@@ -177,7 +185,8 @@ async function refresh() {
   $("job-info").textContent = j
     ? j.name + ": " + j.kind + (j.parts > 1 ? ", " + j.parts + " parts" : "") + ", about " + j.duration_s.toFixed(1) + " s, cut " + (j.cut_length_m * 1e3).toFixed(1) + " mm"
     : "no job loaded";
-  for (const [path, value] of st.values) {
+  // A status asked before the last change was answered holds the value before it.
+  if (asked > (state.lastSet || 0)) for (const [path, value] of st.values) {
     const input = document.querySelector('input[data-path="' + path + '"]');
     if (input && document.activeElement !== input) input.value = value;
   }

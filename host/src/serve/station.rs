@@ -111,9 +111,28 @@ pub struct Snapshot {
     pub closed: Option<String>,
     /// The event log's last lines.
     pub log: VecDeque<LogLine>,
-    /// The samples of the last seconds, oldest first: machine time, s, and values.
-    #[serde(skip)]
-    pub recent: VecDeque<(f64, Vec<f32>)>,
+}
+
+/// What the worker keeps and clients read: the state, and apart from it (a status
+/// does not copy it) the samples of the last seconds.
+#[derive(Default)]
+struct Shared {
+    state: Snapshot,
+    /// Oldest first: machine time, s, and values.
+    recent: VecDeque<(f64, Vec<f32>)>,
+}
+
+impl std::ops::Deref for Shared {
+    type Target = Snapshot;
+    fn deref(&self) -> &Snapshot {
+        &self.state
+    }
+}
+
+impl std::ops::DerefMut for Shared {
+    fn deref_mut(&mut self) -> &mut Snapshot {
+        &mut self.state
+    }
 }
 
 /// What the station tells every listener.
@@ -149,7 +168,7 @@ pub struct Station {
     /// `None` once the station closes.
     orders: Option<Sender<Order>>,
     worker: Option<std::thread::JoinHandle<()>>,
-    shared: Arc<Mutex<Snapshot>>,
+    shared: Arc<Mutex<Shared>>,
     updates: broadcast::Sender<Update>,
     /// Who the machine is.
     pub info: MachineInfo,
@@ -200,10 +219,13 @@ impl Station {
         let mut station = Station {
             orders: Some(orders),
             worker: None,
-            shared: Arc::new(Mutex::new(Snapshot {
-                values,
-                mode: mode_words(ModeCode::Idle),
-                ..Snapshot::default()
+            shared: Arc::new(Mutex::new(Shared {
+                state: Snapshot {
+                    values,
+                    mode: mode_words(ModeCode::Idle),
+                    ..Snapshot::default()
+                },
+                recent: VecDeque::new(),
             })),
             updates,
             settings: description.settings.clone(),
@@ -227,9 +249,7 @@ impl Station {
 
     /// The state as last heard.
     pub fn snapshot(&self) -> Snapshot {
-        let mut s = lock(&self.shared).clone();
-        s.recent.clear();
-        s
+        lock(&self.shared).state.clone()
     }
 
     /// The samples of the last seconds (machine time, values), oldest first.
@@ -336,7 +356,7 @@ impl Drop for Station {
     }
 }
 
-fn lock(shared: &Mutex<Snapshot>) -> MutexGuard<'_, Snapshot> {
+fn lock(shared: &Mutex<Shared>) -> MutexGuard<'_, Shared> {
     // A listener that panicked holding the lock left a state worth showing anyway.
     shared.lock().unwrap_or_else(|p| p.into_inner())
 }
@@ -345,7 +365,7 @@ fn lock(shared: &Mutex<Snapshot>) -> MutexGuard<'_, Snapshot> {
 struct Worker {
     session: Session,
     queue: Receiver<Order>,
-    shared: Arc<Mutex<Snapshot>>,
+    shared: Arc<Mutex<Shared>>,
     updates: broadcast::Sender<Update>,
     description: MachineDescription,
     telemetry_hz: f64,
@@ -355,7 +375,7 @@ struct Worker {
 }
 
 /// Samples between two of a client's plots' history.
-fn keep_recent(s: &mut Snapshot, t: f64, values: Vec<f32>) {
+fn keep_recent(s: &mut Shared, t: f64, values: Vec<f32>) {
     if s.recent.len() == RECENT_SAMPLES {
         s.recent.pop_front();
     }
@@ -364,7 +384,7 @@ fn keep_recent(s: &mut Snapshot, t: f64, values: Vec<f32>) {
 }
 
 impl Worker {
-    fn shared(&self) -> MutexGuard<'_, Snapshot> {
+    fn shared(&self) -> MutexGuard<'_, Shared> {
         lock(&self.shared)
     }
 
@@ -593,7 +613,7 @@ impl Worker {
 
 /// A sample heard: kept and told.
 fn sampled(
-    shared: &Mutex<Snapshot>,
+    shared: &Mutex<Shared>,
     updates: &broadcast::Sender<Update>,
     entry: &crate::telemetry::Entry,
 ) {
@@ -617,7 +637,7 @@ fn sampled(
 
 /// An event heard between jobs: its words in the log, a fault kept.
 fn event(
-    shared: &Mutex<Snapshot>,
+    shared: &Mutex<Shared>,
     updates: &broadcast::Sender<Update>,
     description: &MachineDescription,
     t: Option<f64>,
@@ -634,7 +654,7 @@ fn event(
 }
 
 /// A line of the event log: kept and told.
-fn say(shared: &Mutex<Snapshot>, updates: &broadcast::Sender<Update>, t: Option<f64>, text: &str) {
+fn say(shared: &Mutex<Shared>, updates: &broadcast::Sender<Update>, t: Option<f64>, text: &str) {
     let line = LogLine {
         t,
         text: text.to_owned(),
