@@ -21,6 +21,7 @@ use std::time::{Duration, Instant};
 struct Rig {
     /// First, so that the console (and its session) ends before the machine.
     _served: serve::Served,
+    station: Arc<Station>,
     _machine: MachineThread,
     client: Client,
 }
@@ -37,10 +38,11 @@ fn rig() -> Rig {
     .expect("the simulated axis answers");
     let station = Station::start(Session::over(link), 200.0).expect("the station starts");
     let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-    let served = serve::spawn(station, listener).unwrap();
+    let served = serve::spawn(Arc::clone(&station), listener).unwrap();
     let client = Client::new(&served.address.to_string());
     Rig {
         _served: served,
+        station,
         _machine: MachineThread::new(stop, thread),
         client,
     }
@@ -259,4 +261,44 @@ fn a_client_that_leaves_mid_run_changes_nothing_on_the_machine() {
     assert!(summary.contains("ran to its end"), "{st}");
     let log = st["log"].to_string();
     assert!(!log.contains("stop"), "{log}");
+}
+
+#[test]
+fn the_station_keeps_the_state_the_recent_samples_and_tells_its_listeners() {
+    let rig = rig();
+    let mut updates = rig.station.listen();
+    // Telemetry flows between jobs too, at the station's rate.
+    let since = Instant::now();
+    let mut heard = Vec::new();
+    while heard.len() < 50 {
+        match updates.try_recv() {
+            Ok(kerf_host::serve::station::Update::Sample { t, values, .. }) => {
+                heard.push((t, values))
+            }
+            Ok(_) => {}
+            Err(_) => std::thread::sleep(Duration::from_millis(5)),
+        }
+        assert!(since.elapsed() < Duration::from_secs(30));
+    }
+    // 200 samples a second of machine time: 5 ms apart, in order.
+    for pair in heard.windows(2) {
+        assert!(
+            (pair[1].0 - pair[0].0 - 5e-3).abs() < 1e-9,
+            "{:?}",
+            (pair[0].0, pair[1].0)
+        );
+        assert_eq!(pair[1].1.len(), 6);
+    }
+    let recent = rig.station.recent();
+    let last = heard.last().unwrap();
+    assert!(recent.iter().any(|(t, v)| t == &last.0 && v == &last.1));
+    assert!(recent.windows(2).all(|w| w[0].0 < w[1].0));
+    let snapshot = rig.station.snapshot();
+    assert_eq!(snapshot.mode, "ready");
+    assert!(snapshot.samples >= heard.len() as u64);
+    assert_eq!(snapshot.closed, None);
+    // What a status answers is the snapshot.
+    let status = rig.client.get("/api/status").unwrap();
+    assert_eq!(status["mode"], "ready");
+    assert_eq!(status["values"][2][0], "/dob/bandwidth_hz");
 }

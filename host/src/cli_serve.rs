@@ -73,7 +73,7 @@ fn failure(e: ClientError) -> Failure {
 }
 
 /// The settings at or under `path` as the station holds them.
-pub fn listed(url: &str, path: &str) -> Result<Vec<(SettingInfo, String)>, Failure> {
+pub(crate) fn listed(url: &str, path: &str) -> Result<Vec<(SettingInfo, String)>, Failure> {
     let query = format!("/api/settings?under={}", encode(path));
     let items = Client::new(url).get(&query).map_err(failure)?;
     let items = items.as_array().cloned().unwrap_or_default();

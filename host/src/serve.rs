@@ -51,7 +51,7 @@ impl IntoResponse for ApiError {
 type Answer = Result<Json<serde_json::Value>, ApiError>;
 
 /// The console's router over `station`.
-pub fn router(station: Arc<Station>) -> Router {
+fn router(station: Arc<Station>) -> Router {
     Router::new()
         .route("/", get(|| async { asset("text/html", PAGE) }))
         .route(

@@ -314,3 +314,47 @@ fn a_threshold_finds_a_faint_shape() {
     let e = plan_image(&gray, &zero, &mut |_| {}).unwrap_err();
     assert!(e.to_string().contains("threshold must be 1 to 255"), "{e}");
 }
+
+#[test]
+fn session_commands_without_a_station_and_serve_misuse_are_refused_in_words() {
+    // Nothing listens at port 1: the link's exit code, in words.
+    for args in [
+        &["get", "/slave/dob", "--session", "127.0.0.1:1"][..],
+        &["status", "--json", "--session", "127.0.0.1:1"],
+        &["set", "/a/b", "1", "--session", "127.0.0.1:1"],
+    ] {
+        let out = kerf(args);
+        assert_eq!(out.status.code(), Some(3), "{args:?}");
+        assert!(
+            text(&out.stderr).contains("127.0.0.1:1: no kerf serve answers there"),
+            "{}",
+            text(&out.stderr)
+        );
+    }
+    for (args, words) in [
+        (
+            &["serve", "--session", "127.0.0.1:1"][..],
+            "kerf serve holds the machine itself",
+        ),
+        (
+            &["serve", "--qemu", "--listen", "nowhere"],
+            "--listen nowhere: cannot listen there",
+        ),
+        (&["serve", "--qemu", "--telemetry-hz", "0"], "positive rate"),
+        (
+            &["log", "--session", "127.0.0.1:1"],
+            "this command opens the machine itself",
+        ),
+    ] {
+        let out = kerf(args);
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        assert!(text(&out.stderr).contains(words), "{}", text(&out.stderr));
+    }
+    // A session and a machine of its own at once: a usage error.
+    assert_eq!(
+        kerf(&["get", "/x", "--session", "127.0.0.1:1", "--qemu"])
+            .status
+            .code(),
+        Some(2)
+    );
+}
