@@ -297,6 +297,8 @@ fn the_station_keeps_the_state_the_recent_samples_and_tells_its_listeners() {
     assert_eq!(snapshot.mode, "ready");
     assert!(snapshot.samples >= heard.len() as u64);
     assert_eq!(snapshot.closed, None);
+    // Heard within the last samples' time, not since the start.
+    assert!(snapshot.quiet_ms < 1000, "{}", snapshot.quiet_ms);
     // What a status answers is the snapshot.
     let status = rig.client.get("/api/status").unwrap();
     assert_eq!(status["mode"], "ready");

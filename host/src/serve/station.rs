@@ -120,6 +120,8 @@ struct Shared {
     state: Snapshot,
     /// Oldest first: machine time, s, and values.
     recent: VecDeque<(f64, Vec<f32>)>,
+    /// When the machine last sent a sample or an event.
+    last_heard: Option<Instant>,
 }
 
 impl std::ops::Deref for Shared {
@@ -226,6 +228,7 @@ impl Station {
                     ..Snapshot::default()
                 },
                 recent: VecDeque::new(),
+                last_heard: None,
             })),
             updates,
             settings: description.settings.clone(),
@@ -240,7 +243,6 @@ impl Station {
             description,
             telemetry_hz,
             idle_log: None,
-            last_heard: Instant::now(),
         };
         worker.refresh_status();
         station.worker = Some(std::thread::spawn(move || worker.serve()));
@@ -249,7 +251,12 @@ impl Station {
 
     /// The state as last heard.
     pub fn snapshot(&self) -> Snapshot {
-        lock(&self.shared).state.clone()
+        let shared = lock(&self.shared);
+        let mut state = shared.state.clone();
+        state.quiet_ms = shared
+            .last_heard
+            .map_or(0, |t| t.elapsed().as_millis() as u64);
+        state
     }
 
     /// The samples of the last seconds (machine time, values), oldest first.
@@ -371,16 +378,16 @@ struct Worker {
     telemetry_hz: f64,
     /// Between jobs: the samples' time axis.
     idle_log: Option<TelemetryLog>,
-    last_heard: Instant,
 }
 
-/// Samples between two of a client's plots' history.
+/// Keeps a sample for the plots of a client that connects later, and counts it.
 fn keep_recent(s: &mut Shared, t: f64, values: Vec<f32>) {
     if s.recent.len() == RECENT_SAMPLES {
         s.recent.pop_front();
     }
     s.recent.push_back((t, values));
     s.samples += 1;
+    s.last_heard = Some(Instant::now());
 }
 
 impl Worker {
@@ -426,7 +433,6 @@ impl Worker {
     /// What the machine said since the last look.
     fn drain(&mut self) -> Result<(), LinkError> {
         while let Some(heard) = self.session.machine.next(Duration::ZERO)? {
-            self.last_heard = Instant::now();
             match heard {
                 Heard::Telemetry(sample) => {
                     let log = self.idle_log.get_or_insert_with(|| {
@@ -447,18 +453,12 @@ impl Worker {
                 }
                 Heard::Event(e) => {
                     let t = self.idle_log.as_ref().map(TelemetryLog::latest_s);
-                    self.heard_event(t, &e);
+                    event(&self.shared, &self.updates, &self.description, t, &e);
                 }
                 Heard::Reply(..) | Heard::OtherVersion(_) => {}
             }
         }
-        let quiet = self.last_heard.elapsed().as_millis() as u64;
-        self.shared().quiet_ms = quiet;
         Ok(())
-    }
-
-    fn heard_event(&self, t: Option<f64>, e: &Event) {
-        event(&self.shared, &self.updates, &self.description, t, e);
     }
 
     fn refresh_status(&mut self) {
@@ -646,8 +646,12 @@ fn event(
     if let Event::Fault { code, detail } = e {
         lock(shared).last_fault = Some(description.fault_words(*code, *detail));
     }
-    if let Event::Mode { to, .. } = e {
-        lock(shared).mode = mode_words(*to);
+    {
+        let mut s = lock(shared);
+        s.last_heard = Some(Instant::now());
+        if let Event::Mode { to, .. } = e {
+            s.mode = mode_words(*to);
+        }
     }
     say(shared, updates, t, &description.event_words(e));
     let _ = updates.send(Update::State);
