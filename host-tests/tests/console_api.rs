@@ -152,7 +152,7 @@ fn malformed_requests_are_answered_4xx_with_words_and_the_console_goes_on() {
                 include_bytes!("../../host/tests/data/horse.png"),
             ),
             422,
-            "planned for the Keops slave only",
+            "planned for the Keops slave only, not single-axis",
         ),
     ];
     for (outcome, status, words) in cases {

@@ -96,6 +96,24 @@ impl ArrowProgram {
         }
         Ok(out)
     }
+
+    /// The job file of the program `text` this was made of: the program as written
+    /// where the machine takes it so (one part, from where it is written, nothing left
+    /// out), else its parts ([`ArrowProgram::to_bytes`]).
+    pub fn job_file(&self, text: &[u8]) -> Result<Vec<u8>, crate::job::JobFileError> {
+        let as_written = self.parts.len() == 1
+            && !self.from_home
+            && self.shift_m == [0.0; 3]
+            && self.left_out.is_empty();
+        if as_written {
+            crate::job::Job::Gcode {
+                text: text.to_vec(),
+            }
+            .to_bytes()
+        } else {
+            self.to_bytes()
+        }
+    }
 }
 
 /// Bytes of a part's text: the upload buffer less the job file's header and settings
@@ -286,13 +304,23 @@ fn part_text(
 /// heading comment, the modes, then the points.
 const START_LINE: u32 = 3;
 
-/// `text` (which reads without an error) as ARROW's parts (module docs), each checked
-/// by the machine's loader.
+/// `text` as ARROW's parts (module docs), each checked by the machine's loader.
 ///
-/// Errors: the program has no move; a part the machine refuses, at the line of the
-/// original program the refusal names.
+/// Errors: the program's first error as it reads (a line is never left out for one);
+/// the program has no move; a part the machine refuses, at the line of the original
+/// program the refusal names.
 pub fn parts(text: &[u8], placement: Placement) -> Result<ArrowProgram, GcodeCheckError> {
-    let (read, _) = crate::gcode::read_all(text);
+    let (read, found) = crate::gcode::read_all(text);
+    if let Some(d) = found
+        .iter()
+        .find(|d| d.severity() == kerf::trajectory::gcode::Severity::Error)
+    {
+        return Err(GcodeCheckError {
+            line: d.line,
+            column: d.column,
+            message: crate::gcode::describe_gcode(d.kind),
+        });
+    }
     let mut left_out = Vec::new();
     let mut all: Vec<Point> = Vec::with_capacity(read.len() + 1);
     let y0_m = ArrowConfig::ARROW.workspace.y0_m;

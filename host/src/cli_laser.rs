@@ -3,7 +3,6 @@
 
 use crate::report::{say, Report};
 use crate::{prepare, Failure, GcodeArgs};
-use kerf::machines::delta_slave::DeltaSlaveConfig;
 use kerf_host::kerf_offset::KerfSide;
 use kerf_host::laser::{self, Beam, Corners};
 use kerf_host::output::io_words;
@@ -47,10 +46,7 @@ pub fn run(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
         lead_in_mm: kerf.lead_in_mm,
         ..PlanConfig::default()
     };
-    let beam = Beam {
-        s_max,
-        max_power_w: DeltaSlaveConfig::KEOPS.laser.max_power_w,
-    };
+    let beam = Beam::keops(s_max);
     let out = prepare(args.out.as_deref(), "job file")?;
     let text = std::fs::read(file).map_err(|e| {
         Failure::Input(format!("{name}: cannot read the program: {}", io_words(&e)))

@@ -83,6 +83,20 @@ pub struct Beam {
 }
 
 impl Beam {
+    /// `S` of full power when the program's controller says nothing else (grbl's `$30`
+    /// default).
+    pub const GRBL_S_MAX: f64 = 1000.0;
+
+    /// The Keops slave's laser with full power at `S` = `s_max`.
+    pub fn keops(s_max: f64) -> Self {
+        Beam {
+            s_max,
+            max_power_w: kerf::machines::delta_slave::DeltaSlaveConfig::KEOPS
+                .laser
+                .max_power_w,
+        }
+    }
+
     /// The cut settings of `run`: its first move's feed, and `S` as power (`M3`) or as
     /// the energy per length that power gives at the feed (`M4`); `S` past `s_max` is
     /// full power.

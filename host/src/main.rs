@@ -270,7 +270,7 @@ pub(crate) struct GcodeArgs {
     #[arg(long)]
     pub(crate) mill: bool,
     /// For the Keops slave: the S value of full power (grbl's $30).
-    #[arg(long, value_name = "S", default_value_t = 1000.0)]
+    #[arg(long, value_name = "S", default_value_t = kerf_host::laser::Beam::GRBL_S_MAX)]
     pub(crate) s_max: f64,
     /// For the Keops slave: cut the program's corners sharp, as straight moves each at
     /// its feed (planned by the machine's look-ahead planner), or fit each run with a
@@ -569,17 +569,9 @@ fn run_gcode(args: &GcodeArgs, report: &mut Report) -> Result<(), Failure> {
         program.duration_s()
     );
     if let Some(out) = &out {
-        // A program the machine takes as it is goes as written.
-        let as_written = program.parts.len() == 1
-            && !program.from_home
-            && program.shift_m == [0.0; 3]
-            && program.left_out.is_empty();
-        let bytes = if as_written {
-            Job::Gcode { text }.to_bytes()
-        } else {
-            program.to_bytes()
-        }
-        .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+        let bytes = program
+            .job_file(&text)
+            .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
         out.write_bytes(&bytes)?;
         say!(report, "wrote {} ({} bytes)", out.shown(), bytes.len());
     }

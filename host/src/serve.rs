@@ -26,6 +26,7 @@
 pub mod client;
 pub mod station;
 
+use crate::check::Machine;
 use axum::extract::{Query, State};
 use axum::http::{header, StatusCode};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
@@ -322,7 +323,7 @@ async fn load_job(
         ));
     }
     let job = tokio::task::spawn_blocking(move || {
-        let file = job_file(&name, &body, &s)?;
+        let file = job_file(&name, &body, s.machine)?;
         s.load(&name, file)
     })
     .await
@@ -331,12 +332,16 @@ async fn load_job(
     to_json(&job)
 }
 
-/// A file the operator gave as a job: a job file as it is; a G-code program for a
-/// machine that takes programs, as `kerf gcode` writes it (ARROW's in parts where it is
-/// long); a picture planned with the planner's defaults (every closed contour, as
-/// `kerf plan --all`) for the Keops slave.
-fn job_file(name: &str, body: &[u8], s: &Station) -> Result<Vec<u8>, String> {
-    use crate::check::Machine;
+/// The job file of a file the operator gave `machine` (named `name`, for the words):
+/// a job file as it is; a G-code program (`.gcode`, `.ngc`, `.nc`, `.tap`, `.cnc`) as
+/// `kerf gcode --machine M` writes it with its defaults (ARROW's in parts where it is
+/// long, the Keops slave's a laser program's parts); a picture planned as `kerf plan
+/// --all` plans it (every closed contour) for the Keops slave.
+///
+/// Errors, in words: a file that is none of these; a program's errors with their
+/// lines; a picture for a machine that does not cut contours.
+pub fn job_file(name: &str, body: &[u8], machine: Option<Machine>) -> Result<Vec<u8>, String> {
+    let machine_name = machine.map_or("this machine", Machine::name);
     if crate::job::split(body).is_ok() {
         return Ok(body.to_vec());
     }
@@ -349,11 +354,11 @@ fn job_file(name: &str, body: &[u8], s: &Station) -> Result<Vec<u8>, String> {
             0 => format!("{name}: {}", e.message),
             line => format!("{name}:{line}:{}: {}", e.column, e.message),
         };
-        return match s.machine {
+        return match machine {
             Some(Machine::Arrow) => {
                 crate::arrow_parts::parts(body, crate::arrow_parts::Placement::default())
                     .map_err(located)?
-                    .to_bytes()
+                    .job_file(body)
                     .map_err(|e| format!("{name}: {e}"))
             }
             Some(Machine::Grinding | Machine::SingleAxis) => crate::job::Job::Gcode {
@@ -361,19 +366,16 @@ fn job_file(name: &str, body: &[u8], s: &Station) -> Result<Vec<u8>, String> {
             }
             .to_bytes()
             .map_err(|e| format!("{name}: {e}")),
-            _ => Err(format!(
-                "{name}: a laser program becomes a job with its beam settings: kerf gcode {name} --machine keops-slave --out JOB, then load JOB"
-            )),
+            Some(Machine::KeopsSlave) => laser_job(name, body),
+            None => Err(format!("{name}: {machine_name} takes no G-code programs")),
         };
     }
     let picture = image::load_from_memory(body).map_err(|_| {
         format!("{name}: neither a job file (kerf plan --out, kerf gcode --out) nor a picture (PNG, JPEG)")
     })?;
-    if s.machine != Some(crate::check::Machine::KeopsSlave) {
+    if machine != Some(Machine::KeopsSlave) {
         return Err(format!(
-            "{name}: pictures are planned for the Keops slave only; {} takes {}",
-            s.info.name,
-            s.info.job_kinds.join(", ")
+            "{name}: pictures are planned for the Keops slave only, not {machine_name}"
         ));
     }
     let grey = crate::plan::grey_on_background(&picture);
@@ -381,6 +383,27 @@ fn job_file(name: &str, body: &[u8], s: &Station) -> Result<Vec<u8>, String> {
     let set = crate::parts::plan_all(&grey, &config, 0.0, &mut |_| {})
         .map_err(|e| format!("{name}: {e}"))?;
     set.to_bytes().map_err(|e| format!("{name}: {e}"))
+}
+
+/// A laser program as `kerf gcode --machine keops-slave` makes it with its defaults
+/// (where it is written, sharp corners, `S` of full power at grbl's default).
+fn laser_job(name: &str, body: &[u8]) -> Result<Vec<u8>, String> {
+    use crate::laser;
+    let program = laser::read(body);
+    if laser::has_errors(&program) {
+        let errors: Vec<String> = program
+            .diagnostics
+            .iter()
+            .filter(|d| d.severity() == kerf::trajectory::gcode::Severity::Error)
+            .map(|d| format!("{name}:{d}"))
+            .collect();
+        return Err(errors.join("; "));
+    }
+    let beam = laser::Beam::keops(laser::Beam::GRBL_S_MAX);
+    let config = crate::plan::PlanConfig::default();
+    let parts = laser::parts(&program, &config, false, &beam, laser::Corners::Sharp)
+        .map_err(|e| format!("{name}: {e}"))?;
+    laser::to_bytes(&parts).map_err(|e| format!("{name}: {e}"))
 }
 
 async fn preview(State(s): State<Arc<Station>>) -> Response {

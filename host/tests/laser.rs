@@ -417,3 +417,20 @@ fn the_kerf_and_lead_in_move_a_programs_closed_runs_to_the_scrap() {
     let checked = check(&laser::to_bytes(&led).unwrap(), None).unwrap();
     assert_eq!(checked.parts, 2);
 }
+
+/// The Keops slave's beam: S as a fraction of `s_max` of the machine's laser power.
+#[test]
+fn the_keops_beam_gives_s_as_a_share_of_its_full_power() {
+    let program = laser::read(b"G21 G90\nM3 S250\nG1 X1 F600\nG1 Y1\nM5\n");
+    let full_w = kerf::machines::delta_slave::DeltaSlaveConfig::KEOPS
+        .laser
+        .max_power_w;
+    for (s_max, share) in [(Beam::GRBL_S_MAX, 0.25), (500.0, 0.5), (100.0, 1.0)] {
+        let settings = Beam::keops(s_max).settings(&program.runs[0]);
+        assert_eq!(
+            settings.laser,
+            Some(CutLaser::PowerW((share * full_w) as f32)),
+            "S250 of {s_max}"
+        );
+    }
+}
