@@ -26,62 +26,41 @@ fn repo(path: &str) -> String {
 
 #[test]
 fn the_console_makes_of_each_file_the_job_the_command_line_makes() {
-    let horse = repo("host/tests/data/horse.png");
-    let console = job_file(
-        "horse.png",
-        &std::fs::read(&horse).unwrap(),
-        Some(Machine::KeopsSlave),
-    );
-    assert_eq!(
-        console.unwrap(),
-        cli_job(&["plan", &horse, "--all"], "console_horse.krfj")
-    );
-
     let square = tmp("console_square.nc");
     std::fs::write(
         &square,
         "G21 G90\nM3 S600\nG1 X4 Y-4 F600\nG1 X4 Y4\nG1 X-4 Y4\nG1 X-4 Y-4\nG1 X4 Y-4\nM5\n",
     )
     .unwrap();
-    let square_text = square.to_str().unwrap();
-    let console = job_file(
-        "square.nc",
-        &std::fs::read(&square).unwrap(),
-        Some(Machine::KeopsSlave),
+    let square = square.to_str().unwrap().to_owned();
+    let (horse, pyramid, pass) = (
+        repo("host/tests/data/horse.png"),
+        repo("data/pyramid.gcode"),
+        repo("data/grinding_pass.gcode"),
     );
-    let cli = cli_job(
-        &["gcode", square_text, "--machine", "keops-slave"],
-        "console_square.krfj",
-    );
-    assert_eq!(console.unwrap(), cli);
-
-    let pyramid = repo("data/pyramid.gcode");
-    let console = job_file(
-        "pyramid.gcode",
-        &std::fs::read(&pyramid).unwrap(),
-        Some(Machine::Arrow),
-    );
-    assert_eq!(
-        console.unwrap(),
-        cli_job(&["gcode", &pyramid], "console_pyramid.krfj")
-    );
-
-    let pass = repo("data/grinding_pass.gcode");
-    let console = job_file(
-        "pass.gcode",
-        &std::fs::read(&pass).unwrap(),
-        Some(Machine::Grinding),
-    );
-    let cli = cli_job(
-        &["gcode", &pass, "--machine", "grinding"],
-        "console_pass.krfj",
-    );
-    assert_eq!(console.as_ref().unwrap(), &cli);
-    // A job file is taken as it is.
-    assert_eq!(
-        job_file("pass.krfj", &cli, Some(Machine::Grinding)).unwrap(),
-        cli
-    );
+    // The file, the machine, the command that makes its job.
+    let cases: [(&str, Machine, Vec<&str>); 4] = [
+        (&horse, Machine::KeopsSlave, vec!["plan", &horse, "--all"]),
+        (
+            &square,
+            Machine::KeopsSlave,
+            vec!["gcode", &square, "--machine", "keops-slave"],
+        ),
+        (&pyramid, Machine::Arrow, vec!["gcode", &pyramid]),
+        (
+            &pass,
+            Machine::Grinding,
+            vec!["gcode", &pass, "--machine", "grinding"],
+        ),
+    ];
+    for (k, (file, machine, command)) in cases.iter().enumerate() {
+        let name = Path::new(file).file_name().unwrap().to_str().unwrap();
+        let console = job_file(name, &std::fs::read(file).unwrap(), Some(*machine)).unwrap();
+        let cli = cli_job(command, &format!("console_{k}.krfj"));
+        assert_eq!(console, cli, "{name}");
+        // A job file is taken as it is.
+        assert_eq!(job_file("job.krfj", &cli, Some(*machine)).unwrap(), cli);
+    }
 }
 
 #[test]
