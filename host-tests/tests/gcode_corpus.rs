@@ -3,8 +3,9 @@
 //! where a separate, simpler scan of the file puts it; they and random programs are
 //! planned by the look-ahead planner within the machine's limits.
 
-use kerf::trajectory::gcode::{Diagnostic, GcodePoint, MoveKind, Parser, Severity};
+use kerf::trajectory::gcode::{Diagnostic, GcodePoint, MoveKind, Severity};
 use kerf::trajectory::planner::{Block, Planner};
+use kerf_host::gcode::read_all;
 use std::path::PathBuf;
 
 fn corpus() -> Vec<PathBuf> {
@@ -16,23 +17,6 @@ fn corpus() -> Vec<PathBuf> {
         .collect();
     files.sort();
     files
-}
-
-/// Every point and diagnostic of `text`, through the line reader (no buffer limit).
-fn read(text: &[u8]) -> (Vec<GcodePoint>, Vec<Diagnostic>) {
-    let mut parser = Parser::new();
-    let (mut points, mut found) = (Vec::new(), Vec::new());
-    for line in text.split(|&b| b == b'\n') {
-        parser.read_line(
-            line,
-            &mut |p| {
-                points.push(*p);
-                true
-            },
-            &mut |d| found.push(*d),
-        );
-    }
-    (points, found)
 }
 
 /// The scan: comments (and `#` comment lines) dropped, blanks removed, upper case; `G90`/`G91`, `G20`/`G21`
@@ -107,7 +91,7 @@ fn every_corpus_program_loads_without_an_error_and_ends_each_move_where_the_scan
     assert!(files.len() >= 8, "{files:?}");
     for path in files {
         let text = std::fs::read(&path).unwrap();
-        let (points, found) = read(&text);
+        let (points, found) = read_all(&text);
         let name = path.file_name().unwrap().to_string_lossy();
         let errors: Vec<_> = found
             .iter()
@@ -261,7 +245,7 @@ proptest::proptest! {
     #[test]
     fn random_programs_read_to_their_end_points(moves in moves(), seed in 1u64..u64::MAX) {
         let (text, ends) = program(&moves);
-        let (points, found) = read(text.as_bytes());
+        let (points, found) = read_all(text.as_bytes());
         let errors: Vec<&Diagnostic> =
             found.iter().filter(|d| d.severity() == Severity::Error).collect();
         proptest::prop_assert!(errors.is_empty(), "{errors:?}\n{text}");
@@ -283,7 +267,7 @@ proptest::proptest! {
                 }
             }
         }
-        let (again, _) = read(loosened(&text, seed).as_bytes());
+        let (again, _) = read_all(loosened(&text, seed).as_bytes());
         proptest::prop_assert_eq!(again, points);
     }
 }
@@ -399,7 +383,7 @@ fn plan_holds(points: &[GcodePoint]) -> Result<(), String> {
 fn every_corpus_program_is_planned_within_the_machines_limits() {
     for path in corpus() {
         let text = std::fs::read(&path).unwrap();
-        let (points, _) = read(&text);
+        let (points, _) = read_all(&text);
         let name = path.file_name().unwrap().to_string_lossy();
         let (taken, streamed_s, whole_s, feed_bound_s) = plan_program(&points);
         println!(
@@ -421,7 +405,7 @@ proptest::proptest! {
     #[test]
     fn random_programs_read_and_plan_within_the_limits(moves in moves(), seed in 1u64..u64::MAX) {
         let (text, _) = program(&moves);
-        let (points, found) = read(loosened(&text, seed).as_bytes());
+        let (points, found) = read_all(loosened(&text, seed).as_bytes());
         proptest::prop_assert!(found.iter().all(|d| d.severity() != Severity::Error), "{found:?}");
         let held = plan_holds(&points);
         proptest::prop_assert!(held.is_ok(), "{held:?}\n{text}");
