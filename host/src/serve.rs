@@ -166,6 +166,7 @@ pub async fn ended() {
 
 async fn machine(State(s): State<Arc<Station>>) -> Answer {
     let settings: Vec<_> = s
+        .description
         .settings
         .iter()
         .map(|i| serde_json::json!({"path": i.path, "unit": i.unit, "range": i.range}))
@@ -198,16 +199,10 @@ struct Under {
 async fn settings(State(s): State<Arc<Station>>, Query(q): Query<Under>) -> Answer {
     let under = q.under.unwrap_or_else(|| "/".into());
     let values = s.snapshot().values;
-    let prefix = under.trim_end_matches('/');
     let listed: Vec<_> = s
-        .settings
-        .iter()
-        .filter(|i| {
-            i.path == under
-                || i.path
-                    .strip_prefix(prefix)
-                    .is_some_and(|rest| rest.starts_with('/'))
-        })
+        .description
+        .settings_under(&under)
+        .into_iter()
         .map(|i| {
             let value = values
                 .iter()
@@ -251,8 +246,13 @@ async fn set(
             ),
         )
     })?;
-    let Some(info) = s.settings.iter().find(|i| i.path == body.path) else {
-        let known: Vec<&str> = s.settings.iter().map(|i| i.path.as_str()).collect();
+    let Some(info) = s.description.setting(&body.path) else {
+        let known: Vec<&str> = s
+            .description
+            .settings
+            .iter()
+            .map(|i| i.path.as_str())
+            .collect();
         return Err(ApiError(
             StatusCode::NOT_FOUND,
             format!(

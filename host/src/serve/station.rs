@@ -10,9 +10,7 @@
 //! machine's own rule (no heartbeat: it stops the job) acts when this process ends.
 
 use crate::check::{self, Machine};
-use crate::description::{
-    job_kind_words, mode_words, settings_origin_words, MachineDescription, SettingInfo,
-};
+use crate::description::{job_kind_words, mode_words, settings_origin_words, MachineDescription};
 use crate::link::{Heard, LinkError};
 use crate::session::{Order, Progress, RunPlan, Session};
 use crate::telemetry::TelemetryLog;
@@ -174,8 +172,8 @@ pub struct Station {
     updates: broadcast::Sender<Update>,
     /// Who the machine is.
     pub info: MachineInfo,
-    /// Its settings, units and ranges.
-    pub settings: Vec<SettingInfo>,
+    /// What it announced: its settings with units and ranges, its words.
+    pub description: MachineDescription,
     /// The machine, for the host's own job check.
     pub machine: Option<Machine>,
 }
@@ -231,7 +229,7 @@ impl Station {
                 last_heard: None,
             })),
             updates,
-            settings: description.settings.clone(),
+            description: description.clone(),
             machine: Machine::from_name(&hello.machine),
             info,
         };
