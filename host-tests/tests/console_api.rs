@@ -169,6 +169,7 @@ fn malformed_requests_are_answered_4xx_with_words_and_the_console_goes_on() {
     let listed = c.get("/api/settings?under=/dob/bandwidth_hz").unwrap();
     assert_eq!(listed[0]["value"], 150.0);
     assert_eq!(listed[0]["range"], "> 0 and ≤ 3183");
+    assert_eq!(listed[0]["preset"], 150.0);
 }
 
 #[test]

@@ -471,7 +471,7 @@ pub fn get(
     Ok(())
 }
 
-/// `kerf settings [--json]`: every setting with its value, unit and range.
+/// `kerf settings [--json]`: every setting with its value, preset, unit and range.
 pub fn settings(json: bool, machine: &MachineArgs, report: &mut Report) -> Result<(), Failure> {
     let listed = match machine.session() {
         Some(url) => crate::cli_serve::listed(url, "/")?,
@@ -492,18 +492,22 @@ pub fn settings(json: bool, machine: &MachineArgs, report: &mut Report) -> Resul
         .max()
         .unwrap_or(5)
         .max(5);
+    let preset_width = listed.iter().map(|(i, _)| i.preset.chars().count());
+    let preset_width = preset_width.max().unwrap_or(6).max(6);
     say!(
         report,
-        "{:width$}  {:>value_width$}  {:8}  range",
+        "{:width$}  {:>value_width$}  {:>preset_width$}  {:8}  range",
         "path",
         "value",
+        "preset",
         "unit"
     );
     for (info, value) in &listed {
         say!(
             report,
-            "{:width$}  {value:>value_width$}  {:8}  {}",
+            "{:width$}  {value:>value_width$}  {:>preset_width$}  {:8}  {}",
             info.path,
+            info.preset,
             info.unit,
             if info.range.is_empty() {
                 "any"
@@ -547,22 +551,10 @@ fn read_settings(
         .collect()
 }
 
-/// Settings and values as a JSON array of `{path, value, unit, range}` (the value as
-/// the machine gives it: a number, true or false).
+/// Settings and values as a JSON array ([`SettingInfo::json`]).
 fn settings_json(listed: &[(SettingInfo, String)]) -> String {
-    let items: Vec<serde_json::Value> = listed
-        .iter()
-        .map(|(info, value)| {
-            serde_json::json!({
-                "path": info.path,
-                "value": serde_json::from_str::<serde_json::Value>(value)
-                    .unwrap_or_else(|_| serde_json::Value::String(value.clone())),
-                "unit": info.unit,
-                "range": info.range,
-            })
-        })
-        .collect();
-    serde_json::Value::Array(items).to_string()
+    let items = listed.iter().map(|(info, value)| info.json(Some(value)));
+    serde_json::Value::Array(items.collect()).to_string()
 }
 
 /// `kerf set PATH VALUE`.
@@ -703,10 +695,11 @@ pub fn status(json: bool, machine: &MachineArgs, report: &mut Report) -> Result<
     for setting in &description.settings {
         say!(
             report,
-            "setting      {} {} {}",
+            "setting      {} {} {} (preset {})",
             setting.path,
             setting.unit,
-            setting.range
+            setting.range,
+            setting.preset
         );
     }
     Ok(())

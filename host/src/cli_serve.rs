@@ -86,6 +86,7 @@ pub(crate) fn listed(url: &str, path: &str) -> Result<Vec<(SettingInfo, String)>
                     path: text("path"),
                     unit: text("unit"),
                     range: text("range"),
+                    preset: i["preset"].to_string(),
                 },
                 i["value"].to_string(),
             )

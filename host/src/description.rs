@@ -43,6 +43,30 @@ pub struct SettingInfo {
     pub unit: String,
     /// The values the machine takes, in words (empty: any of its type).
     pub range: String,
+    /// The value it starts with when nothing is saved, as `get` prints it.
+    pub preset: String,
+}
+
+impl SettingInfo {
+    /// The setting as JSON for scripts and the console: `{path, value, preset, unit,
+    /// range}`, values as the machine gives them (a number, true or false; text the
+    /// machine gave that is not JSON as a string), `value` omitted when not read.
+    pub fn json(&self, value: Option<&str>) -> serde_json::Value {
+        let parsed = |text: &str| {
+            serde_json::from_str::<serde_json::Value>(text)
+                .unwrap_or_else(|_| serde_json::Value::String(text.to_owned()))
+        };
+        let mut item = serde_json::json!({
+            "path": self.path,
+            "preset": parsed(&self.preset),
+            "unit": self.unit,
+            "range": self.range,
+        });
+        if let (Some(value), Some(map)) = (value, item.as_object_mut()) {
+            map.insert("value".into(), parsed(value));
+        }
+        item
+    }
 }
 
 /// A code and its words.
@@ -85,10 +109,16 @@ impl Item {
                 unit: unit.to_owned(),
             }),
             Description::JobKind(kind) => Self::JobKind(kind),
-            Description::Setting { path, unit, range } => Self::Setting(SettingInfo {
+            Description::Setting {
+                path,
+                unit,
+                range,
+                preset,
+            } => Self::Setting(SettingInfo {
                 path: path.to_owned(),
                 unit: unit.to_owned(),
                 range: range.to_owned(),
+                preset: preset.to_owned(),
             }),
             Description::Fault {
                 code,
@@ -318,6 +348,7 @@ mod tests {
                 path: "/dob/bandwidth_hz",
                 unit: "Hz",
                 range: "> 0 and ≤ 3183",
+                preset: "150.0",
             },
             Description::Fault {
                 code: 5,
@@ -381,6 +412,7 @@ mod tests {
                 path,
                 unit: "",
                 range: "",
+                preset: "0",
             }));
         }
         let paths = |p: &str| -> Vec<String> {

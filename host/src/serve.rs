@@ -169,7 +169,7 @@ async fn machine(State(s): State<Arc<Station>>) -> Answer {
         .description
         .settings
         .iter()
-        .map(|i| serde_json::json!({"path": i.path, "unit": i.unit, "range": i.range}))
+        .map(|i| i.json(None))
         .collect();
     Ok(Json(serde_json::json!({
         "machine": s.info,
@@ -209,13 +209,7 @@ async fn settings(State(s): State<Arc<Station>>, Query(q): Query<Under>) -> Answ
                 .find(|(p, _)| *p == i.path)
                 .map(|(_, v)| v.as_str())
                 .unwrap_or("null");
-            serde_json::json!({
-                "path": i.path,
-                "value": serde_json::from_str::<serde_json::Value>(value)
-                    .unwrap_or_else(|_| value.into()),
-                "unit": i.unit,
-                "range": i.range,
-            })
+            i.json(Some(value))
         })
         .collect();
     if listed.is_empty() {

@@ -117,11 +117,13 @@ fn refusals_are_told_apart_and_name_their_figures() {
 
 /// The Keops slave's description as the machine sends it, item by item.
 fn keops_slave() -> MachineDescription {
-    use kerf::app::host_link::{describe, SettingPath};
+    use kerf::app::host_link::{describe, SettingText};
+    use kerf::machines::delta_slave::{link::SlaveSettings, DeltaSlave, DeltaSlaveConfig};
+    let presets = SlaveSettings::of(&DeltaSlaveConfig::KEOPS.joints.axis);
     let mut d = MachineDescription::default();
     for index in 0.. {
-        let mut path = SettingPath::default();
-        match describe::<kerf::machines::delta_slave::DeltaSlave<f32>>(index, &mut path) {
+        let mut text = SettingText::default();
+        match describe::<DeltaSlave<f32>>(index, &presets, &mut text) {
             Some(item) => d.add(&Item::of(&item)),
             None => return d,
         }

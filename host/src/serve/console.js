@@ -142,11 +142,12 @@ function logLine(line) {
 
 function settingsTable(settings, values) {
   const table = $("settings");
-  table.innerHTML = "";
+  table.innerHTML = "<tr><th>setting</th><th>value</th><th>preset</th><th>unit</th><th>range</th></tr>";
   for (const s of settings) {
     const tr = document.createElement("tr");
-    tr.innerHTML = "<td class=path></td><td class=value><input> <button>Set</button><div class=error></div></td><td class=unit></td><td class=range></td>";
+    tr.innerHTML = "<td class=path></td><td class=value><input> <button>Set</button><div class=error></div></td><td class=preset></td><td class=unit></td><td class=range></td>";
     tr.querySelector(".path").textContent = s.path;
+    tr.querySelector(".preset").textContent = String(s.preset);
     tr.querySelector(".unit").textContent = s.unit;
     tr.querySelector(".range").textContent = s.range || "any";
     const input = tr.querySelector("input");

@@ -99,12 +99,32 @@ pub trait LinkMachine: Machine {
     fn sample(telemetry: &Self::Telemetry, values: &mut ChannelValues);
 }
 
-/// Item `index` of `M`'s description: its channels, job kinds, settings (the path
-/// written into `path`), fault codes and job refusal codes, in that order; `None` past
-/// the last.
+/// Longest value of a setting as text, bytes (as [`Request::Get`] answers).
+const VALUE_BYTES: usize = 64;
+
+/// Room for the text of a setting's description: its path and its preset value.
+#[derive(Clone, Debug)]
+pub struct SettingText {
+    path: SettingPath,
+    preset: [u8; VALUE_BYTES],
+}
+
+impl Default for SettingText {
+    fn default() -> Self {
+        Self {
+            path: SettingPath::default(),
+            preset: [0; VALUE_BYTES],
+        }
+    }
+}
+
+/// Item `index` of `M`'s description: its channels, job kinds, settings (their path
+/// and their value in `presets` written into `text`), fault codes and job refusal
+/// codes, in that order; `None` past the last.
 pub fn describe<'a, M: LinkMachine>(
     index: u16,
-    path: &'a mut SettingPath,
+    presets: &M::Settings,
+    text: &'a mut SettingText,
 ) -> Option<Description<'a>> {
     let mut i = usize::from(index);
     if let Some(c) = M::CHANNELS.get(i) {
@@ -122,7 +142,10 @@ pub fn describe<'a, M: LinkMachine>(
     let leaves = || NodeIter::<SettingPath, SETTINGS_DEPTH>::new(M::Settings::SCHEMA);
     let count = leaves().count();
     if i < count {
-        *path = leaves().nth(i)?.ok()?;
+        text.path = leaves().nth(i)?.ok()?;
+        let SettingText { path, preset } = text;
+        let n = json_core::get(presets, path.as_ref(), preset).ok()?;
+        let preset = core::str::from_utf8(preset.get(..n)?).ok()?;
         let path: &'a SettingPath = path;
         let (edge, _) = M::Settings::SCHEMA.get_meta(path.as_ref()).ok()?;
         let meta = |key| edge.and_then(|m| m.get(key)).unwrap_or("");
@@ -130,6 +153,7 @@ pub fn describe<'a, M: LinkMachine>(
             path: path.as_ref(),
             unit: meta("unit"),
             range: meta("range"),
+            preset,
         });
     }
     i -= count;
@@ -199,6 +223,8 @@ pub struct HostLink<'q, M: LinkMachine, const J: usize> {
     reader: FrameReader<MAX_FRAME>,
     upload: Option<Upload<J>>,
     settings: M::Settings,
+    /// The settings as flashed, before any saved copy.
+    presets: M::Settings,
     pending: Deque<(u16, CommandKind), 4>,
     telemetry_every: u32,
     last_sample_period: Option<u64>,
@@ -261,6 +287,7 @@ impl<'q, M: LinkMachine, const J: usize> HostLink<'q, M, J> {
             reader: FrameReader::new(),
             upload: None,
             settings,
+            presets: settings,
             pending: Deque::new(),
             telemetry_every: 0,
             last_sample_period: None,
@@ -425,8 +452,8 @@ impl<'q, M: LinkMachine, const J: usize> HostLink<'q, M, J> {
             ),
             Request::Heartbeat => self.reply(seq, Reply::Ack, send),
             Request::Describe { index } => {
-                let mut path = SettingPath::default();
-                let item = describe::<M>(index, &mut path);
+                let mut text = SettingText::default();
+                let item = describe::<M>(index, &self.presets, &mut text);
                 self.reply(seq, Reply::Description { index, item }, send);
             }
             Request::Status => {
@@ -517,7 +544,7 @@ impl<'q, M: LinkMachine, const J: usize> HostLink<'q, M, J> {
                 self.reply(seq, reply, send);
             }
             Request::Get { path } => {
-                let mut value = [0u8; 64];
+                let mut value = [0u8; VALUE_BYTES];
                 match json_core::get(&self.settings, path, &mut value) {
                     Ok(n) => {
                         let v = value.get(..n).unwrap_or(&[]);

@@ -49,8 +49,9 @@ use serde::{Deserialize, Serialize};
 /// Version of the frame and the messages in it (2: `Hello` carries the control
 /// period, `Status`; 3: the machine describes itself, telemetry carries its own
 /// channels; 4: a job loaded while one runs is queued behind it, [`Event::NextJob`];
-/// 5: settings saved across resets, [`Request::Save`], [`MachineStatus::settings`]).
-pub const VERSION: u8 = 5;
+/// 5: settings saved across resets, [`Request::Save`], [`MachineStatus::settings`];
+/// 6: a setting's description carries its preset).
+pub const VERSION: u8 = 6;
 
 /// Most values a telemetry sample carries.
 pub const MAX_CHANNELS: usize = 16;
@@ -393,6 +394,9 @@ pub enum Description<'a> {
         /// The values the machine takes, in words (`0 < value ≤ 3183`; empty: any
         /// value of its type).
         range: &'a str,
+        /// The value the machine starts with when nothing is saved (as flashed), as
+        /// [`Request::Get`] answers.
+        preset: &'a str,
     },
     /// What a fault code of [`Event::Fault`] means.
     Fault {

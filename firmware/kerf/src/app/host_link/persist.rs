@@ -5,7 +5,7 @@
 //! configuration (a value the machine no longer takes is left at its preset and
 //! counted).
 
-use super::{LinkMachine, SettingPath, SETTINGS_DEPTH};
+use super::{LinkMachine, SettingPath, SETTINGS_DEPTH, VALUE_BYTES};
 use crate::app::supervisor::Command;
 use heapless::spsc::Producer;
 use miniconf::{json_core, NodeIter, TreeSchema};
@@ -20,9 +20,6 @@ pub(super) type WriteText<S> = fn(&S, &mut heapless::Vec<u8, SAVED_BYTES>) -> Op
 /// How restored settings go to a machine's supervisor ([`restore`] of its type).
 pub(super) type Restore<M> =
     fn(&<M as LinkMachine>::Settings, f64, &mut Producer<'_, Command<M>>) -> bool;
-
-/// Longest value as text, bytes (as `Get` answers).
-const VALUE_BYTES: usize = 64;
 
 /// Every leaf of `settings` as `path=value\n` into `out`; `None` when they do not
 /// fit or a leaf cannot be read.

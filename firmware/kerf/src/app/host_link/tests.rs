@@ -714,10 +714,17 @@ fn bad_frames_and_unsent_messages_are_counted_once_each() {
 }
 
 /// A host asks item after item: the machine's channel, job kind, settings (nested
-/// paths), fault and refusal words, then `None`.
+/// paths, each with its preset: the value as flashed, not as set since), fault and
+/// refusal words, then `None`.
 #[test]
 fn the_machine_describes_itself_item_by_item() {
     with_rig(|rig| {
+        let set = Request::Set {
+            path: "/gain",
+            value: b"3.5",
+        };
+        assert!(rig.exchange(&frame(39, set), 0).is_empty());
+        assert_eq!(rig.exchange(&[], 1), [reply(39, "Ack")]);
         let mut items = Vec::new();
         for index in 0..8u16 {
             let got = rig.exchange(&frame(40 + index, Request::Describe { index }), 0);
@@ -727,8 +734,8 @@ fn the_machine_describes_itself_item_by_item() {
         let expected = [
             r#"Description { index: 0, item: Some(Channel { name: "left", unit: "1" }) }"#,
             "Description { index: 1, item: Some(JobKind(Points)) }",
-            r#"Description { index: 2, item: Some(Setting { path: "/gain", unit: "", range: "" }) }"#,
-            r#"Description { index: 3, item: Some(Setting { path: "/limits/speed_m_s", unit: "", range: "" }) }"#,
+            r#"Description { index: 2, item: Some(Setting { path: "/gain", unit: "", range: "", preset: "2.0" }) }"#,
+            r#"Description { index: 3, item: Some(Setting { path: "/limits/speed_m_s", unit: "", range: "", preset: "0.01" }) }"#,
             r#"Description { index: 4, item: Some(Fault { code: 1, words: "the toy broke", detail: "" }) }"#,
             r#"Description { index: 5, item: Some(JobRefusal { code: 1, words: "not a point job" }) }"#,
             "Description { index: 6, item: None }",

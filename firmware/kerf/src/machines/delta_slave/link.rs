@@ -623,16 +623,20 @@ mod tests {
     /// announced upper bound of a bandwidth is where validation refuses.
     #[test]
     fn the_slave_describes_itself() {
-        use crate::app::host_link::{describe, SettingPath};
+        use crate::app::host_link::{describe, SettingText};
         use crate::codec::link::Description;
         type S = DeltaSlave<f32>;
         let mut items = Vec::new();
         for index in 0.. {
-            let mut path = SettingPath::default();
-            match describe::<S>(index, &mut path) {
-                Some(Description::Setting { path, unit, range }) => {
-                    items.push(std::format!("setting {path} {unit} {range}"))
-                }
+            let mut text = SettingText::default();
+            match describe::<S>(
+                index,
+                &SlaveSettings::of(&DeltaSlaveConfig::KEOPS.joints.axis),
+                &mut text,
+            ) {
+                Some(Description::Setting {
+                    path, unit, range, ..
+                }) => items.push(std::format!("setting {path} {unit} {range}")),
                 Some(item) => items.push(std::format!("{item:?}")),
                 None => break,
             }

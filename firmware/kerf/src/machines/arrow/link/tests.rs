@@ -1,5 +1,5 @@
 use super::*;
-use crate::app::host_link::{describe, SettingPath};
+use crate::app::host_link::{describe, SettingText};
 use crate::codec::job::{write_efd, write_gcode};
 use crate::codec::link::Description;
 use miniconf::json_core;
@@ -117,7 +117,8 @@ fn every_code_has_its_words() {
 /// The description: sixteen channels, G-code jobs, eleven settings with their units.
 #[test]
 fn arrow_describes_itself() {
-    let (settings, count) = crate::app::host_link::test_support::described::<A>();
+    let (settings, count) =
+        crate::app::host_link::test_support::described::<A>(&ArrowSettings::ARROW);
     assert_eq!(settings.len(), 11, "{settings:?}");
     assert!(settings.contains(&String::from("/turntable/kp [N·m/rad] > 0")));
     assert!(settings.contains(&String::from("/feedforward [] true or false")));
@@ -125,9 +126,9 @@ fn arrow_describes_itself() {
         count,
         CHANNELS.len() + 1 + 11 + FAULTS.len() + JOB_REFUSALS.len()
     );
-    let mut path = SettingPath::default();
+    let mut path = SettingText::default();
     assert_eq!(
-        describe::<A>(CHANNELS.len() as u16, &mut path),
+        describe::<A>(CHANNELS.len() as u16, &ArrowSettings::ARROW, &mut path),
         Some(Description::JobKind(JobKind::Gcode))
     );
 }

@@ -1,5 +1,5 @@
 use super::*;
-use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingPath};
+use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingText};
 use crate::app::jobs::JobSlots;
 use crate::app::supervisor::{Command, Machine, NonFiniteOutput};
 use crate::codec::job::{write_gcode, write_schedule};
@@ -118,7 +118,8 @@ fn every_code_has_its_words() {
 /// the stage's period.
 #[test]
 fn the_stage_describes_itself() {
-    let (settings, count) = crate::app::host_link::test_support::described::<S>();
+    let (settings, count) =
+        crate::app::host_link::test_support::described::<S>(&StageSettings::POWER_UP);
     assert_eq!(settings.len(), 9, "{settings:?}");
     assert!(settings.contains(&String::from("/law/max_speed_m_s [m/s] > 0")));
     assert!(settings.contains(&String::from("/velocity/bandwidth_hz [Hz] > 0 and ≤ 318")));
@@ -126,9 +127,9 @@ fn the_stage_describes_itself() {
         count,
         CHANNELS.len() + 1 + 9 + FAULTS.len() + JOB_REFUSALS.len()
     );
-    let mut path = SettingPath::default();
+    let mut path = SettingText::default();
     assert_eq!(
-        describe::<S>(CHANNELS.len() as u16, &mut path),
+        describe::<S>(CHANNELS.len() as u16, &StageSettings::POWER_UP, &mut path),
         Some(Description::JobKind(JobKind::Schedule))
     );
     for (path, at, past) in [

@@ -1,5 +1,5 @@
 use super::*;
-use crate::app::host_link::{describe, SettingPath};
+use crate::app::host_link::{describe, SettingText};
 use crate::app::supervisor::{Machine, NonFiniteOutput};
 use crate::codec::job::{write_efd, write_gcode};
 use crate::codec::link::Description;
@@ -216,7 +216,8 @@ fn every_code_has_its_words() {
 /// The description: nine channels, G-code jobs, eleven settings with their units.
 #[test]
 fn the_cell_describes_itself() {
-    let (settings, count) = crate::app::host_link::test_support::described::<G>();
+    let (settings, count) =
+        crate::app::host_link::test_support::described::<G>(&GrindingSettings::CELL);
     assert_eq!(settings.len(), 11, "{settings:?}");
     assert!(settings.contains(&String::from("/pid/kp [nm/N] finite")));
     assert!(settings.contains(&String::from("/pid/anti_windup [1/s] 0 to 1000")));
@@ -225,9 +226,9 @@ fn the_cell_describes_itself() {
         count,
         CHANNELS.len() + 1 + 11 + FAULTS.len() + JOB_REFUSALS.len()
     );
-    let mut path = SettingPath::default();
+    let mut path = SettingText::default();
     assert_eq!(
-        describe::<G>(CHANNELS.len() as u16, &mut path),
+        describe::<G>(CHANNELS.len() as u16, &GrindingSettings::CELL, &mut path),
         Some(Description::JobKind(JobKind::Gcode))
     );
 }

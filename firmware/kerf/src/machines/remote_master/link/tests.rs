@@ -1,7 +1,7 @@
 use super::super::product::{config, sample_contour, session, LINK_JOB_BYTES};
 use super::super::RemoteMaster;
 use super::*;
-use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingPath};
+use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingText};
 use crate::app::jobs::JobSlots;
 use crate::app::supervisor::{Command, Machine};
 use crate::codec::job::{write_gcode, write_points};
@@ -222,7 +222,8 @@ fn every_fault_is_told_in_words() {
 /// The description: sixteen channels, points jobs, four settings with their units.
 #[test]
 fn the_master_describes_itself() {
-    let (settings, count) = crate::app::host_link::test_support::described::<M>();
+    let (settings, count) =
+        crate::app::host_link::test_support::described::<M>(&MasterSettings::MASTER);
     assert_eq!(
         settings,
         [
@@ -236,9 +237,9 @@ fn the_master_describes_itself() {
         count,
         CHANNELS.len() + 1 + 4 + FAULTS.len() + JOB_REFUSALS.len()
     );
-    let mut path = SettingPath::default();
+    let mut path = SettingText::default();
     assert_eq!(
-        describe::<M>(CHANNELS.len() as u16, &mut path),
+        describe::<M>(CHANNELS.len() as u16, &MasterSettings::MASTER, &mut path),
         Some(Description::JobKind(JobKind::Points))
     );
 }

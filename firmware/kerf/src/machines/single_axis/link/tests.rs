@@ -1,5 +1,5 @@
 use super::*;
-use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingPath};
+use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingText};
 use crate::app::jobs::JobSlots;
 use crate::app::supervisor::Command;
 use crate::codec::job::{write_efd, write_gcode};
@@ -121,7 +121,8 @@ fn every_code_has_its_words() {
 /// refuses at the axis' period.
 #[test]
 fn the_axis_describes_itself() {
-    let (settings, count) = crate::app::host_link::test_support::described::<A>();
+    let (settings, count) =
+        crate::app::host_link::test_support::described::<A>(&AxisSettings::of(&CONFIG.axis));
     assert_eq!(settings.len(), 7, "{settings:?}");
     assert!(settings.contains(&String::from("/pd/kp_per_s2 [1/s²] > 0")));
     assert!(settings.contains(&String::from("/dob/bandwidth_hz [Hz] > 0 and ≤ 3183")));
@@ -129,9 +130,13 @@ fn the_axis_describes_itself() {
         count,
         CHANNELS.len() + 1 + 7 + FAULTS.len() + JOB_REFUSALS.len()
     );
-    let mut path = SettingPath::default();
+    let mut path = SettingText::default();
     assert_eq!(
-        describe::<A>(CHANNELS.len() as u16, &mut path),
+        describe::<A>(
+            CHANNELS.len() as u16,
+            &AxisSettings::of(&CONFIG.axis),
+            &mut path
+        ),
         Some(Description::JobKind(JobKind::Gcode))
     );
     let settings = AxisSettings::of(&CONFIG.axis);

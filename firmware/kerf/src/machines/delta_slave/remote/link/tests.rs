@@ -1,5 +1,5 @@
 use super::*;
-use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingPath};
+use crate::app::host_link::{describe, HostLink, HostLinkConfig, SettingText};
 use crate::app::jobs::JobSlots;
 use crate::app::supervisor::{Command, Machine, Mode, NonFiniteOutput, Report, Supervisor};
 use crate::codec::job::{write_gcode, write_recording};
@@ -95,11 +95,11 @@ fn a_session_loads_and_other_jobs_are_refused_in_words() {
 fn the_slave_describes_itself() {
     let mut items = Vec::new();
     for index in 0.. {
-        let mut path = SettingPath::default();
-        match describe::<S>(index, &mut path) {
-            Some(Description::Setting { path, unit, range }) => {
-                items.push(format!("setting {path} [{unit}] {range}"))
-            }
+        let mut text = SettingText::default();
+        match describe::<S>(index, &RemoteSlaveSettings::of_product(), &mut text) {
+            Some(Description::Setting {
+                path, unit, range, ..
+            }) => items.push(format!("setting {path} [{unit}] {range}")),
             Some(item) => items.push(format!("{item:?}")),
             None => break,
         }
