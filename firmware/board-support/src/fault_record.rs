@@ -19,7 +19,8 @@ pub enum Cause {
     PowerOn = 0,
     /// The reset pin (the probe, the NUCLEO's reset button).
     Pin = 1,
-    /// A software reset without a fault record (the probe's reset request).
+    /// A software reset without a fault record (the probe's reset request, the
+    /// restart after a settings save).
     Software = 2,
     /// A HardFault; detail: the stacked program counter's low 16 bits.
     HardFault = board_fault::HARD_FAULT as u8,

@@ -135,6 +135,7 @@ macro_rules! hall_image {
                 link: $link,
                 fit: FIT.init_with(|| $fit_new),
                 reset,
+                flash: p.FLASH,
             };
             let task = image::start(image, $new, &CONTROL, &HANDOFF, &LINK, &mut core.NVIC);
             let executor = EXECUTOR.init(embassy_executor::Executor::new());

@@ -123,6 +123,24 @@ pub fn start_watchdog() {
     refresh_watchdog();
 }
 
+/// IWDG prescaler /64 (register value 4): 500 Hz, so [`IWDG_RELOAD`] lasts 160 ms.
+const IWDG_PRESCALER_LONG: u8 = 4;
+
+/// Gives the watchdog 160 ms from now instead of 10 ms: for a flash erase (up to
+/// 40 ms) with the control interrupt stopped, before a restart. The prescaler takes
+/// a write only when the previous one has reached the watchdog's clock (IWDG_SR.PVU).
+pub fn lengthen_watchdog() {
+    let iwdg = pac::IWDG;
+    refresh_watchdog();
+    iwdg.kr().write(|w| w.set_key(pac::iwdg::vals::Key::ENABLE));
+    // Bounded: the registers update within a few LSI periods (RM0440 IWDG_SR).
+    let _ = (0..100_000).any(|_| iwdg.sr().read().0 & 0x1 == 0);
+    iwdg.pr()
+        .write(|w| w.set_pr(pac::iwdg::vals::Pr::from_bits(IWDG_PRESCALER_LONG)));
+    let _ = (0..100_000).any(|_| iwdg.sr().read().0 & 0x1 == 0);
+    refresh_watchdog();
+}
+
 /// Reloads the watchdog's counter.
 #[inline]
 pub fn refresh_watchdog() {

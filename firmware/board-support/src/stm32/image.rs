@@ -11,12 +11,15 @@ use super::fault::{self, Cause, ResetCause};
 use super::link::{LinkTask, SweepFit};
 use super::period::{self, BoardHal, Control, Handoff, Leds};
 use super::pins::PinId;
+use super::store::{BoardStore, STORE};
 use super::timer::{self, Tim1Pins, TimerError, TimerInterrupts};
 use super::timing::KERF_STATUS;
 use core::sync::atomic::Ordering;
 use embassy_stm32::mode::Async;
 use embassy_stm32::pac;
+use embassy_stm32::peripherals::FLASH;
 use embassy_stm32::usart::{RingBufferedUartRx, UartTx};
+use embassy_stm32::Peri;
 use heapless::spsc::{Consumer, Producer};
 use kerf::app::host_link::{HostLink, HostLinkConfig, LinkMachine};
 use kerf::app::jobs::JobSlots;
@@ -83,6 +86,8 @@ pub struct Image<
     pub fit: &'static mut F,
     /// Why the board last reset.
     pub reset: ResetCause,
+    /// The flash, for the settings store.
+    pub flash: Peri<'static, FLASH>,
 }
 
 /// Starts an image (module docs) and returns its link task, or goes to the fault
@@ -150,9 +155,16 @@ where
         heartbeat_timeout_s: HostLinkConfig::DEFAULT_TIMEOUT_S,
     };
     let (settings, context) = image.link;
-    let Ok(host_link) = HostLink::new(&link_config, settings, context, image.jobs) else {
+    let Ok(mut host_link) = HostLink::new(&link_config, settings, context, image.jobs) else {
         fault::fail(Cause::Startup, 7)
     };
+    match BoardStore::new(image.flash).and_then(|s| STORE.try_init(s)) {
+        Some(store) => {
+            let origin = host_link.attach_store(store);
+            defmt::info!("settings: {}", origin);
+        }
+        None => defmt::warn!("settings: flash not in dual-bank mode, none kept"),
+    }
     let (tx, rx) = image.uart;
     let task = link.init_with(|| LinkTask {
         link: host_link,

@@ -211,6 +211,11 @@ impl<M: LinkMachine + 'static, F: SweepFit<M> + 'static, const J: usize> LinkTas
                 }
                 out.clear();
             }
+            if super::store::restart_due() {
+                // A settings save stopped the control; its reply is out.
+                defmt::info!("settings saved: restarting");
+                cortex_m::peripheral::SCB::sys_reset();
+            }
         }
     }
 

@@ -13,6 +13,7 @@
 //! | devices | [`serial`] | a device's request/reply exchange on a polled UART |
 //! | start-up | [`image`] | the machine handed to the control interrupt, the link built, sampling and outputs started |
 //! | fault path | [`fault`] | outputs safe in hardware and software, the cause kept across a reset |
+//! | settings store | [`store`] | the settings' two copies in the flash's last pages, a save at rest and the restart after it |
 //! | timing | [`timing`] | the cycle counter as the period clock, the step's statistics |
 //! | stack | [`stack`] | painting and the high-water mark |
 //!
@@ -33,6 +34,7 @@ pub mod period;
 pub mod pins;
 pub mod serial;
 pub mod stack;
+pub mod store;
 pub mod timer;
 pub mod timing;
 

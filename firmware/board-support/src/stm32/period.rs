@@ -297,8 +297,25 @@ pub fn on_tick_interrupt() {
     DEVICE_TICK.signal(());
 }
 
+/// Every line [`enable`] may make a control interrupt: the ADC image's DMA, the bus
+/// image's tick and step.
+const CONTROL_LINES: [pac::Interrupt; 3] = [
+    pac::Interrupt::DMA1_CHANNEL1,
+    pac::Interrupt::TIM1_UP_TIM16,
+    pac::Interrupt::TIM1_CC,
+];
+
+/// Stops the control period for good (until the next reset): every control line and
+/// the link's tick masked. For a settings save, after the outputs were put safe.
+pub fn halt() {
+    for line in CONTROL_LINES.into_iter().chain([TICK_INTERRUPT]) {
+        cortex_m::peripheral::NVIC::mask(line);
+    }
+}
+
 /// Enables the control interrupts `control` (one, or the tick and the step of a
-/// bus image) at the highest priority and the link's tick interrupt below it.
+/// bus image, of [`CONTROL_LINES`]) at the highest priority and the link's tick
+/// interrupt below it.
 pub fn enable(nvic: &mut cortex_m::peripheral::NVIC, control: &[pac::Interrupt]) {
     // SAFETY: the control state is in place before the interrupts are unmasked, and
     // no priority-based critical section in the images depends on these lines' levels.

@@ -390,6 +390,7 @@ fn main() -> ! {
         link: (ArrowSettings::ARROW, ()),
         fit: FIT.init_with(|| Stored(())),
         reset,
+        flash: p.FLASH,
     };
     let task = image::start(
         image,

@@ -284,6 +284,7 @@ fn main() -> ! {
         link: (GrindingSettings::CELL, PASS),
         fit: FIT.init_with(|| Stored(stored)),
         reset,
+        flash: p.FLASH,
     };
     let task = image::start(
         image,

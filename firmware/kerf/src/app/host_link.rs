@@ -529,8 +529,15 @@ impl<'q, M: LinkMachine, const J: usize> HostLink<'q, M, J> {
                 self.command(seq, Command::ResetFault, commands, send);
             }
             Request::Save => {
+                let moving = matches!(
+                    self.mode,
+                    ModeCode::Running | ModeCode::Calibrating | ModeCode::Stopping
+                );
                 let reply = match self.store.as_mut() {
                     None => refuse(Refusal::NoStore),
+                    Some(attached) if moving && attached.store.restarts() => {
+                        refuse(Refusal::InvalidInMode)
+                    }
                     Some(attached) => {
                         let mut text = heapless::Vec::new();
                         match (attached.write)(&self.settings, &mut text)

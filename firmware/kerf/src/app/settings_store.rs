@@ -38,6 +38,7 @@
 //! flash decayed): the one before it; or no good copy at all, when the machine runs
 //! on its defaults, never saved or with both copies damaged.
 
+use crate::codec::link::CRC32;
 use embedded_storage::nor_flash::NorFlash;
 
 /// The file an emulated machine (a QEMU link image) keeps its store in, in the folder
@@ -52,8 +53,6 @@ pub const HEADER_BYTES: usize = 16;
 
 /// Bytes read or written at a time (a multiple of every write size the store takes).
 const CHUNK: usize = 64;
-
-const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
 /// What the store found at load.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -326,6 +325,13 @@ pub trait SettingsPersist {
     /// [`SettingsStore::load`]; `None` when the flash failed or the copy does not fit
     /// `payload`.
     fn load(&mut self, payload: &mut [u8]) -> Option<Loaded>;
+    /// Whether a save stops the machine's control and restarts it, as on a board,
+    /// whose flash stalls every read of its bank while a page is erased (some 20 ms,
+    /// two control periods' worth of the watchdog): the link then takes a save only
+    /// while the machine is at rest. An emulated machine's store does not.
+    fn restarts(&self) -> bool {
+        false
+    }
 }
 
 impl<F: NorFlash> SettingsPersist for SettingsStore<F> {

@@ -70,8 +70,8 @@ pub const MAX_FRAME: usize = MAX_PAYLOAD + MAX_PAYLOAD / 254 + 3;
 /// message's own fields).
 pub const MAX_CHUNK: usize = 192;
 
-/// The frame check.
-const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+/// The frame check (also the settings store's, [`crate::app::settings_store`]).
+pub(crate) const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
 /// CRC-32 (ISO-HDLC, as Ethernet and zlib) of `bytes`: the check of frames, of job
 /// files, and of a whole upload ([`Request::JobBegin`]).

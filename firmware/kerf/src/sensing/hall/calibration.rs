@@ -57,7 +57,7 @@
 
 use super::{HallCorrection, ResidualTable, CORRECTION_ENTRIES};
 use core::f64::consts::PI;
-use nalgebra::{Matrix3, SMatrix, SVector};
+use nalgebra::{Const, Matrix, Matrix3, SMatrix, SVector, StorageMut};
 
 /// Degree of the per-segment polynomial of phase against time: a cubic follows a coast
 /// under constant force with viscous friction (an exponential approach to a speed) to
@@ -652,7 +652,7 @@ impl<const N: usize> HallCalibrator<N> {
                 let powers = SVector::<f64, TERMS>::from(powers);
                 let b = SVector::<f64, BASIS>::from(basis(phi));
                 let db = derivative(phi);
-                gram += b * b.transpose();
+                add_outer(&mut gram, &b, &b);
                 for (((t, &u), g_acc), mut rho) in theta
                     .iter()
                     .zip(raw)
@@ -663,9 +663,9 @@ impl<const N: usize> HallCalibrator<N> {
                     let r = f64::from(u) - dot(t, &basis(phi));
                     let g_powers = powers * g;
                     let mut coupling_block = g_acc.fixed_view_mut::<BASIS, TERMS>(0, columns);
-                    coupling_block += b * g_powers.transpose();
+                    add_outer(&mut coupling_block, &b, &g_powers);
                     let mut time_block = time.fixed_view_mut::<TERMS, TERMS>(columns, columns);
-                    time_block += g_powers * g_powers.transpose();
+                    add_outer(&mut time_block, &g_powers, &g_powers);
                     rho += b * r;
                     let mut rho_block = rho_time.fixed_rows_mut::<TERMS>(columns);
                     rho_block += g_powers * r;
@@ -677,7 +677,12 @@ impl<const N: usize> HallCalibrator<N> {
         let mut schur = time;
         let mut rhs = rho_time;
         for (g, rho) in coupling.iter().zip(rho_theta.column_iter()) {
-            let b_inv_g = chol.solve(g);
+            // B⁻¹G a column at a time, rolled (a matrix solve is its columns' solves).
+            let mut b_inv_g = *g;
+            let columns = core::hint::black_box(PHASE_UNKNOWNS).min(PHASE_UNKNOWNS);
+            for mut column in b_inv_g.column_iter_mut().take(columns) {
+                chol.solve_mut(&mut column);
+            }
             // Column by column, the count opaque to the optimiser: unrolled whole, this
             // product was a third of the board image's largest routine (which runs once
             // per calibration, in the link task, not in the control period).
@@ -706,7 +711,14 @@ impl<const N: usize> HallCalibrator<N> {
             .zip(&coupling)
             .zip(rho_theta.column_iter())
         {
-            *d = chol.solve(&(rho - g * d_time)).into();
+            // g·δc column by column, rolled (as the product sums it: the first column's
+            // term, then each next one added).
+            let mut g_d_time = SVector::<f64, BASIS>::zeros();
+            let columns = core::hint::black_box(PHASE_UNKNOWNS).min(PHASE_UNKNOWNS);
+            for (column, &d_c) in g.column_iter().zip(d_time.iter()).take(columns) {
+                g_d_time.axpy(d_c, &column, 1.0);
+            }
+            *d = chol.solve(&(rho - g_d_time)).into();
         }
         let mut d_poly = [[0.0; TERMS]; MAX_SEGMENTS];
         for (d, chunk) in d_poly.iter_mut().zip(d_time.as_slice().chunks_exact(TERMS)) {
@@ -789,6 +801,23 @@ fn derivative(phi: f64) -> [f64; BASIS] {
 }
 
 /// Σ a_i b_i.
+/// `acc += x·yᵀ`, column by column (each element `acc_ij + y_j·x_i`, as the product
+/// of the two and the sum would give it), the count opaque to the optimiser: the
+/// fit runs once per calibration, in the link task, and its unrolled products cost
+/// the board image some 1.6 KB of flash.
+fn add_outer<const R: usize, const C: usize, S>(
+    acc: &mut Matrix<f64, Const<R>, Const<C>, S>,
+    x: &SVector<f64, R>,
+    y: &SVector<f64, C>,
+) where
+    S: StorageMut<f64, Const<R>, Const<C>>,
+{
+    let columns = core::hint::black_box(C).min(C);
+    for (mut column, &y_j) in acc.column_iter_mut().zip(y.iter()).take(columns) {
+        column.axpy(y_j, x, 1.0);
+    }
+}
+
 fn dot<const M: usize>(a: &[f64; M], b: &[f64; M]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }

@@ -3,7 +3,7 @@
 //! the first tick, and `Status` says where they came from.
 
 use super::*;
-use crate::app::settings_store::SettingsStore;
+use crate::app::settings_store::{Loaded, SettingsPersist, SettingsStore};
 use embedded_storage::nor_flash::{ErrorType, NorFlash, NorFlashErrorKind, ReadNorFlash};
 use std::boxed::Box;
 use std::sync::{Arc, Mutex};
@@ -187,4 +187,52 @@ fn settings_too_large_for_the_store_are_refused_and_the_copy_before_kept() {
         );
         assert_eq!(rig.link.settings().gain, 4.0);
     });
+}
+
+/// A store whose save restarts the machine (a board's), over `ram`.
+struct Restarting(SettingsStore<SharedRam>);
+
+impl SettingsPersist for Restarting {
+    fn save(&mut self, payload: &[u8]) -> Option<u32> {
+        self.0.save(payload).ok()
+    }
+    fn load(&mut self, payload: &mut [u8]) -> Option<Loaded> {
+        self.0.load(payload).ok()
+    }
+    fn restarts(&self) -> bool {
+        true
+    }
+}
+
+/// A board's save stops the control period: refused while a job runs, taken at rest;
+/// an emulated machine's store saves in any mode.
+#[test]
+fn a_save_that_restarts_the_machine_waits_until_it_is_at_rest() {
+    for restarts in [true, false] {
+        let ram = SharedRam(Arc::new(Mutex::new(std::vec![0xFF; 2048])));
+        with_rig(|rig| {
+            let plain = SettingsStore::new(ram.clone(), 0, 1024).unwrap();
+            let attached: &'static mut (dyn SettingsPersist + Send) = if restarts {
+                Box::leak(Box::new(Restarting(plain)))
+            } else {
+                Box::leak(Box::new(plain))
+            };
+            rig.link.attach_store(attached);
+            upload(rig, &points_job(150), 10);
+            rig.exchange(&frame(30, Request::JobCommit), 1);
+            let run = rig.exchange(&frame(31, Request::Start), 5);
+            assert!(run.contains(&reply(31, "Ack")), "{run:?}");
+            let during = rig.exchange(&frame(32, Request::Save), 0);
+            let expected = if restarts {
+                "Refused(InvalidInMode)"
+            } else {
+                "Ack"
+            };
+            assert_eq!(during, [reply(32, expected)], "restarts: {restarts}");
+            let stop = rig.exchange(&frame(33, Request::Stop), 5);
+            assert!(stop.contains(&reply(33, "Ack")), "{stop:?}");
+            let after = rig.exchange(&frame(34, Request::Save), 0);
+            assert_eq!(after, [reply(34, "Ack")], "restarts: {restarts}");
+        });
+    }
 }
