@@ -67,6 +67,7 @@ pub mod constraint;
 pub mod contouring;
 pub mod delay_observer;
 pub mod dob;
+pub mod foc;
 pub mod hybrid_force;
 pub mod identify;
 pub mod laser;
