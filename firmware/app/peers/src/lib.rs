@@ -7,11 +7,15 @@
 //! - [`printer_inverse`]: the vertical-rail (Klipper / Marlin) delta inverse,
 //!   carriage = z + √(l² − (x − xt)² − (y − yt)²), with a chosen square root;
 //! - [`efd_direct`]: an EFD position and three derivatives summed harmonic by
-//!   harmonic, each with its own sine and cosine (kerf's fast [`sin_cos_f32`]).
+//!   harmonic, each with its own sine and cosine (kerf's fast [`sin_cos_f32`]);
+//! - [`foc`]: the `foc` crate's field-oriented controller (I16F16 fixed point, its
+//!   own CORDIC sine and cosine, PI and space-vector PWM), re-exported as it is.
 //!
 //! Only the benchmark image depends on this crate; the library never does.
 #![no_std]
 
+pub use fixed;
+pub use foc;
 use kerf::scalar::sin_cos_f32;
 use kerf::trajectory::curve::CurveSample;
 use microfft::Complex32;

@@ -270,6 +270,7 @@ fn kernel_rows(counter: &mut Counter) {
     kernels::codec_rows::<32>(counter, 8);
     kernels::codec_rows::<64>(counter, 16);
     kernels::sharpness_rows(counter);
+    kernels::foc_rows(counter);
 }
 
 /// Sizes of the slave machine's state and of its per-axis parts, printed as `= ` lines

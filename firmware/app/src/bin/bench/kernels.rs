@@ -1,6 +1,7 @@
 //! Kernel rows against kerf's own references: delta kinematics in f32 against the
-//! same code in f64, and the codec against the FFT-based DCT-II, the naive
-//! matrix-vector transforms and the Q15 path.
+//! same code in f64, the codec against the FFT-based DCT-II, the naive
+//! matrix-vector transforms and the Q15 path, and the FOC current loop against the
+//! `foc` crate's.
 
 use super::{exit, row, row_with_errors, INPUTS};
 use core::f32::consts::PI;
@@ -542,4 +543,63 @@ fn two_pass_f32(frame: &[u8], stride: usize, window: &kerf::sensing::sharpness::
         }
     }
     squares / (n * mean)
+}
+
+/// One FOC current-loop period of one motor (`control::foc::Foc<f32>::step`, the
+/// Keops stage's LM1247 at 20 kHz) against the `foc` crate's `Foc::update` (I16F16,
+/// its own CORDIC sine and cosine, two-current Clarke, PI, space-vector PWM), on the
+/// same currents, angles and force. The peer does less per call: no speed voltages,
+/// voltage limit, shunt selection or dead-time compensation. kerf's angle is given as
+/// its sine and cosine (`ElectricalAngle::from_rad` here, the G474's CORDIC on the
+/// board), so the row includes kerf's `sin_cos_f32`.
+#[inline(never)]
+pub fn foc_rows(counter: &mut Counter) {
+    use kerf::control::foc::{ElectricalAngle, Foc, FocConfig, FocInput, FocState};
+    use kerf_peers::fixed::types::I16F16;
+    use kerf_peers::foc::{pid::PIController, pwm::SpaceVector, Foc as PeerFoc};
+    let Ok(foc) = Foc::<f32>::new(&FocConfig::KEOPS) else {
+        exit(false)
+    };
+    let mut state = FocState::<f32>::default();
+    let w = FocConfig::KEOPS.motor;
+    let wc = 2.0 * core::f64::consts::PI * FocConfig::KEOPS.current_bandwidth_hz;
+    let ts = 1.0 / FocConfig::KEOPS.stage.pwm_hz;
+    let gain = |v: f64| I16F16::from_num(v);
+    let pi = || PIController::new(gain(w.inductance_h * wc), gain(w.resistance_ohm * wc * ts));
+    let mut peer = PeerFoc::<SpaceVector, 4250>::new(pi(), pi());
+    let mask = INPUTS as u32 - 1;
+    let inputs: [(f32, [f32; 3]); INPUTS] = core::array::from_fn(|k| {
+        let theta = 2.0 * PI * (k as f32 + 0.3) / INPUTS as f32;
+        let currents =
+            core::array::from_fn(|x| -0.3 * libm::sinf(theta - 2.0 * PI * x as f32 / 3.0));
+        (theta, currents)
+    });
+    row(
+        counter,
+        "control::foc::Foc::step <f32> (one motor, angle's sin/cos included)",
+        |i| {
+            let (theta, currents) = black_box(inputs[(i & mask) as usize]);
+            let input = FocInput {
+                phase_currents_a: currents,
+                angle: ElectricalAngle::from_rad(theta),
+                speed_m_s: 0.2,
+                force_n: 3.0,
+                bus_v: 24.0,
+            };
+            black_box(foc.step(&mut state, &input)).ok();
+        },
+        "foc 0.3 Foc::update (I16F16, CORDIC, PI, SVPWM)",
+        |i| {
+            let (theta, currents) = black_box(inputs[(i & mask) as usize]);
+            black_box(peer.update(
+                [gain(f64::from(currents[0])), gain(f64::from(currents[1]))],
+                I16F16::from_num(theta - PI),
+                gain(0.303),
+                I16F16::ONE,
+            ));
+        },
+        |i| {
+            black_box(black_box(inputs[(i & mask) as usize]));
+        },
+    );
 }
