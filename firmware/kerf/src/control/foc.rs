@@ -187,7 +187,17 @@ pub enum FocError {
     NotFinite,
     /// The bus voltage is not above zero.
     NoBus,
+    /// The angle's sine and cosine are not a unit vector (off by more than 5 %).
+    BadAngle,
+    /// The angle moved more than [`MAX_ANGLE_STEP_RAD`] from where the last sample and
+    /// the speed put it: a Hall sensor or its decoding failed.
+    AngleJump,
 }
+
+/// The most the electrical angle may differ from the last sample's advanced by the
+/// speed, rad: 0.5 rad is 1.4 mm of unexplained motion in a period at an 18 mm pitch
+/// (28 m/s at 20 kHz), far past any carriage.
+pub const MAX_ANGLE_STEP_RAD: f64 = 0.5;
 
 /// The loop's coefficients in `T`.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -213,6 +223,10 @@ pub struct Foc<T> {
     /// 1 − t_min/T: the highest duty whose shunt still reads.
     readable_duty: T,
     current_limit: T,
+    /// The PWM period, s.
+    period_s: T,
+    /// cos [`MAX_ANGLE_STEP_RAD`].
+    min_angle_agreement: T,
 }
 
 /// A loop's integrators and what the last step left for the next sample.
@@ -222,6 +236,9 @@ pub struct FocState<T> {
     pub integral_v: [T; 2],
     /// Which shunts read in the period the next sample is taken in.
     pub readable: [bool; 3],
+    /// Where the last sample and the speed put the next sample's angle (`None` before
+    /// the first step).
+    pub expected_angle: Option<ElectricalAngle<T>>,
 }
 
 impl<T: Float> Default for FocState<T> {
@@ -229,6 +246,7 @@ impl<T: Float> Default for FocState<T> {
         Self {
             integral_v: [T::zero(); 2],
             readable: [true; 3],
+            expected_angle: None,
         }
     }
 }
@@ -270,11 +288,15 @@ impl<T: Float> Foc<T> {
             dead_band_a: coefficient("current_limit_a", DEAD_TIME_BAND * limit)?,
             readable_duty: lit(1.0 - pulse / period),
             current_limit: coefficient("current_limit_a", limit)?,
+            period_s: coefficient("pwm_hz", period)?,
+            min_angle_agreement: lit(libm::cos(MAX_ANGLE_STEP_RAD)),
         })
     }
 
-    /// One PWM period (module docs). Errors: an input not finite, or no bus voltage;
-    /// the state is then left as it was, and the bridge is the caller's to turn off.
+    /// One PWM period (module docs). Errors ([`FocError`]): an input not finite, no
+    /// bus voltage, an angle that is not one or jumped; the state is then left as it
+    /// was, and the bridge is the caller's to turn off (a fresh [`FocState`] starts
+    /// again).
     pub fn step(
         &self,
         state: &mut FocState<T>,
@@ -290,6 +312,18 @@ impl<T: Float> Foc<T> {
         }
         if input.bus_v <= T::zero() {
             return Err(FocError::NoBus);
+        }
+        let angle = input.angle;
+        let radius2 = angle.sin * angle.sin + angle.cos * angle.cos;
+        if (radius2 - T::one()).abs() > lit(0.1) {
+            return Err(FocError::BadAngle);
+        }
+        if let Some(expected) = state.expected_angle {
+            // cos of the difference, against cos of the largest step.
+            let agreement = expected.cos * angle.cos + expected.sin * angle.sin;
+            if agreement < self.min_angle_agreement {
+                return Err(FocError::AngleJump);
+            }
         }
         let [i_a, i_b, i_c] = rebuilt(input.phase_currents_a, state.readable);
         // Clarke, amplitude-invariant, then Park.
@@ -319,6 +353,7 @@ impl<T: Float> Foc<T> {
             int_q + self.ki_ts * e_q + (v_q_out - v_q),
         ];
         state.readable = readable;
+        state.expected_angle = Some(angle.advanced(omega * self.period_s));
         Ok(FocOutput {
             duties,
             readable,

@@ -351,8 +351,8 @@ fn an_unreadable_shunt_is_rebuilt_from_the_other_two() {
         let mut garbled = currents;
         garbled[bad] = 7.0;
         let mut a = FocState {
-            integral_v: [0.0; 2],
             readable,
+            ..FocState::default()
         };
         let mut b = FocState::default();
         let from_garbled = f
@@ -374,7 +374,8 @@ fn an_unreadable_shunt_is_rebuilt_from_the_other_two() {
     }
 }
 
-/// Inputs that are not finite, or no bus, are refused and leave the state as it was;
+/// Inputs that are not finite, no bus, or an angle that is none or jumped are refused
+/// and leave the state as it was;
 /// a configuration whose crossover leaves under 30° of phase margin at its PWM rate
 /// is refused naming the bandwidth, as are values that are not positive.
 #[test]
@@ -383,6 +384,7 @@ fn bad_input_and_an_unstable_configuration_are_refused() {
     let mut state = FocState {
         integral_v: [0.1, 0.2],
         readable: [true, false, true],
+        expected_angle: Some(ElectricalAngle::from_rad(0.0)),
     };
     let before = state;
     for bad in [
@@ -397,7 +399,30 @@ fn bad_input_and_an_unstable_configuration_are_refused() {
         f.step(&mut state, &input([0.0; 3], 0.0, 0.0, 1.0, 0.0)),
         Err(FocError::NoBus)
     );
+    // A sine and cosine that are no angle; an angle 0.6 rad from the last one at rest
+    // (0.4 is taken).
+    let mut no_angle = input([0.0; 3], 0.0, 0.0, 1.0, 24.0);
+    no_angle.angle = ElectricalAngle { sin: 0.5, cos: 0.5 };
+    assert_eq!(f.step(&mut state, &no_angle), Err(FocError::BadAngle));
+    let jumped = input([0.0; 3], 0.6, 0.0, 1.0, 24.0);
+    assert_eq!(f.step(&mut state, &jumped), Err(FocError::AngleJump));
     assert_eq!(state, before);
+    assert!(f
+        .step(&mut state, &input([0.0; 3], 0.4, 0.0, 1.0, 24.0))
+        .is_ok());
+    // At speed the expected angle moves on: 1 m/s is 0.017 rad a period.
+    let mut moving = FocState::default();
+    for k in 0..100 {
+        let theta = 2.0 * PI / 0.018 * TS * k as f64;
+        let step = f.step(&mut moving, &input([0.0; 3], theta, 1.0, 1.0, 24.0));
+        assert!(step.is_ok(), "{k}: {step:?}");
+    }
+    let expected = moving.expected_angle.unwrap();
+    let next = 2.0 * PI / 0.018 * TS * 100.0;
+    assert!(
+        (expected.sin - libm::sin(next)).abs() < 1e-9,
+        "{expected:?}"
+    );
     let mut fast = FocConfig::KEOPS;
     fast.current_bandwidth_hz = 3500.0;
     assert!(fast.phase_margin_deg() < MIN_PHASE_MARGIN_DEG);
