@@ -435,5 +435,7 @@ fn rebuilt<T: Float>(i: [T; 3], readable: [bool; 3]) -> [T; 3] {
     }
 }
 
+pub mod winding_heat;
+
 #[cfg(test)]
 mod tests;
