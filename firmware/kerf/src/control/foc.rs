@@ -363,6 +363,19 @@ impl<T: Float> Foc<T> {
         })
     }
 
+    /// Duties that make the stationary voltage `v_alpha_beta_v` on `bus_v` (limited as
+    /// in [`Foc::step`]), the dead time added back along `phase_currents_a`: for the
+    /// voltages a caller injects itself ([`commissioning`]).
+    pub fn duties_for(&self, v_alpha_beta_v: [T; 2], phase_currents_a: [T; 3], bus_v: T) -> [T; 3] {
+        let unrotated = ElectricalAngle {
+            sin: T::zero(),
+            cos: T::one(),
+        };
+        let [v_alpha, v_beta] = v_alpha_beta_v;
+        let (v_phase, _) = self.phase_voltages(v_alpha, v_beta, unrotated, bus_v);
+        self.duties(v_phase, phase_currents_a, bus_v)
+    }
+
     /// The phase voltages of (v_d, v_q) at `angle`, and the factor (≤ 1) they were
     /// scaled by to fit the bridge: the line voltages within the bus, and the middle
     /// phase within `readable_duty` of the bus above the lowest, so that two shunts
@@ -435,7 +448,10 @@ fn rebuilt<T: Float>(i: [T; 3], readable: [bool; 3]) -> [T; 3] {
     }
 }
 
+pub mod commissioning;
 pub mod winding_heat;
 
+#[cfg(test)]
+mod test_motor;
 #[cfg(test)]
 mod tests;
