@@ -6,8 +6,8 @@
 //! memory erase"; up to 40 ms in the datasheet), while the control period must run
 //! every 100 µs and the watchdog bites after 10 ms. So a save is what a motor
 //! controller's save usually is: taken only at rest (the link refuses it while a
-//! job runs, [`SettingsPersist::restarts`]), it puts the outputs safe, masks the
-//! control interrupts, gives the watchdog 160 ms, writes the copy, and the link
+//! job runs, [`SettingsPersist::restarts`]), it masks the control interrupts, puts
+//! the outputs safe, gives the watchdog 160 ms, writes the copy, and the link
 //! task restarts the board once the reply is out ([`restart_due`]). The restart is a
 //! plain software reset, which the host is told of as no fault; the settings come
 //! back from the copy at power-up.
@@ -58,8 +58,9 @@ impl BoardStore {
 
 impl SettingsPersist for BoardStore {
     fn save(&mut self, payload: &[u8]) -> Option<u32> {
-        fault::outputs_safe();
+        // The period masked first, so that none runs after the outputs are safe.
         period::halt();
+        fault::outputs_safe();
         fault::lengthen_watchdog();
         RESTART.store(true, Ordering::Release);
         self.store.save(payload).ok()
