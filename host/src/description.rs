@@ -399,6 +399,30 @@ mod tests {
         assert!(words(SettingsOrigin::NoStore).contains("keeps no settings"));
     }
 
+    /// A setting as scripts read it: value and preset as JSON numbers or switches, text
+    /// that is not JSON kept as a string, no `value` where none was read.
+    #[test]
+    fn a_setting_as_json_keeps_the_machines_values() {
+        let info = SettingInfo {
+            path: "/dob/bandwidth_hz".into(),
+            unit: "Hz".into(),
+            range: "> 0".into(),
+            preset: "150.0".into(),
+        };
+        let read = info.json(Some("120.5"));
+        assert_eq!(read["value"], 120.5);
+        assert_eq!(read["preset"], 150.0);
+        assert_eq!(read["unit"], "Hz");
+        assert_eq!(read["range"], "> 0");
+        assert!(info.json(None).get("value").is_none());
+        assert_eq!(info.json(Some("not json"))["value"], "not json");
+        let switch = SettingInfo {
+            preset: "true".into(),
+            ..info
+        };
+        assert_eq!(switch.json(Some("false"))["preset"], true);
+    }
+
     #[test]
     fn a_branch_holds_the_settings_below_it_only() {
         let mut d = MachineDescription::default();
