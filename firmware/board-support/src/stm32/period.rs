@@ -306,7 +306,7 @@ const CONTROL_LINES: [pac::Interrupt; 3] = [
 ];
 
 /// Stops the control period for good (until the next reset): every control line and
-/// the link's tick masked. For a settings save, after the outputs were put safe.
+/// the link's tick masked. For a settings save, before the outputs are put safe.
 pub fn halt() {
     for line in CONTROL_LINES.into_iter().chain([TICK_INTERRUPT]) {
         cortex_m::peripheral::NVIC::mask(line);

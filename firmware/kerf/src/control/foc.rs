@@ -218,8 +218,8 @@ pub struct Foc<T> {
     delay_s: T,
     /// t_dead/T.
     dead_duty: T,
-    /// The current below which the dead-time compensation is proportional, A.
-    dead_band_a: T,
+    /// 1 / the current below which the dead-time compensation is proportional, 1/A.
+    per_dead_band_a: T,
     /// 1 − t_min/T: the highest duty whose shunt still reads.
     readable_duty: T,
     current_limit: T,
@@ -285,7 +285,7 @@ impl<T: Float> Foc<T> {
             rad_per_m: coefficient("pitch_m", 2.0 * PI / pitch)?,
             delay_s: coefficient("pwm_hz", DELAY_PERIODS * period)?,
             dead_duty: lit(dead / period),
-            dead_band_a: coefficient("current_limit_a", DEAD_TIME_BAND * limit)?,
+            per_dead_band_a: coefficient("current_limit_a", 1.0 / (DEAD_TIME_BAND * limit))?,
             readable_duty: lit(1.0 - pulse / period),
             current_limit: coefficient("current_limit_a", limit)?,
             period_s: coefficient("pwm_hz", period)?,
@@ -302,12 +302,11 @@ impl<T: Float> Foc<T> {
         state: &mut FocState<T>,
         input: &FocInput<T>,
     ) -> Result<FocOutput<T>, FocError> {
-        let finite = input.phase_currents_a.iter().all(|i| i.is_finite())
-            && [input.angle.sin, input.angle.cos, input.speed_m_s]
-                .iter()
-                .chain(&[input.force_n, input.bus_v])
-                .all(|v| v.is_finite());
-        if !finite {
+        // One test for all: a NaN or an infinity in any input makes the sum one (so
+        // would inputs near the scalar's largest value, which are no measurement).
+        let [i_a, i_b, i_c] = input.phase_currents_a;
+        let sum = i_a + i_b + i_c + input.angle.sin + input.angle.cos;
+        if !(sum + input.speed_m_s + input.force_n + input.bus_v).is_finite() {
             return Err(FocError::NotFinite);
         }
         if input.bus_v <= T::zero() {
@@ -342,11 +341,12 @@ impl<T: Float> Foc<T> {
             + omega * self.inductance * i_d
             + self.back_emf_per_m_s * input.speed_m_s;
         let applied = input.angle.advanced(omega * self.delay_s);
-        let (v_phase, scale) = self.phase_voltages(v_d, v_q, applied, input.bus_v);
+        let per_bus = T::one() / input.bus_v;
+        let (v_phase, sorted, scale) = self.phase_voltages(v_d, v_q, applied, input.bus_v);
         let (v_d_out, v_q_out) = (v_d * scale, v_q * scale);
         // Reference currents at the applied angle: the dead-time loss's sign.
         let i_ref = phases(-applied.sin * i_q_ref, applied.cos * i_q_ref);
-        let duties = self.duties(v_phase, i_ref, input.bus_v);
+        let duties = self.duties(v_phase, sorted, i_ref, per_bus);
         let readable = duties.map(|d| d <= self.readable_duty);
         state.integral_v = [
             int_d + self.ki_ts * e_d + (v_d_out - v_d),
@@ -372,15 +372,22 @@ impl<T: Float> Foc<T> {
             cos: T::one(),
         };
         let [v_alpha, v_beta] = v_alpha_beta_v;
-        let (v_phase, _) = self.phase_voltages(v_alpha, v_beta, unrotated, bus_v);
-        self.duties(v_phase, phase_currents_a, bus_v)
+        let (v_phase, sorted, _) = self.phase_voltages(v_alpha, v_beta, unrotated, bus_v);
+        self.duties(v_phase, sorted, phase_currents_a, T::one() / bus_v)
     }
 
     /// The phase voltages of (v_d, v_q) at `angle`, and the factor (≤ 1) they were
     /// scaled by to fit the bridge: the line voltages within the bus, and the middle
     /// phase within `readable_duty` of the bus above the lowest, so that two shunts
     /// always read (with room for the dead-time compensation).
-    fn phase_voltages(&self, v_d: T, v_q: T, angle: ElectricalAngle<T>, bus: T) -> ([T; 3], T) {
+    /// Also the phases from lowest to highest (scaled alike).
+    fn phase_voltages(
+        &self,
+        v_d: T,
+        v_q: T,
+        angle: ElectricalAngle<T>,
+        bus: T,
+    ) -> ([T; 3], [T; 3], T) {
         let v_alpha = angle.cos * v_d - angle.sin * v_q;
         let v_beta = angle.sin * v_d + angle.cos * v_q;
         let v = phases(v_alpha, v_beta);
@@ -393,22 +400,27 @@ impl<T: Float> Foc<T> {
         if (mid - lo) * scale > room * bus {
             scale = room * bus / (mid - lo);
         }
-        (v.map(|x| x * scale), scale)
+        (
+            v.map(|x| x * scale),
+            [lo, mid, hi].map(|x| x * scale),
+            scale,
+        )
     }
 
-    /// Duties of the phase voltages `v` on `bus`: centred (min-max common mode, the
+    /// Duties of the phase voltages `v` (`sorted` from lowest to highest) on a bus of
+    /// 1/`per_bus`: centred (min-max common mode, the
     /// lowest phase at ½ − (hi − lo)/2V), lowered where the middle phase's low-side
     /// pulse would be short (its duty at most `readable_duty` less a dead time, which
     /// [`Foc::phase_voltages`] left room for), each phase's dead time added back along
     /// its reference current `i_ref`, within [0, 1].
-    fn duties(&self, v: [T; 3], i_ref: [T; 3], bus: T) -> [T; 3] {
-        let [lo, mid, hi] = sorted(v);
-        let centred = lit::<T>(0.5) - (hi - lo) / (bus + bus);
-        let lowest = centred.min(self.readable_duty - self.dead_duty - (mid - lo) / bus);
+    fn duties(&self, v: [T; 3], sorted: [T; 3], i_ref: [T; 3], per_bus: T) -> [T; 3] {
+        let [lo, mid, hi] = sorted;
+        let centred = lit::<T>(0.5) - (hi - lo) * per_bus * lit(0.5);
+        let lowest = centred.min(self.readable_duty - self.dead_duty - (mid - lo) * per_bus);
         let mut duties = v;
         for (d, &i) in duties.iter_mut().zip(&i_ref) {
-            let share = (i / self.dead_band_a).max(-T::one()).min(T::one());
-            *d = (lowest + (*d - lo) / bus + share * self.dead_duty)
+            let share = (i * self.per_dead_band_a).max(-T::one()).min(T::one());
+            *d = (lowest + (*d - lo) * per_bus + share * self.dead_duty)
                 .max(T::zero())
                 .min(T::one());
         }

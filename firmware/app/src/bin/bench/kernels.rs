@@ -602,4 +602,38 @@ pub fn foc_rows(counter: &mut Counter) {
             black_box(black_box(inputs[(i & mask) as usize]));
         },
     );
+    // The board's case: the sine and cosine come from the CORDIC, outside the step.
+    let angles: [ElectricalAngle<f32>; INPUTS] =
+        core::array::from_fn(|k| ElectricalAngle::from_rad(inputs[k].0));
+    let mut given = FocState::<f32>::default();
+    row(
+        counter,
+        "control::foc::Foc::step <f32> (one motor, angle given as sin/cos)",
+        |i| {
+            let k = (i & mask) as usize;
+            let (angle, (_, currents)) = black_box((angles[k], inputs[k]));
+            let input = FocInput {
+                phase_currents_a: currents,
+                angle,
+                speed_m_s: 0.2,
+                force_n: 3.0,
+                bus_v: 24.0,
+            };
+            black_box(foc.step(&mut given, &input)).ok();
+        },
+        "foc 0.3 Foc::update (I16F16, CORDIC, PI, SVPWM)",
+        |i| {
+            let (theta, currents) = black_box(inputs[(i & mask) as usize]);
+            black_box(peer.update(
+                [gain(f64::from(currents[0])), gain(f64::from(currents[1]))],
+                I16F16::from_num(theta - PI),
+                gain(0.303),
+                I16F16::ONE,
+            ));
+        },
+        |i| {
+            let k = (i & mask) as usize;
+            black_box(black_box((angles[k], inputs[k])));
+        },
+    );
 }
