@@ -4,12 +4,13 @@
 
 use crate::input::{same_bits, Input, Seed};
 use image::{GrayImage, ImageFormat, ImageReader, Limits, Luma};
-use kerf::app::host_link::{describe, LinkMachine, SettingPath};
+use kerf::app::host_link::{describe, LinkMachine, SettingText};
 use kerf::codec::link::{
     encode, ChannelValues, Event, MachineMessage, MachineStatus, ModeCode, Reply, TelemetrySample,
     MAX_CHANNELS, MAX_FRAME, VERSION,
 };
-use kerf::machines::delta_slave::{CONTOUR_HARMONICS, OPEN_PATH_POINTS};
+use kerf::machines::delta_slave::link::SlaveSettings;
+use kerf::machines::delta_slave::{DeltaSlaveConfig, CONTOUR_HARMONICS, OPEN_PATH_POINTS};
 use kerf_host::description::ChannelInfo;
 use kerf_host::job::Job;
 use kerf_host::kerf_offset::KerfSide;
@@ -118,9 +119,10 @@ pub fn host_reader_seeds() -> Vec<Vec<u8>> {
     }));
     // The description, item by item, and its end.
     let mut seq = 2;
+    let presets = SlaveSettings::of(&DeltaSlaveConfig::KEOPS.joints.axis);
     for index in 0u16.. {
-        let mut path = SettingPath::default();
-        let item = describe::<Slave>(index, &mut path);
+        let mut text = SettingText::default();
+        let item = describe::<Slave>(index, &presets, &mut text);
         stream.extend(frame(&MachineMessage::Reply {
             seq,
             reply: Reply::Description { index, item },
