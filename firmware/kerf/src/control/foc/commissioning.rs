@@ -177,23 +177,16 @@ impl<T: Float> Commissioning<T> {
         positive("test_current_a", config.test_current_a)?;
         positive("max_test_voltage_v", config.max_test_voltage_v)?;
         positive("inductance_voltage_v", config.inductance_voltage_v)?;
-        let (r_lo, r_hi) = config.resistance_range_ohm;
-        in_range(
-            "resistance_range_ohm",
-            r_hi,
-            positive("resistance_range_ohm", r_lo)?,
-            f64::MAX,
-        )?;
-        let (l_lo, l_hi) = config.inductance_range_h;
-        in_range(
-            "inductance_range_h",
-            l_hi,
-            positive("inductance_range_h", l_lo)?,
-            f64::MAX,
-        )?;
+        for (name, (lo, hi)) in [
+            ("resistance_range_ohm", config.resistance_range_ohm),
+            ("inductance_range_h", config.inductance_range_h),
+        ] {
+            // Both ends positive and in order.
+            in_range(name, hi, positive(name, lo)?, f64::MAX)?;
+        }
         let period = positive("period_s", period_s)?;
         // The controller's loop is gain/R per period: 20 Hz at the highest resistance.
-        let gain = r_hi * 2.0 * core::f64::consts::PI * 20.0 * period;
+        let gain = config.resistance_range_ohm.1 * 2.0 * core::f64::consts::PI * 20.0 * period;
         Ok(Self {
             config: *config,
             period_s: period,
