@@ -127,6 +127,9 @@ pub struct RemoteCase {
     pub tracking_hz: f64,
     /// The delay observer's correction, Hz.
     pub observer_hz: f64,
+    /// Times the master sends each command frame (`MasterLink::with_copies`); the
+    /// slave's playout margin holds a block period more when it is above 1.
+    pub command_copies: usize,
 }
 
 impl RemoteCase {
@@ -152,6 +155,7 @@ impl RemoteCase {
             slave_plant: DeltaPlantParams::SLAVE_REALISTIC,
             tracking_hz: 15.0,
             observer_hz: 5.0,
+            command_copies: 1,
         }
     }
 }
@@ -193,8 +197,10 @@ pub struct RemoteRun {
     pub bytes_per_s: [f64; 2],
     /// Frames lost on the links.
     pub lost_frames: u64,
-    /// Command frames the slave refused (corrupt, replayed, out of order).
+    /// Command frames the slave refused as bad (corrupt, cut).
     pub refused_frames: u32,
+    /// Command frames of blocks the slave had taken (copies, replays), dropped.
+    pub repeated_frames: u32,
     /// Master restarts the slave saw.
     pub restarts: u32,
     /// Modes at the end.
@@ -350,6 +356,7 @@ impl MasterImage {
         config: &RemoteMasterConfig,
         sdct: &SdctConfig,
         session: u16,
+        copies: usize,
         job: FixtureJob<f64>,
     ) -> Result<Self, RemoteError> {
         let machine = RemoteMaster::<f64>::new(config)
@@ -375,6 +382,7 @@ impl MasterImage {
                 .map_err(|_| RemoteError::Setup("master queue".into()))?;
         }
         let link = MasterLink::new(sdct, session, TS * f64::from(D))
+            .and_then(|l| l.with_copies(copies))
             .map_err(|e| RemoteError::Setup(format!("master link: {e}")))?;
         Ok(Self { supervisor, link })
     }
@@ -517,7 +525,13 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
         selection: Selection::Largest,
     };
 
-    let margin = case.network.jitter_ms * 10 * 3 / 2 + 5;
+    // The jitter and a half, 0.5 ms, and a block period for the copies of a frame.
+    let copies_margin = if case.command_copies > 1 {
+        D * N as u32
+    } else {
+        0
+    };
+    let margin = case.network.jitter_ms * 10 * 3 / 2 + 5 + copies_margin;
     let site = keops_site(case.slave_plant, case.m, D, margin);
     let jobs = JobSlots::default();
     let mut slave_commands: Queue<Command<RemoteSlave<f64>>, 8> = Queue::new();
@@ -583,7 +597,7 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
         }
     }
 
-    let mut master = MasterImage::new(&master_config, &sdct, 1, job.clone())?;
+    let mut master = MasterImage::new(&master_config, &sdct, 1, case.command_copies, job.clone())?;
     let mut samples = Vec::new();
     // Each command's tick: the scaled master then, and the period it was computed.
     let mut tick_reference: std::collections::HashMap<u32, ([f64; 3], u64)> = Default::default();
@@ -614,7 +628,7 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
                 home_m: master_plant.plant.q_m.into(),
                 ..master_config
             };
-            master = MasterImage::new(&rehomed, &sdct, session, job.clone())?;
+            master = MasterImage::new(&rehomed, &sdct, session, case.command_copies, job.clone())?;
             tick_reference.clear();
         }
         // The operator's hand.
@@ -702,6 +716,7 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
         ],
         lost_frames: forward.end.link.lost() + backward.end.link.lost(),
         refused_frames: slave.link().refused(),
+        repeated_frames: slave.link().repeats(),
         restarts: slave.link().restarts(),
         slave_mode: slave.supervisor().mode(),
         master_mode: master.supervisor.mode(),

@@ -23,7 +23,8 @@
 //! nominal double integrator ẍs = u (the master's delay observer then corrects only
 //! what the network's delay and jitter and the reports' SDCT coding leave), behind the slave's end of the remote link
 //! ([`kerf::app::remote_link::SlaveLink`]: the playout, the reports); the network
-//! delays each frame by [`DELAY_MS`] ± [`JITTER_MS`], in order. The slave starts at
+//! delays each frame by [`DELAY_MS`] ± [`JITTER_MS`], in order; the master sends each
+//! command frame [`COMMAND_COPIES`] times (against loss). The slave starts at
 //! rest at the mapping's centre, where the master's rest point maps.
 //!
 //! The master is switched on at rest at its homing stops and takes its (empty)
@@ -45,8 +46,8 @@ use kerf::kinematics::delta::DeltaConfig;
 use kerf::kinematics::Vector3;
 use kerf::machines::remote_master::link::MasterSettings;
 use kerf::machines::remote_master::product::{
-    config, session, Master, BLOCK, HOME_M, LINK_JOB_BYTES, PERIOD_S, SAMPLES_PER_COMMAND,
-    TELEMETRY_DECIMATION,
+    config, session, Master, BLOCK, COMMAND_COPIES, HOME_M, LINK_JOB_BYTES, PERIOD_S,
+    SAMPLES_PER_COMMAND, TELEMETRY_DECIMATION,
 };
 use kerf::machines::remote_master::{RemoteMasterInputs, FIXTURE_POINTS};
 use kerf::scalar::Float;
@@ -84,12 +85,13 @@ const GRIP: (f64, f64) = (2000.0, 50.0);
 /// Commands the slave's playout holds: 256 ms of 1 kHz samples, past the delay.
 const PLAYOUT: usize = 256;
 
-/// Frames in flight on each way of the network (a frame every 16 ms, at most 30 ms).
-const IN_FLIGHT: usize = 8;
+/// Frames in flight on each way of the network (three frames every 16 ms, the
+/// command's and two copies, each at most 30 ms on the way).
+const IN_FLIGHT: usize = 16;
 
 /// Slots of the scaled master kept per command tick for the slave's tracking, by
 /// tick modulo this: ticks count control periods, so 102.4 ms of them, past the
-/// one-way delay and the playout's margin (45.5 ms at most).
+/// one-way delay and the playout's margin (61.5 ms at most).
 const REFERENCES: usize = 1024;
 
 /// Why the linked master could not be built.
@@ -461,8 +463,9 @@ pub fn with_linked_master<T: Float, R>(
         })
         .map_err(|_| ConfigError::out_of_range("network"))
     };
-    // The playout's margin behind the first command: the jitter and a half, and 0.5 ms.
-    let margin = JITTER_MS * 10 * 3 / 2 + 5;
+    // The playout's margin behind the first command: the jitter and a half, 0.5 ms,
+    // and a block period for the command frames' copies.
+    let margin = JITTER_MS * 10 * 3 / 2 + 5 + SAMPLES_PER_COMMAND * BLOCK as u32;
     let tracking = &config.tracking;
     let slave = NominalSlave {
         link: SlaveLink::new(&sdct, SAMPLES_PER_COMMAND, margin)?,
@@ -473,7 +476,7 @@ pub fn with_linked_master<T: Float, R>(
         supervisor,
         plant,
         drawing: Drawing::read(drawing)?,
-        master_link: MasterLink::new(&sdct, 1, sample_period_s)?,
+        master_link: MasterLink::new(&sdct, 1, sample_period_s)?.with_copies(COMMAND_COPIES)?,
         forward: network(1)?,
         backward: network(2)?,
         slave,

@@ -14,6 +14,19 @@
 //! bit in a beam mask, a session or a tick refuses the frame instead of firing the
 //! beam, restarting the playout or moving a block.
 //!
+//! A lossy link costs the slave the commands of every lost frame (16 ms of them: the
+//! previous command holds meanwhile and the slave's model leaves the master's), so
+//! the master can send every command frame more than once ([`MasterLink::with_copies`]):
+//! byte for byte, `copies − 1` times again just before the next block's frame, a block
+//! period after the original. A copy of a frame the slave has already taken is refused
+//! by the stream's sequence check (counted apart as a repeat); a copy of a lost one
+//! arrives in order, before the next block's frame, and plays as the original would
+//! have if the slave's playout margin holds the extra block period (docs/control.md
+//! §22). A block is then lost only when every copy is: with losses independent from
+//! frame to frame, at p^copies for a frame loss p. (Copies spread over several later
+//! blocks would not do better: the stream takes blocks in order, so a copy that
+//! arrives after the next block's frame is refused.)
+//!
 //! The slave end plays the commands out (`app::playout`) at a fixed latency; a frame
 //! of a new session (the master restarted) restarts the playout, so the new master's
 //! ticks are not refused as stale. The master end passes the newest report to its
@@ -23,10 +36,12 @@
 //! and counted.
 
 use crate::app::playout::{Playing, Playout};
-use crate::app::stream::{StreamReceiver, StreamSender};
+use crate::app::stream::{StreamError, StreamReceiver, StreamSender, MAX_FRAME_LEN};
+use crate::codec::packet::PacketError;
 use crate::codec::sdct::SdctConfig;
 use crate::error::{positive, ConfigError};
-use crate::hal::FrameLink;
+use crate::hal::{FrameLink, LinkBusy};
+use heapless::Vec;
 
 /// Link samples per SDCT block of the command and report streams, at both ends (at most
 /// 16: the beam mask's bits hold a block).
@@ -80,6 +95,30 @@ fn put(bytes: &mut [u8], at: usize, value: &[u8]) {
     }
 }
 
+/// Most times a command frame goes out ([`MasterLink::with_copies`]).
+pub const MAX_COPIES: usize = 3;
+
+/// A frame as it went out, for its copies.
+type SentFrame = Vec<u8, MAX_FRAME_LEN>;
+
+/// The link, keeping the frame it takes.
+struct Keeping<'a, L> {
+    link: &'a mut L,
+    kept: Option<SentFrame>,
+}
+
+impl<L: FrameLink> FrameLink for Keeping<'_, L> {
+    fn send(&mut self, frame: &[u8]) -> Result<(), LinkBusy> {
+        self.link.send(frame)?;
+        self.kept = Vec::from_slice(frame).ok();
+        Ok(())
+    }
+
+    fn receive(&mut self, buf: &mut [u8]) -> Option<usize> {
+        self.link.receive(buf)
+    }
+}
+
 /// Blocks of N ≤ 16 samples (the beam mask is 16 bits).
 fn check_block<const N: usize>() -> Result<(), ConfigError> {
     if N > 16 {
@@ -99,6 +138,10 @@ pub struct MasterLink<const N: usize> {
     laser_mask: u16,
     inv_sample_period: f32,
     refused: u32,
+    /// Times each command frame goes out (1 to [`MAX_COPIES`]).
+    copies: usize,
+    /// The last frame sent, while copies are sent.
+    last: Option<SentFrame>,
 }
 
 impl<const N: usize> MasterLink<N> {
@@ -118,7 +161,20 @@ impl<const N: usize> MasterLink<N> {
                 1.0 / positive("sample_period_s", sample_period_s)?,
             )?,
             refused: 0,
+            copies: 1,
+            last: None,
         })
+    }
+
+    /// Sends every command frame `copies` times (1 to [`MAX_COPIES`]; 1, each once, is
+    /// the default): `copies − 1` times again just before the next frame (module docs).
+    /// The slave's playout margin must hold one more block period.
+    pub fn with_copies(mut self, copies: usize) -> Result<Self, ConfigError> {
+        if !(1..=MAX_COPIES).contains(&copies) {
+            return Err(ConfigError::out_of_range("command_copies"));
+        }
+        self.copies = copies;
+        Ok(self)
     }
 
     /// Queues this period's command (if the machine made one); a full block goes out.
@@ -139,8 +195,23 @@ impl<const N: usize> MasterLink<N> {
             put(&mut header, 2, &self.first_tick.to_le_bytes());
             put(&mut header, 6, &self.laser_mask.to_le_bytes());
         }
+        if self.filled == 0 {
+            // The last frame's copies before the new one, so the slave receives blocks
+            // in order whichever copy arrives. A busy link drops a copy.
+            if let Some(frame) = self.last.take() {
+                for _ in 1..self.copies {
+                    let _ = link.send(&frame);
+                }
+            }
+        }
         // A busy link drops the block; the sender counts it and the slave sees the gap.
-        let _ = self.commands.push_frame(c.acceleration_m_s2, &header, link);
+        let mut keeping = Keeping { link, kept: None };
+        let _ = self
+            .commands
+            .push_frame(c.acceleration_m_s2, &header, &mut keeping);
+        if self.copies > 1 && keeping.kept.is_some() {
+            self.last = keeping.kept;
+        }
     }
 
     /// The newest report that arrived (frames the stream refuses are counted).
@@ -192,6 +263,7 @@ pub struct SlaveLink<const N: usize, const CAP: usize> {
     executing: Option<u32>,
     phase: u32,
     refused: u32,
+    repeats: u32,
     restarts: u32,
 }
 
@@ -216,6 +288,7 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
             executing: None,
             phase: 0,
             refused: 0,
+            repeats: 0,
             restarts: 0,
         })
     }
@@ -230,9 +303,16 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
         let mut header = [0u8; COMMAND_HEADER];
         let mut block = [[0.0f32; N]; 3];
         while let Some(frame) = self.commands.poll_frame(link, &mut header, &mut block) {
-            if frame.is_err() {
-                self.refused = self.refused.saturating_add(1);
-                continue;
+            match frame {
+                Ok(_) => {}
+                Err(StreamError::Packet(PacketError::SequenceBackwards { .. })) => {
+                    self.repeats = self.repeats.saturating_add(1);
+                    continue;
+                }
+                Err(_) => {
+                    self.refused = self.refused.saturating_add(1);
+                    continue;
+                }
             }
             let session = u16_at(&header, 0);
             if self.session != Some(session) {
@@ -290,9 +370,15 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
         self.executing
     }
 
-    /// Command frames refused so far (bad, replayed, out of order).
+    /// Command frames refused so far as bad (CRC, cut, spliced, not a frame).
     pub fn refused(&self) -> u32 {
         self.refused
+    }
+
+    /// Command frames of blocks already taken (the master's copies, a duplicate, a
+    /// replay, a frame overtaken by a later one): dropped, never played.
+    pub fn repeats(&self) -> u32 {
+        self.repeats
     }
 
     /// Master restarts seen (a new session).
@@ -430,8 +516,65 @@ mod tests {
         }
         let (command, fresh) = slave.receive(100, &mut link);
         assert!(fresh && command.is_some());
-        assert_eq!(slave.refused(), 1);
+        assert_eq!((slave.refused(), slave.repeats()), (0, 1));
         assert_eq!((slave.restarts(), slave.executing()), (1, Some(81)));
+    }
+
+    /// Five blocks sent three times each, with the link losing blocks 1 and 2's frames
+    /// and first copies: every tick still plays, in order, with its
+    /// value, and the copies of blocks already taken are counted as repeats. Sent
+    /// once, the same losses leave blocks 1 and 2 out.
+    #[test]
+    fn copies_of_each_frame_fill_what_the_link_lost() {
+        for (copies, expected_ticks, expected_repeats) in [(3usize, 40usize, 4u32), (1, 24, 0)] {
+            let mut link = Loopback::default();
+            let mut master = MasterLink::<8>::new(&SDCT, 7, 1e-3)
+                .and_then(|m| m.with_copies(copies))
+                .unwrap();
+            let mut slave = SlaveLink::<8, 64>::new(&SDCT, 10, 0).unwrap();
+            let mut frames = Vec::new();
+            for k in 0..5u32 {
+                block(&mut master, &mut link, 1 + 80 * k);
+                frames.append(&mut link.0);
+            }
+            assert_eq!(frames.len(), if copies == 3 { 5 + 2 * 4 } else { 5 });
+            // On the wire: f0 | c0 c0 f1 | c1 c1 f2 | c2 c2 f3 | c3 c3 f4 (three copies).
+            // Lost: f1, its first copy, f2 and its first copy.
+            let lost = |i: usize| {
+                if copies == 3 {
+                    [3, 4, 6, 7].contains(&i)
+                } else {
+                    [1, 2].contains(&i)
+                }
+            };
+            link.0 = frames
+                .into_iter()
+                .enumerate()
+                .filter(|(i, _)| !lost(*i))
+                .map(|(_, f)| f)
+                .collect();
+            let mut played = Vec::new();
+            for now in 0..500u32 {
+                let (command, fresh) = slave.receive(now, &mut link);
+                if fresh {
+                    played.push((slave.executing().unwrap(), command.unwrap()));
+                }
+            }
+            assert_eq!(played.len(), expected_ticks, "{copies} copies");
+            assert_eq!((slave.refused(), slave.repeats()), (0, expected_repeats));
+            for pair in played.windows(2) {
+                assert!(pair[0].0 < pair[1].0);
+            }
+            for (tick, command) in &played {
+                let j = (tick - 1) % 80 / 10;
+                let want = 0.01 * j as f32;
+                assert!((command.acceleration_m_s2[0] - want).abs() < 1e-3, "{tick}");
+            }
+        }
+        for copies in [0, MAX_COPIES + 1] {
+            let link = MasterLink::<8>::new(&SDCT, 7, 1e-3).unwrap();
+            assert!(link.with_copies(copies).is_err());
+        }
     }
 
     /// The latency the slave reports is the one its playout keeps: every command plays
