@@ -29,7 +29,7 @@ use kerf::kinematics::delta::{DeltaConfig, DeltaGeometry};
 use kerf::kinematics::Vector3;
 use kerf::machines::delta_slave::remote::{FollowJob, FollowPhase, RemoteSlave, RemoteSlaveConfig};
 use kerf::machines::remote_master::{
-    FixtureJob, HapticConfig, RemoteMaster, RemoteMasterConfig, RemoteMasterInputs,
+    FixtureJob, HapticConfig, RemoteMaster, RemoteMasterConfig, RemoteMasterInputs, SlaveEstimate,
 };
 use kerf::sensing::encoder::EncoderConfig;
 use kerf::sensing::velocity::TrackingObserverConfig;
@@ -107,8 +107,9 @@ pub struct RemoteCase {
     pub scale: f64,
     /// The link.
     pub network: Network,
-    /// Close the law on the delay observer's estimate.
-    pub observer: bool,
+    /// What the master's law closes on: kerf's delay observer, T's network
+    /// disturbance observer or the newest report.
+    pub estimate: SlaveEstimate,
     /// The haptic speed band on.
     pub haptic: bool,
     /// The slave's beam.
@@ -143,7 +144,7 @@ impl RemoteCase {
                 jitter_ms: 10,
                 loss: 0.0,
             },
-            observer: true,
+            estimate: SlaveEstimate::EchoedTicks,
             haptic: false,
             laser: LaserMode::ConstantPower {
                 power_w: LASER_POWER_W,
@@ -420,7 +421,7 @@ pub fn master_config(case: &RemoteCase, cm: [f64; 3], cs: [f64; 3]) -> RemoteMas
             2.0 * PI * case.tracking_hz,
         ),
         observer_bandwidth_rad_s: 2.0 * PI * case.observer_hz,
-        compensate_delay: case.observer,
+        slave_estimate: case.estimate,
         samples_per_command: D,
         haptic: case.haptic.then_some(HapticConfig {
             speed_band_m_s: [0.0, 1.1 * OPERATOR_SPEED_M_S],

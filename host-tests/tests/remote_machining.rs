@@ -10,6 +10,7 @@ use kerf::app::stream::FRAME_CRC_LEN;
 use kerf::app::supervisor::Mode;
 use kerf::control::laser::LaserMode;
 use kerf::machines::delta_slave::remote::RemoteSlaveFault;
+use kerf::machines::remote_master::SlaveEstimate;
 
 /// Tracking is measured from here on (the first seconds include the start from rest).
 const FROM_S: f64 = 2.0;
@@ -55,7 +56,11 @@ fn the_slave_follows_the_scaled_master_over_the_network() {
                 let case = RemoteCase {
                     scale,
                     network: link,
-                    observer,
+                    estimate: if observer {
+                        SlaveEstimate::EchoedTicks
+                    } else {
+                        SlaveEstimate::Newest
+                    },
                     push_window: None,
                     ..RemoteCase::nominal()
                 };

@@ -64,7 +64,7 @@ use kerf::machines::delta_slave::remote::{
 use kerf::machines::delta_slave::{DeltaJob, DeltaSlave, DeltaSlaveConfig};
 use kerf::machines::grinding::{GrindingCalibration, GrindingCell, GrindingConfig, GrindingInputs};
 use kerf::machines::remote_master::{
-    FixtureJob, RemoteMaster, RemoteMasterConfig, RemoteMasterInputs,
+    FixtureJob, RemoteMaster, RemoteMasterConfig, RemoteMasterInputs, SlaveEstimate,
 };
 use kerf::sensing::encoder::EncoderConfig;
 use kerf::sensing::force::Eccentricity;
@@ -249,7 +249,7 @@ fn remote_master() {
         constraint: ConstraintConfig::closed_contour(),
         tracking: BilateralConfig::critically_damped(0.5, [0.0; 3], [0.0; 3], 31.4),
         observer_bandwidth_rad_s: 62.8,
-        compensate_delay: true,
+        slave_estimate: SlaveEstimate::EchoedTicks,
         samples_per_command: 10,
         haptic: None,
     });

@@ -71,6 +71,7 @@ pub mod foc;
 pub mod hybrid_force;
 pub mod identify;
 pub mod laser;
+pub mod network_observer;
 pub mod pd;
 pub mod pid;
 pub mod preview;

@@ -25,9 +25,10 @@
 //!    task acceleration; the observer's model executes it every period. It goes out as
 //!    this period's [`MasterOutputs::command`] with its tick, for the image to stream.
 //!    The slave's reports (its position and the tick it was executing) correct the
-//!    observer. Without the observer (`compensate_delay: false`) the law uses the
-//!    newest report as it is: the comparison case, in which the round trip sits inside
-//!    the loop.
+//!    observer. [`SlaveEstimate`] chooses what the law closes on: kerf's observer, T's
+//!    own network disturbance observer (`control::network_observer`, eq. 93–95: no
+//!    ticks compared, no convergence term), or the newest report as it is (the
+//!    comparison case, in which the round trip sits inside the loop).
 //!
 //! The slave's acceleration feedforward is left out of the law (the master's
 //! acceleration would be the second difference of 0.5 µm counts); at the law's 5 Hz
@@ -43,6 +44,7 @@ use crate::control::bilateral::{Bilateral, BilateralConfig, MasterState};
 use crate::control::constraint::{Fixture, FixtureConfig, FixtureError};
 use crate::control::delay_observer::{DelayObserver, DelayObserverConfig};
 use crate::control::dob::{Dob, DobConfig, DobState};
+use crate::control::network_observer::{NetworkObserver, NetworkObserverConfig};
 use crate::error::{coefficient, positive, representable, ConfigContext, ConfigError};
 use crate::kinematics::delta::{DeltaConfig, DeltaGeometry, KinematicsError};
 use crate::scalar::{lit, Float, Real};
@@ -95,14 +97,29 @@ pub struct RemoteMasterConfig {
     pub constraint: ConstraintConfig,
     /// The slave's tracking law: scale and centres, its poles.
     pub tracking: BilateralConfig,
-    /// The delay observer (its period is `period_s`).
+    /// The delay observer's correction (its period is `period_s`), rad/s.
     pub observer_bandwidth_rad_s: f64,
-    /// Close the law on the delay observer's estimate (`false`: on the newest report).
-    pub compensate_delay: bool,
+    /// What the slave's law closes on.
+    pub slave_estimate: SlaveEstimate,
     /// Control periods per link sample.
     pub samples_per_command: u32,
     /// The haptic band (`None`: off).
     pub haptic: Option<HapticConfig>,
+}
+
+/// The slave's state the tracking law uses (module docs, item 4).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum SlaveEstimate {
+    /// The newest report as it arrived: the round trip inside the loop.
+    Newest,
+    /// kerf's delay observer (`control::delay_observer`): the model compared with the
+    /// reports at the ticks they echo, corrected at `observer_bandwidth_rad_s`.
+    EchoedTicks,
+    /// T's network disturbance observer (`control::network_observer`).
+    NetworkDisturbance {
+        /// Bandwidth of its filters, rad/s.
+        bandwidth_rad_s: f64,
+    },
 }
 
 /// Why the master stopped.
@@ -240,10 +257,14 @@ pub struct RemoteMaster<T: Float> {
     fixture: Fixture<T>,
     tracking: Bilateral<T>,
     haptic: Option<(T, T, T, T)>,
-    compensate_delay: bool,
+    slave_estimate: SlaveEstimate,
     samples_per_command: u32,
     carriages: [Carriage<T>; 3],
+    /// kerf's observer: it also counts the master's ticks, whichever estimate is used.
     observer: DelayObserver<T, OBSERVER_HISTORY>,
+    /// T's observer, when [`SlaveEstimate::NetworkDisturbance`] is chosen, and
+    /// whether it has started (at the first report of a command played).
+    network_observer: Option<(NetworkObserver<T>, bool)>,
     /// The newest report (position, velocity); the observer starts from the first.
     measured_slave: Option<(Vector3<T>, Vector3<T>)>,
     observer_ready: bool,
@@ -299,6 +320,20 @@ impl<T: Float> RemoteMaster<T> {
             Vector3::zeros(),
         )
         .map_err(|_| ConfigError::out_of_range("observer_bandwidth_rad_s"))?;
+        let network_observer = match config.slave_estimate {
+            SlaveEstimate::NetworkDisturbance { bandwidth_rad_s } => Some((
+                NetworkObserver::new(
+                    &NetworkObserverConfig {
+                        period_s: ts,
+                        bandwidth_rad_s,
+                    },
+                    Vector3::zeros(),
+                )
+                .within("slave_estimate")?,
+                false,
+            )),
+            _ => None,
+        };
         Ok(Self {
             geometry: DeltaGeometry::new(&config.delta).within("delta")?,
             encoders: [encoder(0, e0)?, encoder(1, e1)?, encoder(2, e2)?],
@@ -310,7 +345,7 @@ impl<T: Float> RemoteMaster<T> {
             fixture: Fixture::new(&config.fixture).within("fixture")?,
             tracking: Bilateral::new(&config.tracking).within("tracking")?,
             haptic,
-            compensate_delay: config.compensate_delay,
+            slave_estimate: config.slave_estimate,
             samples_per_command: config.samples_per_command,
             carriages: home_m.map(|h| Carriage {
                 encoder: EncoderState::unhomed(),
@@ -319,6 +354,7 @@ impl<T: Float> RemoteMaster<T> {
                 applied_acceleration: T::zero(),
             }),
             observer,
+            network_observer,
             measured_slave: None,
             observer_ready: false,
             command: Vector3::zeros(),
@@ -400,6 +436,20 @@ impl<T: Float> RemoteMaster<T> {
         } else {
             self.observer.restart(position);
             self.observer_ready = true;
+        }
+        // T's observer assumes the slave and the estimate start equal (T 5.3.2) and has
+        // no term that would make them so later: it starts at the first report of a
+        // slave executing this master's commands (at rest at its start until then).
+        if let Some((network, started)) = &mut self.network_observer {
+            if *started {
+                let _ = network.received(&position, &velocity);
+            } else {
+                // The slave reports only once it rests at its start: the estimate
+                // starts there at rest (the measured velocity is that of a slave at
+                // rest, and its noise would stay in the estimate).
+                network.restart((position, velocity), (position, Vector3::zeros()));
+                *started = true;
+            }
         }
         self.measured_slave = Some((position, velocity));
     }
@@ -517,10 +567,13 @@ impl<T: Float> RemoteMaster<T> {
         }
         let due = self.phase_in_sample == 0;
         if due {
-            let slave = if self.compensate_delay {
-                Some(self.observer.estimate())
-            } else {
-                self.measured_slave
+            let slave = match (&self.slave_estimate, &self.network_observer) {
+                (SlaveEstimate::Newest, _) => self.measured_slave,
+                (SlaveEstimate::EchoedTicks, _) => Some(self.observer.estimate()),
+                (SlaveEstimate::NetworkDisturbance { .. }, Some((network, true))) => {
+                    Some(network.estimate())
+                }
+                (SlaveEstimate::NetworkDisturbance { .. }, _) => self.measured_slave,
             };
             if let Some((x, v)) = slave {
                 let (command, error) = self.tracking.task_acceleration(master, &x, &v);
@@ -541,6 +594,9 @@ impl<T: Float> RemoteMaster<T> {
             next
         };
         let tick = self.observer.step(&self.command);
+        if let Some((network, true)) = &mut self.network_observer {
+            network.step(&self.command);
+        }
         if !due {
             return Ok(None);
         }

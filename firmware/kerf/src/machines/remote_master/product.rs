@@ -20,7 +20,7 @@
 //! workspace about the middle of the Keops slave's travel ([`SLAVE_CENTRE_Q_M`]),
 //! scaled by [`SCALE`] (T 5.3.2).
 
-use super::{FixtureJob, RemoteMaster, RemoteMasterConfig, FIXTURE_POINTS};
+use super::{FixtureJob, RemoteMaster, RemoteMasterConfig, SlaveEstimate, FIXTURE_POINTS};
 use crate::codec::job::{JobFile, HEADER_BYTES};
 use crate::control::bilateral::BilateralConfig;
 use crate::control::constraint::FixtureConfig;
@@ -137,7 +137,7 @@ pub fn config() -> Result<RemoteMasterConfig, ConfigError> {
             TRACKING_RAD_S,
         ),
         observer_bandwidth_rad_s: 2.0 * PI * 5.0,
-        compensate_delay: true,
+        slave_estimate: SlaveEstimate::EchoedTicks,
         samples_per_command: SAMPLES_PER_COMMAND,
         haptic: None,
     })
