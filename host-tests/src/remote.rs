@@ -36,7 +36,9 @@ use kerf::sensing::velocity::TrackingObserverConfig;
 use kerf::trajectory::constraint::ConstraintConfig;
 use kerf::trajectory::shapes::ellipse;
 use kerf_sim::operator::Operator;
-use kerf_sim::remote::{keops_site, RecordingHeader, RecordingWriter, SlaveSite, BLOCK};
+use kerf_sim::remote::{
+    keops_site, RecordingHeader, RecordingWriter, SlaveSite, SlaveSiteConfig, BLOCK,
+};
 use std::f64::consts::PI;
 
 /// Control period of both machines, s.
@@ -128,6 +130,9 @@ pub struct RemoteCase {
     pub tracking_hz: f64,
     /// The delay observer's correction, Hz.
     pub observer_hz: f64,
+    /// Every link sample in its own uncoded frame both ways (`remote_link::raw`): no
+    /// block latency, four times the bytes.
+    pub raw_samples: bool,
     /// Times the master sends each command frame (`MasterLink::with_copies`); the
     /// slave's playout margin holds a block period more when it is above 1.
     pub command_copies: usize,
@@ -157,6 +162,7 @@ impl RemoteCase {
             tracking_hz: 15.0,
             observer_hz: 5.0,
             command_copies: 1,
+            raw_samples: false,
         }
     }
 }
@@ -357,7 +363,7 @@ impl MasterImage {
         config: &RemoteMasterConfig,
         sdct: &SdctConfig,
         session: u16,
-        copies: usize,
+        case: &RemoteCase,
         job: FixtureJob<f64>,
     ) -> Result<Self, RemoteError> {
         let machine = RemoteMaster::<f64>::new(config)
@@ -383,7 +389,14 @@ impl MasterImage {
                 .map_err(|_| RemoteError::Setup("master queue".into()))?;
         }
         let link = MasterLink::new(sdct, session, TS * f64::from(D))
-            .and_then(|l| l.with_copies(copies))
+            .and_then(|l| l.with_copies(case.command_copies))
+            .map(|l| {
+                if case.raw_samples {
+                    l.with_raw_samples()
+                } else {
+                    l
+                }
+            })
             .map_err(|e| RemoteError::Setup(format!("master link: {e}")))?;
         Ok(Self { supervisor, link })
     }
@@ -526,14 +539,18 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
         selection: Selection::Largest,
     };
 
-    // The jitter and a half, 0.5 ms, and a block period for the copies of a frame.
-    let copies_margin = if case.command_copies > 1 {
-        D * N as u32
-    } else {
-        0
+    // The jitter and a half, 0.5 ms, and a frame's period (a block's, or a sample's
+    // when raw) for the copies of a frame.
+    let copies_margin = match (case.command_copies > 1, case.raw_samples) {
+        (false, _) => 0,
+        (true, false) => D * N as u32,
+        (true, true) => D,
     };
     let margin = case.network.jitter_ms * 10 * 3 / 2 + 5 + copies_margin;
-    let site = keops_site(case.slave_plant, case.m, D, margin);
+    let site = SlaveSiteConfig {
+        raw_samples: case.raw_samples,
+        ..keops_site(case.slave_plant, case.m, D, margin)
+    };
     let jobs = JobSlots::default();
     let mut slave_commands: Queue<Command<RemoteSlave<f64>>, 8> = Queue::new();
     let mut slave_reports: Queue<Report<RemoteSlave<f64>>, 64> = Queue::new();
@@ -598,7 +615,7 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
         }
     }
 
-    let mut master = MasterImage::new(&master_config, &sdct, 1, case.command_copies, job.clone())?;
+    let mut master = MasterImage::new(&master_config, &sdct, 1, case, job.clone())?;
     let mut samples = Vec::new();
     // Each command's tick: the scaled master then, and the period it was computed.
     let mut tick_reference: std::collections::HashMap<u32, ([f64; 3], u64)> = Default::default();
@@ -629,7 +646,7 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
                 home_m: master_plant.plant.q_m.into(),
                 ..master_config
             };
-            master = MasterImage::new(&rehomed, &sdct, session, case.command_copies, job.clone())?;
+            master = MasterImage::new(&rehomed, &sdct, session, case, job.clone())?;
             tick_reference.clear();
         }
         // The operator's hand.

@@ -59,6 +59,8 @@ pub struct SlaveSiteConfig {
     pub samples_per_command: u32,
     /// The playout's margin behind the first command's arrival, periods.
     pub margin_periods: u32,
+    /// Every link sample in its own uncoded frame (`remote_link::raw`), both ways.
+    pub raw_samples: bool,
 }
 
 /// Why a slave site could not run.
@@ -112,6 +114,11 @@ impl<'q, T: Float> SlaveSite<'q, T> {
             config.margin_periods,
         )
         .map_err(RemoteSimError::Config)?;
+        let link = if config.raw_samples {
+            link.with_raw_samples()
+        } else {
+            link
+        };
         Ok(Self {
             supervisor,
             plant,
@@ -265,6 +272,7 @@ pub fn keops_site(
         },
         samples_per_command,
         margin_periods,
+        raw_samples: false,
     }
 }
 

@@ -27,6 +27,9 @@
 //! blocks would not do better: the stream takes blocks in order, so a copy that
 //! arrives after the next block's frame is refused.)
 //!
+//! Both ends can instead put every link sample in its own uncoded frame ([`raw`]): the
+//! baseline without the blocks' latency.
+//!
 //! The slave end plays the commands out (`app::playout`) at a fixed latency; a frame
 //! of a new session (the master restarted) restarts the playout, so the new master's
 //! ticks are not refused as stale. The master end passes the newest report to its
@@ -35,13 +38,15 @@
 //! refuses (bad frame or packet CRC, cut, spliced, replayed, out of order) are dropped
 //! and counted.
 
-use crate::app::playout::{Playing, Playout};
+use crate::app::playout::{Playing, Playout, PlayoutRejected};
 use crate::app::stream::{StreamError, StreamReceiver, StreamSender, MAX_FRAME_LEN};
 use crate::codec::packet::PacketError;
 use crate::codec::sdct::SdctConfig;
 use crate::error::{positive, ConfigError};
 use crate::hal::{FrameLink, LinkBusy};
 use heapless::Vec;
+
+pub mod raw;
 
 /// Link samples per SDCT block of the command and report streams, at both ends (at most
 /// 16: the beam mask's bits hold a block).
@@ -142,6 +147,8 @@ pub struct MasterLink<const N: usize> {
     copies: usize,
     /// The last frame sent, while copies are sent.
     last: Option<SentFrame>,
+    /// Raw samples ([`raw`]): the newest report's position, for the velocity.
+    raw: Option<Option<[f32; 3]>>,
 }
 
 impl<const N: usize> MasterLink<N> {
@@ -163,7 +170,15 @@ impl<const N: usize> MasterLink<N> {
             refused: 0,
             copies: 1,
             last: None,
+            raw: None,
         })
+    }
+
+    /// Every command in its own uncoded frame, and reports read the same way ([`raw`]);
+    /// the slave's end must be raw too.
+    pub fn with_raw_samples(mut self) -> Self {
+        self.raw = Some(None);
+        self
     }
 
     /// Sends every command frame `copies` times (1 to [`MAX_COPIES`]; 1, each once, is
@@ -180,6 +195,14 @@ impl<const N: usize> MasterLink<N> {
     /// Queues this period's command (if the machine made one); a full block goes out.
     pub fn send(&mut self, command: Option<(u32, RemoteCommand)>, link: &mut impl FrameLink) {
         let Some((tick, c)) = command else { return };
+        if self.raw.is_some() {
+            self.send_copies(link);
+            let frame = raw::command_frame(self.session, tick, &c);
+            if link.send(&frame).is_ok() && self.copies > 1 {
+                self.last = Vec::from_slice(&frame).ok();
+            }
+            return;
+        }
         if self.filled == 0 {
             self.first_tick = tick;
             self.laser_mask = 0;
@@ -196,13 +219,7 @@ impl<const N: usize> MasterLink<N> {
             put(&mut header, 6, &self.laser_mask.to_le_bytes());
         }
         if self.filled == 0 {
-            // The last frame's copies before the new one, so the slave receives blocks
-            // in order whichever copy arrives. A busy link drops a copy.
-            if let Some(frame) = self.last.take() {
-                for _ in 1..self.copies {
-                    let _ = link.send(&frame);
-                }
-            }
+            self.send_copies(link);
         }
         // A busy link drops the block; the sender counts it and the slave sees the gap.
         let mut keeping = Keeping { link, kept: None };
@@ -214,8 +231,27 @@ impl<const N: usize> MasterLink<N> {
         }
     }
 
+    /// The last frame's copies, before a new frame, so that the slave receives blocks
+    /// in order whichever copy arrives. A busy link drops a copy.
+    fn send_copies(&mut self, link: &mut impl FrameLink) {
+        if let Some(frame) = self.last.take() {
+            for _ in 1..self.copies {
+                let _ = link.send(&frame);
+            }
+        }
+    }
+
     /// The newest report that arrived (frames the stream refuses are counted).
     pub fn receive(&mut self, link: &mut impl FrameLink) -> Option<SlaveReport> {
+        if let Some(previous) = &mut self.raw {
+            return Self::receive_raw(
+                link,
+                self.session,
+                self.inv_sample_period,
+                previous,
+                &mut self.refused,
+            );
+        }
         let mut newest = None;
         let mut header = [0u8; REPORT_HEADER];
         let mut block = [[0.0f32; N]; 3];
@@ -235,6 +271,35 @@ impl<const N: usize> MasterLink<N> {
                     (position.get(k).copied().unwrap_or(0.0)
                         - before.get(k).copied().unwrap_or(0.0))
                         * self.inv_sample_period
+                }),
+            });
+        }
+        newest
+    }
+
+    /// The newest raw report; the velocity from the previous one's position.
+    fn receive_raw(
+        link: &mut impl FrameLink,
+        session: u16,
+        inv_sample_period: f32,
+        previous: &mut Option<[f32; 3]>,
+        refused: &mut u32,
+    ) -> Option<SlaveReport> {
+        let mut newest = None;
+        let mut buf = [0u8; raw::FRAME_LEN + 1];
+        while let Some(len) = link.receive(&mut buf) {
+            let Some((echo, from, position)) = buf.get(..len).and_then(raw::parse_report) else {
+                *refused = refused.saturating_add(1);
+                continue;
+            };
+            let before = previous.replace(position).unwrap_or(position);
+            newest = Some(SlaveReport {
+                echo_tick: echo.filter(|_| from == session),
+                position_m: position,
+                velocity_m_s: [0, 1, 2].map(|k| {
+                    (position.get(k).copied().unwrap_or(0.0)
+                        - before.get(k).copied().unwrap_or(0.0))
+                        * inv_sample_period
                 }),
             });
         }
@@ -265,6 +330,7 @@ pub struct SlaveLink<const N: usize, const CAP: usize> {
     refused: u32,
     repeats: u32,
     restarts: u32,
+    raw: bool,
 }
 
 impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
@@ -290,16 +356,31 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
             refused: 0,
             repeats: 0,
             restarts: 0,
+            raw: false,
         })
     }
 
-    /// Takes what arrived into the playout; returns the command playing in local
-    /// period `now` and whether it started this period.
-    pub fn receive(
-        &mut self,
-        now: u32,
-        link: &mut impl FrameLink,
-    ) -> (Option<RemoteCommand>, bool) {
+    /// Commands and reports in uncoded frames of one sample ([`raw`]); the master's end
+    /// must be raw too.
+    pub fn with_raw_samples(mut self) -> Self {
+        self.raw = true;
+        self
+    }
+
+    /// A command frame of `session` arrived: a new session restarts the playout.
+    fn session(&mut self, session: u16) {
+        if self.session != Some(session) {
+            if self.session.is_some() {
+                self.restarts = self.restarts.saturating_add(1);
+            }
+            self.session = Some(session);
+            self.playout.restart();
+            self.executing = None;
+        }
+    }
+
+    /// SDCT command frames into the playout.
+    fn receive_blocks(&mut self, now: u32, link: &mut impl FrameLink) {
         let mut header = [0u8; COMMAND_HEADER];
         let mut block = [[0.0f32; N]; 3];
         while let Some(frame) = self.commands.poll_frame(link, &mut header, &mut block) {
@@ -314,15 +395,7 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
                     continue;
                 }
             }
-            let session = u16_at(&header, 0);
-            if self.session != Some(session) {
-                if self.session.is_some() {
-                    self.restarts = self.restarts.saturating_add(1);
-                }
-                self.session = Some(session);
-                self.playout.restart();
-                self.executing = None;
-            }
+            self.session(u16_at(&header, 0));
             let (first, mask) = (u32_at(&header, 2), u16_at(&header, 6));
             let [x, y, z] = &block;
             for (j, ((x, y), z)) in x.iter().zip(y).zip(z).enumerate() {
@@ -335,6 +408,36 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
                 // counts its own.
                 let _ = self.playout.push(now, tick, command);
             }
+        }
+    }
+
+    /// Raw command frames into the playout.
+    fn receive_raw(&mut self, now: u32, link: &mut impl FrameLink) {
+        let mut buf = [0u8; raw::FRAME_LEN + 1];
+        while let Some(len) = link.receive(&mut buf) {
+            let Some((session, tick, command)) = buf.get(..len).and_then(raw::parse_command) else {
+                self.refused = self.refused.saturating_add(1);
+                continue;
+            };
+            self.session(session);
+            // A copy or a replay of a command already queued or played is stale.
+            if self.playout.push(now, tick, command) == Err(PlayoutRejected::Stale) {
+                self.repeats = self.repeats.saturating_add(1);
+            }
+        }
+    }
+
+    /// Takes what arrived into the playout; returns the command playing in local
+    /// period `now` and whether it started this period.
+    pub fn receive(
+        &mut self,
+        now: u32,
+        link: &mut impl FrameLink,
+    ) -> (Option<RemoteCommand>, bool) {
+        if self.raw {
+            self.receive_raw(now, link);
+        } else {
+            self.receive_blocks(now, link);
         }
         match self.playout.next(now) {
             Playing::Waiting => (None, false),
@@ -357,6 +460,11 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
         let (true, Some(position)) = (due, position_m) else {
             return;
         };
+        if self.raw {
+            let frame = raw::report_frame(self.executing, self.session.unwrap_or(0), position);
+            let _ = link.send(&frame);
+            return;
+        }
         let mut header = [0u8; REPORT_HEADER];
         put(&mut header, 0, &self.executing.unwrap_or(0).to_le_bytes());
         put(&mut header, 4, &self.session.unwrap_or(0).to_le_bytes());
@@ -398,250 +506,4 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::app::stream::tests::Loopback;
-    extern crate std;
-    use crate::codec::sdct::Selection;
-    use std::vec::Vec;
-
-    const SDCT: SdctConfig = SdctConfig {
-        m: 8,
-        selection: Selection::Largest,
-    };
-
-    /// Sends 8 commands (one block) from tick `first`, the beam on for the odd ones.
-    fn block(master: &mut MasterLink<8>, link: &mut Loopback, first: u32) {
-        beam_block(master, link, first, 0b1010_1010);
-    }
-
-    /// Sends 8 commands (one block) from tick `first`, ten ticks apart, the beam on
-    /// where `beam` has a bit set.
-    fn beam_block(master: &mut MasterLink<8>, link: &mut Loopback, first: u32, beam: u8) {
-        for j in 0..8u32 {
-            let command = RemoteCommand {
-                acceleration_m_s2: [0.01 * j as f32, -0.02, 0.0],
-                laser_on: beam >> j & 1 == 1,
-            };
-            master.send(Some((first + 10 * j, command)), link);
-        }
-    }
-
-    /// Every bit of a command frame's header flipped in turn (session, tick, beam
-    /// mask): the slave refuses the frame, so the beam stays off for a block the
-    /// master sent dark, the session does not restart and no tick of the block plays.
-    #[test]
-    fn a_flipped_command_header_bit_is_refused_and_never_fires_the_beam() {
-        let mut link = Loopback::default();
-        let mut master = MasterLink::<8>::new(&SDCT, 7, 1e-3).unwrap();
-        let mut slave = SlaveLink::<8, 64>::new(&SDCT, 10, 0).unwrap();
-        beam_block(&mut master, &mut link, 1, 0);
-        let (first, _) = slave.receive(0, &mut link);
-        assert!(first.is_some_and(|c| !c.laser_on));
-        beam_block(&mut master, &mut link, 81, 0);
-        let frame = link.0.remove(0);
-        // What the first block alone plays from period 1 on: ticks 11 to 71.
-        let expected: Vec<u32> = (1..8).map(|j| 1 + 10 * j).collect();
-        for bit in 0..8 * COMMAND_HEADER {
-            let mut flipped = frame.clone();
-            flipped[bit / 8] ^= 1 << (bit % 8);
-            let mut slave = slave.clone();
-            let mut bad = Loopback(std::vec![flipped]);
-            let (mut beam, mut ticks) = (false, Vec::new());
-            for now in 1..200u32 {
-                let (command, fresh) = slave.receive(now, &mut bad);
-                beam |= command.is_some_and(|c| c.laser_on);
-                if fresh {
-                    ticks.extend(slave.executing());
-                }
-            }
-            assert!(!beam, "bit {bit} fired the beam");
-            assert_eq!((slave.refused(), slave.restarts()), (1, 0), "bit {bit}");
-            assert_eq!(ticks, expected, "bit {bit}");
-        }
-    }
-
-    /// Every bit of a report frame's header flipped in turn (echo tick, session,
-    /// flags): the master refuses the frame and reports nothing from it.
-    #[test]
-    fn a_flipped_report_header_bit_is_refused() {
-        let (mut link, mut back) = (Loopback::default(), Loopback::default());
-        let mut master = MasterLink::<8>::new(&SDCT, 3, 1e-3).unwrap();
-        let mut slave = SlaveLink::<8, 64>::new(&SDCT, 1, 0).unwrap();
-        block(&mut master, &mut link, 5);
-        let _ = slave.receive(0, &mut link);
-        for _ in 0..8 {
-            slave.report(Some([0.001, 0.002, 0.05]), &mut back);
-        }
-        let frame = back.0.remove(0);
-        for bit in 0..8 * REPORT_HEADER {
-            let mut flipped = frame.clone();
-            flipped[bit / 8] ^= 1 << (bit % 8);
-            let mut master = master.clone();
-            let report = master.receive(&mut Loopback(std::vec![flipped]));
-            assert_eq!((report, master.refused()), (None, 1), "bit {bit}");
-        }
-        let report = master.receive(&mut Loopback(std::vec![frame])).unwrap();
-        assert_eq!((report.echo_tick, master.refused()), (Some(5), 0));
-    }
-
-    #[test]
-    fn commands_play_in_order_with_their_beam_and_a_new_session_restarts_the_playout() {
-        let mut link = Loopback::default();
-        let mut master = MasterLink::<8>::new(&SDCT, 7, 1e-3).unwrap();
-        let mut slave = SlaveLink::<8, 64>::new(&SDCT, 10, 0).unwrap();
-        block(&mut master, &mut link, 1);
-        // Anchored at arrival: tick 1 plays at period 0, tick 11 at 10, ...
-        let mut played = Vec::new();
-        for now in 0..80u32 {
-            let (command, fresh) = slave.receive(now, &mut link);
-            if fresh {
-                played.push((now, command.unwrap(), slave.executing().unwrap()));
-            }
-        }
-        assert_eq!(played.len(), 8);
-        for (j, (now, command, tick)) in played.iter().enumerate() {
-            assert_eq!((*now, *tick), (10 * j as u32, 1 + 10 * j as u32));
-            assert_eq!(command.laser_on, j % 2 == 1);
-            let want = 0.01 * j as f32;
-            assert!((command.acceleration_m_s2[0] - want).abs() < 1e-3);
-        }
-        // The master restarts: its sequence and ticks start again. Here the old stream
-        // had sent one frame, so the new one's first (sequence 0 again) is refused as
-        // a duplicate and its second follows on; the old playout would refuse its
-        // ticks as stale, and the new session restarts it.
-        let mut restarted = MasterLink::<8>::new(&SDCT, 8, 1e-3).unwrap();
-        for first in [1, 81, 161] {
-            block(&mut restarted, &mut link, first);
-        }
-        let (command, fresh) = slave.receive(100, &mut link);
-        assert!(fresh && command.is_some());
-        assert_eq!((slave.refused(), slave.repeats()), (0, 1));
-        assert_eq!((slave.restarts(), slave.executing()), (1, Some(81)));
-    }
-
-    /// Five blocks sent three times each, with the link losing blocks 1 and 2's frames
-    /// and first copies: every tick still plays, in order, with its
-    /// value, and the copies of blocks already taken are counted as repeats. Sent
-    /// once, the same losses leave blocks 1 and 2 out.
-    #[test]
-    fn copies_of_each_frame_fill_what_the_link_lost() {
-        for (copies, expected_ticks, expected_repeats) in [(3usize, 40usize, 4u32), (1, 24, 0)] {
-            let mut link = Loopback::default();
-            let mut master = MasterLink::<8>::new(&SDCT, 7, 1e-3)
-                .and_then(|m| m.with_copies(copies))
-                .unwrap();
-            let mut slave = SlaveLink::<8, 64>::new(&SDCT, 10, 0).unwrap();
-            let mut frames = Vec::new();
-            for k in 0..5u32 {
-                block(&mut master, &mut link, 1 + 80 * k);
-                frames.append(&mut link.0);
-            }
-            assert_eq!(frames.len(), if copies == 3 { 5 + 2 * 4 } else { 5 });
-            // On the wire: f0 | c0 c0 f1 | c1 c1 f2 | c2 c2 f3 | c3 c3 f4 (three copies).
-            // Lost: f1, its first copy, f2 and its first copy.
-            let lost = |i: usize| {
-                if copies == 3 {
-                    [3, 4, 6, 7].contains(&i)
-                } else {
-                    [1, 2].contains(&i)
-                }
-            };
-            link.0 = frames
-                .into_iter()
-                .enumerate()
-                .filter(|(i, _)| !lost(*i))
-                .map(|(_, f)| f)
-                .collect();
-            let mut played = Vec::new();
-            for now in 0..500u32 {
-                let (command, fresh) = slave.receive(now, &mut link);
-                if fresh {
-                    played.push((slave.executing().unwrap(), command.unwrap()));
-                }
-            }
-            assert_eq!(played.len(), expected_ticks, "{copies} copies");
-            assert_eq!((slave.refused(), slave.repeats()), (0, expected_repeats));
-            for pair in played.windows(2) {
-                assert!(pair[0].0 < pair[1].0);
-            }
-            for (tick, command) in &played {
-                let j = (tick - 1) % 80 / 10;
-                let want = 0.01 * j as f32;
-                assert!((command.acceleration_m_s2[0] - want).abs() < 1e-3, "{tick}");
-            }
-        }
-        for copies in [0, MAX_COPIES + 1] {
-            let link = MasterLink::<8>::new(&SDCT, 7, 1e-3).unwrap();
-            assert!(link.with_copies(copies).is_err());
-        }
-    }
-
-    /// The latency the slave reports is the one its playout keeps: every command plays
-    /// `latency_periods` after its master tick (measured here as play period − tick),
-    /// first anchored at the first arrival plus the margin (12 − 1 + 5 periods), then
-    /// re-anchored by a block that arrives late (150 − 81 + 5). `None` before any
-    /// command.
-    #[test]
-    fn the_latency_is_the_delay_each_command_plays_at() {
-        let mut link = Loopback::default();
-        let mut master = MasterLink::<8>::new(&SDCT, 7, 1e-3).unwrap();
-        let mut slave = SlaveLink::<8, 64>::new(&SDCT, 10, 5).unwrap();
-        assert_eq!(slave.latency_periods(), None);
-        let mut delays = Vec::new();
-        for (first, arrival) in [(1u32, 12u32), (81, 150)] {
-            for now in arrival - 12..arrival {
-                let _ = slave.receive(now, &mut link);
-            }
-            assert_eq!(slave.latency_periods().is_some(), first > 1);
-            block(&mut master, &mut link, first);
-            for now in arrival..arrival + 100 {
-                let (_, fresh) = slave.receive(now, &mut link);
-                let tick = slave.executing().unwrap_or(0);
-                if fresh && tick >= first {
-                    assert_eq!(slave.latency_periods(), Some(now - tick), "tick {tick}");
-                    delays.push(now - tick);
-                }
-            }
-        }
-        // Both anchors were met by played commands (8 of each block).
-        assert_eq!(delays.len(), 16, "{delays:?}");
-        assert_eq!((delays[0], delays[15]), (16, 74));
-    }
-
-    #[test]
-    fn reports_carry_the_echo_only_within_the_masters_session() {
-        let mut link = Loopback::default();
-        let mut back = Loopback::default();
-        let mut master = MasterLink::<8>::new(&SDCT, 3, 1e-3).unwrap();
-        let mut slave = SlaveLink::<8, 64>::new(&SDCT, 1, 0).unwrap();
-        // Before any command: reports with no echo.
-        for _ in 0..8 {
-            slave.report(Some([0.001, 0.002, 0.05]), &mut back);
-        }
-        let report = master.receive(&mut back).unwrap();
-        assert_eq!(report.echo_tick, None);
-        assert!((report.position_m[2] - 0.05).abs() < 1e-4);
-        block(&mut master, &mut link, 5);
-        let _ = slave.receive(0, &mut link);
-        for _ in 0..8 {
-            slave.report(Some([0.001, 0.002, 0.05]), &mut back);
-        }
-        assert_eq!(master.receive(&mut back).unwrap().echo_tick, Some(5));
-        // Another master (session) sees the report without an echo.
-        let mut other = MasterLink::<8>::new(&SDCT, 4, 1e-3).unwrap();
-        for _ in 0..8 {
-            slave.report(Some([0.001, 0.002, 0.05]), &mut back);
-        }
-        assert_eq!(other.receive(&mut back).unwrap().echo_tick, None);
-        // A cut frame is refused and counted.
-        for _ in 0..8 {
-            slave.report(Some([0.001, 0.002, 0.05]), &mut back);
-        }
-        if let Some(frame) = back.0.first_mut() {
-            frame.truncate(frame.len() - 3);
-        }
-        assert!(master.receive(&mut back).is_none());
-        assert_eq!(master.refused(), 1);
-    }
-}
+mod tests;
