@@ -25,7 +25,7 @@ use cortex_m_rt::entry;
 use heapless::spsc::Queue;
 use kerf::app::calibrate::{fit_sensors, CalibrationFit, HallSample};
 use kerf::app::host_link::{HostLink, HostLinkConfig};
-use kerf::app::remote_link::{MasterLink, SlaveLink};
+use kerf::app::remote_link::{MasterLink, RemoteCommand, SlaveLink};
 use kerf::app::supervisor::{Command, Report};
 use kerf::codec::gcs;
 use kerf::codec::job::JobFile;
@@ -213,8 +213,9 @@ fn programs() {
     sink(job.map(|j| j.periods()));
 }
 
-/// The remote link's receivers: the master reading the slave's reports, the slave
-/// reading the master's commands into its playout.
+/// The remote link's ends (SDCT blocks or raw samples, copies or not: the ends are
+/// opaque): the master reading the slave's reports and sending a command, the slave
+/// reading the master's commands into its playout and reporting.
 fn remote_link() {
     let sdct = opaque(SdctConfig {
         m: 8,
@@ -224,9 +225,11 @@ fn remote_link() {
         if let Ok(link) = MasterLink::<16>::new(&sdct, opaque(1), opaque(1e-3)) {
             let mut link = opaque(link);
             sink(link.receive(&mut OpaqueLink));
+            link.send(opaque(Some((1, RemoteCommand::default()))), &mut OpaqueLink);
         }
     } else if let Ok(link) = SlaveLink::<16, 8>::new(&sdct, opaque(10), opaque(4)) {
         let mut link = opaque(link);
         sink(link.receive(opaque(0), &mut OpaqueLink));
+        link.report(opaque(Some([0.0; 3])), &mut OpaqueLink);
     }
 }
