@@ -180,6 +180,8 @@ pub struct RemoteSample {
     pub master_speed_m_s: f64,
     /// The operator's push across the contour, N.
     pub push_across_n: f64,
+    /// The operator's hand along the contour (towards the wanted speed), N.
+    pub hand_along_n: f64,
     /// The haptic force the master rendered, N.
     pub haptic_n: f64,
     /// The slave's true effector, m.
@@ -716,6 +718,7 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
             master_across_m: across,
             master_speed_m_s: along,
             push_across_n: push,
+            hand_along_n: hand_along,
             haptic_n: master.supervisor.machine().telemetry().haptic_n,
             slave_m: p.into(),
             slave_reference_m: executed.map(|(r, _)| r),

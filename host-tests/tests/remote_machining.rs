@@ -202,6 +202,7 @@ fn the_fixture_holds_the_master_on_the_contour() {
             .fold(0.0, f64::max)
     };
     draw_paths(&r, &case);
+    draw_forces(&r);
     let before = mean(2.0, 3.0);
     let pushed = mean(3.2, 4.0);
     let step_um_per_n = (pushed - before).abs() * 1e6 / 2.0;
@@ -474,6 +475,35 @@ fn draw_paths(r: &RemoteRun, case: &RemoteCase) {
             Series::new("slave / scale", &slave, 2),
         ],
         Some(ZoomBox::around(zx, zy, 0.15)),
+    )
+    .unwrap();
+}
+
+/// What the operator's hand does and feels: its force along the contour (towards the
+/// wanted speed) and across it (the steady push and its 2 N step), and the deviation
+/// across the fixture that the push causes, against time.
+fn draw_forces(r: &RemoteRun) {
+    let series = |f: &dyn Fn(&host_tests::remote::RemoteSample) -> f64| -> Vec<(f64, f64)> {
+        r.samples
+            .iter()
+            .step_by(10)
+            .map(|s| (s.t_s, f(s)))
+            .collect()
+    };
+    let along = series(&|s| s.hand_along_n);
+    let across = series(&|s| s.push_across_n);
+    let deviation = series(&|s| s.master_across_m * 1e5);
+    plot::time_series(
+        &plot::plots_dir()
+            .unwrap()
+            .join("remote_operator_forces.svg"),
+        "The operator's hand on the master: along and across the fixture (scale 0.5, 20 ± 10 ms)",
+        "force (N); deviation across (10 µm)",
+        &[
+            Series::new("hand along the contour (N)", &along, 0),
+            Series::new("push across (N)", &across, 1),
+            Series::new("deviation across the contour (10 µm)", &deviation, 2),
+        ],
     )
     .unwrap();
 }
