@@ -100,6 +100,9 @@ pub struct Faults {
     /// At this time the master image restarts (a power cycle: new machine, new link
     /// end, new session; the operator's hand keeps going).
     pub master_restart_at_s: Option<f64>,
+    /// From this time on a second master (another session) sends the slave a steady
+    /// 1 m/s² along x on the same network, a command every link sample.
+    pub second_master_from_s: Option<f64>,
 }
 
 /// One scenario.
@@ -212,6 +215,8 @@ pub struct RemoteRun {
     pub repeated_frames: u32,
     /// Master restarts the slave saw.
     pub restarts: u32,
+    /// Frames of another master's session the slave dropped.
+    pub foreign_frames: u32,
     /// Modes at the end.
     pub slave_mode: Mode<kerf::machines::delta_slave::remote::RemoteSlaveFault>,
     /// The master's.
@@ -618,6 +623,12 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
     }
 
     let mut master = MasterImage::new(&master_config, &sdct, 1, case, job.clone())?;
+    let mut second_master = case
+        .faults
+        .second_master_from_s
+        .map(|_| MasterLink::<N>::new(&sdct, 0x5EC0, TS * f64::from(D)))
+        .transpose()
+        .map_err(|e| RemoteError::Setup(format!("second master: {e}")))?;
     let mut samples = Vec::new();
     // Each command's tick: the scaled master then, and the period it was computed.
     let mut tick_reference: std::collections::HashMap<u32, ([f64; 3], u64)> = Default::default();
@@ -691,6 +702,15 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
             }
         }
         master.link.send(outputs.command, &mut forward);
+        if let (Some(from), Some(second)) = (case.faults.second_master_from_s, &mut second_master) {
+            if t >= from && k % u64::from(D) == 0 {
+                let command = kerf::app::remote_link::RemoteCommand {
+                    acceleration_m_s2: [1.0, 0.0, 0.0],
+                    laser_on: true,
+                };
+                second.send(Some((k as u32, command)), &mut forward);
+            }
+        }
 
         // The slave's period.
         let mut tap = Tap {
@@ -739,6 +759,7 @@ pub fn run(case: &RemoteCase) -> Result<RemoteRun, RemoteError> {
         refused_frames: slave.link().refused(),
         repeated_frames: slave.link().repeats(),
         restarts: slave.link().restarts(),
+        foreign_frames: slave.link().foreign(),
         slave_mode: slave.supervisor().mode(),
         master_mode: master.supervisor.mode(),
         slave_centre_m: cs,

@@ -421,6 +421,31 @@ fn corrupt_and_replayed_frames_are_dropped_and_counted() {
     assert!(max < 300.0 && rms < 20.0, "{max} {rms}");
 }
 
+/// A second master joins the network at 4 s and streams its own session: the slave
+/// keeps the master it follows, drops every frame of the other and tracks as before.
+#[test]
+fn a_second_master_is_ignored() {
+    let case = RemoteCase {
+        faults: Faults {
+            second_master_from_s: Some(4.0),
+            ..Faults::default()
+        },
+        ..RemoteCase::nominal()
+    };
+    let r = run_ok(&case);
+    let (max, rms) = tracking_um(&r, &case);
+    let nominal = run_ok(&RemoteCase::nominal());
+    let (nominal_max, _) = tracking_um(&nominal, &RemoteCase::nominal());
+    println!(
+        "second master from 4 s: {} frames dropped, {} restarts; tracking {max:.1} / {rms:.1} µm (alone {nominal_max:.1})",
+        r.foreign_frames, r.restarts
+    );
+    // 6 s of 62.5 frames a second.
+    assert!(r.foreign_frames > 300, "{}", r.foreign_frames);
+    assert_eq!((r.restarts, r.slave_mode), (0, Mode::Running));
+    assert!(max < 1.2 * nominal_max, "{max} against {nominal_max}");
+}
+
 #[test]
 fn a_master_restart_is_recovered() {
     let case = RemoteCase {

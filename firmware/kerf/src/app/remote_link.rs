@@ -30,16 +30,20 @@
 //! Both ends can instead put every link sample in its own uncoded frame ([`raw`]): the
 //! baseline without the blocks' latency.
 //!
-//! The slave end plays the commands out (`app::playout`) at a fixed latency; a frame
-//! of a new session (the master restarted) restarts the playout, so the new master's
-//! ticks are not refused as stale. The master end passes the newest report to its
+//! The slave end plays the commands out (`app::playout`) at a fixed latency. It keeps
+//! the master session it has while that master is heard: a frame of another session
+//! (a second master on the network) is dropped and counted, unless the session it has
+//! has been silent for two block periods (32 ms at 16 samples of 1 kHz), when the new
+//! one is a master that restarted; its first frame the stream takes then restarts the
+//! playout, so the new master's ticks are not refused as stale. The master end passes the newest report to its
 //! machine; a report of another session (the slave has not yet heard from this
 //! master) can start the delay observer but never corrects it. Frames the stream
 //! refuses (bad frame or packet CRC, cut, spliced, replayed, out of order) are dropped
 //! and counted.
 
 use crate::app::playout::{Playing, Playout, PlayoutRejected};
-use crate::app::stream::{StreamError, StreamReceiver, StreamSender, MAX_FRAME_LEN};
+use crate::app::stream::{StreamError, StreamReceiver, StreamSender, FRAME_CRC_LEN, MAX_FRAME_LEN};
+use crate::codec::link::crc32;
 use crate::codec::packet::PacketError;
 use crate::codec::sdct::SdctConfig;
 use crate::error::{positive, ConfigError};
@@ -330,7 +334,12 @@ pub struct SlaveLink<const N: usize, const CAP: usize> {
     refused: u32,
     repeats: u32,
     restarts: u32,
+    foreign: u32,
     raw: bool,
+    /// Local period of the newest frame of the session it has.
+    last_heard: u32,
+    /// Silence of that session after which another session is taken, periods.
+    takeover_periods: u32,
 }
 
 impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
@@ -356,7 +365,12 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
             refused: 0,
             repeats: 0,
             restarts: 0,
+            foreign: 0,
             raw: false,
+            last_heard: 0,
+            takeover_periods: 2u32
+                .saturating_mul(N as u32)
+                .saturating_mul(samples_per_command),
         })
     }
 
@@ -367,8 +381,23 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
         self
     }
 
-    /// A command frame of `session` arrived: a new session restarts the playout.
-    fn session(&mut self, session: u16) {
+    /// Whether a frame of `session` arriving at local period `now` may be taken: the
+    /// session it has, or another once that one has been silent (module docs).
+    fn may_take(&mut self, session: u16, now: u32) -> bool {
+        let taken = match self.session {
+            Some(s) if s != session => now.wrapping_sub(self.last_heard) >= self.takeover_periods,
+            _ => true,
+        };
+        if !taken {
+            self.foreign = self.foreign.saturating_add(1);
+        }
+        taken
+    }
+
+    /// A command frame of `session` was taken at `now`: a new session restarts the
+    /// playout.
+    fn session(&mut self, session: u16, now: u32) {
+        self.last_heard = now;
         if self.session != Some(session) {
             if self.session.is_some() {
                 self.restarts = self.restarts.saturating_add(1);
@@ -383,8 +412,22 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
     fn receive_blocks(&mut self, now: u32, link: &mut impl FrameLink) {
         let mut header = [0u8; COMMAND_HEADER];
         let mut block = [[0.0f32; N]; 3];
-        while let Some(frame) = self.commands.poll_frame(link, &mut header, &mut block) {
-            match frame {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        while let Some(len) = link.receive(&mut buf) {
+            let bytes = buf.get(..len).unwrap_or(&[]);
+            // The session is read before the stream takes the frame (a second master's
+            // frames would move the stream's sequence), once the frame's CRC holds.
+            let intact = bytes
+                .split_last_chunk::<FRAME_CRC_LEN>()
+                .is_some_and(|(body, crc)| crc32(body) == u32::from_le_bytes(*crc));
+            if !intact {
+                self.refused = self.refused.saturating_add(1);
+                continue;
+            }
+            if !self.may_take(u16_at(bytes, 0), now) {
+                continue;
+            }
+            match self.commands.accept(bytes, &mut header, &mut block) {
                 Ok(_) => {}
                 Err(StreamError::Packet(PacketError::SequenceBackwards { .. })) => {
                     self.repeats = self.repeats.saturating_add(1);
@@ -395,7 +438,7 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
                     continue;
                 }
             }
-            self.session(u16_at(&header, 0));
+            self.session(u16_at(&header, 0), now);
             let (first, mask) = (u32_at(&header, 2), u16_at(&header, 6));
             let [x, y, z] = &block;
             for (j, ((x, y), z)) in x.iter().zip(y).zip(z).enumerate() {
@@ -419,7 +462,10 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
                 self.refused = self.refused.saturating_add(1);
                 continue;
             };
-            self.session(session);
+            if !self.may_take(session, now) {
+                continue;
+            }
+            self.session(session, now);
             // A copy or a replay of a command already queued or played is stale.
             if self.playout.push(now, tick, command) == Err(PlayoutRejected::Stale) {
                 self.repeats = self.repeats.saturating_add(1);
@@ -487,6 +533,12 @@ impl<const N: usize, const CAP: usize> SlaveLink<N, CAP> {
     /// replay, a frame overtaken by a later one): dropped, never played.
     pub fn repeats(&self) -> u32 {
         self.repeats
+    }
+
+    /// Command frames of another master's session dropped while the one taken was
+    /// heard.
+    pub fn foreign(&self) -> u32 {
+        self.foreign
     }
 
     /// Master restarts seen (a new session).

@@ -265,10 +265,22 @@ impl<const C: usize, const N: usize> StreamReceiver<C, N> {
         let mut frame = [0u8; MAX_FRAME_LEN];
         let len = link.receive(&mut frame)?;
         let bytes = frame.get(..len)?;
-        Some(self.accept(bytes, header, out))
+        Some(self.accept_frame(bytes, header, out))
     }
 
-    fn accept(
+    /// A frame the caller has received itself (to look at its header before the
+    /// stream takes it), checked and reconstructed as [`StreamReceiver::poll_frame`]
+    /// does.
+    pub fn accept(
+        &mut self,
+        bytes: &[u8],
+        header: &mut [u8],
+        out: &mut [[f32; N]; C],
+    ) -> Result<ReceivedBlock, StreamError> {
+        self.accept_frame(bytes, header, out)
+    }
+
+    fn accept_frame(
         &mut self,
         bytes: &[u8],
         header: &mut [u8],

@@ -86,7 +86,7 @@ fn a_flipped_report_header_bit_is_refused() {
 }
 
 #[test]
-fn commands_play_in_order_with_their_beam_and_a_new_session_restarts_the_playout() {
+fn commands_play_in_order_and_a_second_master_is_dropped_until_the_first_falls_silent() {
     let mut link = Loopback::default();
     let mut master = MasterLink::<8>::new(&SDCT, 7, 1e-3).unwrap();
     let mut slave = SlaveLink::<8, 64>::new(&SDCT, 10, 0).unwrap();
@@ -106,18 +106,28 @@ fn commands_play_in_order_with_their_beam_and_a_new_session_restarts_the_playout
         let want = 0.01 * j as f32;
         assert!((command.acceleration_m_s2[0] - want).abs() < 1e-3);
     }
-    // The master restarts: its sequence and ticks start again. Here the old stream
-    // had sent one frame, so the new one's first (sequence 0 again) is refused as
-    // a duplicate and its second follows on; the old playout would refuse its
-    // ticks as stale, and the new session restarts it.
+    // Another session while the first is heard (within two block periods, 160
+    // periods, of its last frame): a second master, dropped and counted.
     let mut restarted = MasterLink::<8>::new(&SDCT, 8, 1e-3).unwrap();
     for first in [1, 81, 161] {
         block(&mut restarted, &mut link, first);
     }
-    let (command, fresh) = slave.receive(100, &mut link);
+    let (_, fresh) = slave.receive(100, &mut link);
+    assert!(!fresh);
+    assert_eq!((slave.foreign(), slave.restarts()), (3, 0));
+    // The first session silent for 160 periods: the new one is the master that
+    // restarted. Its sequence runs on from the old stream's, and the new session
+    // restarts the playout, which would otherwise refuse its ticks as stale.
+    for first in [241, 321] {
+        block(&mut restarted, &mut link, first);
+    }
+    let (command, fresh) = slave.receive(200, &mut link);
     assert!(fresh && command.is_some());
-    assert_eq!((slave.refused(), slave.repeats()), (0, 1));
-    assert_eq!((slave.restarts(), slave.executing()), (1, Some(81)));
+    assert_eq!(
+        (slave.refused(), slave.repeats(), slave.foreign()),
+        (0, 0, 3)
+    );
+    assert_eq!((slave.restarts(), slave.executing()), (1, Some(241)));
 }
 
 /// Five blocks sent three times each, with the link losing blocks 1 and 2's frames
