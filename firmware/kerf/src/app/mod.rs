@@ -13,6 +13,7 @@ pub mod drive_set;
 pub mod host_link;
 pub mod jobs;
 pub mod joints;
+pub mod lockstep;
 pub mod playout;
 pub mod remote_link;
 pub mod settings_store;
