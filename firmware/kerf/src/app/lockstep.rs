@@ -266,7 +266,8 @@ pub fn parse_machine(bytes: &[u8]) -> Result<Option<(MachineMessage<'_>, usize)>
                 u32_at(1),
                 bytes
                     .get(5..7)
-                    .map(|l| usize::from(u16::from_le_bytes([l[0], l[1]]))),
+                    .and_then(|l| l.try_into().ok())
+                    .map(|l| usize::from(u16::from_le_bytes(l))),
             ) else {
                 return Ok(None);
             };
