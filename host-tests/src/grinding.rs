@@ -144,15 +144,71 @@ pub struct PassFigures {
     pub mean_depth_um: f64,
 }
 
+/// Why a pass has no figures: it did not grind.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum NotGround {
+    /// The tool never touched the workpiece.
+    NoContact,
+    /// It touched, but left part of the stretch it passed over as it was: the share of
+    /// the stretch's surface points it removed material from.
+    Partly {
+        /// Points with material removed over points of the stretch, 0 to 1.
+        ground_fraction: f64,
+        /// RMS of the true normal force minus the reference from the first contact
+        /// and the settling time on, N (the force loop's figure, which a partial pass
+        /// still has; `None` if the pass ended before the settling time).
+        force_rms_error_n: Option<f64>,
+    },
+}
+
+impl core::fmt::Display for NotGround {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::NoContact => write!(f, "never touched the workpiece"),
+            Self::Partly {
+                ground_fraction,
+                force_rms_error_n,
+            } => {
+                write!(f, "ground {:.0} % of the stretch", ground_fraction * 100.0)?;
+                match force_rms_error_n {
+                    Some(e) => write!(f, " (force RMS error {e:.3} N)"),
+                    None => write!(f, " (stopped before the force settled)"),
+                }
+            }
+        }
+    }
+}
+
+/// A pass's figures in words: G's, or why it has none.
+pub fn describe(figures: &Result<PassFigures, NotGround>) -> String {
+    match figures {
+        Ok(f) => format!(
+            "force RMS error {:.3} N true, {:.3} N measured; mean depth {:.1} µm; surface form MSE {:.6} mm²",
+            f.force_rms_error_n, f.measured_rms_error_n, f.mean_depth_um, f.form_mse_mm2
+        ),
+        Err(e) => format!("no surface figures: it {e}"),
+    }
+}
+
+/// Depth below which a surface point counts as untouched, m (the surface model's
+/// resolution is far finer; a pass removes micrometres).
+const UNTOUCHED_M: f64 = 1e-9;
+
 /// Figures over the pass, from the first contact plus `settle_s`, on the stretch the
-/// tool ground with a tool radius's margin at both ends.
-pub fn figures(run: &PassRun, reference_n: f64, settle_s: f64, tool_radius_m: f64) -> PassFigures {
+/// tool ground with a tool radius's margin at both ends. A pass counts only if it
+/// removed material at every point of that stretch; otherwise says how much it did.
+pub fn figures(
+    run: &PassRun,
+    reference_n: f64,
+    settle_s: f64,
+    tool_radius_m: f64,
+) -> Result<PassFigures, NotGround> {
     let first = run
         .samples
         .iter()
         .find(|s| s.cell.normal_force_n > 0.0)
         .map(|s| s.t_s)
-        .unwrap_or(f64::INFINITY);
+        .ok_or(NotGround::NoContact)?;
     let steady: Vec<&PassSample> = run
         .samples
         .iter()
@@ -177,15 +233,23 @@ pub fn figures(run: &PassRun, reference_n: f64, settle_s: f64, tool_radius_m: f6
         .filter(|(x, _)| **x > start && **x < end)
         .map(|(_, (b, a))| b - a)
         .collect();
-    let n = removed.len().max(1) as f64;
-    let mean = removed.iter().sum::<f64>() / n;
-    let mse = removed.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / n;
-    PassFigures {
+    let ground = removed.iter().filter(|d| **d > UNTOUCHED_M).count();
+    if removed.is_empty() || ground < removed.len() {
+        return Err(NotGround::Partly {
+            ground_fraction: ground as f64 / removed.len().max(1) as f64,
+            force_rms_error_n: (!steady.is_empty()).then(|| rms(&|s| s.cell.normal_force_n)),
+        });
+    }
+    // Sums from +0.0 (an empty float sum is −0.0): a mean of squares is never negative.
+    let n = removed.len() as f64;
+    let mean = removed.iter().fold(0.0, |a, d| a + d) / n;
+    let mse = removed.iter().fold(0.0, |a, d| a + (d - mean).powi(2)) / n;
+    Ok(PassFigures {
         force_rms_error_n: rms(&|s| s.cell.normal_force_n),
         measured_rms_error_n: rms(&|s| s.measured_n),
         form_mse_mm2: mse * 1e6,
         mean_depth_um: mean * 1e6,
-    }
+    })
 }
 
 /// A pass of G's experiments: law, reference, G's feed and spindle, and

@@ -3,7 +3,9 @@
 //! stopped. Pictures in `<target>/<profile>/plots/grinding_*.svg`.
 
 use hal_mock::grinding_cell::CellConfig;
-use host_tests::grinding::{figures, run_pass, seed_pass, PassFigures, PassRun};
+use host_tests::grinding::{
+    describe, figures, run_pass, seed_pass, NotGround, PassFigures, PassRun,
+};
 use host_tests::plot::{line_plot, plots_dir, time_series, Series};
 use kerf::app::supervisor::Mode;
 use kerf::machines::grinding::{ForceLawKind, GrindingConfig, GrindingFault};
@@ -66,19 +68,16 @@ fn experiment(
     name: &str,
     title: &str,
     published_mse: f64,
-) -> (Mode<GrindingFault>, PassFigures) {
+) -> (Mode<GrindingFault>, Result<PassFigures, NotGround>) {
     let mut setup = seed_pass(law, force, LENGTH_M);
     setup.config = config;
     let run = run_pass(&setup, MAX_PERIODS);
     let f = figures(&run, force, 5.0, setup.cell.tool_radius_m);
     println!(
-        "{title}: {:?} after {:.1} s; force RMS error {:.3} N true, {:.3} N measured; mean depth {:.1} µm; surface form MSE {:.6} mm² (G {published_mse} mm²)",
+        "{title}: {:?} after {:.1} s; {} (G's surface form MSE {published_mse} mm²)",
         run.mode,
         run.samples.len() as f64 * 1e-3,
-        f.force_rms_error_n,
-        f.measured_rms_error_n,
-        f.mean_depth_um,
-        f.form_mse_mm2,
+        describe(&f),
     );
     plot_pass(name, title, &run, force);
     (run.mode, f)
@@ -106,7 +105,7 @@ fn published_experiments() {
             0.0043,
         ),
     ];
-    let (mut mse, mut modes): (Vec<f64>, Vec<Mode<GrindingFault>>) = (Vec::new(), Vec::new());
+    let (mut mse, mut modes) = (Vec::new(), Vec::new());
     for (law, force, name, title, published_mse) in cases {
         let (mode, f) = experiment(
             GrindingConfig::PUBLISHED,
@@ -116,15 +115,23 @@ fn published_experiments() {
             title,
             published_mse,
         );
-        mse.push(f.form_mse_mm2);
+        mse.push(f.map(|f| f.form_mse_mm2));
         modes.push(mode);
     }
     // G's PID gains complete both passes; its ADRC gains drive the tool into
     // the workpiece past the crash limit on this cell (the fault stops it safely).
     assert_eq!(modes[..2], [Mode::Ready, Mode::Ready]);
+    // Completing the pass is not grinding it: at 10 N the PID removes material all
+    // along, at 7.5 N it leaves a tenth of the stretch untouched (measured 90 %
+    // ground, 5.8 N RMS force error), so only the 10 N pass has surface figures.
+    assert!(mse[1].is_ok(), "{mse:?}");
+    assert!(
+        matches!(mse[0], Err(NotGround::Partly { ground_fraction, .. }) if ground_fraction > 0.8),
+        "{mse:?}"
+    );
     assert_eq!(modes[2], Mode::Fault(GrindingFault::ForceLimit));
     println!(
-        "surface form MSE at 7.5 N: PID {:.6} mm², ADRC {:?} (G: PID 0.00174, ADRC 0.0043 mm²)",
+        "surface form MSE at 7.5 N: PID {:?} mm², ADRC {:?} (G: PID 0.00174, ADRC 0.0043 mm²)",
         mse[0], modes[2]
     );
 }
@@ -168,19 +175,30 @@ fn tuned_experiments() {
         );
         assert_eq!(mode, Mode::Ready, "{title}");
         // The tuned ADRC completes the pass but touches only in places (its force
-        // error is the best the search found, 6 N RMS); the PID grinds all along.
-        if law == ForceLawKind::Pid {
-            assert!(f.mean_depth_um > 1.0, "{title}: it ground");
-            assert!(f.force_rms_error_n < 1.0, "{title}");
-        }
-        results.push(f);
+        // error is the best the search found, 6 N RMS): it has no surface figures, and
+        // only the force loops can be compared. The PID grinds all along.
+        let force_rms = match f {
+            Ok(f) => {
+                assert!(f.mean_depth_um > 1.0 && f.form_mse_mm2 >= 0.0, "{title}");
+                assert!(f.force_rms_error_n < 1.0, "{title}");
+                f.force_rms_error_n
+            }
+            Err(NotGround::Partly {
+                ground_fraction,
+                force_rms_error_n: Some(e),
+            }) => {
+                assert_eq!(law, ForceLawKind::Adrc, "{title}: {ground_fraction}");
+                e
+            }
+            Err(e) => panic!("{title}: {e}"),
+        };
+        results.push(force_rms);
     }
     println!(
-        "tuned at 7.5 N: force RMS error PID {:.3} N, ADRC {:.3} N: PID beats ADRC, as G found (its surface MSE 0.00174 against 0.0043 mm²)",
-        results[0].force_rms_error_n,
-        results[2].force_rms_error_n
+        "tuned at 7.5 N: force RMS error PID {:.3} N, ADRC {:.3} N: the PID grinds the surface and holds the force; the ADRC does neither (G measured both grinding: surface MSE 0.00174 against 0.0043 mm²)",
+        results[0], results[2]
     );
-    assert!(results[0].force_rms_error_n < results[2].force_rms_error_n);
+    assert!(results[0] < results[2]);
 }
 
 /// Contour tracking (G 7.3, 8.4): the spindle stopped, 1 N, the tool rolls on the
@@ -241,7 +259,8 @@ fn contour_tracking_measures_the_form() {
 /// K_P and K_D, asks for piezo steps beyond the rate limit: the piezo chatters, the
 /// chatter takes the whole feed (V_hex = 0) and the pass never ends; at 1 nm and
 /// 0.1 nm the loop engages but overshoots into the workpiece past the 40 N crash
-/// limit; at 30 pm and 10 pm it completes the pass.
+/// limit; at 30 pm and 10 pm it completes the pass, 4 mm of it, too slowly to cut
+/// (measured 0 % of the short stretch ground, 5.5–5.8 N RMS force error).
 #[test]
 fn published_gain_unit_scan() {
     let mut engaged = Vec::new();
@@ -251,11 +270,10 @@ fn published_gain_unit_scan() {
         let run = run_pass(&setup, 60_000);
         let f = figures(&run, 7.5, 5.0, setup.cell.tool_radius_m);
         println!(
-            "unit {unit:e} m: {:?} after {:.1} s, force RMS error {:.3} N, mean depth {:.1} µm",
+            "unit {unit:e} m: {:?} after {:.1} s, {}",
             run.mode,
             run.samples.len() as f64 * 1e-3,
-            f.force_rms_error_n,
-            f.mean_depth_um
+            describe(&f)
         );
         engaged.push(run.mode);
     }

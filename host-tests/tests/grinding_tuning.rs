@@ -10,7 +10,7 @@
 
 use argmin::core::{CostFunction, Error, Executor, State};
 use argmin::solver::neldermead::NelderMead;
-use host_tests::grinding::{figures, run_pass, seed_pass};
+use host_tests::grinding::{figures, run_pass, seed_pass, NotGround};
 use kerf::app::supervisor::Mode;
 use kerf::control::adrc::AdrcConfig;
 use kerf::control::pid::PidConfig;
@@ -48,11 +48,17 @@ fn score(law: ForceLawKind, gains: &[f64]) -> f64 {
         return 1e3;
     }
     let run = run_pass(&setup, 120_000);
-    let touched = run.samples.iter().any(|s| s.cell.normal_force_n > 0.0);
-    if run.mode != Mode::Ready || !touched {
+    if run.mode != Mode::Ready {
         return 100.0;
     }
-    figures(&run, 7.5, 2.0, setup.cell.tool_radius_m).force_rms_error_n
+    match figures(&run, 7.5, 2.0, setup.cell.tool_radius_m) {
+        Ok(f) => f.force_rms_error_n,
+        Err(NotGround::Partly {
+            force_rms_error_n: Some(e),
+            ..
+        }) => e,
+        Err(_) => 100.0,
+    }
 }
 
 struct Cost(ForceLawKind);
