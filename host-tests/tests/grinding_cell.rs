@@ -259,8 +259,9 @@ fn contour_tracking_measures_the_form() {
 /// K_P and K_D, asks for piezo steps beyond the rate limit: the piezo chatters, the
 /// chatter takes the whole feed (V_hex = 0) and the pass never ends; at 1 nm and
 /// 0.1 nm the loop engages but overshoots into the workpiece past the 40 N crash
-/// limit; at 30 pm and 10 pm it completes the pass, 4 mm of it, too slowly to cut
-/// (measured 0 % of the short stretch ground, 5.5–5.8 N RMS force error).
+/// limit; at 30 pm and 10 pm it completes the 4 mm pass but grinds none of it
+/// (measured 0 % of the stretch, 5.5–5.8 N RMS force error: the loop is still
+/// coming down to the reference).
 #[test]
 fn published_gain_unit_scan() {
     let mut engaged = Vec::new();
