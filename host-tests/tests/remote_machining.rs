@@ -1,6 +1,6 @@
 //! Remote machining end to end (`host_tests::remote`, T ch. 5 and 8.3): the master
 //! and slave machine images over the simulated network. Run with `--nocapture` for the
-//! tables; the pictures go to `target/plots/remote_*.svg`.
+//! tables; the pictures go to `target/debug/plots/remote_*.svg`.
 
 use host_tests::plot::{self, Series, ZoomBox};
 use host_tests::remote::{
@@ -47,6 +47,8 @@ fn the_slave_follows_the_scaled_master_over_the_network() {
         ("no delay", network(0, 0, 0.0)),
         ("20 ms", network(20, 0, 0.0)),
         ("20 ± 10 ms", network(20, 10, 0.0)),
+        ("50 ± 25 ms", network(50, 25, 0.0)),
+        ("100 ms", network(100, 0, 0.0)),
     ];
     let mut errors = Vec::new();
     let mut error_series = Vec::new();
@@ -93,14 +95,16 @@ fn the_slave_follows_the_scaled_master_over_the_network() {
             }
         }
     }
-    // With the observer every link tracks within 40 µm (measured 15–25 µm: the
+    // With the observer every link tracks within 40 µm (measured 23–31 µm: the
     // realistic slave's friction and ripple left by its 40 Hz model-following loop and
-    // the Hall decoders' residual); without it the round trip (the network's and the
-    // blocks' 16 ms of coding each way) sits inside the 15 Hz loop, and every case is
-    // at least 3× worse or diverges.
+    // the Hall decoders' residual), 60 µm at 50 ± 25 ms (measured 38 and 51 µm: a
+    // delay that varies by 50 ms within the observer's 5 Hz correction); without it
+    // the round trip (the network's and the blocks' 16 ms of coding each way) sits
+    // inside the 15 Hz loop, and every case is at least 3× worse or diverges.
     for &(scale, name, observer, max) in &errors {
         if observer {
-            assert!(max < 40.0, "scale {scale} {name}: {max} µm");
+            let bound = if name == "50 ± 25 ms" { 60.0 } else { 40.0 };
+            assert!(max < bound, "scale {scale} {name}: {max} µm");
             let without = errors
                 .iter()
                 .find(|e| e.0 == scale && e.1 == name && !e.2)
