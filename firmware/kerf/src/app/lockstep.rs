@@ -21,6 +21,10 @@
 //! | tool | `G` | tick u32: the periods before `tick` may run |
 //! | tool | `D` | due tick u32, length u16, the frame: received in period `due` |
 //!
+//! The tool's half of the protocol is here too ([`parse_machine`], [`grant`],
+//! [`delivery_head`]), tested against the machine's end; no image or host command uses
+//! the pair yet.
+//!
 //! Sans-IO: the image feeds the bytes it reads ([`LockstepEnd::feed`]) and gives a
 //! writer for the bytes to send. A frame longer than `FRAME` bytes or beyond `QUEUE`
 //! waiting deliveries is dropped and counted; an unknown message byte is skipped and
