@@ -39,6 +39,7 @@ pub mod plan;
 pub mod plot;
 pub mod preview;
 pub mod qemu;
+pub mod relay;
 pub mod serve;
 pub mod session;
 pub mod telemetry;
