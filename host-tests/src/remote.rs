@@ -257,6 +257,17 @@ impl RemoteRun {
         Some((max, rms))
     }
 
+    /// The tracking error of a run of `case` from `from_s` on, µm (max, RMS); a run that
+    /// ended early (the mechanism ran away) or whose slave is not running at the end
+    /// (a fault) is infinite.
+    pub fn tracking_um(&self, case: &RemoteCase, from_s: f64) -> (f64, f64) {
+        let complete = self.samples.len() as f64 * TS >= case.seconds - 2.0 * TS;
+        match (complete, self.slave_mode, self.tracking_m(from_s)) {
+            (true, Mode::Running, Some((max, rms))) => (max * 1e6, rms * 1e6),
+            _ => (f64::INFINITY, f64::INFINITY),
+        }
+    }
+
     /// Mean latency from the master's command to the slave's execution over samples
     /// with `t_s ≥ from_s`, ms.
     pub fn latency_ms(&self, from_s: f64) -> Option<f64> {

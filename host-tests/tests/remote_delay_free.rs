@@ -5,19 +5,15 @@
 //! block of 16 samples waits 16 ms for its last sample, each way) is then a measured
 //! cost. Run with `--nocapture` for the table.
 
-use host_tests::remote::{run, Network, RemoteCase, RemoteRun, N, TS};
-use kerf::app::supervisor::Mode;
+use host_tests::remote::{run, Network, RemoteCase, RemoteRun, N};
 use kerf::machines::remote_master::SlaveEstimate;
 
 /// Tracking is measured from here on (past the start from rest).
 const FROM_S: f64 = 2.0;
 
+/// Tracking error of a run, µm (max, RMS), from [`FROM_S`] on.
 fn tracking_um(r: &RemoteRun, case: &RemoteCase) -> (f64, f64) {
-    let complete = r.samples.len() as f64 * TS >= case.seconds - 2.0 * TS;
-    match (complete, r.slave_mode, r.tracking_m(FROM_S)) {
-        (true, Mode::Running, Some((max, rms))) => (max * 1e6, rms * 1e6),
-        _ => (f64::INFINITY, f64::INFINITY),
-    }
+    r.tracking_um(case, FROM_S)
 }
 
 #[test]

@@ -27,14 +27,9 @@ fn run_ok(case: &RemoteCase) -> RemoteRun {
     run(case).unwrap_or_else(|e| panic!("{e:?}"))
 }
 
-/// Tracking error of a run, µm (max, RMS); a loop that diverged or faulted is
-/// infinite.
+/// Tracking error of a run, µm (max, RMS), from [`FROM_S`] on.
 fn tracking_um(r: &RemoteRun, case: &RemoteCase) -> (f64, f64) {
-    let complete = r.samples.len() as f64 * TS >= case.seconds - 2.0 * TS;
-    match (complete, r.slave_mode, r.tracking_m(FROM_S)) {
-        (true, Mode::Running, Some((max, rms))) => (max * 1e6, rms * 1e6),
-        _ => (f64::INFINITY, f64::INFINITY),
-    }
+    r.tracking_um(case, FROM_S)
 }
 
 #[test]

@@ -10,8 +10,7 @@
 //! 16 the coded commands' integral leaves it for good (the last test shows it).
 
 use host_tests::plot::{self, Series};
-use host_tests::remote::{run, Network, RemoteCase, RemoteRun, N, TS};
-use kerf::app::supervisor::Mode;
+use host_tests::remote::{run, Network, RemoteCase, RemoteRun, N};
 use kerf::machines::remote_master::SlaveEstimate;
 use std::f64::consts::PI;
 
@@ -44,11 +43,7 @@ struct Row {
 }
 
 fn measure(r: &RemoteRun, case: &RemoteCase) -> Row {
-    let complete = r.samples.len() as f64 * TS >= case.seconds - 2.0 * TS;
-    let (max_um, rms_um) = match (complete, r.slave_mode, r.tracking_m(FROM_S)) {
-        (true, Mode::Running, Some((max, rms))) => (max * 1e6, rms * 1e6),
-        _ => (f64::INFINITY, f64::INFINITY),
-    };
+    let (max_um, rms_um) = r.tracking_um(case, FROM_S);
     // The push across the contour steps by 2 N at 3 s: the operator feels the
     // fixture's stiffness as that step over the largest deviation it causes.
     let window = |from: f64, to: f64| {
